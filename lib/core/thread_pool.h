@@ -1,0 +1,44 @@
+#pragma once
+// A fixed pool of worker threads; no global instance (callers own pools).
+// parallel_for hands out indices dynamically; callers that need determinism write
+// results into per-index slots and combine them in index order afterwards.
+#include <condition_variable>
+#include <cstddef>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace vgeo {
+
+class ThreadPool {
+ public:
+  // threads == 0 means std::thread::hardware_concurrency().
+  explicit ThreadPool(unsigned threads = 0);
+  ~ThreadPool();
+  ThreadPool(const ThreadPool&) = delete;
+  ThreadPool& operator=(const ThreadPool&) = delete;
+
+  unsigned size() const { return unsigned(workers_.size()) + 1; }  // + the calling thread
+
+  // Runs fn(i) for i in [0, n); the calling thread participates. Rethrows the first
+  // exception thrown by fn (after all indices were handed out).
+  void parallel_for(size_t n, const std::function<void(size_t)>& fn);
+
+  // Runs fn(worker_index) once on every thread of the pool (persistent-thread style).
+  void run_on_all(const std::function<void(unsigned)>& fn);
+
+ private:
+  void worker_loop(unsigned index);
+  std::vector<std::thread> workers_;
+  std::mutex mutex_;
+  std::condition_variable wake_, done_;
+  const std::function<void(unsigned)>* job_ = nullptr;
+  unsigned long generation_ = 0;
+  unsigned running_ = 0;
+  bool stop_ = false;
+};
+
+unsigned default_thread_count();
+
+}  // namespace vgeo

@@ -1,0 +1,13 @@
+// Placeholder until the issue that owns `vgeo build` lands.
+#include "commands.h"
+#include "vgeo/core/error.h"
+
+namespace vgeo::cli {
+
+void add_build_command(CLI::App& app, Context& ctx) {
+  auto* cmd = app.add_subcommand("build", "(not implemented yet)");
+  cmd->allow_extras();
+  cmd->callback([&ctx] { fail("NOT_IMPLEMENTED", "vgeo build", "this command is not implemented yet", kExitInternal); (void)ctx; });
+}
+
+}  // namespace vgeo::cli
