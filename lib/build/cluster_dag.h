@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "vgeo/core/math.h"
+#include "vgeo/mesh/mesh.h"
 
 namespace vgeo {
 
@@ -98,6 +99,14 @@ struct ClusterDag {
   size_t triangle_count() const { return indices.size() / 3; }
   size_t vertex_count() const { return positions.size() / 3; }
   Vec3 position(size_t v) const { return {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]}; }
+};
+
+// A built asset: one DAG per mesh, plus the scene's materials and instances
+// (what `vgeo build` writes and `vgeo render`/`vgeo verify` read).
+struct BuiltScene {
+  std::vector<ClusterDag> meshes;
+  std::vector<Material> materials;
+  std::vector<Instance> instances;
 };
 
 }  // namespace vgeo

@@ -85,4 +85,40 @@ inline bool sphere_contains(const Sphere& outer, const Sphere& inner, double rel
          double(outer.radius) * (1.0 + rel);
 }
 
+// Column-major 4x4 matrix (glTF/GLSL convention): m[col * 4 + row].
+struct Mat4 {
+  float m[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  float& at(int row, int col) { return m[col * 4 + row]; }
+  float at(int row, int col) const { return m[col * 4 + row]; }
+};
+
+// Same in double, for composing camera and far-away instance transforms without
+// losing the small offsets (instances 1e7 units away; spec/invariants.md).
+struct Mat4d {
+  double m[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  double& at(int row, int col) { return m[col * 4 + row]; }
+  double at(int row, int col) const { return m[col * 4 + row]; }
+};
+
+inline Mat4d operator*(const Mat4d& a, const Mat4d& b) {
+  Mat4d r;
+  for (int c = 0; c < 4; ++c)
+    for (int rr = 0; rr < 4; ++rr) {
+      double s = 0;
+      for (int k = 0; k < 4; ++k) s += a.at(rr, k) * b.at(k, c);
+      r.at(rr, c) = s;
+    }
+  return r;
+}
+inline Mat4 to_float(const Mat4d& a) {
+  Mat4 r;
+  for (int i = 0; i < 16; ++i) r.m[i] = float(a.m[i]);
+  return r;
+}
+inline Mat4d to_double(const Mat4& a) {
+  Mat4d r;
+  for (int i = 0; i < 16; ++i) r.m[i] = a.m[i];
+  return r;
+}
+
 }  // namespace vgeo
