@@ -1,0 +1,43 @@
+#pragma once
+// Offline build of the cluster DAG (Nanite: cluster → group → simplify with locked group
+// borders → split, level by level). Normative output description: spec/dag.md.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "vgeo/build/cluster_dag.h"
+#include "vgeo/mesh/mesh.h"
+
+namespace vgeo {
+
+enum class Simplifier : uint8_t { kMeshopt = 0, kOpenMesh = 1 };
+
+struct BuildOptions {
+  Simplifier simplifier = Simplifier::kMeshopt;
+  unsigned threads = 0;     // 0 = machine's hardware concurrency; output is identical for any value
+  bool progress = false;    // progress on stderr (the CLI enables it on a terminal)
+};
+
+struct BuildLevelReport {
+  uint32_t level = 0;
+  uint64_t clusters = 0, triangles = 0, groups = 0, stuck_groups = 0;
+  double average_fill = 0;            // mean triangles per cluster / kMaxClusterTriangles
+  double boundary_edge_fraction = 0;  // cluster-boundary edges / all edges at this level
+};
+
+struct BuildReport {
+  std::vector<BuildLevelReport> levels;
+  uint64_t input_triangles = 0, stored_triangles = 0, root_clusters = 0, root_triangles = 0;
+  double seconds_cluster = 0, seconds_group = 0, seconds_simplify = 0, seconds_split = 0,
+         seconds_hierarchy = 0, seconds_total = 0;
+  uint64_t peak_memory_bytes = 0;  // process peak RSS after the build
+};
+
+// Builds the DAG of one mesh. Throws VgeoError on input it cannot build (e.g. empty mesh).
+ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report = nullptr);
+
+// Builds every mesh of a scene (materials and instances carried over).
+BuiltScene build_scene(const Scene& scene, const BuildOptions& options,
+                       std::vector<BuildReport>* reports = nullptr);
+
+}  // namespace vgeo

@@ -1,0 +1,21 @@
+#pragma once
+// Simple, uncompressed serialization of a BuiltScene (magic "VGEODAG1", spec/dag.md).
+// The distributable page format is lib/format (spec/format.md); this one exists so the
+// builder and the checker can be used before/without it, and as an interchange format
+// other implementations can produce for `vgeo verify`.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "vgeo/build/cluster_dag.h"
+
+namespace vgeo {
+
+std::vector<uint8_t> encode_dag_file(const BuiltScene& scene);
+// Throws VgeoError (codes DAGFILE_*) on malformed input; never over-allocates.
+BuiltScene decode_dag_file(const uint8_t* data, size_t size, const std::string& where);
+
+void write_dag_file(const std::string& path, const BuiltScene& scene);   // throws VgeoError
+BuiltScene read_dag_file(const std::string& path);                       // throws VgeoError
+
+}  // namespace vgeo
