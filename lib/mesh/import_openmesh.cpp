@@ -116,6 +116,28 @@ void check_stl(const std::string& head, uint64_t file_size, const std::string& w
                                       std::to_string(expected) + " bytes) but has " + std::to_string(file_size));
 }
 
+// ASCII OFF with comments: CGAL writes '#' comment blocks before the keyword and after
+// values, which OpenMesh's OFF reader misparses. Strip every '#'-to-end-of-line and blank
+// line; returns false for binary OFF (left to OpenMesh untouched).
+bool strip_off_comments(const std::string& path, std::string& cleaned) {
+  std::ifstream f(path, std::ios::binary);
+  std::string line;
+  cleaned.clear();
+  bool first = true;
+  while (std::getline(f, line)) {
+    size_t hash = line.find('#');
+    if (hash != std::string::npos) line.erase(hash);
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    if (first) {
+      if (line.find("BINARY") != std::string::npos) return false;
+      first = false;
+    }
+    cleaned += line;
+    cleaned += '\n';
+  }
+  return true;
+}
+
 }  // namespace
 
 void import_openmesh(const std::string& path, const std::string& extension, ImportResult& out) {
@@ -129,11 +151,16 @@ void import_openmesh(const std::string& path, const std::string& extension, Impo
   if (extension == "stl") check_stl(head, file_size, path);
 
   PolyMesh pm;
-  pm.request_vertex_normals();
-  pm.request_vertex_texcoords2D();
   OpenMesh::IO::Options opt;
-  opt += OpenMesh::IO::Options::VertexNormal;
-  opt += OpenMesh::IO::Options::VertexTexCoord;
+  // STL carries face normals only; asking OpenMesh for vertex normals there yields unset values.
+  if (extension != "stl") {
+    pm.request_vertex_normals();
+    pm.request_vertex_texcoords2D();
+    opt += OpenMesh::IO::Options::VertexNormal;
+    opt += OpenMesh::IO::Options::VertexTexCoord;
+  }
+  std::string cleaned_off;
+  const bool use_cleaned = extension == "off" && strip_off_comments(path, cleaned_off);
   std::ostringstream log;
   bool ok = false;
   {
@@ -143,7 +170,12 @@ void import_openmesh(const std::string& path, const std::string& extension, Impo
     omout().disconnect(std::cout);
     omerr().connect(log);
     try {
-      ok = OpenMesh::IO::read_mesh(pm, path, opt);
+      if (use_cleaned) {
+        std::istringstream in(cleaned_off);
+        ok = OpenMesh::IO::read_mesh(pm, in, ".off", opt);
+      } else {
+        ok = OpenMesh::IO::read_mesh(pm, path, opt);
+      }
     } catch (const std::bad_alloc&) {
       ok = false;
       log << "allocation failed while reading\n";
@@ -176,8 +208,8 @@ void import_openmesh(const std::string& path, const std::string& extension, Impo
   const size_t nv = pm.n_vertices();
   if (nv > UINT32_MAX) fail("MESH_TOO_LARGE", path, "more than 2^32-1 vertices");
   mesh.positions.resize(nv * 3);
-  const bool has_normals = opt.check(OpenMesh::IO::Options::VertexNormal);
-  const bool has_uvs = opt.check(OpenMesh::IO::Options::VertexTexCoord);
+  const bool has_normals = pm.has_vertex_normals() && opt.check(OpenMesh::IO::Options::VertexNormal);
+  const bool has_uvs = pm.has_vertex_texcoords2D() && opt.check(OpenMesh::IO::Options::VertexTexCoord);
   if (has_normals) mesh.normals.resize(nv * 3);
   if (has_uvs) mesh.uvs.resize(nv * 2);
   for (size_t v = 0; v < nv; ++v) {
