@@ -636,11 +636,11 @@ void GltfReader::run() {
     const auto& f = src.pbrMetallicRoughness.baseColorFactor;
     if (f.size() == 4) {
       for (int k = 0; k < 4; ++k) {
-        if (!std::isfinite(f[k])) error("MATERIAL_INVALID", "material " + std::to_string(i) + " baseColorFactor is not finite");
+        if (!std::isfinite(f[k])) error("GLTF_SCHEMA_ERROR", "material " + std::to_string(i) + " baseColorFactor is not finite");
         m.base_color[k] = float(f[k]);
       }
     } else if (!f.empty()) {
-      error("MATERIAL_INVALID", "material " + std::to_string(i) + " baseColorFactor must have 4 values");
+      error("GLTF_SCHEMA_ERROR", "material " + std::to_string(i) + " baseColorFactor must have 4 values");
     }
     out_.scene.materials.push_back(std::move(m));
   }
