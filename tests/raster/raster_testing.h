@@ -41,6 +41,8 @@ inline std::string describe(const Tri& t) {
 // Rasterizes `tris` as one cluster (triangle i gets triangle index i).
 inline RasterStats raster_tris(VisBuffer& buf, const std::vector<Tri>& tris, const Mat4& m,
                                uint32_t cluster, RasterOptions opt) {
+  // Unshared vertices: 3 per triangle must fit the 8-bit local indices.
+  RC_ASSERT(tris.size() * 3 <= kMaxClusterVertices);
   std::vector<float> pos;
   std::vector<uint8_t> idx;
   for (size_t i = 0; i < tris.size(); ++i)
