@@ -17,7 +17,6 @@
 #include <limits>
 #include <numbers>
 #include <utility>
-#include <vector>
 
 namespace vgeo {
 namespace {
@@ -50,6 +49,9 @@ constexpr uint32_t kOutClipMask = (1u << kPlaneCount) - 1;
 constexpr uint32_t kOutViewPosX = 1u << 5, kOutViewNegX = 1u << 6, kOutViewPosY = 1u << 7,
                    kOutViewNegY = 1u << 8;
 constexpr uint32_t kOutRejectMask = kOutNear | kOutViewPosX | kOutViewNegX | kOutViewPosY | kOutViewNegY;
+
+// Local vertex indices are 8-bit.
+constexpr uint32_t kAddressableVertices = 256;
 
 // Sutherland–Hodgman output grows by at most one vertex per plane.
 constexpr int kMaxPolygon = 3 + kPlaneCount;
@@ -363,8 +365,10 @@ void rasterize_cluster(VisBuffer& target, const float* positions, uint32_t verte
 
   double m[16];
   for (int i = 0; i < 16; ++i) m[i] = object_to_clip.m[i];
-  std::vector<TransformedVertex> verts(vertex_count);
-  for (uint32_t i = 0; i < vertex_count; ++i) {
+  // 8-bit indices address at most kAddressableVertices vertices: transform only those.
+  const uint32_t transformed = std::min(vertex_count, kAddressableVertices);
+  std::array<TransformedVertex, kAddressableVertices> verts;
+  for (uint32_t i = 0; i < transformed; ++i) {
     double p[3] = {positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]};
     double c[4];
     for (int r = 0; r < 4; ++r) c[r] = ((m[r] * p[0] + m[4 + r] * p[1]) + m[8 + r] * p[2]) + m[12 + r];
