@@ -79,5 +79,3 @@ BENCHMARK_CAPTURE(BM_GenerateAndWriteGlb, sphere, vgeo::GenShape::kSphere)
 }  // namespace
 
 // vgeo_microbench links benchmark::benchmark (not benchmark_main) and no other bench file
-// defines main yet. If another tools/bench/*.cpp adds BENCHMARK_MAIN, delete this line.
-BENCHMARK_MAIN();
