@@ -1,3 +1,0 @@
-// Entry point of vgeo_microbench (every tools/bench/*.cpp registers benchmarks).
-#include <benchmark/benchmark.h>
-
