@@ -78,7 +78,7 @@ void add_gen_command(CLI::App& app, Context& ctx) {
   auto args = std::make_shared<GenArgs>();
   auto* cmd = app.add_subcommand("gen", "Write a deterministic procedural mesh (or densify --input) as GLB/OBJ/PLY/OFF");
   cmd->add_option("shape", args->shape, "sphere | terrain | islands | thin | torus");
-  cmd->add_option("--triangles,-n", args->triangles, "target triangle count (reached within 2% for >= 10000)")
+  cmd->add_option("--triangles,-n", args->triangles, "target triangle count (reached within 2% for >= 32000)")
       ->capture_default_str();
   cmd->add_option("--seed,-s", args->seed, "seed (same seed -> byte-identical output)")->capture_default_str();
   cmd->add_option("--islands", args->islands, "islands: number of components (0 = one per ~768 triangles)");
