@@ -296,3 +296,35 @@ TEST(GenerateChecks, FireOnOpenFlippedAndNonManifoldMeshes) {
 
 }  // namespace
 }  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+// Golden GLB hashes (FNV-1a 64 of the whole file) for seed 1, 2000 triangles. They pin
+// the generators, the PRNG, the noise and the GLB writer together: users compare their
+// own loaders against these files, so any change here is a deliberate, announced one.
+// (Also checks that optimisation level / sanitizer builds give the same bytes.)
+TEST(GenerateShapes, GoldenGlbHashesArePinned) {
+  struct Golden {
+    const char* shape;
+    uint64_t hash;
+    size_t bytes;
+  };
+  const Golden golden[] = {
+      {"sphere", 0xd5dc4878a06b7039ull, 58320}, {"terrain", 0x50e1bd99afe0f318ull, 59056},
+      {"islands", 0x31fdeff77a76920dull, 56096}, {"thin", 0xcd8b05625b147616ull, 58784},
+      {"torus", 0x62577b7b0f66cf63ull, 56912},
+  };
+  for (const Golden& g : golden) {
+    GenerateOptions o;
+    o.shape = *parse_gen_shape(g.shape);
+    o.target_triangles = 2000;
+    o.seed = 1;
+    std::vector<uint8_t> glb = encode_glb(generate_scene(o));
+    EXPECT_EQ(glb.size(), g.bytes) << g.shape;
+    EXPECT_EQ(fnv1a64(glb.data(), glb.size()), g.hash) << g.shape;
+  }
+}
+
+}  // namespace
+}  // namespace vgeo
