@@ -77,9 +77,11 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
                               const std::vector<uint8_t>& locked, Simplifier simplifier);
 
 // True when every locked welded vertex of `before` is used by `after` and every welded edge
-// of `before` that is open inside `before` and has both ends locked is an edge of `after`.
+// of `before` listed in `shared_edges` (sorted edge keys of edges also used outside the
+// group) is an edge of `after`.
 bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before,
-                             const TriangleSet& after, const std::vector<uint8_t>& locked);
+                             const TriangleSet& after, const std::vector<uint8_t>& locked,
+                             const std::vector<uint64_t>& shared_edges);
 
 // Spheres, computed in double and rounded outward so containment survives float rounding.
 Sphere sphere_of_points(const Mesh& mesh, const uint32_t* vertices, size_t count);

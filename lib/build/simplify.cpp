@@ -251,28 +251,22 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
 }
 
 bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                             const std::vector<uint8_t>& locked) {
-  auto edges_of = [&](const TriangleSet& t, bool open_only) {
+                             const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
+  auto edges_of = [&](const TriangleSet& t, bool shared_only) {
     std::vector<uint64_t> keys;
     keys.reserve(t.corners.size());
     for (size_t i = 0; i < t.triangle_count(); ++i)
       for (int k = 0; k < 3; ++k) {
         uint32_t a = welded.weld[t.corners[3 * i + k]], b = welded.weld[t.corners[3 * i + (k + 1) % 3]];
-        if (a != b && (!open_only || (locked[a] && locked[b]))) keys.push_back(edge_key(a, b));
+        if (a == b) continue;
+        uint64_t key = edge_key(a, b);
+        if (shared_only && !(locked[a] && locked[b] && std::binary_search(shared_edges.begin(), shared_edges.end(), key)))
+          continue;
+        keys.push_back(key);
       }
     std::sort(keys.begin(), keys.end());
-    if (!open_only) {
-      keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-      return keys;
-    }
-    std::vector<uint64_t> open;
-    for (size_t i = 0; i < keys.size();) {
-      size_t j = i;
-      while (j < keys.size() && keys[j] == keys[i]) ++j;
-      if (j - i == 1) open.push_back(keys[i]);
-      i = j;
-    }
-    return open;
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    return keys;
   };
   std::vector<uint64_t> required = edges_of(before, true);
   std::vector<uint64_t> present = edges_of(after, false);
