@@ -142,6 +142,11 @@ struct BvhBuilder {
 }  // namespace
 
 ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report) {
+  return build_dag_internal(mesh, options, InternalBuildOptions{}, report);
+}
+
+ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions& options,
+                                            const InternalBuildOptions& internal, BuildReport* report) {
   double t_start = now_seconds();
   validate_mesh(mesh);
   BuildReport rep;
@@ -176,7 +181,7 @@ ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport*
     all.materials.resize(mesh.triangle_count());
     for (size_t t = 0; t < mesh.triangle_count(); ++t) all.materials[t] = mesh.material(t);
     std::vector<uint32_t> s = take_scratch();
-    std::vector<TriangleSet> leaves = split_into_clusters(welded, all, s);
+    std::vector<TriangleSet> leaves = split_into_clusters(welded, all, s, internal.leaf_split);
     give_scratch(std::move(s));
     clusters.resize(leaves.size());
     pool.parallel_for(leaves.size(), [&](size_t i) {
@@ -231,7 +236,7 @@ ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport*
         sets[i] = &clusters[active[i]].triangles;
         bounds[i] = clusters[active[i]].bounds;
       }
-      level_groups = group_clusters(welded, sets, bounds);
+      level_groups = group_clusters(welded, sets, bounds, internal.group_target_clusters);
       for (auto& g : level_groups)
         for (uint32_t& m : g) m = active[m];
     }
@@ -326,7 +331,7 @@ ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport*
       r.seconds_simplify = tm - ts;
       if (!sealed) return;
       std::vector<uint32_t> sc = take_scratch();
-      r.clusters = split_into_clusters(welded, s.triangles, sc);
+      r.clusters = split_into_clusters(welded, s.triangles, sc, internal.group_split);
       give_scratch(std::move(sc));
       r.seconds_split = now_seconds() - tm;
       r.terminal = false;

@@ -66,7 +66,17 @@ std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const Tri
 // Deterministic (fixed METIS seed, single call).
 std::vector<std::vector<uint32_t>> group_clusters(const WeldedMesh& welded,
                                                   const std::vector<const TriangleSet*>& clusters,
-                                                  const std::vector<Sphere>& bounds);
+                                                  const std::vector<Sphere>& bounds,
+                                                  uint32_t target_clusters = kGroupTargetClusters);
+
+// Knobs for measuring alternatives (benchmarks, tests); build_dag uses the defaults.
+struct InternalBuildOptions {
+  SplitMethod leaf_split = SplitMethod::kMeshopt;
+  SplitMethod group_split = SplitMethod::kMeshopt;
+  uint32_t group_target_clusters = kGroupTargetClusters;
+};
+ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, const InternalBuildOptions& internal,
+                              BuildReport* report);
 
 // Simplification of one group's triangles with locked vertices (by welded id).
 struct SimplifyResult {
