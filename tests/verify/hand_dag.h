@@ -81,6 +81,70 @@ inline std::vector<std::array<int, 2>> perimeter(int x0, int y0, int n) {
   return p;
 }
 
+// Errors, shared values, bounds (bottom-up, spec/dag.md rules), BVH and DAG bounds.
+inline void build_bvh(ClusterDag& dag, uint32_t node, uint32_t first, uint32_t count) {
+  BvhNode nd;
+  if (count <= kBvhMaxChildren) {
+    nd.child_count = count;
+    for (uint32_t i = 0; i < count; ++i) {
+      nd.children[i] = first + i;
+      nd.group_mask |= 1u << i;
+      const DagGroup& G = dag.groups[first + i];
+      nd.bounds = merge_spheres(nd.bounds, G.bounds);
+      nd.lod_bounds = merge_spheres(nd.lod_bounds, G.parent_bounds);
+      nd.max_parent_error = std::max(nd.max_parent_error, G.parent_error);
+    }
+    dag.bvh_nodes[node] = nd;
+    return;
+  }
+  uint32_t per = (count + kBvhMaxChildren - 1) / kBvhMaxChildren;
+  uint32_t children = (count + per - 1) / per;
+  uint32_t base = uint32_t(dag.bvh_nodes.size());
+  dag.bvh_nodes.resize(base + children);
+  nd.child_count = children;
+  for (uint32_t i = 0; i < children; ++i) {
+    uint32_t f = first + i * per, n = std::min(per, first + count - f);
+    build_bvh(dag, base + i, f, n);
+    const BvhNode& c = dag.bvh_nodes[base + i];
+    nd.children[i] = base + i;
+    nd.bounds = merge_spheres(nd.bounds, c.bounds);
+    nd.lod_bounds = merge_spheres(nd.lod_bounds, c.lod_bounds);
+    nd.max_parent_error = std::max(nd.max_parent_error, c.max_parent_error);
+  }
+  dag.bvh_nodes[node] = nd;
+}
+
+inline void finish(ClusterDag& dag, const std::vector<float>& group_error) {
+  for (uint32_t g = 0; g < dag.groups.size(); ++g) {
+    DagGroup& G = dag.groups[g];
+    G.parent_error = group_error[g];
+    for (uint32_t i = 0; i < G.cluster_count; ++i) {
+      DagCluster& k = dag.clusters[G.first_cluster + i];
+      if (k.generating_group == kNone) {
+        k.lod_bounds = k.bounds;
+        k.lod_error = 0;
+      }
+      G.bounds = merge_spheres(G.bounds, k.bounds);
+      G.parent_bounds = merge_spheres(G.parent_bounds, k.lod_bounds);
+    }
+    for (uint32_t i = 0; i < G.cluster_count; ++i) {
+      DagCluster& k = dag.clusters[G.first_cluster + i];
+      k.parent_bounds = G.parent_bounds;
+      k.parent_error = G.parent_error;
+    }
+    for (uint32_t i = 0; i < G.generated_count; ++i) {
+      DagCluster& p = dag.clusters[dag.generated_clusters[G.first_generated + i]];
+      p.lod_bounds = G.parent_bounds;
+      p.lod_error = G.parent_error;
+    }
+  }
+  dag.bvh_nodes.assign(1, BvhNode{});
+  build_bvh(dag, 0, 0, uint32_t(dag.groups.size()));
+  for (const DagCluster& k : dag.clusters)
+    if (k.generating_group == kNone)
+      for (uint32_t v = 0; v < k.vertex_count; ++v) dag.bounds.extend(dag.position(k.vertex_offset + v));
+}
+
 }  // namespace hand_dag_detail
 
 inline ClusterDag make_hand_dag(const HandDagShape& shape = {}) {
@@ -149,45 +213,85 @@ inline ClusterDag make_hand_dag(const HandDagShape& shape = {}) {
   dag.groups[5].flags = kGroupTerminal;
   dag.level_count = 3;
 
-  // Errors and bounds, bottom-up (spec/dag.md rules).
-  const float group_error[6] = {kLevel1Error * shape.scale, kLevel1Error * shape.scale, kLevel1Error * shape.scale,
-                                kLevel1Error * shape.scale, kLevel2Error * shape.scale, kTerminalError};
-  for (uint32_t g = 0; g < 6; ++g) {
-    DagGroup& G = dag.groups[g];
-    G.parent_error = group_error[g];
-    for (uint32_t i = 0; i < G.cluster_count; ++i) {
-      DagCluster& k = dag.clusters[G.first_cluster + i];
-      if (k.generating_group == kNone) {
-        k.lod_bounds = k.bounds;
-        k.lod_error = 0;
+  const float e1 = kLevel1Error * shape.scale, e2 = kLevel2Error * shape.scale;
+  hand_dag_detail::finish(dag, {e1, e1, e1, e1, e2, kTerminalError});
+  return dag;
+}
+
+// The same construction at any size: a 2^k x 2^k-quad grid (k ≥ 2). Level-L groups cover
+// squares of 4·2^L quads (level 0: 2x2 tiles of 2x2 quads); each generates a fan over its
+// square's border (centre raised by quadtree_height(L + 1)) split into chunks of
+// min(128, border / 2) triangles; the level-(k-2) group is terminal. Stored errors are 1.5x
+// the fan heights, so measured/stored = 2/3 everywhere.
+inline float quadtree_height(uint32_t level) { return 0.01f * float(1u << level); }
+
+inline ClusterDag make_quadtree_dag(uint32_t k) {
+  using namespace hand_dag_detail;
+  const int side = 1 << k;
+  const uint32_t top = k - 2;
+  auto P = [](double x, double y, double z) { return Vec3{float(x), float(y), float(z)}; };
+  ClusterDag dag;
+  std::vector<uint32_t> base(top + 2, 0);
+  for (uint32_t L = 0; L <= top; ++L) {
+    uint32_t n = uint32_t(side / (4 << L));
+    base[L + 1] = base[L] + n * n;
+  }
+  dag.groups.resize(base[top + 1]);
+  std::vector<float> errors(dag.groups.size());
+  // Level 0.
+  {
+    int n = side / 4;
+    for (int by = 0; by < n; ++by)
+      for (int bx = 0; bx < n; ++bx) {
+        uint32_t g = base[0] + uint32_t(by * n + bx);
+        dag.groups[g].first_cluster = uint32_t(dag.clusters.size());
+        dag.groups[g].cluster_count = 4;
+        for (int t = 0; t < 4; ++t) {
+          int x0 = 4 * bx + 2 * (t % 2), y0 = 4 * by + 2 * (t / 2);
+          std::vector<std::array<Vec3, 3>> tris;
+          for (int y = y0; y < y0 + 2; ++y)
+            for (int x = x0; x < x0 + 2; ++x) {
+              Vec3 a = P(x, y, 0), b = P(x + 1, y, 0), c = P(x, y + 1, 0), d = P(x + 1, y + 1, 0);
+              tris.push_back({a, b, d});
+              tris.push_back({a, d, c});
+            }
+          add_cluster(dag, tris, g, kNone, 0);
+        }
       }
-      G.bounds = merge_spheres(G.bounds, k.bounds);
-      G.parent_bounds = merge_spheres(G.parent_bounds, k.lod_bounds);
-    }
-    for (uint32_t i = 0; i < G.cluster_count; ++i) {
-      DagCluster& k = dag.clusters[G.first_cluster + i];
-      k.parent_bounds = G.parent_bounds;
-      k.parent_error = G.parent_error;
-    }
-    for (uint32_t i = 0; i < G.generated_count; ++i) {
-      DagCluster& p = dag.clusters[dag.generated_clusters[G.first_generated + i]];
-      p.lod_bounds = G.parent_bounds;
-      p.lod_error = G.parent_error;
-    }
   }
-  BvhNode root;
-  root.child_count = 6;
-  root.group_mask = 0x3F;
-  for (uint32_t g = 0; g < 6; ++g) {
-    root.children[g] = g;
-    root.bounds = merge_spheres(root.bounds, dag.groups[g].bounds);
-    root.lod_bounds = merge_spheres(root.lod_bounds, dag.groups[g].parent_bounds);
-    root.max_parent_error = std::max(root.max_parent_error, dag.groups[g].parent_error);
+  for (uint32_t L = 0; L < top; ++L) {
+    int n_up = side / (4 << (L + 1)), n = 2 * n_up, s = 4 << L;
+    for (int by = 0; by < n_up; ++by)
+      for (int bx = 0; bx < n_up; ++bx) {
+        uint32_t up = base[L + 1] + uint32_t(by * n_up + bx);
+        dag.groups[up].first_cluster = uint32_t(dag.clusters.size());
+        dag.groups[up].level = L + 1;
+        for (int c = 0; c < 4; ++c) {
+          int cx = 2 * bx + c % 2, cy = 2 * by + c / 2;
+          uint32_t child = base[L] + uint32_t(cy * n + cx);
+          DagGroup& C = dag.groups[child];
+          C.first_generated = uint32_t(dag.generated_clusters.size());
+          auto border = perimeter(cx * s, cy * s, s);
+          const int count = int(border.size()), chunk = std::min(128, count / 2);
+          Vec3 centre = P(cx * s + s / 2, cy * s + s / 2, quadtree_height(L + 1));
+          for (int first = 0; first < count; first += chunk) {
+            std::vector<std::array<Vec3, 3>> tris;
+            for (int i = first; i < std::min(count, first + chunk); ++i) {
+              auto a = border[i], b = border[(i + 1) % count];
+              tris.push_back({centre, P(a[0], a[1], 0), P(b[0], b[1], 0)});
+            }
+            dag.generated_clusters.push_back(add_cluster(dag, tris, up, child, L + 1));
+          }
+          dag.groups[child].generated_count = uint32_t(dag.generated_clusters.size()) - dag.groups[child].first_generated;
+          errors[child] = 1.5f * quadtree_height(L + 1);
+        }
+        dag.groups[up].cluster_count = uint32_t(dag.clusters.size()) - dag.groups[up].first_cluster;
+      }
   }
-  dag.bvh_nodes.push_back(root);
-  for (const DagCluster& k : dag.clusters)
-    if (k.generating_group == kNone)
-      for (uint32_t v = 0; v < k.vertex_count; ++v) dag.bounds.extend(dag.position(k.vertex_offset + v));
+  dag.groups.back().flags = kGroupTerminal;
+  errors.back() = kTerminalError;
+  dag.level_count = top + 1;
+  finish(dag, errors);
   return dag;
 }
 

@@ -300,3 +300,23 @@ TEST(Verify, ParseChecks) {
 
 }  // namespace
 }  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+TEST(Verify, QuadtreeDagPassesEveryCheck) {
+  for (uint32_t k : {2u, 3u, 5u}) {
+    ClusterDag dag = test::make_quadtree_dag(k);
+    VerifyOptions o = quick_options();
+    o.views = 32;
+    VerifyReport r = verify_dag(dag, o);
+    EXPECT_TRUE(passes(r)) << "k = " << k;
+    EXPECT_EQ(r.levels, k - 1);
+    if (k > 2) {
+      EXPECT_NEAR(r.error_ratio.max, 2.0 / 3.0, 1e-6);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace vgeo
