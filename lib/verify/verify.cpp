@@ -158,6 +158,7 @@ VerifyReport verify_dag(const ClusterDag& dag, const VerifyOptions& options) {
                   &vr);
       double sec = seconds_since(t0);
       report.cuts_tested = vr.cuts;
+      report.border_edges_changed = vr.border_edges_changed;
       report.cut_clusters = make_distribution(vr.cut_sizes);
       if (mono) mono->items += vr.projected_edges, mono->seconds += sec;
       if (cut) cut->items = vr.cuts, cut->seconds = sec;
@@ -211,6 +212,7 @@ std::string verify_report_json(const VerifyReport& r, const std::string& mesh) {
   j["levels"] = r.levels;
   j["triangles"] = r.triangles;
   j["cuts_tested"] = r.cuts_tested;
+  j["border_edges_changed"] = r.border_edges_changed;
   j["cut_clusters"] = dist_json(r.cut_clusters);
   j["error_ratio"] = dist_json(r.error_ratio);
   j["error_samples"] = r.error_samples;
@@ -268,6 +270,11 @@ std::string verify_report_summary(const VerifyReport& r) {
     std::snprintf(line, sizeof line, "  cuts tested: %llu, selected clusters per cut: min %.0f median %.0f max %.0f\n",
                   (unsigned long long)r.cuts_tested, r.cut_clusters.min, r.cut_clusters.median, r.cut_clusters.max);
     out += line;
+    if (r.border_edges_changed) {
+      std::snprintf(line, sizeof line, "  mesh-border edges simplified, summed over cuts: %llu (allowed; --strict-border)\n",
+                    (unsigned long long)r.border_edges_changed);
+      out += line;
+    }
   }
   if (r.error_ratio.count) {
     std::snprintf(line, sizeof line,

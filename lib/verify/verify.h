@@ -45,6 +45,9 @@ struct VerifyOptions {
   uint32_t error_samples_per_edge = 3;
   unsigned threads = 0;               // 0 = hardware concurrency; results identical for any value
   uint32_t max_stored_per_code = 64;  // violations kept per code (all are counted)
+  // The mesh's own open border may be simplified (only vertices shared between groups need
+  // locking; spec/invariants.md §4). Strict: any change of it is CRACK_BORDER_CHANGED.
+  bool strict_border = false;
 };
 
 struct VerifyValue {
@@ -86,6 +89,7 @@ struct VerifyReport {
   std::vector<CheckStats> checks;        // one per requested check
   uint64_t clusters = 0, groups = 0, leaf_clusters = 0, levels = 0, triangles = 0;
   uint64_t cuts_tested = 0;
+  uint64_t border_edges_changed = 0;     // over all cuts: mesh-border edges simplified (allowed unless strict)
   Distribution cut_clusters;             // selected clusters per tested cut
   Distribution error_ratio;              // measured / stored lod_error per non-leaf cluster (stored > 0)
   std::vector<Distribution> error_ratio_per_level;  // index = level (level 0 empty)
@@ -115,6 +119,7 @@ struct CutCheckContext {
   std::vector<uint64_t> leaf_open_edges;  // sorted odd-use edges of all leaves together
   std::vector<uint32_t> group_order;    // groups by decreasing level
   std::vector<float> weld_positions;    // 3 per welded id (diagnostics)
+  std::vector<uint8_t> on_mesh_border;  // per welded id: endpoint of a leaf open edge
 };
 
 struct CutCheck {
@@ -123,14 +128,16 @@ struct CutCheck {
   uint64_t selected = 0;
   uint64_t leaf_open_edges = 0;   // open edges (odd use) of the leaves
   uint64_t mismatched_edges = 0;  // edges whose parity differs between the cut and the leaves
+  uint64_t border_edges_changed = 0;  // of those, edges between two mesh-border vertices
   bool ok() const;
 };
 
 CutCheckContext prepare_cut_check(const ClusterDag& dag);
 // Checks that `selected` (cluster indices; order irrelevant) covers every leaf exactly once
-// (CUT_COVERAGE, CUT_DUPLICATE, CUT_DANGLING_INDEX) and is crack-free (CRACK_OPEN_EDGE).
+// (CUT_COVERAGE, CUT_DUPLICATE, CUT_DANGLING_INDEX) and is crack-free (CRACK_OPEN_EDGE;
+// with strict_border also CRACK_BORDER_CHANGED).
 CutCheck check_cut(const ClusterDag& dag, const CutCheckContext& context,
-                   const std::vector<uint32_t>& selected, uint32_t max_stored = 64);
+                   const std::vector<uint32_t>& selected, uint32_t max_stored = 64, bool strict_border = false);
 CutCheck check_cut(const ClusterDag& dag, const std::vector<uint32_t>& selected);
 
 }  // namespace vgeo

@@ -119,25 +119,28 @@ void check_coverage(const ClusterDag& dag, const CutCheckContext& ctx, CutScratc
   }
 }
 
-// Open edges of the cut (mod 2) must equal the leaves' open edges.
+// Open edges of the cut (mod 2) must equal the leaves' open edges, except that edges
+// between two mesh-border vertices may differ (the mesh's own border was simplified)
+// unless `strict_border`.
 void check_cracks(const CutCheckContext& ctx, CutScratch& s, Sink& sink, const std::string& where,
-                  const std::vector<VerifyValue>& extra, uint64_t* expected, uint64_t* found) {
+                  const std::vector<VerifyValue>& extra, bool strict_border, uint64_t* mismatched,
+                  uint64_t* border_changed) {
   size_t n = ctx.leaf_open_edges.size();
   for (uint32_t c : s.list) n += ctx.edge_offset[c + 1] - ctx.edge_offset[c];
   s.edges.reset(n);
   for (uint64_t e : ctx.leaf_open_edges) s.edges.toggle(e, kNone);
-  uint64_t cut_open = 0;
-  {
-    // Count the cut's own open edges separately for the statistics.
-    EdgeParity& t = s.edges;
-    for (uint32_t c : s.list)
-      for (uint32_t i = ctx.edge_offset[c]; i < ctx.edge_offset[c + 1]; ++i) t.toggle(ctx.edges[i], c);
-  }
-  uint64_t mismatched = 0;
+  for (uint32_t c : s.list)
+    for (uint32_t i = ctx.edge_offset[c]; i < ctx.edge_offset[c + 1]; ++i) s.edges.toggle(ctx.edges[i], c);
   s.edges.for_each_odd([&](uint64_t key, uint32_t owner) {
-    ++mismatched;
-    if (!sink.take("CRACK_OPEN_EDGE")) return;
+    ++*mismatched;
     uint32_t a = uint32_t(key >> 32), b = uint32_t(key);
+    const bool border = ctx.on_mesh_border[a] && ctx.on_mesh_border[b];
+    if (border) {
+      ++*border_changed;
+      if (!strict_border) return;
+    }
+    const char* code = border ? "CRACK_BORDER_CHANGED" : "CRACK_OPEN_EDGE";
+    if (!sink.take(code)) return;
     const float* pa = &ctx.weld_positions[3 * size_t(a)];
     const float* pb = &ctx.weld_positions[3 * size_t(b)];
     std::vector<VerifyValue> values{{"ax", pa[0]}, {"ay", pa[1]}, {"az", pa[2]},
@@ -146,12 +149,9 @@ void check_cracks(const CutCheckContext& ctx, CutScratch& s, Sink& sink, const s
     std::string msg = owner == kNone
                           ? "an open edge of the leaves is not open in the cut (covered or moved)"
                           : "edge open in the cut but not in the leaves (hole, T-junction or moved vertex)";
-    sink.stored.push_back({"CRACK_OPEN_EDGE", "crack", owner == kNone ? "edge" : "cluster",
+    sink.stored.push_back({code, "crack", owner == kNone ? "edge" : "cluster",
                            owner == kNone ? uint64_t(kNone) : owner, msg + where, std::move(values)});
   });
-  (void)cut_open;
-  if (expected) *expected = ctx.leaf_open_edges.size();
-  if (found) *found = mismatched;
 }
 
 }  // namespace
@@ -214,7 +214,7 @@ void check_views(const ClusterDag& dag, const VerifyOptions& options, bool monot
   const uint32_t views = options.views;
   struct PerView {
     Sink mono, cut, crack;
-    uint64_t edges = 0;
+    uint64_t edges = 0, border_changed = 0;
     std::vector<double> cut_sizes;
   };
   std::vector<PerView> per_view(views);
@@ -354,7 +354,11 @@ void check_views(const ClusterDag& dag, const VerifyOptions& options, bool monot
           }
           check_coverage(dag, ctx, s, out.cut, where, values);
         }
-        if (crack && ctx.usable) check_cracks(ctx, s, out.crack, where, values, nullptr, nullptr);
+        if (crack && ctx.usable) {
+          uint64_t mismatched = 0;
+          check_cracks(ctx, s, out.crack, where, values, options.strict_border, &mismatched,
+                       &out.border_changed);
+        }
       }
     }
   });
@@ -363,6 +367,7 @@ void check_views(const ClusterDag& dag, const VerifyOptions& options, bool monot
     cut_sink.merge(pv.cut);
     crack_sink.merge(pv.crack);
     result->projected_edges += pv.edges;
+    result->border_edges_changed += pv.border_changed;
     result->cut_sizes.insert(result->cut_sizes.end(), pv.cut_sizes.begin(), pv.cut_sizes.end());
   }
   result->views = views;
@@ -435,13 +440,15 @@ CutCheckContext prepare_cut_check(const ClusterDag& dag) {
     if ((j - i) % 2) ctx.leaf_open_edges.push_back(leaf[i]);
     i = j;
   }
+  ctx.on_mesh_border.assign(ctx.weld_positions.size() / 3, 0);
+  for (uint64_t e : ctx.leaf_open_edges) ctx.on_mesh_border[e >> 32] = ctx.on_mesh_border[uint32_t(e)] = 1;
   return ctx;
 }
 
 bool CutCheck::ok() const { return counts.empty(); }
 
 CutCheck check_cut(const ClusterDag& dag, const CutCheckContext& ctx, const std::vector<uint32_t>& selected,
-                   uint32_t max_stored) {
+                   uint32_t max_stored, bool strict_border) {
   CutCheck out;
   Sink sink;
   sink.cap = max_stored;
@@ -462,7 +469,8 @@ CutCheck check_cut(const ClusterDag& dag, const CutCheckContext& ctx, const std:
     }
     // Crack check over distinct clusters (a duplicate is already a coverage violation).
     check_coverage(dag, ctx, s, sink, "", {});
-    check_cracks(ctx, s, sink, "", {}, &out.leaf_open_edges, &out.mismatched_edges);
+    out.leaf_open_edges = ctx.leaf_open_edges.size();
+    check_cracks(ctx, s, sink, "", {}, strict_border, &out.mismatched_edges, &out.border_edges_changed);
   }
   out.violations = std::move(sink.stored);
   out.counts = std::move(sink.counts);

@@ -109,7 +109,7 @@ void check_structure(const ClusterDag& dag, Sink& sink, CheckStats& stats, bool*
 void check_monotonic_static(const ClusterDag& dag, Sink& sink, CheckStats& stats);
 // Views: MONO_PROJECTED + CUT_* + CRACK_* over the same random views.
 struct ViewCheckResult {
-  uint64_t views = 0, cuts = 0, projected_edges = 0;
+  uint64_t views = 0, cuts = 0, projected_edges = 0, border_edges_changed = 0;
   std::vector<double> cut_sizes;
 };
 void check_views(const ClusterDag& dag, const VerifyOptions& options, bool monotonic, bool cut,

@@ -24,6 +24,7 @@ inline constexpr float kLevel2Height = 0.05f, kLevel2Error = 0.06f;
 struct HandDagShape {
   Vec3 offset{};       // added to every position
   float scale = 1.0f;  // grid spacing
+  bool coarse_border = false;  // level 2 keeps only every other vertex of the mesh's open border
 };
 
 namespace hand_dag_detail {
@@ -198,10 +199,11 @@ inline ClusterDag make_hand_dag(const HandDagShape& shape = {}) {
   {
     auto border = perimeter(0, 0, 8);
     Vec3 centre = P(4, 4, kLevel2Height);
+    const int step = shape.coarse_border ? 2 : 1;
     for (int half = 0; half < 2; ++half) {
       std::vector<std::array<Vec3, 3>> tris;
-      for (int i = 16 * half; i < 16 * half + 16; ++i) {
-        auto a = border[i], b = border[(i + 1) % 32];
+      for (int i = 16 * half; i < 16 * half + 16; i += step) {
+        auto a = border[i], b = border[(i + step) % 32];
         tris.push_back({centre, P(a[0], a[1], 0), P(b[0], b[1], 0)});
       }
       dag.generated_clusters.push_back(add_cluster(dag, tris, 5, 4, 2));

@@ -149,6 +149,35 @@ TEST(Verify, MovedBorderVertexInGeneratedClusterIsCaught) {
   EXPECT_GE(c.mismatched_edges, 4u);  // two edges at the moved copy, two at the unmoved one
 }
 
+TEST(Verify, MovedVertexOnTheMeshBorderIsCaught) {
+  ClusterDag dag = make_hand_dag();
+  const DagCluster& k = dag.clusters[16];  // holds (1, 0) on the mesh's open border
+  for (uint32_t v = 0; v < k.vertex_count; ++v) {
+    float* p = &dag.positions[3 * (k.vertex_offset + v)];
+    if (p[0] == 1.0f && p[1] == 0.0f) p[1] = 0.0001f;
+  }
+  CutCheck c = check_cut(dag, concat({16, 17}, range(4, 16)));
+  EXPECT_FALSE(c.ok());
+  EXPECT_EQ(c.violations.at(0).code, "CRACK_OPEN_EDGE");
+}
+
+TEST(Verify, SimplifiedMeshBorderIsAllowedUnlessStrict) {
+  ClusterDag dag = make_hand_dag({{}, 1.0f, true});  // the root keeps every other border vertex
+  VerifyReport r = verify_dag(dag, quick_options());
+  EXPECT_TRUE(passes(r));
+  EXPECT_GT(r.border_edges_changed, 0u);
+  CutCheck c = check_cut(dag, range(24, 26));
+  EXPECT_TRUE(c.ok());
+  EXPECT_EQ(c.border_edges_changed, 32u + 16u);  // 32 leaf border edges gone, 16 long ones new
+  VerifyOptions strict = quick_options();
+  strict.strict_border = true;
+  VerifyReport rs = verify_dag(dag, strict);
+  EXPECT_FALSE(rs.ok());
+  EXPECT_GT(rs.count("CRACK_BORDER_CHANGED"), 0u);
+  EXPECT_EQ(rs.count("CRACK_OPEN_EDGE"), 0u);
+  EXPECT_FALSE(check_cut(dag, prepare_cut_check(dag), range(24, 26), 64, true).ok());
+}
+
 TEST(Verify, DanglingIndexIsCaughtAndLaterChecksSkip) {
   ClusterDag dag = make_hand_dag();
   dag.indices[3 * dag.clusters[5].triangle_offset + 1] = uint8_t(dag.clusters[5].vertex_count);

@@ -25,6 +25,7 @@ struct VerifyArgs {
   unsigned threads = 0;
   uint32_t max_stored = VerifyOptions{}.max_stored_per_code;
   bool quiet = false;
+  bool strict_border = false;
 };
 
 int run_verify(const VerifyArgs& a) {
@@ -38,6 +39,7 @@ int run_verify(const VerifyArgs& a) {
   options.error_samples_per_edge = a.samples_per_edge;
   options.threads = a.threads;
   options.max_stored_per_code = a.max_stored;
+  options.strict_border = a.strict_border;
 
   BuiltScene scene = read_dag_file(a.input);  // throws VgeoError (DAGFILE_*, I/O)
   bool all_ok = true;
@@ -82,6 +84,8 @@ void add_verify_command(CLI::App& app, Context& ctx) {
                   "error-bound sampling lattice: subdivisions per triangle edge");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores); results do not depend on it");
   cmd->add_option("--max-stored", args->max_stored, "violations stored per code (all are counted)");
+  cmd->add_flag("--strict-border", args->strict_border,
+                 "the mesh's own open border must survive every cut unchanged (CRACK_BORDER_CHANGED)");
   cmd->add_flag("--quiet", args->quiet, "print nothing; rely on the exit code and --json");
   cmd->callback([args, &ctx] { ctx.exit_code = run_verify(*args); });
 }
