@@ -203,16 +203,44 @@ void check_error_bound(const ClusterDag& dag, const VerifyOptions& options, Sink
         Measured m;
         uint32_t hint = ~0u;
         double best2 = 0;
+        auto sample = [&](D3 p) {
+          double d2 = bvh.nearest_d2(p, &hint);
+          ++m.samples;
+          if (d2 > best2) best2 = d2, m.worst = p;
+        };
+        auto vertex = [&](uint32_t local) {
+          size_t v = size_t(k.vertex_offset) + local;
+          return D3{dag.positions[3 * v], dag.positions[3 * v + 1], dag.positions[3 * v + 2]};
+        };
+        // The lattice points of all triangles, each once: corners per vertex, edge points
+        // per distinct edge (from its lower local index), interior points per triangle.
+        std::vector<uint8_t> used(k.vertex_count, 0);
+        std::vector<uint32_t> edges;
+        edges.reserve(3 * k.triangle_count);
         for (uint32_t t = 0; t < k.triangle_count; ++t) {
-          D3 a = corner(k, t, 0), b = corner(k, t, 1), c = corner(k, t, 2);
-          for (uint32_t u = 0; u <= k_sub; ++u)
-            for (uint32_t w = 0; u + w <= k_sub; ++w) {
+          const uint8_t* tri = &dag.indices[3 * (size_t(k.triangle_offset) + t)];
+          for (int j = 0; j < 3; ++j) {
+            uint32_t a = tri[j], b = tri[(j + 1) % 3];
+            edges.push_back(std::min(a, b) << 8 | std::max(a, b));
+            used[a] = 1;
+          }
+          D3 a = vertex(tri[0]), b = vertex(tri[1]), c = vertex(tri[2]);
+          for (uint32_t u = 1; u < k_sub; ++u)
+            for (uint32_t w = 1; u + w < k_sub; ++w) {
               double bu = double(u) / k_sub, bw = double(w) / k_sub, bv = 1.0 - bu - bw;
-              D3 p{a.x * bv + b.x * bu + c.x * bw, a.y * bv + b.y * bu + c.y * bw, a.z * bv + b.z * bu + c.z * bw};
-              double d2 = bvh.nearest_d2(p, &hint);
-              ++m.samples;
-              if (d2 > best2) best2 = d2, m.worst = p;
+              sample({a.x * bv + b.x * bu + c.x * bw, a.y * bv + b.y * bu + c.y * bw, a.z * bv + b.z * bu + c.z * bw});
             }
+        }
+        for (uint32_t v = 0; v < k.vertex_count; ++v)
+          if (used[v]) sample(vertex(v));  // corners (unreferenced vertices bound nothing)
+        std::sort(edges.begin(), edges.end());
+        edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+        for (uint32_t e : edges) {
+          D3 a = vertex(e >> 8), b = vertex(e & 0xFF);
+          for (uint32_t i = 1; i < k_sub; ++i) {
+            double t = double(i) / k_sub;
+            sample({a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t, a.z + (b.z - a.z) * t});
+          }
         }
         m.dist = std::sqrt(best2);
         measured[i] = m;
