@@ -272,11 +272,13 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
   for (uint32_t level = 0; !active.empty(); ++level) {
     BuildLevelReport lr;
     lr.level = level;
+    std::vector<std::vector<uint64_t>> open_keys;  // per active cluster, for grouping
     lr.clusters = active.size();
     {
       std::vector<uint64_t> open(active.size()), all(active.size());
+      open_keys.assign(active.size(), {});
       pool.parallel_for(active.size(), [&](size_t i) {
-        count_cluster_edges(welded, clusters[active[i]].triangles, &open[i], &all[i]);
+        count_cluster_edges(welded, clusters[active[i]].triangles, &open[i], &all[i], &open_keys[i]);
       });
       uint64_t so = 0, sa = 0;
       for (size_t i = 0; i < active.size(); ++i) {
@@ -302,7 +304,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
         sets[i] = &clusters[active[i]].triangles;
         bounds[i] = clusters[active[i]].bounds;
       }
-      level_groups = group_clusters(welded, sets, bounds, internal.group_target_clusters);
+      level_groups = group_clusters(sets, open_keys, bounds, internal.group_target_clusters);
       for (auto& g : level_groups)
         for (uint32_t& m : g) m = active[m];
     }
