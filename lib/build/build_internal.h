@@ -87,6 +87,11 @@ struct SimplifyResult {
   TriangleSet triangles;   // references original vertex ids only (no new positions)
   float error = 0.0f;      // absolute (object units), this simplification only
 };
+// The simplification's own error as stored: the sampled one-sided distance from the
+// simplified triangles to the group's input triangles on the shared error lattice
+// (lib/core/surface_distance.h), rounded up to float.
+float measured_simplification_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified);
+
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
                               const std::vector<uint8_t>& locked, Simplifier simplifier);
 
