@@ -196,6 +196,8 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
       bad(c, "SCENE_MESH_SOURCE", path + ".source: mesh file import is not available in this build; use a prebuilt .vgeodag");
     }
     double material = get_number(c, m, path, "material", 0, 0, double(kMaxSceneMaterials));
+    if (material >= double(out->scene.materials.size()) || material != std::floor(material))
+      bad(c, "SCENE_BAD_VALUE", path + ".material: no material " + std::to_string(material));
     mesh.materials.assign(mesh.triangle_count(), uint32_t(material));
     out->scene.meshes.push_back(build_cached(c, mesh, path));
   }
