@@ -137,7 +137,7 @@ void analyze_render_scene(RenderScene* scene) {
 }
 
 void render_frame(const RenderScene& scene, const Camera& camera, const RenderSettings& settings,
-                  ThreadPool& pool, FrameHistory* history, Frame* out) {
+                  ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame) {
   auto frame_start = std::chrono::steady_clock::now();
   FrameStats& stats = out->stats;
   stats = {};
@@ -278,7 +278,7 @@ void render_frame(const RenderScene& scene, const Camera& camera, const RenderSe
     }
   }
   if (occlusion) {
-    if (!history) {
+    if (!history || !has_next_frame) {
       stats.skipped.push_back({"hzb_next", "no next frame"});
     } else {
       PassStats p;

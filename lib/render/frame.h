@@ -80,11 +80,12 @@ struct Frame {
   FrameStats stats;
 };
 
-// Renders one frame. `history` may be null (single frame: no occlusion history kept);
-// otherwise it is read (pass 1) and replaced (hzb_next). Throws VgeoError
-// RENDER_TOO_MANY_VISIBLE_CLUSTERS when the visibility-buffer id space overflows.
+// Renders one frame. `history` may be null (no occlusion history at all); otherwise pass 1
+// tests against it when valid, and when `has_next_frame` it is replaced by this frame's
+// (pass hzb_next). Throws VgeoError RENDER_TOO_MANY_VISIBLE_CLUSTERS when the
+// visibility-buffer id space overflows.
 void render_frame(const RenderScene& scene, const Camera& camera, const RenderSettings& settings,
-                  ThreadPool& pool, FrameHistory* history, Frame* out);
+                  ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame = true);
 
 // Human-readable per-pass table and JSON (object) of one frame's statistics.
 std::string frame_stats_table(const FrameStats& stats);

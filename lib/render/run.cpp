@@ -32,7 +32,7 @@ RenderReport render_scene(const SceneFile& file, const RenderRequest& request) {
     RenderSettings s = settings;
     // Only the image of the last frame is kept; earlier frames stop at the visibility buffer.
     s.shade = last;
-    render_frame(file.scene, cam, s, pool, last ? nullptr : &history, &frame);
+    render_frame(file.scene, cam, s, pool, &history, &frame, !last);
     report.frames.push_back(frame.stats);
   }
   report.width = frame.vis.width;

@@ -47,7 +47,13 @@ TEST(SceneFile, CameraPathExpandsToItsFrameCount) {
   RenderRequest r;
   r.threads = 2;
   RenderReport report = render_scene(f, r);
-  EXPECT_EQ(report.frames.size(), 6u);
+  ASSERT_EQ(report.frames.size(), 6u);
+  // Every frame after the first tests against its predecessor's HZB; only the last frame
+  // skips building one for a next frame.
+  for (size_t i = 1; i < report.frames.size(); ++i)
+    for (const auto& [name, reason] : report.frames[i].skipped) EXPECT_NE(reason, "no previous-frame HZB") << i;
+  EXPECT_EQ(report.frames.back().find("hzb_next"), nullptr);
+  EXPECT_NE(report.frames.front().find("hzb_next"), nullptr);
 }
 
 TEST(SceneFile, MalformedScenesFailWithStableCodes) {
