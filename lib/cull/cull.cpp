@@ -239,6 +239,13 @@ std::vector<VisibleCluster> select_cut(const std::vector<ClusterDag>& meshes,
   return result.visible;
 }
 
+std::vector<uint32_t> cut_of_instance(const std::vector<VisibleCluster>& cut, uint32_t instance) {
+  std::vector<uint32_t> out;
+  for (const VisibleCluster& v : cut)
+    if (v.instance == instance) out.push_back(v.cluster);
+  return out;
+}
+
 std::vector<VisibleCluster> select_flat(const std::vector<ClusterDag>& meshes,
                                         const std::vector<CullInstance>& instances,
                                         const ViewParams& view, float threshold_px, bool frustum) {

@@ -100,6 +100,9 @@ std::vector<VisibleCluster> select_cut(const std::vector<ClusterDag>& meshes,
                                        const std::vector<CullInstance>& instances,
                                        const ViewParams& view, float threshold_px, ThreadPool& pool);
 
+// The cut's cluster indices of one instance (ascending): the input of lib/verify's check_cut.
+std::vector<uint32_t> cut_of_instance(const std::vector<VisibleCluster>& cut, uint32_t instance);
+
 // Reference: the flat test of every cluster of every instance (tests compare against it).
 std::vector<VisibleCluster> select_flat(const std::vector<ClusterDag>& meshes,
                                         const std::vector<CullInstance>& instances,
