@@ -10,6 +10,7 @@
 #include "vgeo/build/dag_io.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/hash.h"
+#include "vgeo/mesh/import.h"
 #include "vgeo/render/procedural.h"
 
 namespace vgeo {
@@ -191,14 +192,40 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
     Mesh mesh;
     if (m.contains("procedural")) {
       mesh = make_procedural(c, m["procedural"], path + ".procedural");
+      double material = get_number(c, m, path, "material", 0, 0, double(kMaxSceneMaterials));
+      if (material >= double(out->scene.materials.size()) || material != std::floor(material))
+        bad(c, "SCENE_BAD_VALUE", path + ".material: no material " + std::to_string(material));
+      mesh.materials.assign(mesh.triangle_count(), uint32_t(material));
     } else {
-      // Mesh files need the importer (lib/mesh); until it is wired in, say so.
-      bad(c, "SCENE_MESH_SOURCE", path + ".source: mesh file import is not available in this build; use a prebuilt .vgeodag");
+      // A mesh file (glTF/OBJ/PLY/OFF/STL via lib/mesh): mesh `index` of the file; the file's
+      // materials are appended (or `material` overrides every triangle's).
+      std::string file = get_string(c, m, path, "source", "");
+      std::filesystem::path fp(file);
+      if (fp.is_relative()) fp = std::filesystem::path(c.base_dir) / fp;
+      ImportResult imported;
+      try {
+        imported = import_scene(fp.string());
+      } catch (const VgeoError& e) {
+        bad(c, "SCENE_MESH_SOURCE", path + ".source: " + e.error().line());
+      }
+      double index = get_number(c, m, path, "index", 0, 0, 1e9);
+      if (index >= double(imported.scene.meshes.size())) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh in " + file);
+      mesh = std::move(imported.scene.meshes[size_t(index)]);
+      if (m.contains("material")) {
+        double material = get_number(c, m, path, "material", 0, 0, double(kMaxSceneMaterials));
+        if (material >= double(out->scene.materials.size()) || material != std::floor(material))
+          bad(c, "SCENE_BAD_VALUE", path + ".material: no material " + std::to_string(material));
+        mesh.materials.assign(mesh.triangle_count(), uint32_t(material));
+      } else {
+        uint32_t offset = uint32_t(out->scene.materials.size());
+        if (out->scene.materials.size() + imported.scene.materials.size() > kMaxSceneMaterials)
+          bad(c, "SCENE_TOO_LARGE", path + ": too many materials");
+        out->scene.materials.insert(out->scene.materials.end(), imported.scene.materials.begin(),
+                                    imported.scene.materials.end());
+        if (mesh.materials.empty()) mesh.materials.assign(mesh.triangle_count(), 0);
+        for (uint32_t& t : mesh.materials) t += offset;
+      }
     }
-    double material = get_number(c, m, path, "material", 0, 0, double(kMaxSceneMaterials));
-    if (material >= double(out->scene.materials.size()) || material != std::floor(material))
-      bad(c, "SCENE_BAD_VALUE", path + ".material: no material " + std::to_string(material));
-    mesh.materials.assign(mesh.triangle_count(), uint32_t(material));
     out->scene.meshes.push_back(build_cached(c, mesh, path));
   }
 }

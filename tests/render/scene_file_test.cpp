@@ -4,8 +4,12 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <unistd.h>
 
 #include "support/paths.h"
+#include "vgeo/build/build.h"
+#include "vgeo/build/dag_io.h"
 #include "vgeo/core/error.h"
 #include "vgeo/render/run.h"
 #include "vgeo/render/procedural.h"
@@ -109,6 +113,38 @@ TEST(SceneFile, MalformedScenesFailWithStableCodes) {
        "SCENE_BAD_VALUE"},
   };
   for (const Case& c : cases) EXPECT_EQ(error_code_of(c.text), c.code) << c.text;
+}
+
+TEST(SceneFile, SourceMeshesAreImportedAndDagFilesAreRead) {
+  auto dir = std::filesystem::temp_directory_path() / ("vgeo_scene_src_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream obj(dir / "quad.obj");
+    obj << "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n";
+  }
+  BuiltScene built;
+  built.meshes.push_back(build_dag(make_displaced_sphere(8, 16, 1.0f, 0.0f, 0.0f), {}));
+  built.materials.push_back(Material{"red", {1, 0, 0, 1}});
+  write_dag_file((dir / "sphere.vgeodag").string(), built);
+  std::string text = R"({"version": 1,
+    "meshes": [{"source": "quad.obj"}, {"dag": "sphere.vgeodag"}],
+    "instances": [{"mesh": 0}, {"mesh": 1, "translation": [0, 0, -3]}],
+    "cameras": [{"position": [0, 0, 4], "look_at": [0, 0, 0], "resolution": [64, 48]}]})";
+  SceneLoadOptions options;
+  options.cache_dir = (dir / "cache").string();
+  for (int pass = 0; pass < 2; ++pass) {  // second pass: the source mesh comes from the cache
+    SceneFile f = parse_scene_json(text, "<test>", dir.string(), options);
+    ASSERT_EQ(f.scene.meshes.size(), 2u);
+    EXPECT_EQ(f.scene.meshes[0].clusters.size() > 0, true);
+    EXPECT_EQ(f.scene.meshes[1].triangle_count(), built.meshes[0].triangle_count());
+    EXPECT_FALSE(std::filesystem::is_empty(dir / "cache"));
+    RenderRequest r;
+    r.threads = 2;
+    EXPECT_GT(render_scene(f, r).frames.back().pixels_covered, 0u);
+  }
+  EXPECT_EQ(error_code_of(R"({"version": 1, "meshes": [{"source": "/nonexistent.obj"}], "instances": [],
+    "cameras": [{"position": [0, 0, 4], "look_at": [0, 0, 0]}]})"), "SCENE_MESH_SOURCE");
+  std::filesystem::remove_all(dir);
 }
 
 TEST(SceneFile, MissingFileIsAnIoError) {
