@@ -239,6 +239,25 @@ std::vector<VisibleCluster> select_cut(const std::vector<ClusterDag>& meshes,
   return result.visible;
 }
 
+bool bvh_is_tree(const ClusterDag& dag) {
+  if (dag.bvh_nodes.empty()) return true;
+  std::vector<uint8_t> seen(dag.bvh_nodes.size(), 0);
+  std::vector<uint32_t> stack{0};
+  seen[0] = 1;
+  while (!stack.empty()) {
+    const BvhNode& n = dag.bvh_nodes[stack.back()];
+    stack.pop_back();
+    for (uint32_t k = 0; k < n.child_count && k < kBvhMaxChildren; ++k) {
+      if ((n.group_mask >> k) & 1u) continue;
+      uint32_t c = n.children[k];
+      if (c >= dag.bvh_nodes.size() || seen[c]) return false;
+      seen[c] = 1;
+      stack.push_back(c);
+    }
+  }
+  return true;
+}
+
 std::vector<uint32_t> cut_of_instance(const std::vector<VisibleCluster>& cut, uint32_t instance) {
   std::vector<uint32_t> out;
   for (const VisibleCluster& v : cut)

@@ -100,6 +100,10 @@ std::vector<VisibleCluster> select_cut(const std::vector<ClusterDag>& meshes,
                                        const std::vector<CullInstance>& instances,
                                        const ViewParams& view, float threshold_px, ThreadPool& pool);
 
+// True when the BVH reachable from node 0 is a tree (no node reached twice, so no cycle):
+// traversal of an untrusted DAG terminates. Index ranges are dag_io's job.
+bool bvh_is_tree(const ClusterDag& dag);
+
 // The cut's cluster indices of one instance (ascending): the input of lib/verify's check_cut.
 std::vector<uint32_t> cut_of_instance(const std::vector<VisibleCluster>& cut, uint32_t instance);
 

@@ -185,6 +185,7 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
         bad(c, "SCENE_TOO_LARGE", path + ": too many materials");
       out->scene.materials.insert(out->scene.materials.end(), built.materials.begin(), built.materials.end());
       ClusterDag dag = std::move(built.meshes[size_t(index)]);
+      if (!bvh_is_tree(dag)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
       for (uint32_t& t : dag.triangle_materials) t += offset;
       out->scene.meshes.push_back(std::move(dag));
       continue;

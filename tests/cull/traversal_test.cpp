@@ -143,6 +143,20 @@ TEST(CullTraversal, CameraInsideBoundsAndAtNearPlaneGivesValidCut) {
   }
 }
 
+TEST(CullTraversal, BvhTreeCheckRejectsCyclesAndSharedNodes) {
+  test::SyntheticDag s = test::make_synthetic_dag(3, 200, 2);
+  ASSERT_GT(s.dag.bvh_nodes.size(), 2u);
+  EXPECT_TRUE(bvh_is_tree(s.dag));
+  ClusterDag cyc = s.dag;
+  // Point the first node child of the root back at the root.
+  for (uint32_t k = 0; k < cyc.bvh_nodes[0].child_count; ++k)
+    if (!((cyc.bvh_nodes[0].group_mask >> k) & 1u)) {
+      cyc.bvh_nodes[cyc.bvh_nodes[0].children[k]] = cyc.bvh_nodes[0];
+      break;
+    }
+  EXPECT_FALSE(bvh_is_tree(cyc));
+}
+
 TEST(CullTraversal, OutputIsIdenticalForAnyThreadCount) {
   std::vector<test::SyntheticDag> dags{test::make_synthetic_dag(11, 400, 4), test::make_synthetic_dag(12, 300, 8)};
   std::vector<ClusterDag> meshes{dags[0].dag, dags[1].dag};
