@@ -710,8 +710,9 @@ BuiltScene decode_format(const uint8_t* data, size_t size, const std::string& wh
         decode_cluster(words.data(), k, q, &dc);
         const DagCluster& c = dag.clusters[mm.page_clusters[e.first_cluster_slot + k]];
         std::copy(dc.positions.begin(), dc.positions.end(), dag.positions.begin() + 3 * size_t(c.vertex_offset));
-        std::copy(dc.normals.begin(), dc.normals.end(), dag.normals.begin() + 3 * size_t(c.vertex_offset));
-        std::copy(dc.uvs.begin(), dc.uvs.end(), dag.uvs.begin() + 2 * size_t(c.vertex_offset));
+        // (Attribute arrays may be empty: never offset an iterator of an empty vector.)
+        if (q.has_normals) std::copy(dc.normals.begin(), dc.normals.end(), dag.normals.begin() + 3 * size_t(c.vertex_offset));
+        if (q.has_uvs) std::copy(dc.uvs.begin(), dc.uvs.end(), dag.uvs.begin() + 2 * size_t(c.vertex_offset));
         std::copy(dc.indices.begin(), dc.indices.end(), dag.indices.begin() + 3 * size_t(c.triangle_offset));
         std::copy(dc.materials.begin(), dc.materials.end(), dag.triangle_materials.begin() + c.triangle_offset);
       }

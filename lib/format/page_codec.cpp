@@ -30,15 +30,32 @@ int32_t unzigzag(uint32_t z) { return int32_t(z >> 1) ^ -int32_t(z & 1u); }
 uint32_t delta_bytes(uint32_t bits) { return bits == 0 ? 0 : (bits + 1 + 7) / 8; }
 
 // ---- generalized strips over one material run ----
+// Directed edges of the run sorted by (from, to): a lookup is a binary search, so strip
+// building stays O(n^2 log n) even for random (non-manifold) topology.
 struct StripBuilder {
   const uint8_t (*tris)[3];   // original local indices
   const uint32_t* run;         // triangle ids of the run
   uint32_t run_size;
   bool* visited;               // indexed by position in run
+  uint32_t edges[3 * kMaxClusterTriangles];  // (from << 16) | (to << 8) | position
+  uint32_t edge_count = 0;
 
-  // Position in run of an unvisited triangle containing directed edge x->y, its third vertex.
+  void index() {
+    edge_count = 0;
+    for (uint32_t i = 0; i < run_size; ++i)
+      for (int k = 0; k < 3; ++k) {
+        const uint8_t* t = tris[run[i]];
+        edges[edge_count++] = uint32_t(t[k]) << 16 | uint32_t(t[(k + 1) % 3]) << 8 | i;
+      }
+    std::sort(edges, edges + edge_count);
+  }
+  // Position in run of the first unvisited triangle containing directed edge x->y, and its
+  // third vertex; -1 if none.
   int find(uint8_t x, uint8_t y, uint8_t* third) const {
-    for (uint32_t i = 0; i < run_size; ++i) {
+    const uint32_t key = uint32_t(x) << 16 | uint32_t(y) << 8;
+    for (const uint32_t* e = std::lower_bound(edges, edges + edge_count, key);
+         e != edges + edge_count && (*e & ~0xFFu) == key; ++e) {
+      const uint32_t i = *e & 0xFFu;
       if (visited[i]) continue;
       const uint8_t* t = tris[run[i]];
       for (int k = 0; k < 3; ++k)
@@ -151,8 +168,9 @@ void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantiza
     while (r1 < tc && mat[order[r1]] == mat[order[r0]]) ++r1;
     out->run_start[out->run_count] = uint8_t(r0);
     out->run_material[out->run_count++] = mat[order[r0]];
-    StripBuilder sb{tris, order + r0, r1 - r0, visited};
+    StripBuilder sb{tris, order + r0, r1 - r0, visited, {}};
     std::fill(visited, visited + sb.run_size, false);
+    sb.index();
     for (uint32_t left = sb.run_size; left > 0;) {
       // Start where the fewest open neighbours are (strips then end less often mid-run).
       uint32_t start = 0, best = 4;
