@@ -197,7 +197,7 @@ void write_node(Writer& w, const BvhNode& n) {
 }
 
 void add_memory_sizes(const CanonicalCluster& c, const MeshQuantization& q, ComponentBytes* m) {
-  const bool fb = needs_index_fallback(c);
+  const uint32_t ob = index_offset_bits(c);
   auto channel_bytes = [&](uint32_t k0, uint32_t k1) {
     double b = 0;
     for (uint32_t k = k0; k < k1; ++k) b += c.bits[k];
@@ -206,7 +206,7 @@ void add_memory_sizes(const CanonicalCluster& c, const MeshQuantization& q, Comp
   m->positions += channel_bytes(0, 3);
   if (q.has_normals) m->normals += channel_bytes(3, 5);
   if (q.has_uvs) m->uvs += q.has_normals ? channel_bytes(5, 7) : channel_bytes(3, 5);
-  const uint32_t tb = fb ? 24 : bits_for_range(c.vertex_count - 1) + 10;
+  const uint32_t tb = bits_for_range(c.vertex_count - 1) + 2 * ob;
   m->topology += double(c.triangle_count) * tb / 8.0;
   m->materials += 4.0 * c.run_count;
   m->cluster_headers += 4.0 * kDescriptorWords;
@@ -375,7 +375,7 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
         rep.clusters += 1;
         rep.triangles += canon[c].triangle_count;
         rep.vertices += canon[c].vertex_count;
-        rep.index_fallback_clusters += needs_index_fallback(canon[c]) ? 1 : 0;
+        rep.wide_index_clusters += index_offset_bits(canon[c]) > kNaniteIndexOffsetBits ? 1 : 0;
       }
     }
     flush();

@@ -51,7 +51,11 @@ inline constexpr uint32_t kMaxNormalBits = 16;      // per octahedral component
 inline constexpr int32_t kMinStepLog2 = -40, kMaxStepLog2 = 40;  // grid steps 2^-40 .. 2^40
 inline constexpr uint32_t kMaxMaterialId = (1u << 24) - 1;       // 24-bit field of a material run
 inline constexpr uint32_t kMaxNameBytes = 4096;                 // material name length
-inline constexpr uint32_t kMaxTriangleSpan = 31;    // two 5-bit offsets from the base index
+// Memory-form triangles are a base index plus two offsets of a per-cluster width: 5 bits
+// (Nanite's span of 32) when the canonical order allows, up to 8 bits (any span of a
+// 255-vertex cluster) otherwise; see spec/format.md §4.
+inline constexpr uint32_t kNaniteIndexOffsetBits = 5;
+inline constexpr uint32_t kMaxIndexOffsetBits = 8;
 
 enum class Compression : uint32_t { kNone = 0, kZstd = 1, kLz4 = 2 };
 
@@ -119,7 +123,8 @@ struct PageFill {
   uint32_t mesh = 0, clusters = 0, memory_bytes = 0, slack_bytes = 0, raw_bytes = 0, stored_bytes = 0;
 };
 struct FormatReport {
-  uint64_t triangles = 0, vertices = 0, clusters = 0, index_fallback_clusters = 0;
+  uint64_t triangles = 0, vertices = 0, clusters = 0;
+  uint64_t wide_index_clusters = 0;  // clusters whose index offsets need > 5 bits
   uint64_t file_bytes = 0, metadata_bytes = 0, header_bytes = kFileHeaderSize;
   ComponentBytes memory;           // memory-form bytes (bit fields rounded per stream)
   ComponentBytes disk_raw;         // disk form before compression
@@ -157,7 +162,7 @@ void validate_memory_page(const uint32_t* words, size_t word_count, const MeshQu
 // One cluster of a memory-form page, in quantized integers and in floats.
 struct DecodedCluster {
   uint32_t vertex_count = 0, triangle_count = 0;
-  bool index_fallback = false;
+  uint32_t index_offset_bits = 0;
   std::vector<int32_t> quantized;     // channel_count per vertex (x y z [nu nv] [u v])
   std::vector<float> positions, normals, uvs;
   std::vector<uint8_t> indices;       // 3 per triangle, smallest index first

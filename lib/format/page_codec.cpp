@@ -95,13 +95,14 @@ void min_first(const uint8_t in[3], uint8_t out[3]) {
   for (int k = 0; k < 3; ++k) out[k] = in[(best + k) % 3];
 }
 
-bool needs_index_fallback(const CanonicalCluster& c) {
+uint32_t index_offset_bits(const CanonicalCluster& c) {
+  uint32_t span = 0;
   for (uint32_t t = 0; t < c.triangle_count; ++t) {
     uint8_t m[3];
     min_first(c.strip[t], m);
-    if (m[1] - m[0] > int(kMaxTriangleSpan) || m[2] - m[0] > int(kMaxTriangleSpan)) return true;
+    span = std::max<uint32_t>(span, std::max(m[1] - m[0], m[2] - m[0]));
   }
-  return false;
+  return bits_for_range(span);
 }
 
 void compute_channel_ranges(CanonicalCluster* c, uint32_t channel_count) {
@@ -254,16 +255,17 @@ uint32_t vertex_bits(const CanonicalCluster& c) {
   for (uint32_t k = 0; k < kMaxChannels; ++k) b += c.bits[k];
   return b;
 }
-uint32_t triangle_bits(uint32_t vertex_count, bool fallback) {
-  return fallback ? 24 : bits_for_range(vertex_count - 1) + 10;
+// Base index (enough bits for vertex_count - 1) plus two offsets of `offset_bits` each.
+uint32_t triangle_bits(uint32_t vertex_count, uint32_t offset_bits) {
+  return bits_for_range(vertex_count - 1) + 2 * offset_bits;
 }
 uint32_t words_for_bits(uint64_t bits) { return uint32_t((bits + 31) / 32); }
 }  // namespace
 
 uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t) {
-  const bool fb = needs_index_fallback(c);
+  const uint32_t ob = index_offset_bits(c);
   return kDescriptorWords + words_for_bits(uint64_t(c.vertex_count) * vertex_bits(c)) +
-         words_for_bits(uint64_t(c.triangle_count) * triangle_bits(c.vertex_count, fb)) + c.run_count;
+         words_for_bits(uint64_t(c.triangle_count) * triangle_bits(c.vertex_count, ob)) + c.run_count;
 }
 
 MemoryPageBuilder::MemoryPageBuilder(uint32_t cluster_count, uint64_t max_words, const std::string& where)
@@ -276,8 +278,8 @@ MemoryPageBuilder::MemoryPageBuilder(uint32_t cluster_count, uint64_t max_words,
 
 void MemoryPageBuilder::add(const CanonicalCluster& c) {
   assert(next_ < n_);
-  const bool fb = needs_index_fallback(c);
-  const uint32_t vb = vertex_bits(c), tb = triangle_bits(c.vertex_count, fb), bb = tb - 10;
+  const uint32_t ob = index_offset_bits(c);
+  const uint32_t vb = vertex_bits(c), tb = triangle_bits(c.vertex_count, ob), bb = tb - 2 * ob;
   const uint64_t data = w_.size();
   const uint64_t vwords = words_for_bits(uint64_t(c.vertex_count) * vb);
   const uint64_t twords = words_for_bits(uint64_t(c.triangle_count) * tb);
@@ -285,7 +287,7 @@ void MemoryPageBuilder::add(const CanonicalCluster& c) {
     fail(kErrInconsistent, where_, "memory form exceeds the page table's memory size");
   w_.resize(data + vwords + twords + c.run_count, 0u);
   uint32_t* d = &w_[1 + size_t(next_++) * kDescriptorWords];
-  d[0] = c.vertex_count | (c.triangle_count << 8) | (c.run_count << 16) | (fb ? 1u << 24 : 0u);
+  d[0] = c.vertex_count | (c.triangle_count << 8) | (c.run_count << 16) | (ob << 24);
   for (uint32_t k = 0; k < 6; ++k) d[1] |= c.bits[k] << (5 * k);
   d[2] = c.bits[6] | uint32_t(data << 10);
   for (uint32_t k = 0; k < kMaxChannels; ++k) d[3 + k] = uint32_t(c.min[k]);
@@ -300,13 +302,9 @@ void MemoryPageBuilder::add(const CanonicalCluster& c) {
   for (uint32_t t = 0; t < c.triangle_count; ++t, bit += tb) {
     uint8_t m[3];
     min_first(c.strip[t], m);
-    if (fb) {
-      write_bits(w_.data(), bit, 24, m[0] | (m[1] << 8) | (m[2] << 16));
-    } else {
-      write_bits(w_.data(), bit, bb, m[0]);
-      write_bits(w_.data(), bit + bb, 5, uint32_t(m[1] - m[0]));
-      write_bits(w_.data(), bit + bb + 5, 5, uint32_t(m[2] - m[0]));
-    }
+    write_bits(w_.data(), bit, bb, m[0]);
+    write_bits(w_.data(), bit + bb, ob, uint32_t(m[1] - m[0]));
+    write_bits(w_.data(), bit + bb + ob, ob, uint32_t(m[2] - m[0]));
   }
   uint64_t mat = data + vwords + twords;
   for (uint32_t r = 0; r < c.run_count; ++r) w_[mat++] = c.run_start[r] | (c.run_material[r] << 8);
@@ -344,9 +342,10 @@ void validate_memory_page(const uint32_t* w, size_t word_count, const MeshQuanti
   for (uint32_t i = 0; i < n; ++i) {
     const uint32_t* d = &w[1 + i * kDescriptorWords];
     const uint32_t vc = d[0] & 0xFFu, tc = (d[0] >> 8) & 0xFFu, runs = (d[0] >> 16) & 0xFFu,
-                   flags = d[0] >> 24;
+                   ob = (d[0] >> 24) & 15u;
     const std::string at = "cluster " + std::to_string(i) + ": ";
-    if (vc == 0 || tc == 0 || tc > kMaxClusterTriangles || runs == 0 || runs > tc || (flags & ~1u))
+    if (vc == 0 || tc == 0 || tc > kMaxClusterTriangles || runs == 0 || runs > tc || ob > kMaxIndexOffsetBits ||
+        (d[0] >> 28) != 0)
       fail(kErrOutOfRange, where, at + "descriptor counts/flags out of range");
     if ((d[1] >> 30) != 0 || ((d[2] >> 5) & 31u) != 0) fail(kErrOutOfRange, where, at + "reserved bits set");
     uint32_t bits[kMaxChannels], vb = 0;
@@ -360,8 +359,7 @@ void validate_memory_page(const uint32_t* w, size_t word_count, const MeshQuanti
       vb += bits[k];
     }
     if ((d[2] >> 10) != data) fail(kErrInconsistent, where, at + "data offset is not the running offset");
-    const bool fb = flags & 1u;
-    const uint32_t tb = triangle_bits(vc, fb), bb = tb - 10;
+    const uint32_t tb = triangle_bits(vc, ob), bb = tb - 2 * ob;
     const uint64_t vwords = words_for_bits(uint64_t(vc) * vb), twords = words_for_bits(uint64_t(tc) * tb);
     if (data + vwords + twords + runs > word_count) fail(kErrTruncated, where, at + "data beyond the page");
     uint64_t bit = data * 32;
@@ -375,15 +373,8 @@ void validate_memory_page(const uint32_t* w, size_t word_count, const MeshQuanti
     data += vwords;
     bit = data * 32;
     for (uint32_t t = 0; t < tc; ++t, bit += tb) {
-      uint32_t i0, i1, i2;
-      if (fb) {
-        const uint32_t x = read_bits(w, bit, 24);
-        i0 = x & 0xFFu, i1 = (x >> 8) & 0xFFu, i2 = x >> 16;
-      } else {
-        i0 = read_bits(w, bit, bb);
-        i1 = i0 + read_bits(w, bit + bb, 5);
-        i2 = i0 + read_bits(w, bit + bb + 5, 5);
-      }
+      const uint32_t i0 = read_bits(w, bit, bb);
+      const uint32_t i1 = i0 + read_bits(w, bit + bb, ob), i2 = i0 + read_bits(w, bit + bb + ob, ob);
       if (i0 >= vc || i1 >= vc || i2 >= vc) fail(kErrOutOfRange, where, at + "triangle index beyond vertex count");
     }
     data += twords;
@@ -401,7 +392,7 @@ void decode_cluster(const uint32_t* w, uint32_t i, const MeshQuantization& q, De
   assert(i < w[0]);
   const uint32_t* d = &w[1 + i * kDescriptorWords];
   const uint32_t vc = d[0] & 0xFFu, tc = (d[0] >> 8) & 0xFFu, runs = (d[0] >> 16) & 0xFFu;
-  const bool fb = (d[0] >> 24) & 1u;
+  const uint32_t ob = (d[0] >> 24) & 15u;
   const uint32_t channels = q.channel_count();
   uint32_t bits[kMaxChannels], vb = 0;
   for (uint32_t k = 0; k < kMaxChannels; ++k) {
@@ -411,7 +402,7 @@ void decode_cluster(const uint32_t* w, uint32_t i, const MeshQuantization& q, De
   uint64_t data = d[2] >> 10;
   out->vertex_count = vc;
   out->triangle_count = tc;
-  out->index_fallback = fb;
+  out->index_offset_bits = ob;
   out->quantized.assign(size_t(vc) * channels, 0);
   out->positions.assign(size_t(vc) * 3, 0.0f);
   out->normals.assign(q.has_normals ? size_t(vc) * 3 : 0, 0.0f);
@@ -434,20 +425,15 @@ void decode_cluster(const uint32_t* w, uint32_t i, const MeshQuantization& q, De
       for (int k = 0; k < 2; ++k) out->uvs[2 * v + k] = dequantize_position(qv[ch + k], q.uv_step_log2);
   }
   data += words_for_bits(uint64_t(vc) * vb);
-  const uint32_t tb = triangle_bits(vc, fb), bb = tb - 10;
+  const uint32_t tb = triangle_bits(vc, ob), bb = tb - 2 * ob;
   out->indices.resize(size_t(tc) * 3);
   bit = data * 32;
   for (uint32_t t = 0; t < tc; ++t, bit += tb) {
     uint8_t* o = &out->indices[3 * t];
-    if (fb) {
-      const uint32_t x = read_bits(w, bit, 24);
-      o[0] = uint8_t(x), o[1] = uint8_t(x >> 8), o[2] = uint8_t(x >> 16);
-    } else {
-      const uint32_t b = read_bits(w, bit, bb);
-      o[0] = uint8_t(b);
-      o[1] = uint8_t(b + read_bits(w, bit + bb, 5));
-      o[2] = uint8_t(b + read_bits(w, bit + bb + 5, 5));
-    }
+    const uint32_t b = read_bits(w, bit, bb);
+    o[0] = uint8_t(b);
+    o[1] = uint8_t(b + read_bits(w, bit + bb, ob));
+    o[2] = uint8_t(b + read_bits(w, bit + bb + ob, ob));
   }
   data += words_for_bits(uint64_t(tc) * tb);
   out->materials.resize(tc);

@@ -46,7 +46,9 @@ void compute_channel_ranges(CanonicalCluster* c, uint32_t channel_count);
 
 // Memory-form triangle of a strip triangle: rotated so the smallest index comes first.
 void min_first(const uint8_t in[3], uint8_t out[3]);
-bool needs_index_fallback(const CanonicalCluster& c);
+// Bits per index offset in the memory form: the fewest that hold the cluster's largest
+// triangle span (max(i1 - i0, i2 - i0) after min_first); 0..8.
+uint32_t index_offset_bits(const CanonicalCluster& c);
 
 uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t channel_count);
 // Appends clusters one at a time to a memory-form page of `cluster_count` clusters; fails

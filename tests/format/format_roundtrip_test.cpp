@@ -12,6 +12,7 @@
 #include <random>
 
 #include "format_roundtrip_check.h"
+#include "vgeo/build/build.h"
 #include "format_test_util.h"
 #include "vgeo/format/crc32c.h"
 #include "vgeo/format/page_codec.h"
@@ -146,6 +147,36 @@ RC_GTEST_PROP(FormatRoundTrip, RandomDagsRoundTripExactly, ()) {
   const std::vector<uint8_t> f2 = encode_format(d, again);
   RC_ASSERT(compare_roundtrip(d, decode_format(f2.data(), f2.size(), "<test>"), parse_container(f2.data(), f2.size(), "<test>")) ==
             std::string());
+}
+
+}  // namespace
+}  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+// The real builder's DAGs (several levels, split groups, real BVH) round-trip exactly too.
+TEST(FormatRoundTrip, BuiltDagsRoundTripExactly) {
+  BuildOptions bo;
+  bo.threads = 1;
+  Mesh grid = test::make_grid(48, 2.0f, true);
+  Mesh sphere = test::make_sphere(40, 80);
+  BuiltScene s = test::scene_of({build_dag(sphere, bo), build_dag(grid, bo)});
+  FormatOptions o;
+  o.page_size = kMinPageSize;
+  o.zstd_level = 3;
+  FormatReport report;
+  const std::vector<uint8_t> f = encode_format(s, o, &report);
+  const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+  EXPECT_GT(s.meshes[0].level_count, 1u);
+  EXPECT_EQ(compare_roundtrip(s, decode_format(f.data(), f.size(), "<test>"), fc), "");
+  EXPECT_EQ(report.triangles, s.meshes[0].triangle_count() + s.meshes[1].triangle_count());
+  // Root page of each mesh holds clusters of its coarsest level.
+  for (const MeshMetadata& mm : fc.meshes) {
+    uint32_t top = 0;
+    for (const DagCluster& c : mm.dag.clusters) top = std::max(top, c.level);
+    EXPECT_EQ(mm.dag.clusters[mm.page_clusters[0]].level, top);
+  }
 }
 
 }  // namespace

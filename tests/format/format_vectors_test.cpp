@@ -61,13 +61,13 @@ std::vector<Vector> make_vectors() {
   v.push_back({"valid_two_level_none.vgp",
                encode_format(test::scene_of({test::make_two_level_dag(test::make_grid(24, 2.0f), test::make_grid(8, 2.0f))}), none), "OK"});
   {
-    // A cluster whose triangles span more than 32 indices (index fallback) and a mesh with
+    // A cluster whose triangles span more than 32 indices (wide index offsets) and a mesh with
     // several materials per cluster, two meshes.
     ClusterDag d = test::make_leaf_dag(test::make_sphere(8, 16));
     DagCluster& c = d.clusters[0];
     for (uint32_t t = 0; t + 1 < c.triangle_count; t += 2)
       std::swap(d.indices[3 * (c.triangle_offset + t)], d.indices[3 * (c.triangle_offset + c.triangle_count - 1 - t / 2) + 1]);
-    v.push_back({"valid_fallback_two_meshes_zstd.vgp",
+    v.push_back({"valid_wide_index_two_meshes_zstd.vgp",
                  encode_format(test::scene_of({d, test::make_leaf_dag(test::make_grid(3))}), zstd), "OK"});
   }
   auto derived = [&](const std::string& name, const std::vector<uint8_t>& base, const std::string& code, auto edit, bool crc) {

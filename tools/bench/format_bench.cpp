@@ -3,11 +3,10 @@
 // transcode and cluster-decode speed on one core.
 //   build/release/bin/vgeo_microbench --benchmark_filter=Format
 // Inputs: CGAL demo meshes from data/ (tools/fetch-data) with area-weighted smooth normals and
-// planar-projected UVs (OFF files carry neither), and a generated sphere. Clusters come from a
-// simple clusterer here (triangles sorted by the Morton code of their centroid, cut into runs
-// of ≤ 128 triangles and ≤ 128 vertices) because the real builder is not merged yet: these
-// clusters have more border vertices than meshopt_buildMeshlets ones, so the per-triangle
-// vertex cost is pessimistic.
+// planar-projected UVs (OFF files carry neither), and a generated sphere, each built into a
+// full DAG by the real builder (build_dag); "/leaf" variants use only a one-level DAG from a
+// simple clusterer (triangles sorted by the Morton code of their centroid, runs of ≤ 128
+// triangles and ≤ 128 vertices) for comparison.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -20,6 +19,7 @@
 #include <string>
 #include <unordered_map>
 
+#include "vgeo/build/build.h"
 #include "vgeo/build/cluster_dag.h"
 #include "vgeo/format/format.h"
 #include "vgeo/format/format_measure.h"
@@ -174,9 +174,11 @@ struct Case {
   FormatContainer container;
 };
 
-const Case* get_case(const std::string& name) {
+const Case* get_case(const std::string& full_name) {
+  const bool leaf = full_name.size() > 5 && full_name.substr(full_name.size() - 5) == "/leaf";
+  const std::string name = leaf ? full_name.substr(0, full_name.size() - 5) : full_name;
   static std::map<std::string, std::unique_ptr<Case>> cache;
-  auto& slot = cache[name];
+  auto& slot = cache[full_name];
   if (slot) return slot.get();
   Mesh m;
   if (name == "sphere") {
@@ -199,7 +201,13 @@ const Case* get_case(const std::string& name) {
   }
   add_normals_and_uvs(m);
   slot = std::make_unique<Case>();
-  slot->scene.meshes.push_back(leaf_dag(m));
+  if (leaf) {
+    slot->scene.meshes.push_back(leaf_dag(m));
+  } else {
+    BuildOptions bo;
+    bo.threads = 1;
+    slot->scene.meshes.push_back(build_dag(m, bo));
+  }
   slot->scene.materials.push_back(Material{});
   FormatOptions o;
   slot->file = encode_format(slot->scene, o, &slot->report);
@@ -230,7 +238,7 @@ void BM_FormatSize(benchmark::State& state, const std::string& name) {
   k["mem_uv_B/tri"] = r.memory.uvs / t;
   k["mem_topo_bits/tri"] = 8 * r.memory.topology / t;
   k["mem_hdr_B/tri"] = (r.memory.cluster_headers + r.memory.materials) / t;
-  k["fallback_%"] = 100.0 * double(r.index_fallback_clusters) / double(r.clusters);
+  k["wide_idx_%"] = 100.0 * double(r.wide_index_clusters) / double(r.clusters);
   k["verts/tri"] = double(r.vertices) / t;
   double slack = 0;
   for (const PageFill& p : r.pages) slack += p.slack_bytes;
@@ -274,7 +282,7 @@ void BM_FormatDecodeClusters(benchmark::State& state, const std::string& name) {
   state.SetItemsProcessed(int64_t(state.iterations() * c->report.triangles));
 }
 
-const char* const kMeshes[] = {"armadillo", "refined_elephant", "fandisk_large", "sphere"};
+const char* const kMeshes[] = {"armadillo", "refined_elephant", "fandisk_large", "sphere", "armadillo/leaf"};
 const int kRegistered = [] {
   for (const char* m : kMeshes) {
     benchmark::RegisterBenchmark((std::string("BM_FormatSize/") + m).c_str(), BM_FormatSize, std::string(m))
