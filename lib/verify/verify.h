@@ -9,7 +9,8 @@
 //   kCheckMonotonic  MONO_*    parent_error ≥ lod_error, parent_bounds ⊇ lod_bounds, and the
 //                              projected error along every DAG edge for random views
 //   kCheckCut        CUT_*     every leaf covered exactly once by lod_selects cuts; siblings agree
-//   kCheckCrack      CRACK_*   each tested cut has exactly the leaves' open edges
+//   kCheckCrack      CRACK_*   each tested cut has the leaves' open edges (the mesh's own open
+//                              border may be simplified unless strict_border)
 //   kCheckErrorBound ERROR_*   sampled distance from each non-leaf cluster to the leaves ≤ lod_error
 // The later checks index the DAG's arrays, so they are skipped (and say so) when the
 // structure check finds an index-safety violation.
