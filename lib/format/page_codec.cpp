@@ -533,6 +533,7 @@ void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q
   if (r.u32() != kDiskPageMagic) fail(kErrBadMagic, where, "disk page magic is not VDPG");
   const uint32_t n = r.u32();
   if (n != expected_clusters) fail(kErrInconsistent, where, "disk page cluster count differs from the page table");
+  if (n == 0) fail(kErrOutOfRange, where, "disk page with no cluster");  // as validate_memory_page
   // Each cluster takes ≥ 3 + 5·channels header bytes: n is bounded by the page size
   // before the (small) per-cluster header arrays are allocated.
   const uint32_t channels = q.channel_count();
