@@ -75,20 +75,46 @@ nlohmann::json to_json(const Stats& s) {
   return {{"median", s.median}, {"min", s.min}, {"max", s.max}, {"q1", s.q1}, {"q3", s.q3}, {"count", s.count}};
 }
 
-std::vector<std::vector<double>> time_interleaved(int repetitions, size_t variant_count,
-                                                  const std::function<void(size_t)>& run,
-                                                  const std::function<void(size_t)>& setup) {
-  std::vector<std::vector<double>> samples(variant_count);
+double cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+Samples time_interleaved(int repetitions, size_t variant_count, const std::function<void(size_t)>& run,
+                         const std::function<void(size_t)>& setup) {
+  Samples s;
+  s.wall.resize(variant_count);
+  s.cpu.resize(variant_count);
   for (int rep = 0; rep < repetitions; ++rep) {
     for (size_t k = 0; k < variant_count; ++k) {
       size_t v = (k + size_t(rep)) % variant_count;  // rotate the start: no variant always goes first
       if (setup) setup(v);
-      double t0 = now_seconds();
+      double c0 = cpu_seconds(), t0 = now_seconds();
       run(v);
-      samples[v].push_back(now_seconds() - t0);
+      double t1 = now_seconds(), c1 = cpu_seconds();
+      s.wall[v].push_back(t1 - t0);
+      s.cpu[v].push_back(c1 - c0);
     }
   }
-  return samples;
+  return s;
+}
+
+std::vector<int> calibrate_batches(size_t variant_count, const std::function<void(size_t)>& run,
+                                   double target_seconds, const std::function<void(size_t)>& setup) {
+  // Cap: never more than this many calls per sample, whatever the timer says.
+  constexpr int kMaxBatch = 1 << 16;
+  std::vector<int> batch(variant_count, 1);
+  for (size_t v = 0; v < variant_count; ++v) {
+    if (setup) setup(v);
+    run(v);  // warm-up
+    if (setup) setup(v);
+    double t0 = cpu_seconds();
+    run(v);
+    double t = cpu_seconds() - t0;
+    batch[v] = t >= target_seconds ? 1 : std::min(kMaxBatch, int(std::ceil(target_seconds / std::max(t, 1e-9))));
+  }
+  return batch;
 }
 
 Stats ratio_stats(const std::vector<double>& a, const std::vector<double>& b) {

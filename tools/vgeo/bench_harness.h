@@ -27,13 +27,26 @@ inline double now_seconds() {
   using namespace std::chrono;
   return duration<double>(steady_clock::now().time_since_epoch()).count();
 }
+// CPU time of the whole process (all threads). On a shared machine this is far less noisy
+// than wall time: time spent preempted by other processes is not counted.
+double cpu_seconds();
+
+// Samples of repeated runs: wall-clock and process CPU seconds, per variant.
+struct Samples {
+  std::vector<std::vector<double>> wall, cpu;
+};
 
 // Runs every variant once per repetition, rotating the starting variant each repetition so
 // slow drift (other processes, thermal state) hits every variant alike. `setup(v, rep)` runs
-// untimed right before variant v. Returns per-variant samples (seconds).
-std::vector<std::vector<double>> time_interleaved(
+// untimed right before variant v.
+Samples time_interleaved(
     int repetitions, size_t variant_count, const std::function<void(size_t variant)>& run,
     const std::function<void(size_t variant)>& setup = {});
+
+// How many calls of run(v) make one sample of at least `target_seconds` CPU time (short samples are
+// dominated by timer and scheduling noise). Also warms caches and the allocator up.
+std::vector<int> calibrate_batches(size_t variant_count, const std::function<void(size_t variant)>& run,
+                                   double target_seconds, const std::function<void(size_t variant)>& setup = {});
 
 // Per-repetition ratios samples[a][i] / samples[b][i] (same repetition = side by side).
 Stats ratio_stats(const std::vector<double>& a, const std::vector<double>& b);

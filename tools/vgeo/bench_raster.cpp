@@ -26,6 +26,8 @@ constexpr uint32_t kViewport = 256;
 // Independent triangles (3 own vertices each) per cluster: 85 * 3 = 255 = kMaxClusterVertices.
 constexpr uint32_t kTrianglesPerCluster = kMaxClusterVertices / 3;
 constexpr float kZNear = 0.01f;
+// Shortest timed sample: well above timer resolution and a scheduler tick on a shared machine.
+constexpr double kTargetSampleSeconds = 0.01;
 
 struct Variant {
   const char* name;
@@ -99,13 +101,13 @@ void run_raster_suite(const BenchConfig& cfg, SuiteReport& out) {
   // Fast paths get enough triangles for a sample of a few ms; the reference gets fewer
   // (its per-triangle cost is ~10^3-10^5 times higher). Times are normalised per triangle.
   const uint32_t fast_clusters = cfg.quick ? 8 : 48, reference_clusters = cfg.quick ? 1 : 2;
-  const int reps = cfg.repetitions(11);
+  const int reps = cfg.repetitions(15);
 
   out.summary =
       "Each path rasterizes the same clusters of independent right triangles (legs = size px, random rotation, "
       "position and depth, back-face culling off) into a " + std::to_string(kViewport) + "x" +
-      std::to_string(kViewport) + " visibility buffer. Time per triangle is the median over " +
-      std::to_string(reps) + " interleaved repetitions; the ratio is per repetition against the brute-force "
+      std::to_string(kViewport) + " visibility buffer. Time per triangle is CPU time (single thread; immune to preemption on a shared machine), the median over " +
+      std::to_string(reps) + " interleaved repetitions of samples of >= 10 ms; the ratio is per repetition against the brute-force "
       "reference (whole-viewport scan). 'mismatch px' counts pixels whose key differs from the reference's on "
       "the reference's clusters (must be 0: every path is exact).";
   out.inputs.push_back(std::to_string(fast_clusters * kTrianglesPerCluster) + " triangles per sample (" +
@@ -129,13 +131,18 @@ void run_raster_suite(const BenchConfig& cfg, SuiteReport& out) {
   for (size_t si = 0; si < sizes.size(); ++si) {
     double size = sizes[si];
     ClusterSet set = make_clusters(size, fast_clusters, 1 + si);
+    auto once = [&](size_t v) {
+      draw(vb, set, v == kReferenceIndex ? reference_clusters : fast_clusters, kVariants[v].path, nullptr);
+    };
+    std::vector<int> batch = calibrate_batches(kVariantCount, once, kTargetSampleSeconds, [&](size_t) { vb.clear(); });
+    // Single-threaded work: CPU time excludes preemption by other processes on a shared machine.
     auto samples = time_interleaved(
-        reps, kVariantCount,
-        [&](size_t v) { draw(vb, set, v == kReferenceIndex ? reference_clusters : fast_clusters, kVariants[v].path, nullptr); },
-        [&](size_t) { vb.clear(); });
+                       reps, kVariantCount, [&](size_t v) { for (int b = 0; b < batch[v]; ++b) once(v); },
+                       [&](size_t) { vb.clear(); })
+                       .cpu;
     std::vector<Stats> per_tri(kVariantCount);
     for (size_t v = 0; v < kVariantCount; ++v) {
-      double n = double((v == kReferenceIndex ? reference_clusters : fast_clusters) * kTrianglesPerCluster);
+      double n = double(batch[v]) * double((v == kReferenceIndex ? reference_clusters : fast_clusters) * kTrianglesPerCluster);
       std::vector<double> s = samples[v];
       for (double& x : s) x /= n;
       samples[v] = s;

@@ -44,3 +44,8 @@ inline void mark_skipped(SuiteReport& out, const std::string& needs) {
 }
 
 }  // namespace vgeo::bench
+
+namespace vgeo::bench {
+// True when build_dag and rasterize_cluster are linked in; otherwise marks `out` skipped.
+bool frame_stages_available(SuiteReport& out);
+}  // namespace vgeo::bench

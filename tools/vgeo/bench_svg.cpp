@@ -1,6 +1,7 @@
 #include "bench_svg.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -211,7 +212,38 @@ std::string render_svg(const Plot& plot) {
     size_t longest = 0;
     for (const Series& s : plot.series) longest = std::max(longest, s.name.size());
     double lw = 34 + 6.2 * double(longest), lh = 8 + 15 * double(plot.series.size());
-    double lx = x0 + 8, ly = y1 + 8;
+    // Place the legend in the plot-area corner that hides the fewest data points (points and
+    // samples along the lines), so it never sits on the curves when a free corner exists.
+    std::vector<std::pair<double, double>> pts;
+    for (const Series& s : plot.series) {
+      std::vector<size_t> order;
+      for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i)
+        if (usable(s.x[i], plot.log_x) && usable(s.y[i], plot.log_y)) order.push_back(i);
+      std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return s.x[a] < s.x[b]; });
+      for (size_t k = 0; k < order.size(); ++k) {
+        double px = ax.map(s.x[order[k]], x0, x1), py = ay.map(s.y[order[k]], y0, y1);
+        pts.emplace_back(px, py);
+        if (k + 1 < order.size() && s.line) {
+          double qx = ax.map(s.x[order[k + 1]], x0, x1), qy = ay.map(s.y[order[k + 1]], y0, y1);
+          constexpr int kLineSamples = 16;
+          for (int j = 1; j < kLineSamples; ++j)
+            pts.emplace_back(px + (qx - px) * j / kLineSamples, py + (qy - py) * j / kLineSamples);
+        }
+      }
+    }
+    const double cand[4][2] = {{x0 + 8, y1 + 8}, {x1 - 8 - lw, y1 + 8}, {x0 + 8, y0 - 8 - lh}, {x1 - 8 - lw, y0 - 8 - lh}};
+    size_t best = 0, best_hits = SIZE_MAX;
+    for (size_t c = 0; c < 4; ++c) {
+      size_t hits = 0;
+      for (const auto& p : pts)
+        hits += p.first >= cand[c][0] - 4 && p.first <= cand[c][0] + lw + 4 && p.second >= cand[c][1] - 4 &&
+                p.second <= cand[c][1] + lh + 4;
+      if (hits < best_hits) {
+        best_hits = hits;
+        best = c;
+      }
+    }
+    double lx = cand[best][0], ly = cand[best][1];
     o << "<rect x=\"" << num(lx) << "\" y=\"" << num(ly) << "\" width=\"" << num(lw) << "\" height=\"" << num(lh)
       << "\" fill=\"white\" fill-opacity=\"0.85\" stroke=\"#bbb\"/>\n";
     for (size_t si = 0; si < plot.series.size(); ++si) {
