@@ -14,6 +14,12 @@ struct Series {
   bool markers = true;
 };
 
+inline Series named_series(std::string name) {
+  Series s;
+  s.name = std::move(name);
+  return s;
+}
+
 struct Plot {
   std::string title, x_label, y_label;
   bool log_x = false, log_y = false;
