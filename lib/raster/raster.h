@@ -12,6 +12,15 @@ namespace vgeo {
 
 inline constexpr int kSubpixelBits = 8;
 
+// Largest supported viewport side (pixels). With kGuardBandNdc it bounds every snapped
+// coordinate below 2^28 sub-pixel units, so edge functions are exact in int64
+// (spec/raster.md, "Exact ranges"). Larger targets are a programming error.
+inline constexpr uint32_t kMaxRasterViewport = 16384;
+// Guard band half-extent in NDC units: triangles reaching beyond |x|,|y| ≤ 64·w in clip
+// space are clipped there, so perspective division and fixed-point conversion never
+// overflow. 64 screen widths keeps clipping rare while leaving int64 headroom 2^35.
+inline constexpr double kGuardBandNdc = 64.0;
+
 enum class RasterPath : uint8_t {
   kAuto = 0,       // choose per triangle by its screen bounding box
   kMicropoly = 1,  // bounding-box loop: best for tiny triangles
@@ -28,7 +37,11 @@ struct RasterOptions {
 struct RasterStats {
   uint64_t triangles_in = 0, triangles_culled = 0, triangles_clipped = 0;
   uint64_t micropoly_triangles = 0, scanline_triangles = 0, pixels_written = 0;
+  // Added (additive): subset of triangles_culled dropped as invalid (non-finite clip
+  // coordinates, vertex index out of range, id limits exceeded). spec/raster.md.
+  uint64_t triangles_invalid = 0;
   void add(const RasterStats& o) {
+    triangles_invalid += o.triangles_invalid;
     triangles_in += o.triangles_in; triangles_culled += o.triangles_culled;
     triangles_clipped += o.triangles_clipped; micropoly_triangles += o.micropoly_triangles;
     scanline_triangles += o.scanline_triangles; pixels_written += o.pixels_written;

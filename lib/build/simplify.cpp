@@ -1,0 +1,291 @@
+// Simplification of one group with its outer border locked (spec/dag.md §Simplify).
+// Both backends only delete vertices (halfedge collapses / index rewrites), so every output
+// corner is an original vertex with its original bits: locked borders stay bit-identical.
+#include <meshoptimizer.h>
+
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <OpenMesh/Tools/Decimater/DecimaterT.hh>
+#include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
+#include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <cstring>
+#include <unordered_map>
+
+#include "vgeo/build/build_internal.h"
+#include "vgeo/build/cluster_dag.h"
+
+namespace vgeo::build_detail {
+
+namespace {
+
+size_t target_triangles(size_t n) { return std::max<size_t>(1, size_t(double(n) * kSimplifyTargetRatio)); }
+
+// ---------------------------------------------------------------- meshopt backend
+// Sub-mesh vertices are (original vertex, material) pairs: attribute and material
+// discontinuities become meshopt "seams" (same position, other index), which it keeps
+// consistent without locking. LockBorder locks the sub-mesh's topological border: the
+// group border, and also the original mesh's open edges (0.18 has no per-vertex locks;
+// spec/dag.md §Limitations).
+SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group) {
+  const Mesh& mesh = *welded.mesh;
+  size_t n = group.triangle_count();
+  std::vector<uint64_t> keys(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) keys[i] = (uint64_t(group.corners[i]) << 32) | group.materials[i / 3];
+  std::vector<uint64_t> unique_keys = keys;
+  std::sort(unique_keys.begin(), unique_keys.end());
+  unique_keys.erase(std::unique(unique_keys.begin(), unique_keys.end()), unique_keys.end());
+  std::vector<unsigned int> indices(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i)
+    indices[i] = unsigned(std::lower_bound(unique_keys.begin(), unique_keys.end(), keys[i]) - unique_keys.begin());
+  std::vector<float> positions(3 * unique_keys.size());
+  for (size_t v = 0; v < unique_keys.size(); ++v)
+    std::memcpy(&positions[3 * v], &mesh.positions[3 * size_t(unique_keys[v] >> 32)], 12);
+
+  std::vector<unsigned int> out(indices.size());
+  float relative_error = 0.0f;
+  size_t out_count = meshopt_simplify(out.data(), indices.data(), indices.size(), positions.data(),
+                                      unique_keys.size(), sizeof(float) * 3, 3 * target_triangles(n),
+                                      kMeshoptTargetError, meshopt_SimplifyLockBorder, &relative_error);
+  SimplifyResult r;
+  r.error = relative_error * meshopt_simplifyScale(positions.data(), unique_keys.size(), sizeof(float) * 3);
+  r.triangles.corners.resize(out_count);
+  r.triangles.materials.resize(out_count / 3);
+  for (size_t i = 0; i < out_count; ++i) r.triangles.corners[i] = uint32_t(unique_keys[out[i]] >> 32);
+  for (size_t t = 0; t < out_count / 3; ++t) r.triangles.materials[t] = uint32_t(unique_keys[out[3 * t]]);
+  return r;
+}
+
+// ---------------------------------------------------------------- OpenMesh backend
+struct OmTraits : public OpenMesh::DefaultTraits {
+  typedef OpenMesh::Vec3d Point;  // double: quadrics far from the origin lose precision in float
+  typedef OpenMesh::Vec3d Normal;
+  VertexAttributes(OpenMesh::Attributes::Status);
+  FaceAttributes(OpenMesh::Attributes::Status | OpenMesh::Attributes::Normal);
+  EdgeAttributes(OpenMesh::Attributes::Status);
+};
+using OmMesh = OpenMesh::TriMesh_ArrayKernelT<OmTraits>;
+
+// ModQuadricT that records every collapse (v0 removed into v1), to measure the error.
+template <class MeshT>
+class ModQuadricRecordT : public OpenMesh::Decimater::ModQuadricT<MeshT> {
+ public:
+  typedef ModQuadricRecordT<MeshT> Self;
+  typedef OpenMesh::Decimater::ModHandleT<Self> Handle;
+  typedef typename OpenMesh::Decimater::ModQuadricT<MeshT>::CollapseInfo CollapseInfo;
+  explicit ModQuadricRecordT(MeshT& mesh) : OpenMesh::Decimater::ModQuadricT<MeshT>(mesh) {}
+  void preprocess_collapse(const CollapseInfo& ci) override {
+    collapses.push_back({ci.v0.idx(), ci.v1.idx()});
+    OpenMesh::Decimater::ModQuadricT<MeshT>::preprocess_collapse(ci);
+  }
+  std::vector<std::pair<int, int>> collapses;
+};
+
+double point_triangle_distance(const OpenMesh::Vec3d& p, const OpenMesh::Vec3d& a, const OpenMesh::Vec3d& b,
+                               const OpenMesh::Vec3d& c) {
+  // Ericson, Real-Time Collision Detection 5.1.5 (closest point on triangle), in double.
+  using V = OpenMesh::Vec3d;
+  V ab = b - a, ac = c - a, ap = p - a;
+  double d1 = ab | ap, d2 = ac | ap;
+  if (d1 <= 0 && d2 <= 0) return (p - a).norm();
+  V bp = p - b;
+  double d3 = ab | bp, d4 = ac | bp;
+  if (d3 >= 0 && d4 <= d3) return (p - b).norm();
+  double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (p - (a + ab * (d1 / (d1 - d3)))).norm();
+  V cp = p - c;
+  double d5 = ab | cp, d6 = ac | cp;
+  if (d6 >= 0 && d5 <= d6) return (p - c).norm();
+  double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (p - (a + ac * (d2 / (d2 - d6)))).norm();
+  double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return (p - (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))))).norm();
+  double denom = va + vb + vc;
+  if (!(std::abs(denom) > 0)) return std::min({(p - a).norm(), (p - b).norm(), (p - c).norm()});
+  double v = vb / denom, w = vc / denom;
+  return (p - (a + ab * v + ac * w)).norm();
+}
+
+// One OpenMesh vertex per welded position of the group; material is a face property, so
+// material borders move but never open. Faces OpenMesh cannot add (complex edges,
+// non-manifold vertices) pass through unchanged and lock their vertices. Error: the
+// largest distance from a removed vertex to the output triangles around the vertex it
+// was collapsed into (one-sided, local Hausdorff estimate), in object units.
+SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& group,
+                                 const std::vector<uint8_t>& locked) {
+  const Mesh& mesh = *welded.mesh;
+  size_t n = group.triangle_count();
+  // Welded ids of the group, compacted in order of first use.
+  std::unordered_map<uint32_t, int> om_of_welded;
+  std::vector<uint32_t> welded_of_om;
+  om_of_welded.reserve(2 * n);
+  std::vector<int> om_corner(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) {
+    uint32_t w = welded.weld[group.corners[i]];
+    auto it = om_of_welded.emplace(w, int(welded_of_om.size()));
+    if (it.second) welded_of_om.push_back(w);
+    om_corner[i] = it.first->second;
+  }
+  // Local origin (group AABB centre): quadric plane offsets stay small far from the origin.
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+  for (uint32_t w : welded_of_om)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], double(mesh.positions[3 * size_t(w) + k]));
+      hi[k] = std::max(hi[k], double(mesh.positions[3 * size_t(w) + k]));
+    }
+  OpenMesh::Vec3d origin(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2]));
+
+  OmMesh om;
+  om.reserve(welded_of_om.size(), 3 * n, n);
+  std::vector<OmMesh::VertexHandle> vh(welded_of_om.size());
+  for (size_t v = 0; v < welded_of_om.size(); ++v) {
+    const float* p = &mesh.positions[3 * size_t(welded_of_om[v])];
+    vh[v] = om.add_vertex(OpenMesh::Vec3d(p[0], p[1], p[2]) - origin);
+    if (locked[welded_of_om[v]]) om.status(vh[v]).set_locked(true);
+  }
+  OpenMesh::FPropHandleT<uint32_t> face_material;
+  om.add_property(face_material);
+  std::vector<uint32_t> passthrough;  // triangle indices kept as they are
+  // OpenMesh refuses faces on complex edges / non-manifold vertices (and says so on its
+  // error stream): those pass through unchanged.
+  for (size_t t = 0; t < n; ++t) {
+    int a = om_corner[3 * t], b = om_corner[3 * t + 1], c = om_corner[3 * t + 2];
+    if (a == b || b == c || a == c) continue;  // welded-degenerate: zero area, dropped
+    OmMesh::FaceHandle fh = om.add_face(vh[a], vh[b], vh[c]);
+    if (!fh.is_valid()) {
+      passthrough.push_back(uint32_t(t));
+      continue;
+    }
+    om.property(face_material, fh) = group.materials[t];
+  }
+  for (uint32_t t : passthrough)
+    for (int k = 0; k < 3; ++k) om.status(vh[om_corner[3 * t + k]]).set_locked(true);
+
+  size_t target = target_triangles(n);
+  size_t om_target = target > passthrough.size() ? target - passthrough.size() : 0;
+  om.update_face_normals();
+  OpenMesh::Decimater::DecimaterT<OmMesh> decimater(om);
+  ModQuadricRecordT<OmMesh>::Handle quadric;
+  OpenMesh::Decimater::ModNormalFlippingT<OmMesh>::Handle normal_flipping;
+  decimater.add(quadric);
+  decimater.add(normal_flipping);
+  decimater.module(quadric).unset_max_err();
+  decimater.initialize();
+  decimater.decimate_to_faces(0, std::max<size_t>(1, om_target));
+
+  // Original vertex for each (welded id, material): the first use in the group, so
+  // surviving corners keep the attributes they had on that side of the material border.
+  std::unordered_map<uint64_t, uint32_t> original_of;
+  original_of.reserve(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) {
+    uint32_t w = welded.weld[group.corners[i]];
+    original_of.emplace((uint64_t(w) << 32) | group.materials[i / 3], group.corners[i]);
+    original_of.emplace((uint64_t(w) << 32) | 0xFFFFFFFFu, group.corners[i]);
+  }
+  auto original = [&](uint32_t w, uint32_t material) {
+    auto it = original_of.find((uint64_t(w) << 32) | material);
+    if (it == original_of.end()) it = original_of.find((uint64_t(w) << 32) | 0xFFFFFFFFu);
+    return it->second;
+  };
+
+  SimplifyResult r;
+  std::vector<std::vector<int>> faces_of_vertex(welded_of_om.size());
+  for (auto fh : om.faces()) {
+    if (om.status(fh).deleted()) continue;
+    uint32_t material = om.property(face_material, fh);
+    int corner_om[3], k = 0;
+    for (auto fv : om.fv_range(fh)) corner_om[k++] = fv.idx();
+    for (k = 0; k < 3; ++k) {
+      r.triangles.corners.push_back(original(welded_of_om[corner_om[k]], material));
+      faces_of_vertex[corner_om[k]].push_back(int(r.triangles.materials.size()));
+    }
+    r.triangles.materials.push_back(material);
+  }
+  for (uint32_t t : passthrough) {
+    r.triangles.corners.insert(r.triangles.corners.end(), &group.corners[3 * t], &group.corners[3 * t] + 3);
+    r.triangles.materials.push_back(group.materials[t]);
+  }
+
+  // Error: follow each removed vertex to its final survivor.
+  std::vector<int> into(welded_of_om.size());
+  for (size_t v = 0; v < into.size(); ++v) into[v] = int(v);
+  for (auto [v0, v1] : decimater.module(quadric).collapses) into[v0] = v1;
+  double error = 0;
+  auto point = [&](int v) {
+    const float* p = &mesh.positions[3 * size_t(welded_of_om[v])];
+    return OpenMesh::Vec3d(p[0], p[1], p[2]) - origin;
+  };
+  for (size_t v = 0; v < into.size(); ++v) {
+    if (into[v] == int(v)) continue;
+    int s = int(v);
+    while (into[s] != s) s = into[s];
+    OpenMesh::Vec3d p = point(int(v));
+    double best = (p - point(s)).norm();
+    for (int f : faces_of_vertex[s]) {
+      const uint32_t* c = &r.triangles.corners[3 * size_t(f)];
+      OpenMesh::Vec3d a(mesh.positions[3 * size_t(c[0])], mesh.positions[3 * size_t(c[0]) + 1],
+                        mesh.positions[3 * size_t(c[0]) + 2]);
+      OpenMesh::Vec3d b(mesh.positions[3 * size_t(c[1])], mesh.positions[3 * size_t(c[1]) + 1],
+                        mesh.positions[3 * size_t(c[1]) + 2]);
+      OpenMesh::Vec3d cc(mesh.positions[3 * size_t(c[2])], mesh.positions[3 * size_t(c[2]) + 1],
+                         mesh.positions[3 * size_t(c[2]) + 2]);
+      best = std::min(best, point_triangle_distance(p, a - origin, b - origin, cc - origin));
+    }
+    error = std::max(error, best);
+  }
+  // Rounded up so the float error is never below the measured double.
+  float e = float(error);
+  if (double(e) < error) e = std::nextafter(e, std::numeric_limits<float>::infinity());
+  r.error = e;
+  return r;
+}
+
+}  // namespace
+
+SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
+                              const std::vector<uint8_t>& locked, Simplifier simplifier) {
+  if (simplifier == Simplifier::kOpenMesh) return simplify_openmesh(welded, group, locked);
+  return simplify_meshopt(welded, group);
+}
+
+bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
+                             const std::vector<uint8_t>& locked) {
+  auto edges_of = [&](const TriangleSet& t, bool open_only) {
+    std::vector<uint64_t> keys;
+    keys.reserve(t.corners.size());
+    for (size_t i = 0; i < t.triangle_count(); ++i)
+      for (int k = 0; k < 3; ++k) {
+        uint32_t a = welded.weld[t.corners[3 * i + k]], b = welded.weld[t.corners[3 * i + (k + 1) % 3]];
+        if (a != b && (!open_only || (locked[a] && locked[b]))) keys.push_back(edge_key(a, b));
+      }
+    std::sort(keys.begin(), keys.end());
+    if (!open_only) {
+      keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+      return keys;
+    }
+    std::vector<uint64_t> open;
+    for (size_t i = 0; i < keys.size();) {
+      size_t j = i;
+      while (j < keys.size() && keys[j] == keys[i]) ++j;
+      if (j - i == 1) open.push_back(keys[i]);
+      i = j;
+    }
+    return open;
+  };
+  std::vector<uint64_t> required = edges_of(before, true);
+  std::vector<uint64_t> present = edges_of(after, false);
+  if (!std::includes(present.begin(), present.end(), required.begin(), required.end())) return false;
+  std::vector<uint32_t> before_locked, after_vertices;
+  for (uint32_t v : before.corners)
+    if (locked[welded.weld[v]]) before_locked.push_back(welded.weld[v]);
+  for (uint32_t v : after.corners) after_vertices.push_back(welded.weld[v]);
+  std::sort(before_locked.begin(), before_locked.end());
+  before_locked.erase(std::unique(before_locked.begin(), before_locked.end()), before_locked.end());
+  std::sort(after_vertices.begin(), after_vertices.end());
+  after_vertices.erase(std::unique(after_vertices.begin(), after_vertices.end()), after_vertices.end());
+  return std::includes(after_vertices.begin(), after_vertices.end(), before_locked.begin(), before_locked.end());
+}
+
+}  // namespace vgeo::build_detail

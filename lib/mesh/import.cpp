@@ -1,0 +1,108 @@
+// Import entry points: format dispatch, file reading, and the clean-up every format shares
+// (validation, degenerate removal, optional weld). Format readers live in import_*.cpp.
+#include "vgeo/mesh/import.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+
+#include "vgeo/mesh/validate.h"
+#include "vgeo/mesh/weld.h"
+
+namespace vgeo {
+namespace {
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  if (!ext.empty() && ext[0] == '.') ext.erase(0, 1);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return ext;
+}
+
+std::vector<uint8_t> read_file(const std::string& path) {
+  std::error_code ec;
+  const uint64_t size = std::filesystem::file_size(path, ec);
+  if (ec) fail("FILE_READ_ERROR", path, "cannot stat file: " + ec.message(), kExitIo);
+  if (size > std::numeric_limits<uint32_t>::max())
+    fail("FILE_TOO_LARGE", path, "file larger than 4 GiB is not supported");
+  std::vector<uint8_t> bytes(size);
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (f == nullptr) fail("FILE_READ_ERROR", path, "cannot open file", kExitIo);
+  const size_t got = size == 0 ? 0 : std::fread(bytes.data(), 1, size, f);
+  std::fclose(f);
+  if (got != size) fail("FILE_READ_ERROR", path, "short read", kExitIo);
+  return bytes;
+}
+
+// Shared post-processing: validate, remove degenerates, weld, drop meshes left empty.
+void finish(ImportResult& r, const ImportOptions& options, const std::string& where) {
+  Scene& scene = r.scene;
+  std::vector<int> new_slot(scene.meshes.size(), -1);
+  std::vector<Mesh> kept;
+  kept.reserve(scene.meshes.size());
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    Mesh& mesh = scene.meshes[m];
+    check_mesh_attributes(mesh, where);
+    check_mesh_indices(mesh, where);
+    for (uint32_t mat : mesh.materials)
+      if (mat >= scene.materials.size())
+        fail("MATERIAL_INDEX_OUT_OF_RANGE", where, "mesh '" + mesh.name + "' uses material " + std::to_string(mat));
+    r.stats.degenerate_removed += remove_degenerate_triangles(mesh);
+    if (mesh.triangle_count() == 0) {
+      r.warnings.push_back({"MESH_EMPTY", "mesh '" + mesh.name + "' has only degenerate triangles; dropped"});
+      continue;
+    }
+    if (options.weld) r.stats.duplicates_welded += weld_exact(mesh);
+    new_slot[m] = int(kept.size());
+    kept.push_back(std::move(mesh));
+  }
+  scene.meshes = std::move(kept);
+  std::vector<Instance> instances;
+  for (const Instance& inst : scene.instances)
+    if (inst.mesh < new_slot.size() && new_slot[inst.mesh] >= 0) {
+      Instance i = inst;
+      i.mesh = uint32_t(new_slot[inst.mesh]);
+      instances.push_back(i);
+    }
+  scene.instances = std::move(instances);
+  if (scene.meshes.empty() || scene.instances.empty())
+    fail("MESH_EMPTY", where, "the file contains no triangles to import");
+  if (scene.materials.empty()) scene.materials.push_back(Material{"default", {0.8f, 0.8f, 0.8f, 1.0f}});
+}
+
+}  // namespace
+
+ImportResult import_scene(const std::string& path, const ImportOptions& options) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) fail("FILE_NOT_FOUND", path, "no such file", kExitIo);
+  if (!std::filesystem::is_regular_file(path, ec)) fail("FILE_READ_ERROR", path, "not a regular file", kExitIo);
+  const std::string ext = lower_extension(path);
+  ImportResult r;
+  if (ext == "gltf" || ext == "glb") {
+    std::vector<uint8_t> bytes = read_file(path);
+    std::string base_dir = std::filesystem::path(path).parent_path().string();
+    detail::import_gltf(bytes.data(), bytes.size(), &bytes, ext == "glb", path, base_dir, true, r);
+  } else if (ext == "obj" || ext == "ply" || ext == "off" || ext == "stl") {
+    detail::import_openmesh(path, ext, r);
+  } else {
+    fail("FORMAT_UNSUPPORTED", path, "unknown extension '." + ext + "' (expected .gltf .glb .obj .ply .off .stl)");
+  }
+  finish(r, options, path);
+  return r;
+}
+
+ImportResult import_scene_from_memory(const uint8_t* data, size_t size, const std::string& name_for_format_detection,
+                                      const ImportOptions& options) {
+  const std::string ext = lower_extension(name_for_format_detection);
+  const std::string where = name_for_format_detection.empty() ? "<memory>" : name_for_format_detection;
+  if (ext != "gltf" && ext != "glb")
+    fail("FORMAT_UNSUPPORTED", where, "memory import supports .gltf and .glb only, got '." + ext + "'");
+  ImportResult r;
+  static const uint8_t kEmpty = 0;
+  detail::import_gltf(size == 0 ? &kEmpty : data, size, nullptr, ext == "glb", where, "", false, r);
+  finish(r, options, where);
+  return r;
+}
+
+}  // namespace vgeo

@@ -1,0 +1,98 @@
+#include "vgeo/mesh/validate.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace vgeo {
+
+OutputBudget OutputBudget::for_input(uint64_t input_bytes, std::string where) {
+  OutputBudget b;
+  uint64_t limit = input_bytes > UINT64_MAX / kMaxOutputBytesPerInputByte
+                       ? UINT64_MAX
+                       : input_bytes * kMaxOutputBytesPerInputByte;
+  b.remaining = std::max(limit, kMinOutputBudgetBytes);
+  b.where = std::move(where);
+  return b;
+}
+
+void OutputBudget::charge(uint64_t bytes, const char* what) {
+  if (bytes > remaining) {
+    fail("INPUT_EXPANSION_LIMIT", where,
+         std::string(what) + " would need " + std::to_string(bytes) +
+             " bytes, more than the input size allows (" +
+             std::to_string(kMaxOutputBytesPerInputByte) + " output bytes per input byte)");
+  }
+  remaining -= bytes;
+}
+
+void check_mesh_attributes(const Mesh& mesh, const std::string& where) {
+  const size_t n = mesh.vertex_count();
+  if (mesh.positions.size() != 3 * n || (!mesh.normals.empty() && mesh.normals.size() != 3 * n) ||
+      (!mesh.uvs.empty() && mesh.uvs.size() != 2 * n) || mesh.indices.size() % 3 != 0 ||
+      (!mesh.materials.empty() && mesh.materials.size() != mesh.triangle_count())) {
+    fail("INTERNAL_SIZE_MISMATCH", where, "mesh '" + mesh.name + "' has inconsistent array sizes",
+         kExitInternal);
+  }
+  for (size_t i = 0; i < mesh.positions.size(); ++i) {
+    if (!std::isfinite(mesh.positions[i])) {
+      fail("POSITION_NOT_FINITE", where,
+           "mesh '" + mesh.name + "' vertex " + std::to_string(i / 3) + " has a non-finite position");
+    }
+  }
+  for (size_t i = 0; i < mesh.normals.size(); ++i) {
+    if (!std::isfinite(mesh.normals[i])) {
+      fail("ATTRIBUTE_NOT_FINITE", where,
+           "mesh '" + mesh.name + "' vertex " + std::to_string(i / 3) + " has a non-finite normal");
+    }
+  }
+  for (size_t i = 0; i < mesh.uvs.size(); ++i) {
+    if (!std::isfinite(mesh.uvs[i])) {
+      fail("ATTRIBUTE_NOT_FINITE", where,
+           "mesh '" + mesh.name + "' vertex " + std::to_string(i / 2) + " has a non-finite uv");
+    }
+  }
+}
+
+void check_mesh_indices(const Mesh& mesh, const std::string& where) {
+  const size_t n = mesh.vertex_count();
+  for (size_t i = 0; i < mesh.indices.size(); ++i) {
+    if (mesh.indices[i] >= n) {
+      fail("INDEX_OUT_OF_RANGE", where,
+           "mesh '" + mesh.name + "' index " + std::to_string(i) + " = " +
+               std::to_string(mesh.indices[i]) + " >= vertex count " + std::to_string(n));
+    }
+  }
+}
+
+bool triangle_has_zero_area(const Mesh& mesh, uint32_t a, uint32_t b, uint32_t c) {
+  const float* p = mesh.positions.data();
+  double e1[3], e2[3];
+  for (int k = 0; k < 3; ++k) {
+    e1[k] = double(p[3 * size_t(b) + k]) - double(p[3 * size_t(a) + k]);
+    e2[k] = double(p[3 * size_t(c) + k]) - double(p[3 * size_t(a) + k]);
+  }
+  double cx = e1[1] * e2[2] - e1[2] * e2[1];
+  double cy = e1[2] * e2[0] - e1[0] * e2[2];
+  double cz = e1[0] * e2[1] - e1[1] * e2[0];
+  return cx == 0.0 && cy == 0.0 && cz == 0.0;
+}
+
+size_t remove_degenerate_triangles(Mesh& mesh) {
+  const size_t tris = mesh.triangle_count();
+  const bool has_materials = !mesh.materials.empty();
+  size_t kept = 0;
+  for (size_t t = 0; t < tris; ++t) {
+    uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], c = mesh.indices[3 * t + 2];
+    if (a == b || b == c || a == c || triangle_has_zero_area(mesh, a, b, c)) continue;
+    mesh.indices[3 * kept] = a;
+    mesh.indices[3 * kept + 1] = b;
+    mesh.indices[3 * kept + 2] = c;
+    if (has_materials) mesh.materials[kept] = mesh.materials[t];
+    ++kept;
+  }
+  mesh.indices.resize(3 * kept);
+  if (has_materials) mesh.materials.resize(kept);
+  return tris - kept;
+}
+
+}  // namespace vgeo

@@ -1,0 +1,47 @@
+#pragma once
+// Validation and clean-up shared by every import format. Each check names the error code it
+// raises (spec/errors.md, "Import"); clean-ups return what they removed so imports can count it.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "vgeo/core/error.h"
+#include "vgeo/mesh/mesh.h"
+
+namespace vgeo {
+
+// Allocation bound for untrusted input: an importer may produce at most this many output
+// bytes per input byte (file + external buffers). The worst legitimate expansion is a
+// uint8 triangle-strip index (1 byte -> 12 bytes of uint32 triangle indices) plus an attribute
+// of normalized bytes (1 byte -> 4 bytes of float); 64 leaves room for sparse overrides and
+// filled attributes while stopping decompression-bomb style files (accessors referenced by
+// thousands of primitives, bufferView-less accessors with huge counts).
+inline constexpr uint64_t kMaxOutputBytesPerInputByte = 64;
+// Floor for the bound so tiny hand-written files with zero-filled accessors still import.
+inline constexpr uint64_t kMinOutputBudgetBytes = uint64_t(1) << 20;
+
+// Tracks the output bytes an import is still allowed to allocate. Fails with
+// INPUT_EXPANSION_LIMIT when a charge exceeds what is left.
+struct OutputBudget {
+  uint64_t remaining = 0;
+  std::string where;
+  static OutputBudget for_input(uint64_t input_bytes, std::string where);
+  void charge(uint64_t bytes, const char* what);
+};
+
+// POSITION_NOT_FINITE for the first non-finite position coordinate; ATTRIBUTE_NOT_FINITE for
+// a non-finite normal or uv. Also asserts (fails INTERNAL_SIZE_MISMATCH) array-size contracts.
+void check_mesh_attributes(const Mesh& mesh, const std::string& where);
+
+// INDEX_OUT_OF_RANGE for the first index >= vertex_count().
+void check_mesh_indices(const Mesh& mesh, const std::string& where);
+
+// True when the triangle's edge cross product, computed in double from the float positions,
+// is exactly zero (collinear or coincident corners).
+bool triangle_has_zero_area(const Mesh& mesh, uint32_t a, uint32_t b, uint32_t c);
+
+// Removes triangles with a repeated index or exactly zero area (and their per-triangle
+// material entries), keeping the order of the rest. Returns how many were removed.
+size_t remove_degenerate_triangles(Mesh& mesh);
+
+}  // namespace vgeo

@@ -1,0 +1,175 @@
+// Builder properties on small synthetic meshes (spec/dag.md).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "dag_checks.h"
+#include "support/shapes.h"
+#include "vgeo/build/build.h"
+#include "vgeo/build/dag_io.h"
+#include "vgeo/core/error.h"
+
+namespace vgeo::test {
+namespace {
+
+ClusterDag build(const Mesh& m, Simplifier s = Simplifier::kMeshopt, unsigned threads = 2,
+                 BuildReport* report = nullptr) {
+  BuildOptions o;
+  o.simplifier = s;
+  o.threads = threads;
+  return build_dag(m, o, report);
+}
+
+void expect_all(const Mesh& m, Simplifier s, bool same_use_count = true) {
+  BuildReport r;
+  ClusterDag d = build(m, s, 2, &r);
+  expect_dag_properties(d, m.triangle_count());
+  expect_borders_preserved(d, same_use_count);
+  EXPECT_EQ(r.input_triangles, m.triangle_count());
+  EXPECT_EQ(r.stored_triangles, d.triangle_count());
+}
+
+class BothSimplifiers : public ::testing::TestWithParam<Simplifier> {};
+
+TEST_P(BothSimplifiers, SphereDagProperties) { expect_all(make_sphere(40, 64), GetParam()); }
+TEST_P(BothSimplifiers, GridDagProperties) { expect_all(make_grid(48), GetParam()); }
+TEST_P(BothSimplifiers, GridWithHoleDagProperties) { expect_all(make_grid(48, 1.0f, true), GetParam()); }
+
+TEST_P(BothSimplifiers, ManyIslandsDagProperties) {
+  Mesh m;
+  for (int i = 0; i < 60; ++i) {
+    Mesh s = make_sphere(6, 8, 0.1f, Vec3{float(i % 8), float(i / 8), 0.0f});
+    uint32_t base = uint32_t(m.vertex_count());
+    m.positions.insert(m.positions.end(), s.positions.begin(), s.positions.end());
+    for (uint32_t idx : s.indices) m.indices.push_back(base + idx);
+  }
+  expect_all(m, GetParam());
+}
+
+TEST_P(BothSimplifiers, HugeOffsetDagProperties) {
+  expect_all(make_sphere(24, 48, 1000.0f, Vec3{1e6f, -1e6f, 1e6f}), GetParam());
+}
+
+TEST_P(BothSimplifiers, HugeOffsetCoincidentVertices) {
+  // Radius 1 at 1e6: float spacing there is 1/16, so many vertices share position bits
+  // and the welded surface is full of degenerate and non-manifold triangles.
+  Mesh m = make_sphere(24, 48, 1.0f, Vec3{1e6f, -1e6f, 1e6f});
+  ClusterDag d = build(m, GetParam());
+  expect_dag_properties(d, m.triangle_count());
+  expect_borders_preserved(d, /*same_use_count=*/false);
+}
+TEST_P(BothSimplifiers, TinyScaleDagProperties) { expect_all(make_sphere(24, 48, 1e-4f), GetParam()); }
+
+TEST_P(BothSimplifiers, DuplicatedAndDegenerateVertices) {
+  Mesh m = make_grid(24);
+  // Duplicate every vertex once (same position, unused copy), re-point half the triangles
+  // to the copies (seams everywhere), and add degenerate triangles.
+  size_t n = m.vertex_count();
+  m.positions.insert(m.positions.end(), m.positions.begin(), m.positions.end());
+  m.normals.insert(m.normals.end(), m.normals.begin(), m.normals.end());
+  m.uvs.insert(m.uvs.end(), m.uvs.begin(), m.uvs.end());
+  for (size_t t = 0; t < m.triangle_count(); t += 2)
+    for (int k = 0; k < 3; ++k) m.indices[3 * t + k] += uint32_t(n);
+  m.indices.insert(m.indices.end(), {0, 0, 1, 5, 5, 5, 7, 8, uint32_t(n + 7)});
+  expect_all(m, GetParam());
+}
+
+TEST_P(BothSimplifiers, NonManifoldEdges) {
+  // Three fins sharing one edge, plus a sphere touching nothing.
+  Mesh m = make_grid(16);
+  Mesh fin = make_grid(16);
+  // Rotate the fin 90° about the X axis: it shares the y=0 row edge with the grid.
+  for (size_t v = 0; v < fin.vertex_count(); ++v) {
+    float y = fin.positions[3 * v + 1];
+    fin.positions[3 * v + 1] = 0.0f;
+    fin.positions[3 * v + 2] = y;
+  }
+  for (int copy = 0; copy < 2; ++copy) {
+    uint32_t base = uint32_t(m.vertex_count());
+    m.positions.insert(m.positions.end(), fin.positions.begin(), fin.positions.end());
+    m.normals.insert(m.normals.end(), fin.normals.begin(), fin.normals.end());
+    m.uvs.insert(m.uvs.end(), fin.uvs.begin(), fin.uvs.end());
+    for (uint32_t idx : fin.indices) m.indices.push_back(base + idx);
+  }
+  expect_all(m, GetParam());
+}
+
+TEST_P(BothSimplifiers, MaterialsStayPerTriangle) {
+  Mesh m = make_sphere(24, 48);
+  m.materials.resize(m.triangle_count());
+  for (size_t t = 0; t < m.triangle_count(); ++t) m.materials[t] = (m.positions[3 * m.indices[3 * t] + 2] > 0) ? 1 : 0;
+  ClusterDag d = build(m, GetParam());
+  expect_dag_properties(d, m.triangle_count());
+  expect_borders_preserved(d);
+  size_t leaf_mat1 = 0, input_mat1 = 0;
+  for (uint32_t x : m.materials) input_mat1 += x;
+  for (const DagCluster& c : d.clusters)
+    if (c.level == 0)
+      for (uint32_t t = 0; t < c.triangle_count; ++t) leaf_mat1 += d.triangle_materials[c.triangle_offset + t];
+  EXPECT_EQ(leaf_mat1, input_mat1);
+  for (uint32_t x : d.triangle_materials) EXPECT_LE(x, 1u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Build, BothSimplifiers, ::testing::Values(Simplifier::kMeshopt, Simplifier::kOpenMesh),
+                         [](const auto& info) { return info.param == Simplifier::kMeshopt ? "meshopt" : "openmesh"; });
+
+TEST(Build, SphereReducesAndStoresAtMostTwiceInput) {
+  // ~50k triangles, closed manifold.
+  Mesh m = make_sphere(160, 160);
+  BuildReport r;
+  ClusterDag d = build(m, Simplifier::kMeshopt, 2, &r);
+  ASSERT_GE(r.levels.size(), 3u);
+  std::vector<double> reductions;
+  for (size_t l = 0; l + 1 < r.levels.size(); ++l)
+    reductions.push_back(1.0 - double(r.levels[l + 1].triangles) / double(r.levels[l].triangles));
+  std::sort(reductions.begin(), reductions.end());
+  EXPECT_GE(reductions[reductions.size() / 2], 0.40) << "median level reduction";
+  EXPECT_LE(double(d.triangle_count()), 2.2 * double(m.triangle_count())) << "DAG stores <= 2.2x input";
+}
+
+TEST(Build, IdenticalBytesForAnyThreadCount) {
+  for (Simplifier s : {Simplifier::kMeshopt, Simplifier::kOpenMesh}) {
+    Mesh m = make_sphere(48, 64);
+    BuiltScene a, b;
+    a.meshes.push_back(build(m, s, 1));
+    b.meshes.push_back(build(m, s, 3));
+    EXPECT_EQ(encode_dag_file(a), encode_dag_file(b));
+  }
+}
+
+TEST(Build, RejectsEmptyAndInvalidMeshes) {
+  Mesh empty;
+  EXPECT_THROW(build(empty), VgeoError);
+  Mesh bad = make_grid(2);
+  bad.indices.push_back(1000);
+  bad.indices.push_back(0);
+  bad.indices.push_back(1);
+  try {
+    build(bad);
+    FAIL();
+  } catch (const VgeoError& e) {
+    EXPECT_EQ(e.error().code, "BUILD_INDEX_OUT_OF_RANGE");
+  }
+  Mesh nan = make_grid(2);
+  nan.positions[0] = std::nanf("");
+  try {
+    build(nan);
+    FAIL();
+  } catch (const VgeoError& e) {
+    EXPECT_EQ(e.error().code, "BUILD_NONFINITE_POSITION");
+  }
+}
+
+TEST(Build, SingleTriangle) {
+  Mesh m;
+  m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  m.indices = {0, 1, 2};
+  ClusterDag d = build(m);
+  expect_dag_properties(d, 1);
+  EXPECT_EQ(d.clusters.size(), 1u);
+  EXPECT_EQ(d.groups.size(), 1u);
+  EXPECT_TRUE(d.groups[0].flags & kGroupTerminal);
+}
+
+}  // namespace
+}  // namespace vgeo::test

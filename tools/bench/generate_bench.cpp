@@ -1,0 +1,83 @@
+// Procedural generation and GLB writing at 1M and 10M triangles (single thread unless
+// the benchmark name says otherwise). Run: vgeo_microbench --benchmark_filter=Gen
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+#include <string>
+#include <unistd.h>
+
+#include "vgeo/mesh/export.h"
+#include "vgeo/mesh/generate.h"
+
+namespace {
+
+void BM_GenerateMesh(benchmark::State& state, vgeo::GenShape shape, unsigned threads) {
+  vgeo::GenerateOptions o;
+  o.shape = shape;
+  o.target_triangles = uint64_t(state.range(0));
+  o.seed = 7;
+  o.threads = threads;
+  size_t tris = 0;
+  for (auto _ : state) {
+    vgeo::Mesh m = vgeo::generate_mesh(o);
+    tris = m.triangle_count();
+    benchmark::DoNotOptimize(m.positions.data());
+  }
+  state.counters["triangles"] = double(tris);
+  state.counters["Mtri/s"] = benchmark::Counter(double(tris) * state.iterations() / 1e6, benchmark::Counter::kIsRate);
+}
+
+void BM_SmoothNormals(benchmark::State& state) {
+  vgeo::GenerateOptions o;
+  o.target_triangles = uint64_t(state.range(0));
+  vgeo::Mesh m = vgeo::generate_mesh(o);
+  for (auto _ : state) {
+    vgeo::compute_smooth_normals(m);
+    benchmark::DoNotOptimize(m.normals.data());
+  }
+}
+
+void BM_WriteGlb(benchmark::State& state) {
+  vgeo::GenerateOptions o;
+  o.target_triangles = uint64_t(state.range(0));
+  vgeo::Scene scene = vgeo::generate_scene(o);
+  const std::string path = "/tmp/vgeo_generate_bench_" + std::to_string(getpid()) + ".glb";
+  for (auto _ : state) vgeo::write_glb(scene, path);
+  std::remove(path.c_str());
+  state.counters["triangles"] = double(scene.meshes[0].triangle_count());
+}
+
+// Generation + GLB write end to end (what `vgeo gen sphere -n N -o x.glb` does).
+void BM_GenerateAndWriteGlb(benchmark::State& state, vgeo::GenShape shape) {
+  vgeo::GenerateOptions o;
+  o.shape = shape;
+  o.target_triangles = uint64_t(state.range(0));
+  const std::string path = "/tmp/vgeo_generate_bench_" + std::to_string(getpid()) + ".glb";
+  for (auto _ : state) vgeo::write_glb(vgeo::generate_scene(o), path);
+  std::remove(path.c_str());
+}
+
+constexpr int64_t k1M = 1'000'000, k10M = 10'000'000;
+
+BENCHMARK_CAPTURE(BM_GenerateMesh, sphere_1thread, vgeo::GenShape::kSphere, 1u)
+    ->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_GenerateMesh, sphere_2threads, vgeo::GenShape::kSphere, 2u)
+    ->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_GenerateMesh, terrain_1thread, vgeo::GenShape::kTerrain, 1u)
+    ->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_GenerateMesh, islands_1thread, vgeo::GenShape::kIslands, 1u)
+    ->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_GenerateMesh, thin_1thread, vgeo::GenShape::kThin, 1u)
+    ->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_GenerateMesh, torus_1thread, vgeo::GenShape::kTorus, 1u)
+    ->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_SmoothNormals)->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_WriteGlb)->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_GenerateAndWriteGlb, sphere, vgeo::GenShape::kSphere)
+    ->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+}  // namespace
+
+// vgeo_microbench links benchmark::benchmark (not benchmark_main) and no other bench file
+// defines main yet. If another tools/bench/*.cpp adds BENCHMARK_MAIN, delete this line.
+BENCHMARK_MAIN();
