@@ -3,14 +3,12 @@
 #include <algorithm>
 #include <cmath>
 
+#include "vgeo/mesh/generate.h"
+
 namespace vgeo::bench {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-// Islands: how many disjoint pieces (enough that partitioning must group unconnected parts).
-constexpr uint32_t kIslandCount = 12;
-// Thin: the flattened ellipsoid's thickness relative to its width (a sliver-like shell).
-constexpr float kThinRatio = 0.01f;
 
 void append_sphere(Mesh& m, uint32_t triangles, Vec3 center, Vec3 radii) {
   // A UV sphere with segments = 2 * rings has ~4 rings^2 triangles.
@@ -43,41 +41,6 @@ void append_sphere(Mesh& m, uint32_t triangles, Vec3 center, Vec3 radii) {
     m.indices.insert(m.indices.end(), {south, ring(rings - 1, s + 1), ring(rings - 1, s)});
 }
 
-void make_terrain(Mesh& m, uint32_t triangles, Rng& rng) {
-  uint32_t n = std::max(2u, uint32_t(std::lround(std::sqrt(double(triangles) / 2.0))));
-  // A few octaves of sines with random phases and directions: smooth hills, no data files.
-  constexpr int kOctaves = 5;
-  double fx[kOctaves], fy[kOctaves], ph[kOctaves], amp[kOctaves];
-  for (int o = 0; o < kOctaves; ++o) {
-    double freq = 2.0 * std::pow(2.0, o), ang = rng.uniform(0, 2 * kPi);
-    fx[o] = freq * std::cos(ang);
-    fy[o] = freq * std::sin(ang);
-    ph[o] = rng.uniform(0, 2 * kPi);
-    amp[o] = 0.12 / std::pow(2.0, o);
-  }
-  auto height = [&](double x, double y) {
-    double h = 0;
-    for (int o = 0; o < kOctaves; ++o) h += amp[o] * std::sin(fx[o] * x + fy[o] * y + ph[o]);
-    return h;
-  };
-  const double half = 0.7;  // the square fits in the unit ball
-  for (uint32_t j = 0; j <= n; ++j)
-    for (uint32_t i = 0; i <= n; ++i) {
-      double x = -half + 2 * half * i / n, y = -half + 2 * half * j / n, e = 1e-4;
-      double h = height(x, y);
-      double dx = (height(x + e, y) - height(x - e, y)) / (2 * e), dy = (height(x, y + e) - height(x, y - e)) / (2 * e);
-      double l = std::sqrt(dx * dx + dy * dy + 1);
-      m.positions.insert(m.positions.end(), {float(x), float(y), float(h)});
-      m.normals.insert(m.normals.end(), {float(-dx / l), float(-dy / l), float(1 / l)});
-      m.uvs.insert(m.uvs.end(), {float(i) / n, float(j) / n});
-    }
-  for (uint32_t j = 0; j < n; ++j)
-    for (uint32_t i = 0; i < n; ++i) {
-      uint32_t a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
-      m.indices.insert(m.indices.end(), {a, b, d, a, d, c});
-    }
-}
-
 }  // namespace
 
 const char* shape_name(Shape s) {
@@ -91,23 +54,54 @@ const char* shape_name(Shape s) {
 }
 
 Mesh make_shape(Shape shape, uint32_t triangles, uint64_t seed) {
-  Mesh m;
-  m.name = shape_name(shape);
-  Rng rng(seed);
+  GenerateOptions o;
   switch (shape) {
-    case Shape::kSphere: append_sphere(m, triangles, {}, {1, 1, 1}); break;
-    case Shape::kTerrain: make_terrain(m, triangles, rng); break;
-    case Shape::kIslands:
-      for (uint32_t k = 0; k < kIslandCount; ++k) {
-        float r = float(rng.uniform(0.08, 0.2));
-        double th = std::acos(rng.uniform(-1, 1)), ph = rng.uniform(0, 2 * kPi), d = rng.uniform(0.1, 1.0 - r);
-        Vec3 c{float(d * std::sin(th) * std::cos(ph)), float(d * std::sin(th) * std::sin(ph)), float(d * std::cos(th))};
-        append_sphere(m, std::max(8u, triangles / kIslandCount), c, {r, r, r});
-      }
-      break;
-    case Shape::kThin: append_sphere(m, triangles, {}, {1, 1, kThinRatio}); break;
+    case Shape::kSphere: o.shape = GenShape::kSphere; break;
+    case Shape::kTerrain: o.shape = GenShape::kTerrain; break;
+    case Shape::kIslands: o.shape = GenShape::kIslands; break;
+    case Shape::kThin: o.shape = GenShape::kThin; break;
+  }
+  o.target_triangles = triangles;
+  o.seed = seed;
+  o.threads = 0;
+  return generate_mesh(o);
+}
+
+Mesh make_ellipsoid(uint32_t triangles, float thickness) {
+  Mesh m;
+  m.name = "ellipsoid";
+  append_sphere(m, triangles, {}, {1, 1, thickness});
+  return m;
+}
+
+Mesh add_degenerate_triangles(Mesh m, uint32_t every) {
+  size_t tris = m.triangle_count();
+  for (size_t t = 0; t < tris; t += every) {
+    uint32_t a = m.indices[3 * t], b = m.indices[3 * t + 1];
+    m.indices.insert(m.indices.end(), {a, b, b});  // zero area: repeated corner
+    // Collinear sliver on fresh duplicated vertices: a, midpoint(a, b), b.
+    Vec3 pa = m.position(a), pb = m.position(b);
+    Vec3 mid = (pa + pb) * 0.5f;
+    uint32_t base = uint32_t(m.vertex_count());
+    for (Vec3 p : {pa, mid, pb}) {
+      m.positions.insert(m.positions.end(), {p.x, p.y, p.z});
+      if (!m.normals.empty()) m.normals.insert(m.normals.end(), {0, 0, 1});
+      if (!m.uvs.empty()) m.uvs.insert(m.uvs.end(), {0, 0});
+    }
+    m.indices.insert(m.indices.end(), {base, base + 1, base + 2});
+    if (!m.materials.empty()) m.materials.insert(m.materials.end(), {0, 0});
   }
   return m;
+}
+
+BoxFrame box_frame(const Mesh& mesh) {
+  Aabb b;
+  for (size_t v = 0; v < mesh.vertex_count(); ++v) b.extend(mesh.position(v));
+  BoxFrame f;
+  if (b.empty()) return f;
+  f.center = (b.min + b.max) * 0.5f;
+  f.half = (b.max - b.min) * 0.5f;
+  return f;
 }
 
 }  // namespace vgeo::bench

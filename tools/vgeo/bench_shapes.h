@@ -1,6 +1,7 @@
 #pragma once
-// Procedural benchmark meshes (deterministic for a seed): a stand-in until
-// lib/mesh/generate.h is available in main, kept so the bench never depends on data files.
+// Benchmark meshes: lib/mesh/generate.h shapes (deterministic for a seed, no data files),
+// plus the hard inputs of the stability suite (slivers, degenerate triangles).
+#include <algorithm>
 #include <cstdint>
 #include <string>
 
@@ -11,9 +12,22 @@ namespace vgeo::bench {
 enum class Shape : uint8_t { kSphere, kTerrain, kIslands, kThin };
 const char* shape_name(Shape s);
 
-// A closed or open surface with about `triangles` triangles (within a few percent),
-// fitting in a unit-radius ball around the origin.
+// generate_mesh() of the shape with about `triangles` triangles.
 Mesh make_shape(Shape shape, uint32_t triangles, uint64_t seed);
+
+// A UV ellipsoid with radii (1, 1, thickness): thickness 1e-3 makes a sliver-heavy shell.
+Mesh make_ellipsoid(uint32_t triangles, float thickness);
+
+// `mesh` plus degenerate input: every `every`-th triangle gets a zero-area twin (two equal
+// corners) and a collinear sliver on duplicated vertices.
+Mesh add_degenerate_triangles(Mesh mesh, uint32_t every);
+
+// Centre and half extent of the mesh's bounding box.
+struct BoxFrame {
+  Vec3 center, half;
+  float max_half() const { return std::max(half.x, std::max(half.y, half.z)); }
+};
+BoxFrame box_frame(const Mesh& mesh);
 
 // Deterministic PRNG (splitmix64): the benchmarks' inputs are identical on every run.
 struct Rng {
