@@ -4,6 +4,5 @@
 namespace vgeo::bench {
 
 void run_quantization_suite(const BenchConfig&, SuiteReport& out) { mark_skipped(out, "lib/format"); }
-void run_occlusion_suite(const BenchConfig&, SuiteReport& out) { mark_skipped(out, "lib/render"); }
 
 }  // namespace vgeo::bench
