@@ -144,7 +144,11 @@ void run_lod_suite(const BenchConfig& cfg, SuiteReport& out) {
                        {"mean_abs_diff", e.mean_abs},
                        {"max_abs_diff", e.max_abs},
                        {"surface_differs_share", e.surface_differs}});
-      if (v == full) continue;
+      if (v == full) {
+        es.x.push_back(sc.median * 1e3);  // the full-detail end of the curve: error 0 by definition
+        es.y.push_back(0);
+        continue;
+      }
       ts.x.push_back(kTaus[v]);
       ts.y.push_back(double(f.triangles));
       ft.x.push_back(kTaus[v]);
@@ -182,7 +186,7 @@ void run_lod_suite(const BenchConfig& cfg, SuiteReport& out) {
   add_plot(out, cfg, "lod_error_vs_time.svg",
            Plot{"Accuracy vs time: mean shade error against frame time", "frame CPU time (ms, median)",
                 "mean |shade difference| (0..255)", false, false, err_series},
-           "Each point is one tau (left = larger tau); the knee is where error starts rising faster than time falls");
+           "Each point is one tau (left = larger tau; the rightmost point, error 0, is full detail); the knee is where error starts rising faster than time falls");
   add_plot(out, cfg, "lod_surface_differs_vs_tau.svg",
            Plot{"Pixels whose visible surface differs", "tau (px)", "% of pixels", true, false, surf_series},
            "Share of pixels whose coverage differs or whose depth differs by more than 1% from full detail");

@@ -85,6 +85,8 @@ void run_simplifier_suite(const BenchConfig& cfg, SuiteReport& out) {
       std::vector<std::string> row{shape_name(in.shape), kBackends[b].name};
       Series s;
       s.name = std::string(shape_name(in.shape)) + " " + kBackends[b].name;
+      s.dashed = b == 1;
+      s.color = int(&in - inputs.data());
       nlohmann::json jcut = nlohmann::json::array();
       for (float tau : kTaus) {
         CutCount c = count_cut(dag, view, tau);

@@ -184,7 +184,7 @@ std::string render_svg(const Plot& plot) {
   // Series.
   for (size_t si = 0; si < plot.series.size(); ++si) {
     const Series& s = plot.series[si];
-    const char* color = kPalette[si % kPaletteSize];
+    const char* color = kPalette[size_t(s.color >= 0 ? s.color : int(si)) % kPaletteSize];
     std::vector<size_t> order;
     for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i)
       if (usable(s.x[i], plot.log_x) && usable(s.y[i], plot.log_y)) order.push_back(i);
@@ -199,7 +199,8 @@ std::string render_svg(const Plot& plot) {
       }
     }
     if (s.line && order.size() > 1) {
-      o << "<polyline fill=\"none\" stroke=\"" << color << "\" stroke-width=\"1.6\" points=\"";
+      o << "<polyline fill=\"none\" stroke=\"" << color << "\" stroke-width=\"1.6\""
+        << (s.dashed ? " stroke-dasharray=\"6,3\"" : "") << " points=\"";
       for (size_t i : order) o << num(ax.map(s.x[i], x0, x1)) << "," << num(ay.map(s.y[i], y0, y1)) << " ";
       o << "\"/>\n";
     }
@@ -247,10 +248,12 @@ std::string render_svg(const Plot& plot) {
     o << "<rect x=\"" << num(lx) << "\" y=\"" << num(ly) << "\" width=\"" << num(lw) << "\" height=\"" << num(lh)
       << "\" fill=\"white\" fill-opacity=\"0.85\" stroke=\"#bbb\"/>\n";
     for (size_t si = 0; si < plot.series.size(); ++si) {
-      const char* color = kPalette[si % kPaletteSize];
+      const int ci = plot.series[si].color >= 0 ? plot.series[si].color : int(si);
+      const char* color = kPalette[size_t(ci) % kPaletteSize];
       double yy = ly + 12 + 15 * double(si);
       o << "<line x1=\"" << num(lx + 5) << "\" y1=\"" << num(yy) << "\" x2=\"" << num(lx + 25) << "\" y2=\""
-        << num(yy) << "\" stroke=\"" << color << "\" stroke-width=\"1.6\"/>\n";
+        << num(yy) << "\" stroke=\"" << color << "\" stroke-width=\"1.6\""
+        << (plot.series[si].dashed ? " stroke-dasharray=\"6,3\"" : "") << "/>\n";
       marker(o, int(si), lx + 15, yy, color);
       o << "<text x=\"" << num(lx + 30) << "\" y=\"" << num(yy + 4) << "\">" << esc(plot.series[si].name)
         << "</text>\n";

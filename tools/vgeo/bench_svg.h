@@ -12,6 +12,8 @@ struct Series {
   std::vector<double> y_low, y_high;  // optional error bars (same size as y), e.g. min/max
   bool line = true;                   // connect points in x order
   bool markers = true;
+  bool dashed = false;                // e.g. the second variant of a pair
+  int color = -1;                     // palette index; -1: the series' position
 };
 
 inline Series named_series(std::string name) {
