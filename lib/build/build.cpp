@@ -142,6 +142,11 @@ struct BvhBuilder {
 }  // namespace
 
 ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report) {
+  return build_dag_internal(mesh, options, InternalBuildOptions{}, report);
+}
+
+ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions& options,
+                                            const InternalBuildOptions& internal, BuildReport* report) {
   double t_start = now_seconds();
   validate_mesh(mesh);
   BuildReport rep;
@@ -176,7 +181,7 @@ ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport*
     all.materials.resize(mesh.triangle_count());
     for (size_t t = 0; t < mesh.triangle_count(); ++t) all.materials[t] = mesh.material(t);
     std::vector<uint32_t> s = take_scratch();
-    std::vector<TriangleSet> leaves = split_into_clusters(welded, all, s);
+    std::vector<TriangleSet> leaves = split_into_clusters(welded, all, s, internal.leaf_split);
     give_scratch(std::move(s));
     clusters.resize(leaves.size());
     pool.parallel_for(leaves.size(), [&](size_t i) {
@@ -191,6 +196,7 @@ ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport*
   // Welded vertices of retired (terminal) clusters: locked for every later level, since
   // those clusters stay drawable next to anything coarser (spec/dag.md §Locks).
   std::vector<uint8_t> retired(vertex_count, 0);
+  std::vector<uint64_t> retired_edges;  // sorted welded edge keys of retired clusters
   std::vector<uint32_t> owner(vertex_count, kNone);
   std::vector<uint8_t> locked(vertex_count, 0);
 
@@ -230,7 +236,7 @@ ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport*
         sets[i] = &clusters[active[i]].triangles;
         bounds[i] = clusters[active[i]].bounds;
       }
-      level_groups = group_clusters(welded, sets, bounds);
+      level_groups = group_clusters(welded, sets, bounds, internal.group_target_clusters);
       for (auto& g : level_groups)
         for (uint32_t& m : g) m = active[m];
     }
@@ -269,6 +275,32 @@ ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport*
         uint32_t w = welded.weld[v];
         if (retired[w]) locked[w] = 1;
       }
+    // Shared edges: welded edges with both ends locked used by two groups of this level or
+    // by a retired cluster (only those must survive; few: they lie on group borders).
+    std::vector<uint64_t> shared_edges;
+    {
+      std::vector<std::pair<uint64_t, uint32_t>> candidates;
+      for (uint32_t c : active) {
+        const TriangleSet& t = clusters[c].triangles;
+        for (size_t i = 0; i < t.triangle_count(); ++i)
+          for (int k = 0; k < 3; ++k) {
+            uint32_t a = welded.weld[t.corners[3 * i + k]], b = welded.weld[t.corners[3 * i + (k + 1) % 3]];
+            if (a != b && locked[a] && locked[b]) candidates.push_back({edge_key(a, b), clusters[c].group});
+          }
+      }
+      std::sort(candidates.begin(), candidates.end());
+      for (size_t i = 0; i < candidates.size();) {
+        size_t j = i;
+        bool shared = false;
+        while (j < candidates.size() && candidates[j].first == candidates[i].first) {
+          shared |= candidates[j].second != candidates[i].second;
+          ++j;
+        }
+        if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), candidates[i].first))
+          shared_edges.push_back(candidates[i].first);
+        i = j;
+      }
+    }
     rep.seconds_group += now_seconds() - t0;
 
     // ---- simplify + split, per group in parallel, results in per-group slots ----
@@ -294,12 +326,12 @@ ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport*
       SimplifyResult s = simplify_group(welded, merged, locked, options.simplifier);
       size_t before = merged.triangle_count(), after = s.triangles.triangle_count();
       bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
-      bool sealed = enough && locked_border_preserved(welded, merged, s.triangles, locked);
+      bool sealed = enough && locked_border_preserved(welded, merged, s.triangles, locked, shared_edges);
       double tm = now_seconds();
       r.seconds_simplify = tm - ts;
       if (!sealed) return;
       std::vector<uint32_t> sc = take_scratch();
-      r.clusters = split_into_clusters(welded, s.triangles, sc);
+      r.clusters = split_into_clusters(welded, s.triangles, sc, internal.group_split);
       give_scratch(std::move(sc));
       r.seconds_split = now_seconds() - tm;
       r.terminal = false;
@@ -308,6 +340,7 @@ ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport*
 
     // ---- combine in group order ----
     std::vector<uint32_t> next;
+    std::vector<uint64_t> new_retired_edges;
     for (uint32_t i = 0; i < group_count; ++i) {
       GroupResult& r = results[i];
       uint32_t gi = first_group + i;
@@ -317,8 +350,14 @@ ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport*
         groups[gi].terminal = true;
         groups[gi].parent_error = kTerminalError;
         ++lr.stuck_groups;
-        for (uint32_t m : groups[gi].members)
-          for (uint32_t v : clusters[m].triangles.corners) retired[welded.weld[v]] = 1;
+        for (uint32_t m : groups[gi].members) {
+          const TriangleSet& t = clusters[m].triangles;
+          for (uint32_t v : t.corners) retired[welded.weld[v]] = 1;
+          for (size_t k = 0; k < t.corners.size(); ++k) {
+            uint32_t a = welded.weld[t.corners[k]], b = welded.weld[t.corners[k - k % 3 + (k + 1) % 3]];
+            if (a != b) new_retired_edges.push_back(edge_key(a, b));
+          }
+        }
         continue;
       }
       // parent_error = max(member lod_error) + own error; float addition of a
@@ -348,6 +387,11 @@ ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport*
         owner[welded.weld[v]] = kNone;
         locked[welded.weld[v]] = 0;
       }
+    if (!new_retired_edges.empty()) {
+      retired_edges.insert(retired_edges.end(), new_retired_edges.begin(), new_retired_edges.end());
+      std::sort(retired_edges.begin(), retired_edges.end());
+      retired_edges.erase(std::unique(retired_edges.begin(), retired_edges.end()), retired_edges.end());
+    }
     processed += lr.triangles;
     progress.set(std::min<size_t>(processed, mesh.triangle_count()));
     rep.levels.push_back(lr);

@@ -66,7 +66,17 @@ std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const Tri
 // Deterministic (fixed METIS seed, single call).
 std::vector<std::vector<uint32_t>> group_clusters(const WeldedMesh& welded,
                                                   const std::vector<const TriangleSet*>& clusters,
-                                                  const std::vector<Sphere>& bounds);
+                                                  const std::vector<Sphere>& bounds,
+                                                  uint32_t target_clusters = kGroupTargetClusters);
+
+// Knobs for measuring alternatives (benchmarks, tests); build_dag uses the defaults.
+struct InternalBuildOptions {
+  SplitMethod leaf_split = SplitMethod::kMeshopt;
+  SplitMethod group_split = SplitMethod::kMeshopt;
+  uint32_t group_target_clusters = kGroupTargetClusters;
+};
+ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, const InternalBuildOptions& internal,
+                              BuildReport* report);
 
 // Simplification of one group's triangles with locked vertices (by welded id).
 struct SimplifyResult {
@@ -77,9 +87,11 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
                               const std::vector<uint8_t>& locked, Simplifier simplifier);
 
 // True when every locked welded vertex of `before` is used by `after` and every welded edge
-// of `before` that is open inside `before` and has both ends locked is an edge of `after`.
+// of `before` listed in `shared_edges` (sorted edge keys of edges also used outside the
+// group) is an edge of `after`.
 bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before,
-                             const TriangleSet& after, const std::vector<uint8_t>& locked);
+                             const TriangleSet& after, const std::vector<uint8_t>& locked,
+                             const std::vector<uint64_t>& shared_edges);
 
 // Spheres, computed in double and rounded outward so containment survives float rounding.
 Sphere sphere_of_points(const Mesh& mesh, const uint32_t* vertices, size_t count);

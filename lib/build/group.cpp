@@ -34,11 +34,11 @@ struct WeightedEdge {
 
 std::vector<std::vector<uint32_t>> group_clusters(const WeldedMesh& welded,
                                                   const std::vector<const TriangleSet*>& clusters,
-                                                  const std::vector<Sphere>& bounds) {
+                                                  const std::vector<Sphere>& bounds, uint32_t target_clusters) {
   size_t n = clusters.size();
   std::vector<std::vector<uint32_t>> groups;
   if (n == 0) return groups;
-  size_t nparts = (n + kGroupTargetClusters - 1) / kGroupTargetClusters;
+  size_t nparts = (n + target_clusters - 1) / target_clusters;
   if (nparts <= 1) {  // METIS misbehaves for nparts = 1; the answer is known anyway
     groups.emplace_back(n);
     for (size_t i = 0; i < n; ++i) groups[0][i] = uint32_t(i);
@@ -173,7 +173,7 @@ std::vector<std::vector<uint32_t>> group_clusters(const WeldedMesh& welded,
     for (size_t i = 0; i < n; ++i) groups[size_t(part[i]) < nparts ? size_t(part[i]) : 0].push_back(uint32_t(i));
   } else {
     // Fallback (METIS failed, e.g. out of memory): consecutive runs in Morton-free index order.
-    for (size_t i = 0; i < n; ++i) groups[i / kGroupTargetClusters].push_back(uint32_t(i));
+    for (size_t i = 0; i < n; ++i) groups[i / target_clusters].push_back(uint32_t(i));
   }
   groups.erase(std::remove_if(groups.begin(), groups.end(), [](const auto& g) { return g.empty(); }), groups.end());
   return groups;

@@ -111,8 +111,8 @@ double point_triangle_distance(const OpenMesh::Vec3d& p, const OpenMesh::Vec3d& 
 // One OpenMesh vertex per welded position of the group; material is a face property, so
 // material borders move but never open. Faces OpenMesh cannot add (complex edges,
 // non-manifold vertices) pass through unchanged and lock their vertices. Error: the
-// largest distance from a removed vertex to the output triangles around the vertex it
-// was collapsed into (one-sided, local Hausdorff estimate), in object units.
+// largest distance from a removed vertex to the group's output triangles (one-sided
+// Hausdorff distance at the input vertices), in object units.
 SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& group,
                                  const std::vector<uint8_t>& locked) {
   const Mesh& mesh = *welded.mesh;
@@ -191,7 +191,6 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
   };
 
   SimplifyResult r;
-  std::vector<std::vector<int>> faces_of_vertex(welded_of_om.size());
   for (auto fh : om.faces()) {
     if (om.status(fh).deleted()) continue;
     uint32_t material = om.property(face_material, fh);
@@ -199,7 +198,6 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
     for (auto fv : om.fv_range(fh)) corner_om[k++] = fv.idx();
     for (k = 0; k < 3; ++k) {
       r.triangles.corners.push_back(original(welded_of_om[corner_om[k]], material));
-      faces_of_vertex[corner_om[k]].push_back(int(r.triangles.materials.size()));
     }
     r.triangles.materials.push_back(material);
   }
@@ -208,32 +206,40 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
     r.triangles.materials.push_back(group.materials[t]);
   }
 
-  // Error: follow each removed vertex to its final survivor.
-  std::vector<int> into(welded_of_om.size());
-  for (size_t v = 0; v < into.size(); ++v) into[v] = int(v);
-  for (auto [v0, v1] : decimater.module(quadric).collapses) into[v0] = v1;
-  double error = 0;
-  auto point = [&](int v) {
-    const float* p = &mesh.positions[3 * size_t(welded_of_om[v])];
-    return OpenMesh::Vec3d(p[0], p[1], p[2]) - origin;
+  // Error: distance from every removed vertex to the output surface (all output
+  // triangles of the group, pruned by their bounding boxes), the one-sided Hausdorff
+  // distance at the input vertices.
+  std::vector<uint8_t> alive(welded_of_om.size(), 1);
+  for (auto [v0, v1] : decimater.module(quadric).collapses) alive[size_t(v0)] = 0;
+  struct Tri {
+    OpenMesh::Vec3d a, b, c, lo, hi;
   };
-  for (size_t v = 0; v < into.size(); ++v) {
-    if (into[v] == int(v)) continue;
-    int s = int(v);
-    while (into[s] != s) s = into[s];
-    OpenMesh::Vec3d p = point(int(v));
-    double best = (p - point(s)).norm();
-    for (int f : faces_of_vertex[s]) {
-      const uint32_t* c = &r.triangles.corners[3 * size_t(f)];
-      OpenMesh::Vec3d a(mesh.positions[3 * size_t(c[0])], mesh.positions[3 * size_t(c[0]) + 1],
-                        mesh.positions[3 * size_t(c[0]) + 2]);
-      OpenMesh::Vec3d b(mesh.positions[3 * size_t(c[1])], mesh.positions[3 * size_t(c[1]) + 1],
-                        mesh.positions[3 * size_t(c[1]) + 2]);
-      OpenMesh::Vec3d cc(mesh.positions[3 * size_t(c[2])], mesh.positions[3 * size_t(c[2]) + 1],
-                         mesh.positions[3 * size_t(c[2]) + 2]);
-      best = std::min(best, point_triangle_distance(p, a - origin, b - origin, cc - origin));
+  std::vector<Tri> out_tris(r.triangles.triangle_count());
+  for (size_t f = 0; f < out_tris.size(); ++f) {
+    OpenMesh::Vec3d p[3];
+    for (int k = 0; k < 3; ++k) {
+      const float* q = &mesh.positions[3 * size_t(r.triangles.corners[3 * f + k])];
+      p[k] = OpenMesh::Vec3d(q[0], q[1], q[2]) - origin;
     }
-    error = std::max(error, best);
+    Tri& t = out_tris[f];
+    t.a = p[0], t.b = p[1], t.c = p[2];
+    t.lo = t.hi = p[0];
+    for (int k = 1; k < 3; ++k) t.lo.minimize(p[k]), t.hi.maximize(p[k]);
+  }
+  double error = 0;
+  for (size_t v = 0; v < alive.size(); ++v) {
+    if (alive[v]) continue;
+    const float* q = &mesh.positions[3 * size_t(welded_of_om[v])];
+    OpenMesh::Vec3d p = OpenMesh::Vec3d(q[0], q[1], q[2]) - origin;
+    double best = std::numeric_limits<double>::infinity();
+    for (const Tri& t : out_tris) {
+      double dx = std::max({t.lo[0] - p[0], 0.0, p[0] - t.hi[0]});
+      double dy = std::max({t.lo[1] - p[1], 0.0, p[1] - t.hi[1]});
+      double dz = std::max({t.lo[2] - p[2], 0.0, p[2] - t.hi[2]});
+      if (dx * dx + dy * dy + dz * dz >= best * best) continue;
+      best = std::min(best, point_triangle_distance(p, t.a, t.b, t.c));
+    }
+    if (std::isfinite(best)) error = std::max(error, best);
   }
   // Rounded up so the float error is never below the measured double.
   float e = float(error);
@@ -251,28 +257,22 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
 }
 
 bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                             const std::vector<uint8_t>& locked) {
-  auto edges_of = [&](const TriangleSet& t, bool open_only) {
+                             const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
+  auto edges_of = [&](const TriangleSet& t, bool shared_only) {
     std::vector<uint64_t> keys;
     keys.reserve(t.corners.size());
     for (size_t i = 0; i < t.triangle_count(); ++i)
       for (int k = 0; k < 3; ++k) {
         uint32_t a = welded.weld[t.corners[3 * i + k]], b = welded.weld[t.corners[3 * i + (k + 1) % 3]];
-        if (a != b && (!open_only || (locked[a] && locked[b]))) keys.push_back(edge_key(a, b));
+        if (a == b) continue;
+        uint64_t key = edge_key(a, b);
+        if (shared_only && !(locked[a] && locked[b] && std::binary_search(shared_edges.begin(), shared_edges.end(), key)))
+          continue;
+        keys.push_back(key);
       }
     std::sort(keys.begin(), keys.end());
-    if (!open_only) {
-      keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-      return keys;
-    }
-    std::vector<uint64_t> open;
-    for (size_t i = 0; i < keys.size();) {
-      size_t j = i;
-      while (j < keys.size() && keys[j] == keys[i]) ++j;
-      if (j - i == 1) open.push_back(keys[i]);
-      i = j;
-    }
-    return open;
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    return keys;
   };
   std::vector<uint64_t> required = edges_of(before, true);
   std::vector<uint64_t> present = edges_of(after, false);

@@ -35,7 +35,9 @@ Mesh read_off(const std::string& path) {
   std::string header;
   s >> header;
   if (header.size() < 3 || header.substr(header.size() - 3) != "OFF") fail("IMPORT_BAD_FILE", path, "missing OFF header");
-  if (header != "OFF") fail("IMPORT_UNSUPPORTED", path, "only plain OFF is supported, not " + header);
+  // COFF/NOFF/CNOFF...: extra per-vertex values follow x y z on the vertex's line.
+  if (header.find("4") != std::string::npos || header.find("n") != std::string::npos)
+    fail("IMPORT_UNSUPPORTED", path, "OFF variant " + header + " is not supported");
   long long nv = -1, nf = -1, ne = -1;
   if (!(s >> nv >> nf >> ne) || nv < 0 || nf < 0) fail("IMPORT_BAD_FILE", path, "bad OFF counts");
   // Each vertex needs at least 6 bytes of text, each face 8: bounds allocation by file size.
@@ -44,8 +46,19 @@ Mesh read_off(const std::string& path) {
   Mesh m;
   m.name = path;
   m.positions.resize(3 * size_t(nv));
-  for (float& f : m.positions)
-    if (!(s >> f)) fail("IMPORT_BAD_FILE", path, "truncated vertex list");
+  std::string line;
+  std::getline(s, line);  // rest of the counts line
+  for (long long v = 0; v < nv;) {
+    if (!std::getline(s, line)) fail("IMPORT_BAD_FILE", path, "truncated vertex list");
+    std::istringstream ls(line);
+    float x, y, z;
+    if (!(ls >> x)) continue;  // blank line
+    if (!(ls >> y >> z)) fail("IMPORT_BAD_FILE", path, "bad vertex line");
+    m.positions[3 * size_t(v)] = x;
+    m.positions[3 * size_t(v) + 1] = y;
+    m.positions[3 * size_t(v) + 2] = z;
+    ++v;
+  }
   for (long long f = 0; f < nf; ++f) {
     long long n;
     if (!(s >> n) || n < 0 || n > 1000000) fail("IMPORT_BAD_FILE", path, "bad face");

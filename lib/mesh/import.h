@@ -23,6 +23,16 @@
 //     zero); a primitive without TEXCOORD_0 gets uv (0,0). Warning ATTRIBUTE_FILLED.
 //   - glTF materials map 1:1 to Scene::materials (name, baseColorFactor); primitives without
 //     a material use one default material appended after them.
+//
+// OBJ/PLY/OFF/STL specifics (OpenMesh): one mesh, one identity instance, one default material.
+//   - polygons become fans (v0, vi, vi+1) in file order; '#' comments in ASCII OFF are stripped
+//     before OpenMesh parses (CGAL writes them before the keyword and after values).
+//   - OpenMesh's halfedge mesh cannot hold non-manifold faces: such a face gets its own copies
+//     of its corner vertices (same positions), so vertex counts can exceed the file's; the
+//     weld merges them back. Faces repeating a vertex are dropped (FACE_REPEATED_VERTEX,
+//     counted as degenerate). STL corners are merged by exact position by OpenMesh.
+//   - vertex normals/uvs are imported when the file has them (never for STL).
+//
 //   - a "zero-area" triangle is one whose edge cross product, computed in double from the
 //     float positions, is exactly (0,0,0).
 #include <cstddef>

@@ -236,7 +236,7 @@ class GltfReader {
                                            " is not an unsigned integer type");
     if (sp.indices.byteOffset < 0)
       error("ACCESSOR_SPARSE_INVALID", role + ": negative sparse indices byteOffset");
-    budget_.charge(uint64_t(sp.count) * 4, "sparse indices");
+    budget_.charge(uint64_t(sp.count), 4, "sparse indices");
     Span s = view_span(sp.indices.bufferView, size_t(sp.indices.byteOffset), size_t(sp.count), size_t(isize),
                        false, role + " sparse indices");
     out.resize(size_t(sp.count));
@@ -261,7 +261,7 @@ class GltfReader {
     const size_t esize = size_t(comps) * size_t(component_size(acc.componentType));
     if (acc.count == 0) error("ACCESSOR_COUNT_INVALID", role + " has count 0");
     Span s = accessor_span(acc, esize, role);
-    budget_.charge(uint64_t(s.count) * comps * sizeof(float), "attribute data");
+    budget_.charge(s.count, uint64_t(comps) * sizeof(float), "attribute data");
     const size_t start = dst.size();
     dst.resize(start + s.count * comps);
     decode_to_float(s, acc.componentType, comps, acc.normalized, dst.data() + start);
@@ -299,7 +299,7 @@ class GltfReader {
     const tinygltf::Accessor& acc = accessor(index, role);
     const size_t isize = size_t(component_size(acc.componentType));
     Span s = accessor_span(acc, isize, role);
-    budget_.charge(uint64_t(s.count) * 4, "index data");
+    budget_.charge(s.count, 4, "index data");
     if (s.base == nullptr) {
       std::fill(dst, dst + s.count, 0u);
     } else if (isize == 4 && s.stride == 4) {
@@ -394,7 +394,7 @@ void GltfReader::append_primitive(const tinygltf::Primitive& prim, const std::st
       error("ACCESSOR_COUNT_MISMATCH", role + ": TEXCOORD_0 count " + std::to_string(n) +
                                            " != POSITION count " + std::to_string(vcount));
   } else if (mesh_has_uvs) {
-    budget_.charge(uint64_t(vcount) * 8, "filled uvs");
+    budget_.charge(vcount, 8, "filled uvs");
     mesh.uvs.resize(mesh.vertex_count() * 2, 0.0f);
     warn("ATTRIBUTE_FILLED", role + " has no TEXCOORD_0 while other primitives of its mesh do: uv (0,0)");
   }
@@ -412,7 +412,7 @@ void GltfReader::append_primitive(const tinygltf::Primitive& prim, const std::st
   } else {
     tris = ncorners >= 3 ? ncorners - 2 : 0;
   }
-  budget_.charge(uint64_t(tris) * 16, "triangles");
+  budget_.charge(tris, 16, "triangles");
   std::vector<uint32_t> corners;
   if (indexed && prim.mode != kModeTriangles) {
     corners.resize(ncorners);
@@ -735,7 +735,8 @@ void check_json_recursive(const nlohmann::json& j, const std::string& where, int
 const char* classify_tinygltf_error(const std::string& err) {
   if (err.find("File not found") != std::string::npos || err.find("Failed to load external") != std::string::npos)
     return "EXTERNAL_BUFFER_MISSING";
-  if (err.find("File size mismatch") != std::string::npos || err.find("Invalid binary data") != std::string::npos)
+  if (err.find("File size mismatch") != std::string::npos || err.find("Invalid binary data") != std::string::npos ||
+      err.find("Invalid `byteLength'") != std::string::npos)
     return "BUFFER_LENGTH_MISMATCH";
   if (err.find("Failed to decode 'uri'") != std::string::npos) return "BUFFER_URI_INVALID";
   return "GLTF_SCHEMA_ERROR";

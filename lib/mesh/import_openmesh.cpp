@@ -6,6 +6,7 @@
 #include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -114,6 +115,19 @@ void check_stl(const std::string& head, uint64_t file_size, const std::string& w
   if (expected > file_size)
     fail("FILE_TRUNCATED", where, "binary STL declares " + std::to_string(count) + " triangles (" +
                                       std::to_string(expected) + " bytes) but has " + std::to_string(file_size));
+  // OpenMesh merges STL corners by position; a NaN corner would be merged away silently,
+  // so non-finite positions are found here, before it reads.
+  std::ifstream f(where, std::ios::binary);
+  f.seekg(std::streamoff(kStlHeaderBytes));
+  char tri[kStlTriangleBytes];
+  for (uint32_t t = 0; t < count && f.read(tri, kStlTriangleBytes); ++t) {
+    for (int k = 3; k < 12; ++k) {  // floats 0..2 are the facet normal
+      float x;
+      std::memcpy(&x, tri + 4 * k, 4);
+      if (!std::isfinite(x))
+        fail("POSITION_NOT_FINITE", where, "STL triangle " + std::to_string(t) + " has a non-finite corner");
+    }
+  }
 }
 
 // ASCII OFF with comments: CGAL writes '#' comment blocks before the keyword and after

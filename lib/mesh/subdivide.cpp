@@ -203,11 +203,12 @@ Mesh subdivide_loop(const Mesh& mesh, const SubdivideOptions& options) {
 
 Mesh read_mesh_openmesh(const std::string& path) {
   std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) fail("FILE_NOT_FOUND", path, "no such file", kExitIo);
   if (!std::filesystem::is_regular_file(path, ec) || !std::ifstream(path).good())
-    fail("INPUT_IO", path, "cannot open input file", kExitIo);
+    fail("FILE_READ_ERROR", path, "cannot open input file", kExitIo);
   OmMesh om;
   OpenMesh::IO::Options opt;
-  if (!OpenMesh::IO::read_mesh(om, path, opt)) fail("INPUT_READ_FAILED", path, "OpenMesh could not read this file");
+  if (!OpenMesh::IO::read_mesh(om, path, opt)) fail("MESH_PARSE_ERROR", path, "OpenMesh could not read this file");
   Mesh m;
   m.name = std::filesystem::path(path).stem().string();
   for (auto vh : om.vertices()) {
@@ -216,7 +217,7 @@ Mesh read_mesh_openmesh(const std::string& path) {
   }
   for (auto fh : om.faces())
     for (auto vh : om.fv_range(fh)) m.indices.push_back(uint32_t(vh.idx()));
-  if (m.triangle_count() == 0) fail("INPUT_EMPTY", path, "no triangles");
+  if (m.triangle_count() == 0) fail("MESH_EMPTY", path, "the file contains no triangles to import");
   compute_smooth_normals(m);
   return m;
 }

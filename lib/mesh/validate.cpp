@@ -15,14 +15,14 @@ OutputBudget OutputBudget::for_input(uint64_t input_bytes, std::string where) {
   return b;
 }
 
-void OutputBudget::charge(uint64_t bytes, const char* what) {
-  if (bytes > remaining) {
+void OutputBudget::charge(uint64_t count, uint64_t bytes_each, const char* what) {
+  if (bytes_each != 0 && count > remaining / bytes_each) {
     fail("INPUT_EXPANSION_LIMIT", where,
-         std::string(what) + " would need " + std::to_string(bytes) +
+         std::string(what) + " would need " + std::to_string(count) + " x " + std::to_string(bytes_each) +
              " bytes, more than the input size allows (" +
              std::to_string(kMaxOutputBytesPerInputByte) + " output bytes per input byte)");
   }
-  remaining -= bytes;
+  remaining -= count * bytes_each;
 }
 
 void check_mesh_attributes(const Mesh& mesh, const std::string& where) {

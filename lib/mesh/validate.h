@@ -26,7 +26,8 @@ struct OutputBudget {
   uint64_t remaining = 0;
   std::string where;
   static OutputBudget for_input(uint64_t input_bytes, std::string where);
-  void charge(uint64_t bytes, const char* what);
+  // Charges count * bytes_each without overflow (counts come straight from the file).
+  void charge(uint64_t count, uint64_t bytes_each, const char* what);
 };
 
 // POSITION_NOT_FINITE for the first non-finite position coordinate; ATTRIBUTE_NOT_FINITE for

@@ -173,3 +173,39 @@ TEST(Build, SingleTriangle) {
 
 }  // namespace
 }  // namespace vgeo::test
+
+// ---- property test: random triangle soups on a small integer lattice, so coincident,
+// duplicated, degenerate and non-manifold configurations are common ----
+#include <rapidcheck/gtest.h>
+
+namespace vgeo::test {
+namespace {
+
+Mesh random_soup(const std::vector<int>& coords, const std::vector<int>& tris) {
+  Mesh m;
+  for (int c : coords) m.positions.push_back(float(c % 7) * 0.5f);
+  while (m.positions.size() % 3) m.positions.pop_back();
+  uint32_t n = uint32_t(m.vertex_count());
+  if (n == 0) return m;
+  for (int t : tris) m.indices.push_back(uint32_t(t) % n);
+  while (m.indices.size() % 3) m.indices.pop_back();
+  return m;
+}
+
+RC_GTEST_PROP(BuildProperty, RandomSoupsKeepDagProperties, ()) {
+  auto coords = *rc::gen::container<std::vector<int>>(*rc::gen::inRange(9, 300), rc::gen::inRange(0, 1000));
+  auto tris = *rc::gen::container<std::vector<int>>(*rc::gen::inRange(3, 1500), rc::gen::inRange(0, 100000));
+  Mesh m = random_soup(coords, tris);
+  RC_PRE(m.triangle_count() > 0);
+  Simplifier s = *rc::gen::element(Simplifier::kMeshopt, Simplifier::kOpenMesh);
+  BuildOptions o;
+  o.simplifier = s;
+  o.threads = 2;
+  ClusterDag d = build_dag(m, o);
+  expect_dag_properties(d, m.triangle_count());
+  expect_borders_preserved(d, /*same_use_count=*/false);
+  RC_ASSERT(!::testing::Test::HasFailure());
+}
+
+}  // namespace
+}  // namespace vgeo::test

@@ -21,6 +21,7 @@ constexpr int kFloat = 5126, kUByte = 5121, kByte = 5120, kUShort = 5123, kShort
 struct GltfBuilder {
   json j;
   std::vector<uint8_t> bin;
+  size_t buffer_length_override = 0;  // 0: the real BIN size
 
   GltfBuilder() {
     j["asset"] = {{"version", "2.0"}};
@@ -66,7 +67,7 @@ struct GltfBuilder {
   }
   std::vector<uint8_t> glb() const {
     json doc = j;
-    doc["buffers"] = json::array({json{{"byteLength", bin.size()}}});
+    doc["buffers"] = json::array({json{{"byteLength", buffer_length_override ? buffer_length_override : bin.size()}}});
     std::string text = doc.dump();
     while (text.size() % 4) text.push_back(' ');
     std::vector<uint8_t> b(bin);
@@ -420,6 +421,17 @@ TEST(ImportGltf, EachErrorCodeFromAMinimalFile) {
          std::memcpy(b.bin.data(), zero.data(), 48);
        }},
       {"EXTENSION_UNSUPPORTED", [](GltfBuilder& b) { b.j["extensionsRequired"] = {"KHR_draco_mesh_compression"}; }},
+      {"BUFFER_VIEW_INDEX_OUT_OF_RANGE", [](GltfBuilder& b) { b.j["accessors"][0]["bufferView"] = 9; }},
+      {"BUFFER_VIEW_INDEX_OUT_OF_RANGE",
+       [](GltfBuilder& b) {
+         std::vector<uint8_t> where = {1};
+         int iv = b.add_view(where.data(), 1);
+         b.j["accessors"][0]["sparse"] = {{"count", 1},
+                                          {"indices", {{"bufferView", iv}, {"componentType", kUByte}}},
+                                          {"values", {{"bufferView", 42}}}};
+       }},
+      {"BUFFER_INDEX_OUT_OF_RANGE", [](GltfBuilder& b) { b.j["bufferViews"][0]["buffer"] = 3; }},
+      {"ACCESSOR_COUNT_INVALID", [](GltfBuilder& b) { b.j["accessors"][0]["count"] = 0; }},
       {"GLTF_SCHEMA_ERROR", [](GltfBuilder& b) { b.j["meshes"][0]["primitives"] = json::object(); }},
       {"GLTF_SCHEMA_ERROR", [](GltfBuilder& b) { b.j["nodes"][0]["name"] = 3; }},
       {"GLTF_SCHEMA_ERROR", [](GltfBuilder& b) { b.j["accessors"][0]["count"] = -1; }},
@@ -428,6 +440,13 @@ TEST(ImportGltf, EachErrorCodeFromAMinimalFile) {
          // A bufferView-less accessor costs no bytes in the file; its count is not a licence to allocate.
          b.j["accessors"][0].erase("bufferView");
          b.j["accessors"][0]["count"] = 1000000000;
+         b.j["meshes"][0]["primitives"][0].erase("indices");
+       }},
+      {"INPUT_EXPANSION_LIMIT",
+       [](GltfBuilder& b) {
+         // count * 12 overflows 64 bits if multiplied naively.
+         b.j["accessors"][0].erase("bufferView");
+         b.j["accessors"][0]["count"] = uint64_t(1) << 62;
          b.j["meshes"][0]["primitives"][0].erase("indices");
        }},
   };
@@ -462,6 +481,27 @@ TEST(ImportGltf, NumberOutsideDoubleRangeIsAParseError) {
               vgeo::import_scene_from_memory(reinterpret_cast<const uint8_t*>(text.data()), text.size(), "m.gltf");
             }),
             "GLTF_PARSE_ERROR");
+}
+
+TEST(ImportGltf, BufferErrorsFromTinygltf) {
+  json doc = json::parse(quad_builder().gltf());
+  doc["buffers"][0]["byteLength"] = 4096;  // the data: URI holds 60 bytes: a decode failure
+  std::string text = doc.dump();
+  auto code = [&] {
+    return error_code_of([&] {
+      vgeo::import_scene_from_memory(reinterpret_cast<const uint8_t*>(text.data()), text.size(), "b.gltf");
+    });
+  };
+  EXPECT_EQ(code(), "BUFFER_URI_INVALID");
+  GltfBuilder b = quad_builder();
+  b.buffer_length_override = 4096;  // BIN chunk holds 60 bytes
+  auto glb = b.glb();
+  EXPECT_EQ(error_code_of([&] { vgeo::import_scene_from_memory(glb.data(), glb.size(), "b.glb"); }),
+            "BUFFER_LENGTH_MISMATCH");
+  doc = json::parse(quad_builder().gltf());
+  doc["buffers"][0]["uri"] = "data:application/octet-stream;base64,@@@@";
+  text = doc.dump();
+  EXPECT_EQ(code(), "BUFFER_URI_INVALID");
 }
 
 TEST(ImportGltf, ContainerAndFormatErrors) {

@@ -1,8 +1,8 @@
 // Properties: near-plane clipping, guard band, back-face culling, invalid input.
-//  * Conformance: on every unambiguous pixel (centre ≥ kUnambiguousMargin from each edge
-//    of the exactly clipped and projected polygon, computed independently in double
-//    without guard band or fixed point), coverage equals the exact model, and the depth
-//    matches the exact affine depth within the snapping tolerance (spec/raster.md).
+//  * Conformance: on every unambiguous pixel (centre ≥ unambiguous_margin() from the
+//    outline of the exactly clipped and projected polygon, lib/raster/raster_model.h:
+//    double, no guard band, no fixed point), coverage equals the exact model, and the
+//    depth matches the exact affine depth within the snapping tolerance (spec/raster.md).
 //  * Written depths are always in (0, 1], finite, never −0; a triangle behind the camera
 //    writes nothing; vertices at the eye or exactly on the near plane produce no NaN.
 //  * NaN/Inf input is dropped and counted, never reaches a float→int conversion.
@@ -16,6 +16,7 @@
 #include <numbers>
 
 #include "raster_testing.h"
+#include "vgeo/raster/raster_model.h"
 
 namespace vgeo {
 namespace {
@@ -23,78 +24,6 @@ namespace {
 using raster_test::raster_tris;
 using raster_test::Tri;
 using raster_test::uniform;
-
-// spec/raster.md "Comparing implementations": 4 sub-pixel units (1/64 px).
-constexpr double kUnambiguousMargin = 4.0 / 256.0;
-
-struct Pt {
-  double x, y, depth;
-};
-
-// Exact-model screen polygon of a triangle: clip space in double, clipped against
-// w ≥ z_near only, projected without snapping.
-std::vector<Pt> model_polygon(const Tri& t, const Mat4& m, double z_near, uint32_t w, uint32_t h) {
-  struct C {
-    double v[4];
-  };
-  std::vector<C> poly;
-  for (const Vec3& p : t.v) {
-    C c;
-    for (int r = 0; r < 4; ++r)
-      c.v[r] = double(m.at(r, 0)) * p.x + double(m.at(r, 1)) * p.y + double(m.at(r, 2)) * p.z + m.at(r, 3);
-    poly.push_back(c);
-  }
-  std::vector<C> out;
-  for (size_t i = 0; i < poly.size(); ++i) {
-    const C& a = poly[i];
-    const C& b = poly[(i + 1) % poly.size()];
-    double da = a.v[3] - z_near, db = b.v[3] - z_near;
-    if (da >= 0) out.push_back(a);
-    if ((da >= 0) != (db >= 0)) {
-      double s = da / (da - db);
-      C c;
-      for (int k = 0; k < 4; ++k) c.v[k] = a.v[k] + s * (b.v[k] - a.v[k]);
-      out.push_back(c);
-    }
-  }
-  std::vector<Pt> screen;
-  for (const C& c : out)
-    screen.push_back({(c.v[0] / c.v[3] * 0.5 + 0.5) * w, (0.5 - c.v[1] / c.v[3] * 0.5) * h, c.v[2] / c.v[3]});
-  return screen;
-}
-
-double polygon_area2(const std::vector<Pt>& p) {
-  double a = 0;
-  for (size_t i = 0; i < p.size(); ++i) {
-    const Pt& u = p[i];
-    const Pt& v = p[(i + 1) % p.size()];
-    a += u.x * v.y - v.x * u.y;
-  }
-  return a;
-}
-
-// +1 unambiguously inside, −1 unambiguously outside, 0 ambiguous: the centre is closer
-// than kUnambiguousMargin to the polygon outline (Euclidean distance to the segments, so
-// degenerate and sliver polygons are handled without any edge orientation).
-int classify(const std::vector<Pt>& p, double x, double y) {
-  if (p.size() < 3) return -1;
-  double min_dist = std::numeric_limits<double>::infinity();
-  int winding = 0;
-  for (size_t i = 0; i < p.size(); ++i) {
-    const Pt& a = p[i];
-    const Pt& b = p[(i + 1) % p.size()];
-    double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
-    double t = len2 > 0 ? std::clamp(((x - a.x) * dx + (y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
-    min_dist = std::min(min_dist, std::hypot(a.x + t * dx - x, a.y + t * dy - y));
-    // Crossing of the ray to +x (half-open in y), signed by direction.
-    if ((a.y <= y) != (b.y <= y)) {
-      double xc = a.x + (y - a.y) / (b.y - a.y) * dx;
-      if (xc > x) winding += (b.y > a.y) ? 1 : -1;
-    }
-  }
-  if (min_dist < kUnambiguousMargin) return 0;
-  return winding != 0 ? 1 : -1;
-}
 
 void check_conformance(const Tri& t, const Mat4& m, double z_near, uint32_t w, uint32_t h, RasterPath path) {
   RasterOptions opt;
@@ -104,35 +33,40 @@ void check_conformance(const Tri& t, const Mat4& m, double z_near, uint32_t w, u
   VisBuffer buf;
   buf.resize(w, h);
   raster_tris(buf, {t}, m, 5, opt);
-  std::vector<Pt> poly = model_polygon(t, m, z_near, w, h);
-  double area2 = poly.size() >= 3 ? polygon_area2(poly) : 0.0;
-  // Depth plane of the exact polygon (for polygons large enough to define it well).
-  bool check_depth = std::abs(area2) > 2.0;
+  ModelPolygon poly = model_polygon(t.v, m, z_near, w, h);
+  const double margin = unambiguous_margin(poly);
+  double area2 = 0;
+  for (uint32_t i = 0; i < poly.count; ++i) {
+    uint32_t j = (i + 1) % poly.count;
+    area2 += poly.x[i] * poly.y[j] - poly.x[j] * poly.y[i];
+  }
+  // Depth plane of the exact polygon from its best-conditioned fan triangle.
+  bool check_depth = false;
   double da = 0, db = 0;
   double zmin = 1, zmax = 0;
-  for (const Pt& p : poly) zmin = std::min(zmin, p.depth), zmax = std::max(zmax, p.depth);
-  if (check_depth) {
-    // Least-structured choice: the fan triangle (0, k, k+1) with the largest area.
-    size_t best = 1;
+  for (uint32_t i = 0; i < poly.count; ++i) zmin = std::min(zmin, poly.depth[i]), zmax = std::max(zmax, poly.depth[i]);
+  if (poly.count >= 3 && std::abs(area2) > 2.0) {
+    uint32_t best = 1;
     double best_area = 0;
-    for (size_t k = 1; k + 1 < poly.size(); ++k) {
-      double a = std::abs((poly[k].x - poly[0].x) * (poly[k + 1].y - poly[0].y) -
-                          (poly[k + 1].x - poly[0].x) * (poly[k].y - poly[0].y));
+    for (uint32_t k = 1; k + 1 < poly.count; ++k) {
+      double a = std::abs((poly.x[k] - poly.x[0]) * (poly.y[k + 1] - poly.y[0]) -
+                          (poly.x[k + 1] - poly.x[0]) * (poly.y[k] - poly.y[0]));
       if (a > best_area) best_area = a, best = k;
     }
-    const Pt &p0 = poly[0], &p1 = poly[best], &p2 = poly[best + 1];
-    double a2 = (p1.x - p0.x) * (p2.y - p0.y) - (p2.x - p0.x) * (p1.y - p0.y);
+    uint32_t i1 = best, i2 = best + 1;
+    double a2 = (poly.x[i1] - poly.x[0]) * (poly.y[i2] - poly.y[0]) - (poly.x[i2] - poly.x[0]) * (poly.y[i1] - poly.y[0]);
     check_depth = std::abs(a2) > 2.0;
     if (check_depth) {
-      da = ((p1.depth - p0.depth) * (p2.y - p0.y) - (p2.depth - p0.depth) * (p1.y - p0.y)) / a2;
-      db = ((p2.depth - p0.depth) * (p1.x - p0.x) - (p1.depth - p0.depth) * (p2.x - p0.x)) / a2;
+      double dz1 = poly.depth[i1] - poly.depth[0], dz2 = poly.depth[i2] - poly.depth[0];
+      da = (dz1 * (poly.y[i2] - poly.y[0]) - dz2 * (poly.y[i1] - poly.y[0])) / a2;
+      db = (dz2 * (poly.x[i1] - poly.x[0]) - dz1 * (poly.x[i2] - poly.x[0])) / a2;
     }
   }
   for (uint32_t py = 0; py < h; ++py)
     for (uint32_t px = 0; px < w; ++px) {
       uint64_t key = buf.keys[size_t(py) * w + px];
       double cx = px + 0.5, cy = py + 0.5;
-      int expected = classify(poly, cx, cy);
+      int expected = int(model_coverage(poly, cx, cy, margin));
       if (expected != 0 && (expected > 0) != (key != 0))
         RC_LOG() << "pixel (" << px << ", " << py << ") raster " << (key != 0) << " model " << expected
                  << " path " << int(path) << " tri " << raster_test::describe(t) << "\n";
@@ -146,7 +80,7 @@ void check_conformance(const Tri& t, const Mat4& m, double z_near, uint32_t w, u
       RC_ASSERT(double(d) >= zmin * (1 - 1e-5) - 1e-30 || d == std::numeric_limits<float>::min());
       RC_ASSERT(double(d) <= zmax * (1 + 1e-5) || d == std::numeric_limits<float>::min());
       if (check_depth && expected > 0) {
-        double exact = poly[0].depth + da * (cx - poly[0].x) + db * (cy - poly[0].y);
+        double exact = poly.depth[0] + da * (cx - poly.x[0]) + db * (cy - poly.y[0]);
         // Snapping moves a vertex by ≤ 1/512 px per axis: allow 2/256 px of gradient.
         double tol = 1e-6 * zmax + (std::abs(da) + std::abs(db)) * (2.0 / 256.0) + 1e-7;
         if (std::abs(d - exact) > tol)
@@ -242,6 +176,22 @@ TEST(RasterClip, VertexAtEyeAndOnNearPlaneGiveFiniteDepths) {
     saw_one |= d == 1.0f;
   }
   EXPECT_TRUE(saw_one);  // the triangle on the near plane writes depth exactly 1
+}
+
+// Found by the conformance property (max_success=3000): denormal vertex depths.
+TEST(RasterClip, DenormalVertexDepthsClampToFltMin) {
+  const uint32_t w = 16, h = 16;
+  const float tiny = std::ldexp(1.0f, -140);
+  Tri t{{{1, 1, tiny}, {1, 15, tiny}, {15, 1, 0.0f}}};
+  VisBuffer buf;
+  buf.resize(w, h);
+  RasterStats s = raster_tris(buf, {t}, raster_test::pixel_to_clip(w, h), 1, RasterOptions{});
+  EXPECT_GT(s.pixels_written, 0u);
+  for (uint64_t k : buf.keys) {
+    if (k) {
+      EXPECT_EQ(vis_key_depth(k), std::numeric_limits<float>::min());
+    }
+  }
 }
 
 TEST(RasterCull, BackFacesCulledOnlyWhenEnabled) {
@@ -355,6 +305,54 @@ TEST(RasterProjection, ReversedZInfiniteFar) {
   EXPECT_NEAR(c[0] / c[3], 1.0, 1e-12);
   EXPECT_NEAR(c[1] / c[3], 1.0, 1e-12);
   EXPECT_DOUBLE_EQ(c[3], 1.0);
+}
+
+}  // namespace
+}  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+// The model itself: known points, and it must flag a rasterization shifted by one pixel.
+TEST(RasterModel, ClassifiesKnownPointsAndDetectsShiftedCoverage) {
+  const uint32_t w = 32, h = 32;
+  Mat4 m = raster_test::pixel_to_clip(w, h);
+  Vec3 v[3] = {{2, 2, 0.5f}, {2, 30, 0.5f}, {30, 2, 0.5f}};
+  ModelPolygon p = model_polygon(v, m, 0.01, w, h);
+  ASSERT_EQ(p.count, 3u);
+  double margin = unambiguous_margin(p);
+  EXPECT_NEAR(margin, 1.0 / 64 + 30.0 / (1 << 18), 1e-12);
+  EXPECT_EQ(model_coverage(p, 5.5, 5.5, margin), ModelCoverage::kInside);
+  EXPECT_EQ(model_coverage(p, 1.5, 5.5, margin), ModelCoverage::kOutside);
+  EXPECT_EQ(model_coverage(p, 2.0, 5.5, margin), ModelCoverage::kAmbiguous);  // on the left edge
+  EXPECT_EQ(model_coverage(p, 16.0, 16.0, margin), ModelCoverage::kAmbiguous);  // on the hypotenuse
+  EXPECT_EQ(model_coverage(p, 20.5, 20.5, margin), ModelCoverage::kOutside);
+
+  VisBuffer buf;
+  buf.resize(w, h);
+  raster_tris(buf, {Tri{{v[0], v[1], v[2]}}}, m, 1, RasterOptions{});
+  int compared = 0, disagree = 0, shifted_disagree = 0;
+  for (uint32_t y = 0; y < h; ++y)
+    for (uint32_t x = 0; x < w; ++x) {
+      ModelCoverage c = model_coverage(p, x + 0.5, y + 0.5, margin);
+      if (c == ModelCoverage::kAmbiguous) continue;
+      bool in = c == ModelCoverage::kInside;
+      ++compared;
+      disagree += in != (buf.keys[y * w + x] != 0);
+      bool shifted = x > 0 && buf.keys[y * w + x - 1] != 0;  // a rasterizer off by one pixel
+      shifted_disagree += in != shifted;
+    }
+  EXPECT_GT(compared, int(w * h) * 9 / 10);
+  EXPECT_EQ(disagree, 0);
+  EXPECT_GT(shifted_disagree, 20);
+}
+
+// Non-finite input: the model is empty (matches the rasterizer dropping the triangle).
+TEST(RasterModel, NonFiniteTriangleIsEmpty) {
+  Vec3 v[3] = {{std::numeric_limits<float>::quiet_NaN(), 0, 0.5f}, {0, 1, 0.5f}, {1, 0, 0.5f}};
+  ModelPolygon p = model_polygon(v, Mat4{}, 0.01, 8, 8);
+  EXPECT_EQ(p.count, 0u);
+  EXPECT_EQ(model_coverage(p, 4, 4, unambiguous_margin(p)), ModelCoverage::kOutside);
 }
 
 }  // namespace

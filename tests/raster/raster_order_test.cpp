@@ -84,6 +84,32 @@ RC_GTEST_PROP(RasterOrder, ShuffledOrderAndThreadCountGiveIdenticalBuffers, ()) 
   RC_ASSERT(first_mismatch(in_order, threaded) == -1L);
 }
 
+// Triangle-level shuffle: each triangle submitted as its own cluster whose id is the
+// triangle's original position, in a random order, equals the in-order submission.
+RC_GTEST_PROP(RasterOrder, ShuffledTriangleOrderGivesIdenticalBuffer, ()) {
+  const uint32_t w = 32, h = 32;
+  Mat4 m = raster_test::pixel_to_clip(w, h);
+  int n = uniform(2, 40);
+  std::vector<Cluster> singles;
+  for (int i = 0; i < n; ++i) {
+    Tri t = raster_test::pixel_triangle(int(w), int(h));
+    if (i > 0 && uniform(0, 3) == 0) t = singles[uniform<size_t>(0, singles.size())].tris[0];  // exact duplicate
+    singles.push_back({{t}, uint32_t(i)});
+  }
+  RasterOptions opt;
+  opt.path = *rc::gen::element(RasterPath::kAuto, RasterPath::kMicropoly, RasterPath::kScanline);
+  std::vector<size_t> order(singles.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  VisBuffer a, b;
+  a.resize(w, h);
+  b.resize(w, h);
+  draw(a, singles, order, m, opt);
+  std::mt19937 rng(uniform<uint32_t>(0, 1u << 30));
+  std::shuffle(order.begin(), order.end(), rng);
+  draw(b, singles, order, m, opt);
+  RC_ASSERT(first_mismatch(a, b) == -1L);
+}
+
 // Many threads hammering one small buffer with the same clusters (maximal contention).
 TEST(RasterOrder, ConcurrentWritersOnSamePixelsMatchSerial) {
   const uint32_t w = 16, h = 16;

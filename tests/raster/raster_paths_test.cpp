@@ -60,7 +60,9 @@ RC_GTEST_PROP(RasterPaths, ClusterOfTrianglesMatchesReference, ()) {
   const uint32_t w = 32, h = 32;
   int n = raster_test::uniform(1, 24);
   std::vector<Tri> tris;
-  for (int i = 0; i < n; ++i) tris.push_back(raster_test::pixel_triangle(int(w), int(h)));
+  for (int i = 0; i < n; ++i)
+    tris.push_back(i > 0 && raster_test::uniform(0, 2) ? raster_test::neighbour_triangle(tris.back(), int(w), int(h))
+                                                       : raster_test::pixel_triangle(int(w), int(h)));
   check_paths_match_reference(tris, raster_test::pixel_to_clip(w, h), w, h, *rc::gen::arbitrary<bool>(), 7);
 }
 

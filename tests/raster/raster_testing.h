@@ -177,7 +177,22 @@ inline Tri view_triangle(float z_near) {
     else z = -float(uniform(1, 20000)) / 1000.0f;               // in front (some nearer than z_near)
     v = {x, y, z};
   }
+  // Edge-on: the third vertex on the line through the eye and the first puts the plane
+  // of the triangle through the eye (it projects to a segment).
+  if (uniform(0, 5) == 0) {
+    float k = *rc::gen::element(0.5f, 2.0f, -1.0f, 1.0f);
+    t.v[2] = {t.v[0].x * k, t.v[0].y * k, t.v[0].z * k};
+  }
   return t;
+}
+
+// A triangle sharing the edge (b, a) with `prev` = (a, b, c): same facing, the fourth
+// vertex on the other side or anywhere (overlaps allowed).
+inline Tri neighbour_triangle(const Tri& prev, int width, int height) {
+  Tri fresh = pixel_triangle(width, height);
+  int e = uniform(0, 3);
+  Vec3 a = prev.v[e], b = prev.v[(e + 1) % 3];
+  return Tri{{b, a, fresh.v[0]}};
 }
 
 }  // namespace vgeo::raster_test

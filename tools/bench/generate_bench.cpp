@@ -8,6 +8,7 @@
 
 #include "vgeo/mesh/export.h"
 #include "vgeo/mesh/generate.h"
+#include "vgeo/mesh/subdivide.h"
 
 namespace {
 
@@ -57,6 +58,18 @@ void BM_GenerateAndWriteGlb(benchmark::State& state, vgeo::GenShape shape) {
   std::remove(path.c_str());
 }
 
+// One Loop step through OpenMesh (input triangles given; output is 4x).
+void BM_SubdivideLoop(benchmark::State& state) {
+  vgeo::GenerateOptions o;
+  o.target_triangles = uint64_t(state.range(0));
+  vgeo::Mesh m = vgeo::generate_mesh(o);
+  for (auto _ : state) {
+    vgeo::Mesh d = vgeo::subdivide_loop(m);
+    benchmark::DoNotOptimize(d.positions.data());
+  }
+  state.counters["out_triangles"] = double(4 * m.triangle_count());
+}
+
 constexpr int64_t k1M = 1'000'000, k10M = 10'000'000;
 
 BENCHMARK_CAPTURE(BM_GenerateMesh, sphere_1thread, vgeo::GenShape::kSphere, 1u)
@@ -73,11 +86,10 @@ BENCHMARK_CAPTURE(BM_GenerateMesh, torus_1thread, vgeo::GenShape::kTorus, 1u)
     ->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
 BENCHMARK(BM_SmoothNormals)->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
 BENCHMARK(BM_WriteGlb)->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_SubdivideLoop)->Arg(250'000)->Arg(2'500'000)->Unit(benchmark::kMillisecond)->Iterations(1);
 BENCHMARK_CAPTURE(BM_GenerateAndWriteGlb, sphere, vgeo::GenShape::kSphere)
     ->Arg(k1M)->Arg(k10M)->Unit(benchmark::kMillisecond)->Iterations(1);
 
 }  // namespace
 
 // vgeo_microbench links benchmark::benchmark (not benchmark_main) and no other bench file
-// defines main yet. If another tools/bench/*.cpp adds BENCHMARK_MAIN, delete this line.
-BENCHMARK_MAIN();

@@ -114,4 +114,3 @@ BENCHMARK(BM_RasterMicroTriangles1080p)
 
 // vgeo_microbench globs every tools/bench/*.cpp into one executable and links
 // benchmark::benchmark (not benchmark_main), so exactly one file provides main().
-BENCHMARK_MAIN();

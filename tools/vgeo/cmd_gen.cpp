@@ -3,8 +3,15 @@
 // writes a deterministic procedural mesh (lib/mesh/generate.h), optionally densified by
 // Loop subdivision (lib/mesh/subdivide.h). Same arguments -> byte-identical file.
 //
-// --input currently reads OBJ/PLY/OFF/STL through OpenMesh (read_mesh_openmesh); switching
-// it to import_scene (lib/mesh/import.h, glTF + materials) is a follow-up once merged.
+// --input goes through import_scene (lib/mesh/import.h: glTF + OBJ/PLY/OFF/STL, validated,
+// welded) when that header is present; until it is merged, through the OpenMesh stopgap
+// read_mesh_openmesh (OBJ/PLY/OFF/STL, positions + triangles only).
+#if __has_include("vgeo/mesh/import.h")
+#include "vgeo/mesh/import.h"
+#define VGEO_GEN_HAS_IMPORT 1
+#else
+#define VGEO_GEN_HAS_IMPORT 0
+#endif
 #include <chrono>
 #include <cstdio>
 #include <string>
@@ -43,9 +50,15 @@ void run_gen(const GenArgs& a) {
   std::string what;
   if (!a.input.empty()) {
     if (!a.shape.empty()) fail("GEN_SHAPE_AND_INPUT", "vgeo gen", "give either SHAPE or --input, not both", kExitUsage);
+#if VGEO_GEN_HAS_IMPORT
+    ImportOptions import_options;
+    import_options.weld = true;  // Loop needs shared vertices, not per-corner copies
+    scene = import_scene(a.input, import_options).scene;
+#else
     scene.meshes.push_back(read_mesh_openmesh(a.input));
     scene.materials.push_back(Material{"default", {0.8f, 0.8f, 0.8f, 1.0f}});
     scene.instances.push_back(Instance{});
+#endif
     what = "input=" + a.input;
   } else {
     if (a.shape.empty()) fail("GEN_NO_SHAPE", "vgeo gen", "missing SHAPE (one of " + shape_list() + ") or --input", kExitUsage);
@@ -63,13 +76,14 @@ void run_gen(const GenArgs& a) {
   if (a.subdivide > 0) {
     SubdivideOptions sub;
     sub.iterations = a.subdivide;
-    scene.meshes[0] = subdivide_loop(scene.meshes[0], sub);
+    for (Mesh& mesh : scene.meshes) mesh = subdivide_loop(mesh, sub);
   }
   write_scene_file(scene, a.output);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const Mesh& m = scene.meshes[0];
+  size_t triangles = 0, vertices = 0;
+  for (const Mesh& mesh : scene.meshes) triangles += mesh.triangle_count(), vertices += mesh.vertex_count();
   std::printf("gen: %s subdivide=%u triangles=%zu vertices=%zu -> %s (%.2f s)\n", what.c_str(), a.subdivide,
-              m.triangle_count(), m.vertex_count(), a.output.c_str(), seconds);
+              triangles, vertices, a.output.c_str(), seconds);
 }
 
 }  // namespace
@@ -78,7 +92,7 @@ void add_gen_command(CLI::App& app, Context& ctx) {
   auto args = std::make_shared<GenArgs>();
   auto* cmd = app.add_subcommand("gen", "Write a deterministic procedural mesh (or densify --input) as GLB/OBJ/PLY/OFF");
   cmd->add_option("shape", args->shape, "sphere | terrain | islands | thin | torus");
-  cmd->add_option("--triangles,-n", args->triangles, "target triangle count (reached within 2% for >= 10000)")
+  cmd->add_option("--triangles,-n", args->triangles, "target triangle count (reached within 2% for >= 32000)")
       ->capture_default_str();
   cmd->add_option("--seed,-s", args->seed, "seed (same seed -> byte-identical output)")->capture_default_str();
   cmd->add_option("--islands", args->islands, "islands: number of components (0 = one per ~768 triangles)");
@@ -86,7 +100,7 @@ void add_gen_command(CLI::App& app, Context& ctx) {
       ->check(CLI::Range(0u, 8u));
   cmd->add_option("--threads,-j", args->threads, "threads for generation (0 = all cores; output is identical)")
       ->capture_default_str();
-  cmd->add_option("--input,-i", args->input, "densify this OBJ/PLY/OFF/STL file instead of generating");
+  cmd->add_option("--input,-i", args->input, "densify this mesh file (OBJ/PLY/OFF/STL; glTF once import.h is merged) instead of generating");
   cmd->add_option("-o,--output", args->output, "output file: .glb, .obj, .ply or .off")->required();
   cmd->callback([args, &ctx] {
     run_gen(*args);

@@ -1,13 +1,93 @@
-// Placeholder until the issue that owns `vgeo verify` lands.
+// `vgeo verify FILE`: checks every mesh's DAG of a VGEODAG1 file against the invariants of
+// spec/invariants.md; exit 0 when all hold, 1 (kExitInvariantViolation) otherwise.
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
 #include "commands.h"
+#include "vgeo/build/dag_io.h"
 #include "vgeo/core/error.h"
+#include "vgeo/verify/verify.h"
 
 namespace vgeo::cli {
 
+namespace {
+struct VerifyArgs {
+  std::string input;
+  std::string json_path;
+  std::string checks = "all";
+  uint32_t views = VerifyOptions{}.views;
+  uint32_t thresholds = VerifyOptions{}.thresholds_per_view;
+  uint64_t seed = VerifyOptions{}.seed;
+  uint32_t samples_per_edge = VerifyOptions{}.error_samples_per_edge;
+  unsigned threads = 0;
+  uint32_t max_stored = VerifyOptions{}.max_stored_per_code;
+  bool quiet = false;
+  bool strict_border = false;
+};
+
+int run_verify(const VerifyArgs& a) {
+  VerifyOptions options;
+  if (!parse_verify_checks(a.checks, &options.checks))
+    fail("CLI_BAD_CHECKS", "vgeo verify",
+         "--checks takes a comma-separated list of: structure, monotonic, cut, crack, error_bound, all", kExitUsage);
+  options.views = a.views;
+  options.thresholds_per_view = a.thresholds;
+  options.seed = a.seed;
+  options.error_samples_per_edge = a.samples_per_edge;
+  options.threads = a.threads;
+  options.max_stored_per_code = a.max_stored;
+  options.strict_border = a.strict_border;
+
+  BuiltScene scene = read_dag_file(a.input);  // throws VgeoError (DAGFILE_*, I/O)
+  bool all_ok = true;
+  nlohmann::json json{{"file", a.input}, {"meshes", nlohmann::json::array()}};
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    VerifyReport report = verify_dag(scene.meshes[m], options);
+    all_ok &= report.ok();
+    if (!a.quiet) {
+      std::printf("mesh %zu: %s\n%s", m, report.ok() ? "all invariants hold" : "INVARIANT VIOLATIONS",
+                  verify_report_summary(report).c_str());
+      for (size_t i = 0; i < report.violations.size() && i < 10; ++i) {
+        const Violation& v = report.violations[i];
+        std::printf("  %s %s %llu: %s\n", v.code.c_str(), v.element.c_str(), (unsigned long long)v.index,
+                    v.message.c_str());
+      }
+    }
+    json["meshes"].push_back(nlohmann::json::parse(verify_report_json(report, "mesh " + std::to_string(m))));
+  }
+  if (scene.meshes.empty()) {
+    all_ok = false;
+    std::printf("the file holds no meshes\n");
+  }
+  json["ok"] = all_ok;
+  if (!a.json_path.empty()) {
+    std::ofstream f(a.json_path, std::ios::binary);
+    if (!(f << json.dump(2) << "\n") || !f.flush()) fail("IO_WRITE", a.json_path, "cannot write the JSON report", kExitIo);
+  }
+  return all_ok ? kExitOk : kExitInvariantViolation;
+}
+}  // namespace
+
 void add_verify_command(CLI::App& app, Context& ctx) {
-  auto* cmd = app.add_subcommand("verify", "(not implemented yet)");
-  cmd->allow_extras();
-  cmd->callback([&ctx] { fail("NOT_IMPLEMENTED", "vgeo verify", "this command is not implemented yet", kExitInternal); (void)ctx; });
+  auto args = std::make_shared<VerifyArgs>();
+  auto* cmd = app.add_subcommand("verify", "check a DAG file against every invariant of spec/invariants.md");
+  cmd->add_option("file", args->input, "DAG file written by `vgeo build` (VGEODAG1)")->required();
+  cmd->add_option("--json", args->json_path, "write the full report (every stored violation) as JSON");
+  cmd->add_option("--checks", args->checks, "comma-separated: structure,monotonic,cut,crack,error_bound (default all)");
+  cmd->add_option("--views", args->views, "random viewpoints for the projected-error, cut and crack checks");
+  cmd->add_option("--thresholds", args->thresholds, "pixel thresholds (cuts) per viewpoint");
+  cmd->add_option("--seed", args->seed, "seed of the views and thresholds");
+  cmd->add_option("--samples-per-edge", args->samples_per_edge,
+                  "error-bound sampling lattice: subdivisions per triangle edge");
+  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores); results do not depend on it");
+  cmd->add_option("--max-stored", args->max_stored, "violations stored per code (all are counted)");
+  cmd->add_flag("--strict-border", args->strict_border,
+                 "the mesh's own open border must survive every cut unchanged (CRACK_BORDER_CHANGED)");
+  cmd->add_flag("--quiet", args->quiet, "print nothing; rely on the exit code and --json");
+  cmd->callback([args, &ctx] { ctx.exit_code = run_verify(*args); });
 }
 
 }  // namespace vgeo::cli

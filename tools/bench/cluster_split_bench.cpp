@@ -1,0 +1,57 @@
+// Leaf clustering: meshopt_buildMeshlets vs METIS recursive bisection, on CGAL meshes
+// (run tools/fetch-data first; VGEO_DATA_DIR overrides ./data). Counters: average fill
+// (triangles per cluster / 128) and boundary-edge fraction (cluster-border edge slots /
+// all edge slots, as BuildLevelReport::boundary_edge_fraction).
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "vgeo/build/build_internal.h"
+#include "vgeo/build/cluster_dag.h"
+#include "vgeo/build/temp_import.h"
+
+namespace {
+
+using namespace vgeo;
+using namespace vgeo::build_detail;
+
+const char* kMeshes[] = {"armadillo", "bunny00", "elephant", "fandisk", "refined_elephant", "diplodocus",
+                         "blobby_3cc", "man"};
+
+void BM_LeafClusters(benchmark::State& state) {
+  const char* dir = std::getenv("VGEO_DATA_DIR");
+  std::string path = std::string(dir ? dir : "data") + "/cgal/meshes/" + kMeshes[state.range(0)] + ".off";
+  if (!std::filesystem::exists(path)) {
+    state.SkipWithError(("missing " + path + " (run tools/fetch-data)").c_str());
+    return;
+  }
+  Scene scene = read_mesh_file_temporary(path);
+  const Mesh& mesh = scene.meshes[0];
+  WeldedMesh welded = weld_positions(mesh);
+  TriangleSet all;
+  all.corners = mesh.indices;
+  all.materials.assign(mesh.triangle_count(), 0);
+  std::vector<uint32_t> scratch(mesh.vertex_count(), kNone);
+  SplitMethod method = state.range(1) ? SplitMethod::kMetis : SplitMethod::kMeshopt;
+  std::vector<TriangleSet> clusters;
+  for (auto _ : state) clusters = split_into_clusters(welded, all, scratch, method);
+  uint64_t open = 0, edges = 0;
+  for (const TriangleSet& c : clusters) {
+    uint64_t o, a;
+    count_cluster_edges(welded, c, &o, &a);
+    open += o;
+    edges += a;
+  }
+  state.SetLabel(kMeshes[state.range(0)]);
+  state.counters["triangles"] = double(mesh.triangle_count());
+  state.counters["clusters"] = double(clusters.size());
+  state.counters["fill"] = double(mesh.triangle_count()) / double(clusters.size()) / kMaxClusterTriangles;
+  state.counters["border"] = double(open) / double(edges);
+}
+
+BENCHMARK(BM_LeafClusters)->ArgNames({"mesh", "metis"})->ArgsProduct({{0, 1, 2, 3, 4, 5, 6, 7}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)->Iterations(1);
+
+}  // namespace

@@ -1,0 +1,68 @@
+// DAG quality of builder variants on CGAL meshes (run tools/fetch-data first; VGEO_DATA_DIR
+// overrides ./data). Quality = triangles of the cut at a uniform object-space error
+// threshold ε (a cluster is in the cut iff parent_error > ε ≥ lod_error): fewer triangles
+// at the same ε is a better DAG. ε = 1e-4, 1e-3, 1e-2 × bounding-box diagonal.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "vgeo/build/build_internal.h"
+#include "vgeo/build/cluster_dag.h"
+#include "vgeo/build/temp_import.h"
+
+namespace {
+
+using namespace vgeo;
+using namespace vgeo::build_detail;
+
+const char* kMeshes[] = {"armadillo", "bunny00", "fandisk", "refined_elephant", "man", "elephant-with-holes"};
+
+void BM_DagQuality(benchmark::State& state) {
+  const char* dir = std::getenv("VGEO_DATA_DIR");
+  std::string path = std::string(dir ? dir : "data") + "/cgal/meshes/" + kMeshes[state.range(0)] + ".off";
+  if (!std::filesystem::exists(path)) {
+    state.SkipWithError(("missing " + path + " (run tools/fetch-data)").c_str());
+    return;
+  }
+  Scene scene = read_mesh_file_temporary(path);
+  const Mesh& mesh = scene.meshes[0];
+  BuildOptions options;
+  options.threads = 0;
+  InternalBuildOptions internal;
+  const char* variant = "meshopt";
+  switch (state.range(1)) {
+    case 1: internal.leaf_split = SplitMethod::kMetis; variant = "metis-leaves"; break;
+    case 2: internal.leaf_split = internal.group_split = SplitMethod::kMetis; variant = "metis-all"; break;
+    case 3: internal.group_target_clusters = 16; variant = "group16"; break;
+    case 4: internal.group_target_clusters = 32; variant = "group32"; break;
+    case 5: options.simplifier = Simplifier::kOpenMesh; variant = "openmesh"; break;
+    default: break;
+  }
+  BuildReport report;
+  ClusterDag dag;
+  for (auto _ : state) dag = build_dag_internal(mesh, options, internal, &report);
+  double diag = length(dag.bounds.max - dag.bounds.min);
+  for (double f : {1e-4, 1e-3, 1e-2}) {
+    double eps = f * diag;
+    uint64_t tris = 0;
+    for (const DagCluster& c : dag.clusters)
+      if (double(c.parent_error) > eps && double(c.lod_error) <= eps) tris += c.triangle_count;
+    state.counters["cut_" + std::to_string(int(std::round(-std::log10(f))))] = double(tris);
+  }
+  uint64_t stuck = 0;
+  for (const BuildLevelReport& l : report.levels) stuck += l.stuck_groups;
+  state.SetLabel(std::string(kMeshes[state.range(0)]) + " " + variant);
+  state.counters["levels"] = double(report.levels.size());
+  state.counters["stored"] = double(report.stored_triangles) / double(report.input_triangles);
+  state.counters["stuck"] = double(stuck);
+  state.counters["root_tris"] = double(report.root_triangles);
+  state.counters["in_tris"] = double(report.input_triangles);
+}
+
+BENCHMARK(BM_DagQuality)->ArgNames({"mesh", "variant"})->ArgsProduct({{0, 1, 2, 3, 4, 5}, {0, 1, 2, 3, 4, 5}})
+    ->Unit(benchmark::kMillisecond)->Iterations(1);
+
+}  // namespace
