@@ -245,7 +245,10 @@ void write_reports(const BenchConfig& cfg, const MachineInfo& machine, const std
               {"total_seconds", total_seconds}};
   j["suites"] = nlohmann::json::array();
   for (const SuiteReport& s : suites) {
-    nlohmann::json js{{"name", s.name}, {"ran", s.ran}, {"seconds", s.seconds}};
+    nlohmann::json js{{"name", s.name},
+                      {"ran", s.ran},
+                      {"status", s.ran ? "ran" : s.skipped_reason.rfind("failed", 0) == 0 ? "failed" : "skipped"},
+                      {"seconds", s.seconds}};
     if (!s.ran) js["skipped_reason"] = s.skipped_reason;
     js["inputs"] = s.inputs;
     js["notes"] = s.notes;
@@ -281,13 +284,15 @@ void write_reports(const BenchConfig& cfg, const MachineInfo& machine, const std
   for (const SuiteReport& s : suites) {
     md << "- **" << s.name << "**: ";
     if (s.ran) md << "ran (" << fmt_time(s.seconds) << ")\n";
+    else if (s.skipped_reason.rfind("failed", 0) == 0) md << "suite " << s.name << ": " << s.skipped_reason << "\n";
     else md << "suite " << s.name << ": skipped (" << s.skipped_reason << ")\n";
   }
   md << "\n";
   for (const SuiteReport& s : suites) {
     md << "## " << s.name << "\n\n";
     if (!s.ran) {
-      md << "suite " << s.name << ": skipped (" << s.skipped_reason << ")\n\n";
+      if (s.skipped_reason.rfind("failed", 0) == 0) md << "suite " << s.name << ": " << s.skipped_reason << "\n\n";
+      else md << "suite " << s.name << ": skipped (" << s.skipped_reason << ")\n\n";
       continue;
     }
     if (!s.summary.empty()) md << s.summary << "\n\n";

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
+#include <stdexcept>
 #include <string>
 
 #include "bench_harness.h"
@@ -54,11 +55,27 @@ void run_bench(const BenchArgs& args) {
     SuiteReport r;
     r.name = s.name;
     double ts = now_seconds();
-    s.run(cfg, r);
+    // A stage that throws is a finding for that stage, not a reason to lose the other suites:
+    // record it in the report (and on stderr) and go on. Exit status stays 0 so the smoke
+    // run in tools/test keeps the harness alive; the report names the failure.
+    try {
+      s.run(cfg, r);
+    } catch (const VgeoError& e) {
+      r = SuiteReport{};
+      r.name = s.name;
+      r.skipped_reason = "failed: " + e.error().line();
+      std::fprintf(stderr, "suite %s: failed: %s\n", s.name, e.error().line().c_str());
+    } catch (const std::exception& e) {
+      r = SuiteReport{};
+      r.name = s.name;
+      r.skipped_reason = std::string("failed: ") + e.what();
+      std::fprintf(stderr, "suite %s: failed: %s\n", s.name, e.what());
+    }
     r.seconds = now_seconds() - ts;
     if (cfg.progress) {
       if (r.ran) std::fprintf(stderr, "suite %s: done in %.1f s\n", s.name, r.seconds);
-      else std::fprintf(stderr, "suite %s: skipped (%s)\n", s.name, r.skipped_reason.c_str());
+      else if (r.skipped_reason.rfind("failed", 0) != 0)
+        std::fprintf(stderr, "suite %s: skipped (%s)\n", s.name, r.skipped_reason.c_str());
     }
     reports.push_back(std::move(r));
   }
