@@ -71,6 +71,64 @@ Sphere cluster_sphere(const Mesh& mesh, const TriangleSet& t) {
   return sphere_of_points(mesh, t.corners.data(), t.corners.size());
 }
 
+// Leaf clustering input, cut into chunks of about kLeafChunkTriangles (see build_dag).
+std::vector<TriangleSet> leaf_chunks(const Mesh& mesh) {
+  size_t n = mesh.triangle_count();
+  std::vector<TriangleSet> chunks;
+  if (n <= kLeafChunkTriangles) {
+    TriangleSet all;
+    all.corners = mesh.indices;
+    all.materials.resize(n);
+    for (size_t t = 0; t < n; ++t) all.materials[t] = mesh.material(t);
+    chunks.push_back(std::move(all));
+    return chunks;
+  }
+  Aabb box;
+  for (uint32_t i : mesh.indices) box.extend(mesh.position(i));
+  constexpr uint32_t kCells = 16;  // per axis: 4096 cells, ≥ 2 chunks' worth each on 10M+
+  auto cell_of = [&](size_t t) {
+    uint32_t q[3];
+    for (int k = 0; k < 3; ++k) {
+      double c = (double(mesh.position(mesh.indices[3 * t])[k]) + mesh.position(mesh.indices[3 * t + 1])[k] +
+                  mesh.position(mesh.indices[3 * t + 2])[k]) / 3.0;
+      double extent = double(box.max[k]) - box.min[k];
+      double f = extent > 0 ? (c - box.min[k]) / extent : 0.0;
+      q[k] = uint32_t(std::clamp(f * kCells, 0.0, double(kCells - 1)));
+    }
+    uint32_t code = 0;
+    for (int b = 3; b >= 0; --b)
+      for (int k = 0; k < 3; ++k) code = (code << 1) | ((q[k] >> b) & 1);
+    return code;
+  };
+  std::vector<uint16_t> cell(n);
+  std::vector<size_t> count(kCells * kCells * kCells + 1, 0);
+  for (size_t t = 0; t < n; ++t) {
+    cell[t] = uint16_t(cell_of(t));
+    ++count[cell[t] + 1];
+  }
+  for (size_t c = 0; c + 1 < count.size(); ++c) count[c + 1] += count[c];
+  std::vector<uint32_t> order(n);
+  {
+    std::vector<size_t> fill(count.begin(), count.end() - 1);
+    for (size_t t = 0; t < n; ++t) order[fill[cell[t]]++] = uint32_t(t);
+  }
+  TriangleSet current;
+  auto flush = [&] {
+    if (current.triangle_count()) chunks.push_back(std::move(current));
+    current = TriangleSet();
+  };
+  for (size_t c = 0; c + 1 < count.size(); ++c) {
+    for (size_t i = count[c]; i < count[c + 1]; ++i) {
+      uint32_t t = order[i];
+      current.corners.insert(current.corners.end(), &mesh.indices[3 * size_t(t)], &mesh.indices[3 * size_t(t)] + 3);
+      current.materials.push_back(mesh.material(t));
+    }
+    if (current.triangle_count() >= kLeafChunkTriangles) flush();
+  }
+  flush();
+  return chunks;
+}
+
 // ---- BVH8 over groups: top-down, split at the median of the largest centre extent ----
 struct BvhBuilder {
   const std::vector<DagGroup>& groups;
@@ -176,13 +234,21 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
   std::vector<WorkGroup> groups;
   {
     double t0 = now_seconds();
-    TriangleSet all;
-    all.corners = mesh.indices;
-    all.materials.resize(mesh.triangle_count());
-    for (size_t t = 0; t < mesh.triangle_count(); ++t) all.materials[t] = mesh.material(t);
-    std::vector<uint32_t> s = take_scratch();
-    std::vector<TriangleSet> leaves = split_into_clusters(welded, all, s, internal.leaf_split);
-    give_scratch(std::move(s));
+    // Large meshes are cut into spatially coherent chunks (cells of a 16^3 grid in Morton
+    // order, consecutive cells merged up to kLeafChunkTriangles) clustered in parallel.
+    // The chunking depends only on the mesh, so the output does not depend on threads.
+    std::vector<TriangleSet> chunks = leaf_chunks(mesh);
+    std::vector<std::vector<TriangleSet>> chunk_leaves(chunks.size());
+    pool.parallel_for(chunks.size(), [&](size_t i) {
+      std::vector<uint32_t> s = take_scratch();
+      chunk_leaves[i] = split_into_clusters(welded, chunks[i], s, internal.leaf_split);
+      give_scratch(std::move(s));
+      chunks[i] = TriangleSet();
+    });
+    std::vector<TriangleSet> leaves;
+    for (auto& cl : chunk_leaves)
+      for (TriangleSet& t : cl) leaves.push_back(std::move(t));
+    chunk_leaves.clear();
     clusters.resize(leaves.size());
     pool.parallel_for(leaves.size(), [&](size_t i) {
       WorkCluster& c = clusters[i];
@@ -206,11 +272,13 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
   for (uint32_t level = 0; !active.empty(); ++level) {
     BuildLevelReport lr;
     lr.level = level;
+    std::vector<std::vector<uint64_t>> open_keys;  // per active cluster, for grouping
     lr.clusters = active.size();
     {
       std::vector<uint64_t> open(active.size()), all(active.size());
+      open_keys.assign(active.size(), {});
       pool.parallel_for(active.size(), [&](size_t i) {
-        count_cluster_edges(welded, clusters[active[i]].triangles, &open[i], &all[i]);
+        count_cluster_edges(welded, clusters[active[i]].triangles, &open[i], &all[i], &open_keys[i]);
       });
       uint64_t so = 0, sa = 0;
       for (size_t i = 0; i < active.size(); ++i) {
@@ -236,7 +304,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
         sets[i] = &clusters[active[i]].triangles;
         bounds[i] = clusters[active[i]].bounds;
       }
-      level_groups = group_clusters(welded, sets, bounds, internal.group_target_clusters);
+      level_groups = group_clusters(sets, open_keys, bounds, internal.group_target_clusters);
       for (auto& g : level_groups)
         for (uint32_t& m : g) m = active[m];
     }
@@ -335,7 +403,10 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
       give_scratch(std::move(sc));
       r.seconds_split = now_seconds() - tm;
       r.terminal = false;
-      r.error = s.error;
+      // The stored error is a promise lib/verify checks (ERROR_BOUND): the backends'
+      // estimates (meshopt's quadric, OpenMesh's removed-vertex distance) can be below the
+      // distance from the simplified surface back to its input, so measure that too.
+      r.error = std::max(s.error, measured_simplification_error(*welded.mesh, merged, s.triangles));
     });
 
     // ---- combine in group order ----
@@ -429,12 +500,28 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
   std::vector<uint32_t> order(clusters.size());
   for (size_t i = 0; i < clusters.size(); ++i) order[new_index[i]] = uint32_t(i);
   std::vector<std::vector<uint32_t>> cluster_vertices(clusters.size());
+  // Per cluster: distinct original vertices in order of first use, and local corners.
+  std::vector<std::vector<uint8_t>> cluster_local(clusters.size());
   pool.parallel_for(clusters.size(), [&](size_t i) {
-    // Unique original vertices in order of first use (linear scan: ≤ 384 corners).
     const TriangleSet& t = clusters[order[i]].triangles;
     std::vector<uint32_t>& verts = cluster_vertices[i];
-    for (uint32_t v : t.corners)
-      if (std::find(verts.begin(), verts.end(), v) == verts.end()) verts.push_back(v);
+    std::vector<uint8_t>& local = cluster_local[i];
+    local.resize(t.corners.size());
+    // Open addressing over ≤ 384 corners: 1024 slots keep probes short.
+    constexpr size_t kSlots = 1024;
+    uint32_t key[kSlots], val[kSlots];
+    std::fill(key, key + kSlots, kNone);
+    for (size_t k = 0; k < t.corners.size(); ++k) {
+      uint32_t v = t.corners[k];
+      size_t h = (v * 0x9E3779B1u) >> 22;
+      while (key[h] != kNone && key[h] != v) h = (h + 1) & (kSlots - 1);
+      if (key[h] == kNone) {
+        key[h] = v;
+        val[h] = uint32_t(verts.size());
+        verts.push_back(v);
+      }
+      local[k] = uint8_t(val[h]);
+    }
   });
   size_t total_vertices = 0, total_triangles = 0;
   for (size_t i = 0; i < clusters.size(); ++i) {
@@ -482,14 +569,8 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
       if (!dag.normals.empty()) std::memcpy(&dag.normals[3 * dst], &mesh.normals[3 * src], 12);
       if (!dag.uvs.empty()) std::memcpy(&dag.uvs[2 * dst], &mesh.uvs[2 * src], 8);
     }
-    for (size_t t = 0; t < c.triangle_count; ++t) {
-      for (int k = 0; k < 3; ++k) {
-        uint32_t v = w.triangles.corners[3 * t + k];
-        dag.indices[3 * (c.triangle_offset + t) + k] =
-            uint8_t(std::find(verts.begin(), verts.end(), v) - verts.begin());
-      }
-      dag.triangle_materials[c.triangle_offset + t] = w.triangles.materials[t];
-    }
+    std::memcpy(&dag.indices[3 * size_t(c.triangle_offset)], cluster_local[i].data(), 3 * size_t(c.triangle_count));
+    for (size_t t = 0; t < c.triangle_count; ++t) dag.triangle_materials[c.triangle_offset + t] = w.triangles.materials[t];
   });
   {
     // Only vertices referenced by triangles count as leaf positions.

@@ -34,6 +34,9 @@ inline constexpr int kMetisSeed = 42;
 // No mesh needs more: each level at least halves the non-terminal clusters or retires
 // them, so 64 levels cover 2^64 clusters. Remaining clusters become terminal.
 inline constexpr uint32_t kMaxLevels = 64;
+// Meshes above this many triangles are leaf-clustered in spatial chunks of about this
+// size, in parallel: chunk borders add ~1% cluster-border edges at 128k triangles/chunk.
+inline constexpr size_t kLeafChunkTriangles = size_t(1) << 17;
 // meshopt target error (relative to the sub-mesh extent): 1 = "no error bound", the
 // triangle count target drives the simplification and the error is measured.
 inline constexpr float kMeshoptTargetError = 1.0f;
@@ -64,8 +67,9 @@ std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const Tri
 
 // Clusters → groups: returns, per group, its member indices into `clusters` (ascending).
 // Deterministic (fixed METIS seed, single call).
-std::vector<std::vector<uint32_t>> group_clusters(const WeldedMesh& welded,
-                                                  const std::vector<const TriangleSet*>& clusters,
+// `open_edges[i]`: sorted welded edge keys used once inside cluster i (count_cluster_edges).
+std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const TriangleSet*>& clusters,
+                                                  const std::vector<std::vector<uint64_t>>& open_edges,
                                                   const std::vector<Sphere>& bounds,
                                                   uint32_t target_clusters = kGroupTargetClusters);
 
@@ -83,6 +87,11 @@ struct SimplifyResult {
   TriangleSet triangles;   // references original vertex ids only (no new positions)
   float error = 0.0f;      // absolute (object units), this simplification only
 };
+// The simplification's own error as stored: the sampled one-sided distance from the
+// simplified triangles to the group's input triangles on the shared error lattice
+// (lib/core/surface_distance.h), rounded up to float.
+float measured_simplification_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified);
+
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
                               const std::vector<uint8_t>& locked, Simplifier simplifier);
 
@@ -100,7 +109,7 @@ Sphere enclose_spheres(const Sphere* spheres, size_t count);
 // Per-cluster count of welded edges used by exactly one triangle of the cluster, and of
 // all distinct welded edges (for BuildLevelReport::boundary_edge_fraction).
 void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
-                         uint64_t* all_edges);
+                         uint64_t* all_edges, std::vector<uint64_t>* open_keys = nullptr);
 
 // Every METIS call holds this lock: GKlib's random state is process-global, so concurrent
 // calls would make results depend on timing (and would race).

@@ -107,7 +107,7 @@ Sphere enclose_spheres(const Sphere* spheres, size_t count) {
 }
 
 void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
-                         uint64_t* all_edges) {
+                         uint64_t* all_edges, std::vector<uint64_t>* open_keys) {
   std::vector<uint64_t> keys;
   keys.reserve(cluster.corners.size());
   for (size_t t = 0; t < cluster.triangle_count(); ++t)
@@ -122,7 +122,10 @@ void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, u
     size_t j = i;
     while (j < keys.size() && keys[j] == keys[i]) ++j;
     ++all;
-    if (j - i == 1) ++open;
+    if (j - i == 1) {
+      ++open;
+      if (open_keys) open_keys->push_back(keys[i]);
+    }
     i = j;
   }
   *open_edges = open;

@@ -32,8 +32,8 @@ struct WeightedEdge {
 
 }  // namespace
 
-std::vector<std::vector<uint32_t>> group_clusters(const WeldedMesh& welded,
-                                                  const std::vector<const TriangleSet*>& clusters,
+std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const TriangleSet*>& clusters,
+                                                  const std::vector<std::vector<uint64_t>>& cluster_open_edges,
                                                   const std::vector<Sphere>& bounds, uint32_t target_clusters) {
   size_t n = clusters.size();
   std::vector<std::vector<uint32_t>> groups;
@@ -47,23 +47,13 @@ std::vector<std::vector<uint32_t>> group_clusters(const WeldedMesh& welded,
 
   // Shared welded edges: (edge key, cluster) for edges open inside their cluster.
   std::vector<std::pair<uint64_t, uint32_t>> open_edges;
-  for (size_t c = 0; c < n; ++c) {
-    const TriangleSet& t = *clusters[c];
-    std::vector<uint64_t> keys;
-    keys.reserve(t.corners.size());
-    for (size_t i = 0; i < t.triangle_count(); ++i)
-      for (int k = 0; k < 3; ++k) {
-        uint32_t a = welded.weld[t.corners[3 * i + k]], b = welded.weld[t.corners[3 * i + (k + 1) % 3]];
-        if (a != b) keys.push_back(edge_key(a, b));
-      }
-    std::sort(keys.begin(), keys.end());
-    for (size_t i = 0; i < keys.size();) {
-      size_t j = i;
-      while (j < keys.size() && keys[j] == keys[i]) ++j;
-      if (j - i == 1) open_edges.push_back({keys[i], uint32_t(c)});
-      i = j;
-    }
+  {
+    size_t total = 0;
+    for (const auto& e : cluster_open_edges) total += e.size();
+    open_edges.reserve(total);
   }
+  for (size_t c = 0; c < n; ++c)
+    for (uint64_t k : cluster_open_edges[c]) open_edges.push_back({k, uint32_t(c)});
   std::sort(open_edges.begin(), open_edges.end());
   std::vector<WeightedEdge> edges;
   for (size_t i = 0; i < open_edges.size();) {

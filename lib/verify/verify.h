@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "vgeo/build/cluster_dag.h"
+#include "vgeo/core/surface_distance.h"
 
 namespace vgeo {
 
@@ -42,7 +43,7 @@ struct VerifyOptions {
   uint64_t seed = 1;                  // views and thresholds are a pure function of the seed
   // Error-bound sampling: barycentric lattice with this many subdivisions per triangle edge
   // ((k+1)(k+2)/2 points per triangle; 3 = corners, edge thirds and the centroid).
-  uint32_t error_samples_per_edge = 3;
+  uint32_t error_samples_per_edge = kErrorLatticeSubdivisions;  // the builder's lattice (lib/core/surface_distance.h)
   unsigned threads = 0;               // 0 = hardware concurrency; results identical for any value
   uint32_t max_stored_per_code = 64;  // violations kept per code (all are counted)
   // The mesh's own open border may be simplified (only vertices shared between groups need

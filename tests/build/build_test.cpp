@@ -209,3 +209,20 @@ RC_GTEST_PROP(BuildProperty, RandomSoupsKeepDagProperties, ()) {
 
 }  // namespace
 }  // namespace vgeo::test
+
+namespace vgeo::test {
+namespace {
+
+TEST(Build, ChunkedLeafClusteringKeepsPropertiesAndDeterminism) {
+  // > kLeafChunkTriangles (131072): leaves are clustered in parallel spatial chunks.
+  Mesh m = make_sphere(275, 275);
+  ASSERT_GT(m.triangle_count(), size_t(1) << 17);
+  BuiltScene a, b;
+  a.meshes.push_back(build(m, Simplifier::kMeshopt, 1));
+  b.meshes.push_back(build(m, Simplifier::kMeshopt, 3));
+  expect_dag_properties(a.meshes[0], m.triangle_count());
+  EXPECT_EQ(encode_dag_file(a), encode_dag_file(b));
+}
+
+}  // namespace
+}  // namespace vgeo::test

@@ -29,7 +29,7 @@ VerifyOptions property_options() {
   VerifyOptions o;
   o.views = 16;
   o.thresholds_per_view = 4;
-  o.error_samples_per_edge = 2;
+  o.error_samples_per_edge = kErrorLatticeSubdivisions;  // the lattice the builder measures on
   o.threads = 1;
   o.max_stored_per_code = 4;
   return o;

@@ -1,0 +1,152 @@
+#include "vgeo/core/surface_distance.h"
+
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace vgeo {
+namespace {
+
+DVec3 sub(DVec3 a, DVec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+double dot(DVec3 a, DVec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+DVec3 cross(DVec3 a, DVec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+
+double point_segment_d2(DVec3 p, DVec3 a, DVec3 b) {
+  DVec3 ab = sub(b, a), ap = sub(p, a);
+  double len2 = dot(ab, ab);
+  double t = len2 > 0 ? std::clamp(dot(ap, ab) / len2, 0.0, 1.0) : 0.0;
+  DVec3 q{a.x + ab.x * t - p.x, a.y + ab.y * t - p.y, a.z + ab.z * t - p.z};
+  return dot(q, q);
+}
+
+// Triangles per tree leaf: a few exact tests beat a deeper tree.
+constexpr uint32_t kLeafSize = 4;
+
+}  // namespace
+
+double point_triangle_distance_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c) {
+  DVec3 n = cross(sub(b, a), sub(c, a));
+  double nn = dot(n, n);
+  if (nn > 0) {
+    DVec3 ap = sub(p, a), bp = sub(p, b), cp = sub(p, c);
+    if (dot(cross(sub(b, a), ap), n) >= 0 && dot(cross(sub(c, b), bp), n) >= 0 &&
+        dot(cross(sub(a, c), cp), n) >= 0) {
+      double h = dot(n, ap);
+      return h * h / nn;
+    }
+  }
+  return std::min({point_segment_d2(p, a, b), point_segment_d2(p, b, c), point_segment_d2(p, c, a)});
+}
+
+TriangleDistanceTree::TriangleDistanceTree(std::vector<DVec3> corners) : corners_(std::move(corners)) {
+  const uint32_t n = uint32_t(corners_.size() / 3);
+  order_.resize(n);
+  std::iota(order_.begin(), order_.end(), 0u);
+  centroids_.resize(n);
+  for (uint32_t t = 0; t < n; ++t) {
+    const DVec3* c = &corners_[3 * size_t(t)];
+    centroids_[t] = {(c[0].x + c[1].x + c[2].x) / 3, (c[0].y + c[1].y + c[2].y) / 3, (c[0].z + c[1].z + c[2].z) / 3};
+  }
+  if (n) {
+    nodes_.reserve(2 * size_t(n) / kLeafSize + 2);
+    nodes_.resize(1);
+    build(0, 0, n);
+  }
+}
+
+double TriangleDistanceTree::triangle_d2(DVec3 p, uint32_t t) const {
+  const DVec3* c = &corners_[3 * size_t(t)];
+  return point_triangle_distance_squared(p, c[0], c[1], c[2]);
+}
+
+static double box_d2(DVec3 p, DVec3 lo, DVec3 hi) {
+  double dx = std::max({lo.x - p.x, 0.0, p.x - hi.x});
+  double dy = std::max({lo.y - p.y, 0.0, p.y - hi.y});
+  double dz = std::max({lo.z - p.z, 0.0, p.z - hi.z});
+  return dx * dx + dy * dy + dz * dz;
+}
+
+// Median splits keep the depth ≤ log2(n) + 1, so the query's fixed stack (2 entries per
+// level) cannot overflow.
+void TriangleDistanceTree::build(uint32_t index, uint32_t first, uint32_t last) {
+  Node nd;
+  const double inf = std::numeric_limits<double>::infinity();
+  nd.lo = {inf, inf, inf};
+  nd.hi = {-inf, -inf, -inf};
+  DVec3 clo = nd.lo, chi = nd.hi;
+  for (uint32_t i = first; i < last; ++i) {
+    uint32_t t = order_[i];
+    for (int j = 0; j < 3; ++j) {
+      const DVec3& q = corners_[3 * size_t(t) + j];
+      nd.lo = {std::min(nd.lo.x, q.x), std::min(nd.lo.y, q.y), std::min(nd.lo.z, q.z)};
+      nd.hi = {std::max(nd.hi.x, q.x), std::max(nd.hi.y, q.y), std::max(nd.hi.z, q.z)};
+    }
+    const DVec3& c = centroids_[t];
+    clo = {std::min(clo.x, c.x), std::min(clo.y, c.y), std::min(clo.z, c.z)};
+    chi = {std::max(chi.x, c.x), std::max(chi.y, c.y), std::max(chi.z, c.z)};
+  }
+  if (last - first <= kLeafSize) {
+    nd.first = first;
+    nd.count = last - first;
+    nodes_[index] = nd;
+    return;
+  }
+  DVec3 ext = sub(chi, clo);
+  int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
+  auto key = [&](uint32_t t) { return axis == 0 ? centroids_[t].x : axis == 1 ? centroids_[t].y : centroids_[t].z; };
+  uint32_t mid = first + (last - first) / 2;
+  // Ties broken by triangle index: the tree (and so every query) is deterministic.
+  std::nth_element(order_.begin() + first, order_.begin() + mid, order_.begin() + last, [&](uint32_t a, uint32_t b) {
+    double ka = key(a), kb = key(b);
+    return ka < kb || (ka == kb && a < b);
+  });
+  uint32_t child = uint32_t(nodes_.size());
+  nd.first = child;
+  nd.count = 0;
+  nodes_[index] = nd;
+  nodes_.resize(nodes_.size() + 2);
+  build(child, first, mid);
+  build(child + 1, mid, last);
+}
+
+double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) const {
+  double best = std::numeric_limits<double>::infinity();
+  if (nodes_.empty()) return best;
+  uint32_t best_t = *hint;
+  if (best_t < order_.size()) best = triangle_d2(p, best_t);
+  uint32_t stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top) {
+    const Node& nd = nodes_[stack[--top]];
+    if (box_d2(p, nd.lo, nd.hi) >= best) continue;
+    if (nd.count) {
+      for (uint32_t i = 0; i < nd.count; ++i) {
+        uint32_t t = order_[nd.first + i];
+        double d = triangle_d2(p, t);
+        if (d < best) best = d, best_t = t;
+      }
+      continue;
+    }
+    uint32_t l = nd.first, r = nd.first + 1;
+    double dl = box_d2(p, nodes_[l].lo, nodes_[l].hi), dr = box_d2(p, nodes_[r].lo, nodes_[r].hi);
+    if (dl > dr) std::swap(l, r), std::swap(dl, dr);
+    if (dr < best) stack[top++] = r;
+    if (dl < best) stack[top++] = l;
+  }
+  *hint = best_t;
+  return best;
+}
+
+double sampled_one_sided_distance(const float* positions, const uint32_t* from_indices, size_t from_triangles,
+                                  const TriangleDistanceTree& to, uint32_t subdivisions) {
+  double best2 = 0;
+  uint32_t hint = ~0u;
+  for_each_lattice_point(positions, from_indices, from_triangles, subdivisions, [&](DVec3 p) {
+    double d2 = to.nearest_distance_squared(p, &hint);
+    if (d2 > best2) best2 = d2;
+  });
+  return std::sqrt(best2);
+}
+
+}  // namespace vgeo

@@ -1,0 +1,285 @@
+#include "vgeo/cull/cull.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cassert>
+#include <mutex>
+#include <thread>
+
+#include "vgeo/core/lod.h"
+
+namespace vgeo {
+
+void CullCounters::add(const CullCounters& o) {
+  instances_in += o.instances_in; instances_out += o.instances_out;
+  instances_occluded += o.instances_occluded;
+  nodes_visited += o.nodes_visited; nodes_occluded += o.nodes_occluded;
+  groups_visited += o.groups_visited; groups_occluded += o.groups_occluded;
+  cluster_candidates += o.cluster_candidates; clusters_selected_lod += o.clusters_selected_lod;
+  clusters_frustum_culled += o.clusters_frustum_culled; clusters_occluded += o.clusters_occluded;
+  clusters_visible += o.clusters_visible;
+}
+
+std::vector<InstanceView> make_instance_views(const std::vector<CullInstance>& instances,
+                                              const ViewParams& view) {
+  std::vector<InstanceView> out(instances.size());
+  for (size_t i = 0; i < instances.size(); ++i) {
+    out[i].object_to_view = view.world_to_view * instances[i].object_to_world;
+    out[i].scale = max_axis_scale(instances[i].object_to_world);
+  }
+  return out;
+}
+
+namespace {
+
+LodView lod_view_of(const ViewParams& view) {
+  LodView lv;  // eye at the view-space origin
+  lv.pixels_per_unit_at_1 = view.pixels_per_unit_at_1;
+  lv.z_near = float(view.z_near);
+  return lv;
+}
+
+// The per-cluster LOD decision, shared by the traversal and the flat reference.
+bool cluster_lod_selects(const DagCluster& c, const InstanceView& iv, const LodView& lv, float tau) {
+  return lod_selects(sphere_to_view(iv.object_to_view, iv.scale, c.lod_bounds), error_to_view(c.lod_error, iv.scale),
+                     sphere_to_view(iv.object_to_view, iv.scale, c.parent_bounds),
+                     error_to_view(c.parent_error, iv.scale), lv, tau);
+}
+
+// Culling bounds (frustum, occlusion) of anything: inflated so float rounding never
+// drops a pixel the rasterizer would cover.
+Sphere culling_sphere(const InstanceView& iv, const Sphere& s) {
+  return inflate_for_subtree_test(sphere_to_view(iv.object_to_view, iv.scale, s));
+}
+
+// A subtree may still hold a cluster selected by the LOD test.
+bool subtree_may_select(const Sphere& lod_bounds, float max_parent_error, const InstanceView& iv,
+                        const LodView& lv, float tau) {
+  Sphere s = culling_sphere(iv, lod_bounds);
+  float e = inflate_error_for_subtree_test(error_to_view(max_parent_error, iv.scale));
+  return projected_error(s, e, lv) > tau;
+}
+
+bool occluded(const CullOptions& o, uint32_t instance, const Sphere& bounds) {
+  if (!o.occlusion.hzb) return false;
+  const InstanceView& iv = (*o.occlusion.instances)[instance];
+  return hzb_occludes(*o.occlusion.hzb, culling_sphere(iv, bounds), *o.occlusion.view, o.occlusion.policy);
+}
+
+struct WorkerOut {
+  std::vector<VisibleCluster> visible;
+  std::vector<CullItem> occluded;
+  CullCounters counters;
+};
+
+// Two MPMC queues behind one mutex (the CPU stand-in for Nanite's GPU queues) plus a
+// count of items pushed but not finished: the traversal ends when it reaches 0.
+struct WorkQueues {
+  std::mutex mutex;
+  std::vector<CullItem> nodes, clusters;
+  std::atomic<int64_t> pending{0};
+};
+
+}  // namespace
+
+void cull_instances(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                    const std::vector<InstanceView>& instance_views, const std::vector<uint32_t>& candidates,
+                    const ViewParams& view, const CullOptions& options, std::vector<uint32_t>* visible,
+                    std::vector<uint32_t>* occluded_out, CullCounters* counters) {
+  visible->clear();
+  if (occluded_out) occluded_out->clear();
+  for (uint32_t i : candidates) {
+    ++counters->instances_in;
+    const ClusterDag& dag = meshes[instances[i].mesh];
+    if (dag.bvh_nodes.empty()) continue;
+    const Sphere& b = dag.bvh_nodes[0].bounds;
+    if (options.frustum && sphere_outside_frustum(culling_sphere(instance_views[i], b), view)) continue;
+    if (occluded(options, i, b)) {
+      ++counters->instances_occluded;
+      if (occluded_out) occluded_out->push_back(i);
+      continue;
+    }
+    ++counters->instances_out;
+    visible->push_back(i);
+  }
+  std::sort(visible->begin(), visible->end());
+  if (occluded_out) std::sort(occluded_out->begin(), occluded_out->end());
+}
+
+void cull_clusters(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                   const std::vector<InstanceView>& instance_views, const std::vector<CullItem>& seeds,
+                   const ViewParams& view, const CullOptions& options, ThreadPool& pool, CullResult* out) {
+  out->visible.clear();
+  out->occluded.clear();
+  out->counters = {};
+  if (seeds.empty()) return;
+  const LodView lv = lod_view_of(view);
+  const float tau = options.threshold_px;
+
+  WorkQueues queues;
+  for (const CullItem& s : seeds) (s.kind == CullItem::kNode ? queues.nodes : queues.clusters).push_back(s);
+  // Pop from the back: reverse so seeds start in order (not needed for correctness).
+  std::reverse(queues.nodes.begin(), queues.nodes.end());
+  std::reverse(queues.clusters.begin(), queues.clusters.end());
+  queues.pending = int64_t(seeds.size());
+
+  std::vector<WorkerOut> workers(pool.size());
+
+  auto test_cluster = [&](WorkerOut& w, uint32_t instance, const ClusterDag& dag, uint32_t ci) {
+    const DagCluster& c = dag.clusters[ci];
+    const InstanceView& iv = instance_views[instance];
+    ++w.counters.cluster_candidates;
+    if (!cluster_lod_selects(c, iv, lv, tau)) return;
+    ++w.counters.clusters_selected_lod;
+    if (options.frustum && sphere_outside_frustum(culling_sphere(iv, c.bounds), view)) {
+      ++w.counters.clusters_frustum_culled;
+      return;
+    }
+    if (occluded(options, instance, c.bounds)) {
+      ++w.counters.clusters_occluded;
+      w.occluded.push_back({instance, ci, CullItem::kCluster});
+      return;
+    }
+    ++w.counters.clusters_visible;
+    w.visible.push_back({instance, ci});
+  };
+
+  // Processes one item; appends follow-up work to `children`.
+  auto process = [&](WorkerOut& w, const CullItem& item, std::vector<CullItem>& children) {
+    const ClusterDag& dag = meshes[instances[item.instance].mesh];
+    const InstanceView& iv = instance_views[item.instance];
+    if (item.kind == CullItem::kNode) {
+      const BvhNode& node = dag.bvh_nodes[item.index];
+      ++w.counters.nodes_visited;
+      if (options.frustum && sphere_outside_frustum(culling_sphere(iv, node.bounds), view)) return;
+      if (!subtree_may_select(node.lod_bounds, node.max_parent_error, iv, lv, tau)) return;
+      if (occluded(options, item.instance, node.bounds)) {
+        ++w.counters.nodes_occluded;
+        w.occluded.push_back(item);
+        return;
+      }
+      for (uint32_t k = 0; k < node.child_count && k < kBvhMaxChildren; ++k) {
+        bool is_group = (node.group_mask >> k) & 1u;
+        children.push_back({item.instance, node.children[k], is_group ? CullItem::kGroup : CullItem::kNode});
+      }
+    } else if (item.kind == CullItem::kGroup) {
+      const DagGroup& g = dag.groups[item.index];
+      ++w.counters.groups_visited;
+      if (options.frustum && sphere_outside_frustum(culling_sphere(iv, g.bounds), view)) return;
+      if (!subtree_may_select(g.parent_bounds, g.parent_error, iv, lv, tau)) return;
+      if (occluded(options, item.instance, g.bounds)) {
+        ++w.counters.groups_occluded;
+        w.occluded.push_back(item);
+        return;
+      }
+      for (uint32_t k = 0; k < g.cluster_count; ++k) test_cluster(w, item.instance, dag, g.first_cluster + k);
+    } else {
+      test_cluster(w, item.instance, dag, item.index);
+    }
+  };
+
+  pool.run_on_all([&](unsigned worker) {
+    WorkerOut& w = workers[worker];
+    std::vector<CullItem> children;
+    for (;;) {
+      CullItem item;
+      bool got = false;
+      {
+        std::lock_guard<std::mutex> lock(queues.mutex);
+        // Nodes first: they expand into more work for the other threads; clusters fill
+        // the holes while the node queue is momentarily empty (Nanite's two queues).
+        if (!queues.nodes.empty()) {
+          item = queues.nodes.back();
+          queues.nodes.pop_back();
+          got = true;
+        } else if (!queues.clusters.empty()) {
+          item = queues.clusters.back();
+          queues.clusters.pop_back();
+          got = true;
+        }
+      }
+      if (!got) {
+        if (queues.pending.load(std::memory_order_acquire) == 0) return;
+        std::this_thread::yield();
+        continue;
+      }
+      children.clear();
+      process(w, item, children);
+      if (!children.empty()) {
+        queues.pending.fetch_add(int64_t(children.size()), std::memory_order_acq_rel);
+        std::lock_guard<std::mutex> lock(queues.mutex);
+        for (const CullItem& c : children) (c.kind == CullItem::kNode ? queues.nodes : queues.clusters).push_back(c);
+      }
+      queues.pending.fetch_sub(1, std::memory_order_acq_rel);
+    }
+  });
+
+  // Canonical order: identical output for any thread count and schedule.
+  for (WorkerOut& w : workers) {
+    out->visible.insert(out->visible.end(), w.visible.begin(), w.visible.end());
+    out->occluded.insert(out->occluded.end(), w.occluded.begin(), w.occluded.end());
+    out->counters.add(w.counters);
+  }
+  std::sort(out->visible.begin(), out->visible.end());
+  std::sort(out->occluded.begin(), out->occluded.end());
+}
+
+std::vector<VisibleCluster> select_cut(const std::vector<ClusterDag>& meshes,
+                                       const std::vector<CullInstance>& instances,
+                                       const ViewParams& view, float threshold_px, ThreadPool& pool) {
+  std::vector<InstanceView> views = make_instance_views(instances, view);
+  std::vector<CullItem> seeds;
+  for (uint32_t i = 0; i < instances.size(); ++i)
+    if (!meshes[instances[i].mesh].bvh_nodes.empty()) seeds.push_back({i, 0, CullItem::kNode});
+  CullOptions options;
+  options.threshold_px = threshold_px;
+  options.frustum = false;
+  CullResult result;
+  cull_clusters(meshes, instances, views, seeds, view, options, pool, &result);
+  return result.visible;
+}
+
+bool bvh_is_tree(const ClusterDag& dag) {
+  if (dag.bvh_nodes.empty()) return true;
+  std::vector<uint8_t> seen(dag.bvh_nodes.size(), 0);
+  std::vector<uint32_t> stack{0};
+  seen[0] = 1;
+  while (!stack.empty()) {
+    const BvhNode& n = dag.bvh_nodes[stack.back()];
+    stack.pop_back();
+    for (uint32_t k = 0; k < n.child_count && k < kBvhMaxChildren; ++k) {
+      if ((n.group_mask >> k) & 1u) continue;
+      uint32_t c = n.children[k];
+      if (c >= dag.bvh_nodes.size() || seen[c]) return false;
+      seen[c] = 1;
+      stack.push_back(c);
+    }
+  }
+  return true;
+}
+
+std::vector<uint32_t> cut_of_instance(const std::vector<VisibleCluster>& cut, uint32_t instance) {
+  std::vector<uint32_t> out;
+  for (const VisibleCluster& v : cut)
+    if (v.instance == instance) out.push_back(v.cluster);
+  return out;
+}
+
+std::vector<VisibleCluster> select_flat(const std::vector<ClusterDag>& meshes,
+                                        const std::vector<CullInstance>& instances,
+                                        const ViewParams& view, float threshold_px, bool frustum) {
+  std::vector<InstanceView> views = make_instance_views(instances, view);
+  const LodView lv = lod_view_of(view);
+  std::vector<VisibleCluster> out;
+  for (uint32_t i = 0; i < instances.size(); ++i) {
+    const ClusterDag& dag = meshes[instances[i].mesh];
+    for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
+      if (!cluster_lod_selects(dag.clusters[c], views[i], lv, threshold_px)) continue;
+      if (frustum && sphere_outside_frustum(culling_sphere(views[i], dag.clusters[c].bounds), view)) continue;
+      out.push_back({i, c});
+    }
+  }
+  return out;
+}
+
+}  // namespace vgeo

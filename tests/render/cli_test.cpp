@@ -1,0 +1,82 @@
+// `vgeo render` end to end: exit codes, JSON statistics, PNG output, determinism.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "support/paths.h"
+
+namespace vgeo {
+namespace {
+
+struct CliRun {
+  int exit_code = -1;
+  std::string out;
+};
+
+CliRun run_cli(const std::string& args) {
+  std::string cmd = test::cli_path() + " " + args + " 2>&1";
+  CliRun r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+  int status = pclose(p);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+std::string scene(const char* name) { return (test::source_dir() / "tests" / "scenes" / name).string(); }
+
+TEST(RenderCli, RendersASceneToPngWithJsonStatistics) {
+  auto dir = std::filesystem::temp_directory_path() / ("vgeo_render_cli_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::string png = (dir / "frame.png").string();
+  CliRun r = run_cli("render " + scene("spheres.json") + " --no-cache --threads 2 --json -o " + png);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["frames"].size(), 1u);
+  EXPECT_GT(j["frames"][0]["triangles_drawn"].get<uint64_t>(), 0u);
+  bool has_raster = false;
+  for (const auto& p : j["frames"][0]["passes"]) has_raster |= p["name"] == "raster";
+  EXPECT_TRUE(has_raster);
+  std::ifstream f(png, std::ios::binary);
+  char magic[8] = {};
+  f.read(magic, 8);
+  EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+  std::filesystem::remove_all(dir);
+}
+
+TEST(RenderCli, ThreadCountDoesNotChangeTheOutput) {
+  CliRun a = run_cli("render " + scene("camera_path.json") + " --no-cache --threads 1 --json --view cluster");
+  CliRun b = run_cli("render " + scene("camera_path.json") + " --no-cache --threads 3 --json --view cluster");
+  ASSERT_EQ(a.exit_code, 0) << a.out;
+  ASSERT_EQ(b.exit_code, 0) << b.out;
+  auto ja = nlohmann::json::parse(a.out), jb = nlohmann::json::parse(b.out);
+  EXPECT_EQ(ja["vis_hash"], jb["vis_hash"]);
+  EXPECT_EQ(ja["image_hash"], jb["image_hash"]);
+}
+
+TEST(RenderCli, BadInputGivesOneLineAndStableExitCode) {
+  auto dir = std::filesystem::temp_directory_path() / ("vgeo_render_bad_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::string bad = (dir / "bad.json").string();
+  std::ofstream(bad) << R"({"version": 1, "meshes": [], "instances": [{"mesh": 0}], "cameras": []})";
+  CliRun r = run_cli("render " + bad + " --no-cache");
+  EXPECT_EQ(r.exit_code, 3) << r.out;
+  EXPECT_EQ(r.out.rfind("error[SCENE_", 0), 0u) << r.out;
+  CliRun missing = run_cli("render " + (dir / "missing.json").string());
+  EXPECT_EQ(missing.exit_code, 4) << missing.out;
+  CliRun view = run_cli("render " + scene("spheres.json") + " --no-cache --view nope");
+  EXPECT_EQ(view.exit_code, 2) << view.out;
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace vgeo

@@ -1,0 +1,71 @@
+#pragma once
+// Small render scenes for pipeline tests (meshes from tests/support/shapes.h and
+// lib/render/procedural.h, DAGs from build_dag).
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+#include "support/shapes.h"
+#include "vgeo/build/build.h"
+#include "vgeo/render/frame.h"
+#include "vgeo/render/procedural.h"
+
+namespace vgeo::test {
+
+inline Mat4d translate_scale(double x, double y, double z, double s) {
+  Mat4d m;
+  m.at(0, 0) = m.at(1, 1) = m.at(2, 2) = s;
+  m.at(0, 3) = x;
+  m.at(1, 3) = y;
+  m.at(2, 3) = z;
+  return m;
+}
+
+inline Camera look_camera(Vec3d eye, Vec3d target, uint32_t w = 160, uint32_t h = 120, double z_near = 0.01) {
+  Camera c;
+  c.position = eye;
+  c.width = w;
+  c.height = h;
+  c.z_near = z_near;
+  if (!look_at_orientation(eye, target, {0, 1, 0}, &c.orientation)) c.orientation = {0, 0, 0, 1};
+  return c;
+}
+
+// A row of displaced spheres on a ground grid, spaced so that they occlude each other
+// when seen along the row. `scale` scales the whole scene, `offset` moves it.
+inline RenderScene make_row_scene(double scale = 1.0, double offset = 0.0, uint32_t spheres = 5) {
+  RenderScene s;
+  s.materials = {Material{"a", {0.8f, 0.3f, 0.2f, 1}}, Material{"b", {0.2f, 0.6f, 0.3f, 1}}};
+  BuildOptions bo;
+  bo.threads = 1;
+  Mesh sphere = make_displaced_sphere(24, 48, 1.0f, 0.1f, 3.0f);
+  sphere.materials.assign(sphere.triangle_count(), 0);
+  Mesh ground = make_ground_grid(32, 30.0f, 0.2f, 2.0f);
+  ground.materials.assign(ground.triangle_count(), 1);
+  s.meshes.push_back(build_dag(sphere, bo));
+  s.meshes.push_back(build_dag(ground, bo));
+  s.instances.push_back({1, translate_scale(offset, 0, offset, scale)});
+  for (uint32_t i = 0; i < spheres; ++i)
+    s.instances.push_back({0, translate_scale(offset, 1.2 * scale, offset - 3.0 * i * scale, scale)});
+  analyze_render_scene(&s);
+  return s;
+}
+
+// Per-pixel (instance, cluster, triangle, depth): what a visibility buffer means,
+// independent of visible-cluster numbering.
+struct DecodedPixel {
+  uint32_t instance = kNone, cluster = kNone, triangle = 0, depth_bits = 0;
+  bool operator==(const DecodedPixel&) const = default;
+};
+inline std::vector<DecodedPixel> decode(const Frame& f) {
+  std::vector<DecodedPixel> out(f.vis.keys.size());
+  for (size_t p = 0; p < out.size(); ++p) {
+    uint64_t k = f.vis.keys[p];
+    if (!k) continue;
+    const VisibleCluster& v = f.visible[vis_key_cluster(k)];
+    out[p] = {v.instance, v.cluster, vis_key_triangle(k), uint32_t(k >> 32)};
+  }
+  return out;
+}
+
+}  // namespace vgeo::test

@@ -1,0 +1,132 @@
+// Culling and frame-pipeline micro-benchmarks (lib/cull, lib/render).
+//   BM_CullTraversal/K/threads   persistent-thread LOD + cluster culling of K instances
+//   BM_HzbBuild/threads          HZB of a 1280x720 visibility buffer
+//   BM_DefaultSceneFrame/threads the embedded default scene at 1280x720, whole frame
+//   BM_Scaling/K                 K instances of one big mesh (only with VGEO_BENCH_SCALING=1;
+//                                mesh size VGEO_SCALING_RINGS, default 512 → ~0.5M triangles):
+//                                counters triangles_drawn, pixels, tri_per_pixel, per-pass ms
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <memory>
+
+#include "vgeo/build/build.h"
+#include "vgeo/cull/cull.h"
+#include "vgeo/render/frame.h"
+#include "vgeo/render/procedural.h"
+#include "vgeo/render/scene_file.h"
+
+namespace vgeo {
+namespace {
+
+Mat4d translate(double x, double y, double z) {
+  Mat4d m;
+  m.at(0, 3) = x;
+  m.at(1, 3) = y;
+  m.at(2, 3) = z;
+  return m;
+}
+
+// Instances on a square grid in XZ, camera above one corner looking across the grid.
+std::vector<CullInstance> grid_instances(uint32_t k, double spacing) {
+  std::vector<CullInstance> out;
+  uint32_t side = uint32_t(std::ceil(std::sqrt(double(k))));
+  for (uint32_t i = 0; i < k; ++i) out.push_back({0, translate((i % side) * spacing, 0, -double(i / side) * spacing)});
+  return out;
+}
+
+Camera grid_camera(uint32_t k, double spacing) {
+  double side = std::ceil(std::sqrt(double(k))) * spacing;
+  Camera c;
+  c.width = 1280;
+  c.height = 720;
+  c.position = {-0.2 * side - 3 * spacing, 0.3 * side + 2 * spacing, 0.2 * side + 3 * spacing};
+  look_at_orientation(c.position, {0.5 * side, 0, -0.5 * side}, {0, 1, 0}, &c.orientation);
+  return c;
+}
+
+const ClusterDag& sphere_dag(uint32_t rings) {
+  static std::map<uint32_t, std::unique_ptr<ClusterDag>> cache;
+  auto& slot = cache[rings];
+  if (!slot) {
+    BuildOptions bo;
+    slot = std::make_unique<ClusterDag>(build_dag(make_displaced_sphere(rings, 2 * rings, 1.0f, 0.1f, 4.0f), bo));
+  }
+  return *slot;
+}
+
+void BM_CullTraversal(benchmark::State& state) {
+  uint32_t k = uint32_t(state.range(0));
+  std::vector<ClusterDag> meshes{sphere_dag(128)};
+  std::vector<CullInstance> instances = grid_instances(k, 3.0);
+  ViewParams view = make_view(grid_camera(k, 3.0));
+  std::vector<InstanceView> views = make_instance_views(instances, view);
+  std::vector<CullItem> seeds;
+  for (uint32_t i = 0; i < k; ++i) seeds.push_back({i, 0, CullItem::kNode});
+  ThreadPool pool(unsigned(state.range(1)));
+  CullOptions options;
+  CullResult result;
+  for (auto _ : state) {
+    cull_clusters(meshes, instances, views, seeds, view, options, pool, &result);
+    benchmark::DoNotOptimize(result.visible.data());
+  }
+  state.counters["nodes"] = double(result.counters.nodes_visited);
+  state.counters["candidates"] = double(result.counters.cluster_candidates);
+  state.counters["visible"] = double(result.visible.size());
+}
+BENCHMARK(BM_CullTraversal)->Args({1, 1})->Args({100, 1})->Args({100, 2})->Args({1000, 2})->Unit(benchmark::kMillisecond);
+
+void BM_HzbBuild(benchmark::State& state) {
+  std::vector<uint64_t> keys(1280 * 720);
+  for (size_t i = 0; i < keys.size(); ++i) keys[i] = uint64_t(0x3c000000u + (i * 2654435761u) % 0x1000000u) << 32;
+  ThreadPool pool(unsigned(state.range(0)));
+  Hzb hzb;
+  for (auto _ : state) build_hzb(keys.data(), 1280, 720, pool, &hzb);
+}
+BENCHMARK(BM_HzbBuild)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+
+void BM_DefaultSceneFrame(benchmark::State& state) {
+  static std::unique_ptr<SceneFile> scene;
+  if (!scene) scene = std::make_unique<SceneFile>(make_default_scene(1280, 720, 1, {}));
+  ThreadPool pool(unsigned(state.range(0)));
+  Frame frame;
+  for (auto _ : state) render_frame(scene->scene, scene->cameras[0], scene->settings, pool, nullptr, &frame);
+  for (const PassStats& p : frame.stats.passes) state.counters[p.name + "_ms"] = p.ms;
+  state.counters["triangles"] = double(frame.stats.triangles_drawn);
+}
+BENCHMARK(BM_DefaultSceneFrame)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+
+void BM_Scaling(benchmark::State& state) {
+  const char* r = std::getenv("VGEO_SCALING_RINGS");
+  uint32_t rings = r ? uint32_t(std::atoi(r)) : 512;
+  RenderScene scene;
+  scene.meshes.push_back(sphere_dag(rings));
+  scene.materials.push_back({});
+  uint32_t k = uint32_t(state.range(0));
+  scene.instances = grid_instances(k, 3.0);
+  analyze_render_scene(&scene);
+  Camera cam = grid_camera(k, 3.0);
+  ThreadPool pool(0);
+  RenderSettings settings;
+  settings.occlusion = false;  // one frame: no history to test against
+  Frame frame;
+  for (auto _ : state) render_frame(scene, cam, settings, pool, nullptr, &frame);
+  state.counters["mesh_triangles"] = double(scene.meshes[0].triangle_count());
+  state.counters["triangles_drawn"] = double(frame.stats.triangles_drawn);
+  state.counters["pixels_covered"] = double(frame.stats.pixels_covered);
+  state.counters["tri_per_pixel"] = double(frame.stats.triangles_drawn) / double(frame.stats.pixels);
+  for (const PassStats& p : frame.stats.passes) state.counters[p.name + "_ms"] = p.ms;
+}
+
+// Heavy: registered only on request so `vgeo_microbench` stays quick by default.
+const bool kScalingRegistered = [] {
+  if (std::getenv("VGEO_BENCH_SCALING"))
+    benchmark::RegisterBenchmark("BM_Scaling", BM_Scaling)
+        ->Arg(1)->Arg(10)->Arg(100)->Arg(1000)->Arg(10000)->Iterations(1)->Unit(benchmark::kMillisecond);
+  return true;
+}();
+
+}  // namespace
+}  // namespace vgeo
