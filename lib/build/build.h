@@ -33,6 +33,9 @@ struct BuildReport {
   uint64_t peak_memory_bytes = 0;  // process peak RSS after the build
 };
 
+// Human summary of a build report: one header line, a per-level table, times and memory.
+std::string build_report_summary(const std::string& mesh_name, const BuildReport& report);
+
 // Builds the DAG of one mesh. Throws VgeoError on input it cannot build (e.g. empty mesh).
 ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report = nullptr);
 

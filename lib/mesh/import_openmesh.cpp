@@ -178,11 +178,23 @@ void import_openmesh(const std::string& path, const std::string& extension, Impo
   std::ostringstream log;
   bool ok = false;
   {
+    // OpenMesh's omerr/omlog/omout write to std::cerr/std::cout. Their connect()/disconnect()
+    // API leaks a wrapper per call (OpenMesh 9), so the capture swaps the std streams'
+    // buffers instead, restored by the guard even if OpenMesh throws.
     std::lock_guard<std::mutex> lock(openmesh_log_mutex());
-    omerr().disconnect(std::cerr);
-    omlog().disconnect(std::cerr);
-    omout().disconnect(std::cout);
-    omerr().connect(log);
+    struct StreamSwap {
+      std::ostream& stream;
+      std::streambuf* saved;
+      StreamSwap(std::ostream& s, std::streambuf* to) : stream(s), saved(s.rdbuf(to)) {}
+      ~StreamSwap() {
+        omerr().flush();
+        omlog().flush();
+        omout().flush();
+        stream.rdbuf(saved);
+      }
+    };
+    StreamSwap err_swap(std::cerr, log.rdbuf());
+    StreamSwap out_swap(std::cout, log.rdbuf());
     try {
       if (use_cleaned) {
         std::istringstream in(cleaned_off);
@@ -195,10 +207,6 @@ void import_openmesh(const std::string& path, const std::string& extension, Impo
       log << "allocation failed while reading\n";
     }
     omerr().flush();
-    omerr().disconnect(log);
-    omerr().connect(std::cerr);
-    omlog().connect(std::cerr);
-    omout().connect(std::cout);
   }
   std::string log_text = log.str();
   auto first_log_line = [&]() {

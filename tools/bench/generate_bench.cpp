@@ -92,4 +92,3 @@ BENCHMARK_CAPTURE(BM_GenerateAndWriteGlb, sphere, vgeo::GenShape::kSphere)
 
 }  // namespace
 
-// vgeo_microbench links benchmark::benchmark (not benchmark_main) and no other bench file

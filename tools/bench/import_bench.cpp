@@ -109,13 +109,3 @@ void BM_ImportGlb(benchmark::State& state) {
 }  // namespace
 
 BENCHMARK(BM_ImportGlb)->Arg(1'000'000)->Arg(10'000'000)->Unit(benchmark::kMillisecond)->Iterations(1);
-
-// vgeo_microbench links benchmark::benchmark without benchmark_main and globs every
-// tools/bench/*.cpp: this main is weak so a shared bench main added later takes precedence.
-__attribute__((weak)) int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}

@@ -112,5 +112,3 @@ BENCHMARK(BM_RasterMicroTriangles1080p)
 
 }  // namespace
 
-// vgeo_microbench globs every tools/bench/*.cpp into one executable and links
-// benchmark::benchmark (not benchmark_main), so exactly one file provides main().

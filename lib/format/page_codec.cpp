@@ -1,0 +1,667 @@
+// Cluster canonicalization, memory-form and disk-form page codecs (spec/format.md
+// §Canonical cluster, §Memory form, §Disk form). The decoders here treat their input as
+// untrusted: every read is bounds-checked and every field is checked before use.
+#include "vgeo/format/page_codec.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <cstring>
+
+#include "vgeo/core/error.h"
+#include "vgeo/format/bitstream.h"
+
+namespace vgeo::format_detail {
+namespace {
+
+[[noreturn]] void encode_fail(const std::string& what) { fail(kErrEncode, "<encoder>", what); }
+
+int32_t quantize_scalar(float v, int32_t step_log2, const char* what) {
+  if (!std::isfinite(v)) encode_fail(std::string("non-finite ") + what);
+  const double q = std::nearbyint(std::ldexp(double(v), -step_log2));
+  if (!(std::fabs(q) <= double(kMaxQuantized)))
+    encode_fail(std::string(what) + " beyond 2^24 grid steps (use a coarser step)");
+  return int32_t(q);
+}
+
+uint32_t zigzag(int32_t d) { return (uint32_t(d) << 1) ^ uint32_t(d >> 31); }
+int32_t unzigzag(uint32_t z) { return int32_t(z >> 1) ^ -int32_t(z & 1u); }
+// Bytes per zigzag delta of a channel with `bits` bits: deltas span ±(2^bits - 1).
+uint32_t delta_bytes(uint32_t bits) { return bits == 0 ? 0 : (bits + 1 + 7) / 8; }
+
+// ---- generalized strips over one material run ----
+// Directed edges of the run sorted by (from, to): a lookup is a binary search, so strip
+// building stays O(n^2 log n) even for random (non-manifold) topology.
+struct StripBuilder {
+  const uint8_t (*tris)[3];   // original local indices
+  const uint32_t* run;         // triangle ids of the run
+  uint32_t run_size;
+  bool* visited;               // indexed by position in run
+  uint32_t edges[3 * kMaxClusterTriangles];  // (from << 16) | (to << 8) | position
+  uint32_t edge_count = 0;
+
+  void index() {
+    edge_count = 0;
+    for (uint32_t i = 0; i < run_size; ++i)
+      for (int k = 0; k < 3; ++k) {
+        const uint8_t* t = tris[run[i]];
+        edges[edge_count++] = uint32_t(t[k]) << 16 | uint32_t(t[(k + 1) % 3]) << 8 | i;
+      }
+    std::sort(edges, edges + edge_count);
+  }
+  // Position in run of the first unvisited triangle containing directed edge x->y, and its
+  // third vertex; -1 if none.
+  int find(uint8_t x, uint8_t y, uint8_t* third) const {
+    const uint32_t key = uint32_t(x) << 16 | uint32_t(y) << 8;
+    for (const uint32_t* e = std::lower_bound(edges, edges + edge_count, key);
+         e != edges + edge_count && (*e & ~0xFFu) == key; ++e) {
+      const uint32_t i = *e & 0xFFu;
+      if (visited[i]) continue;
+      const uint8_t* t = tris[run[i]];
+      for (int k = 0; k < 3; ++k)
+        if (t[k] == x && t[(k + 1) % 3] == y) {
+          *third = t[(k + 2) % 3];
+          return int(i);
+        }
+    }
+    return -1;
+  }
+  uint32_t open_neighbors(uint32_t i) const {
+    const uint8_t* t = tris[run[i]];
+    uint32_t n = 0;
+    uint8_t d;
+    for (int k = 0; k < 3; ++k) n += find(t[(k + 1) % 3], t[k], &d) >= 0 ? 1 : 0;
+    return n;
+  }
+};
+
+}  // namespace
+
+uint32_t channel_max_bits(const MeshQuantization& q, uint32_t channel) {
+  return channel_is_normal(q, channel) ? q.normal_bits : kMaxChannelBits;
+}
+bool channel_is_normal(const MeshQuantization& q, uint32_t channel) {
+  return q.has_normals && (channel == 3 || channel == 4);
+}
+
+void min_first(const uint8_t in[3], uint8_t out[3]) {
+  // Rotation (winding kept) with the smallest index first; ties: lexicographically smallest.
+  int best = 0;
+  for (int r = 1; r < 3; ++r) {
+    const uint8_t a[3] = {in[r], in[(r + 1) % 3], in[(r + 2) % 3]};
+    const uint8_t b[3] = {in[best], in[(best + 1) % 3], in[(best + 2) % 3]};
+    if (std::lexicographical_compare(a, a + 3, b, b + 3)) best = r;
+  }
+  for (int k = 0; k < 3; ++k) out[k] = in[(best + k) % 3];
+}
+
+uint32_t index_offset_bits(const CanonicalCluster& c) {
+  uint32_t span = 0;
+  for (uint32_t t = 0; t < c.triangle_count; ++t) {
+    uint8_t m[3];
+    min_first(c.strip[t], m);
+    span = std::max<uint32_t>(span, std::max(m[1] - m[0], m[2] - m[0]));
+  }
+  return bits_for_range(span);
+}
+
+void compute_channel_ranges(CanonicalCluster* c, uint32_t channel_count) {
+  for (uint32_t k = 0; k < kMaxChannels; ++k) {
+    c->min[k] = 0;
+    c->bits[k] = 0;
+    if (k >= channel_count) continue;
+    int32_t lo = c->values[k][0], hi = lo;
+    for (uint32_t v = 1; v < c->vertex_count; ++v) {
+      lo = std::min(lo, c->values[k][v]);
+      hi = std::max(hi, c->values[k][v]);
+    }
+    c->min[k] = lo;
+    c->bits[k] = bits_for_range(uint32_t(int64_t(hi) - lo));
+  }
+}
+
+void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantization& q,
+                          CanonicalCluster* out) {
+  const DagCluster& cl = dag.clusters[ci];
+  const uint32_t vc = cl.vertex_count, tc = cl.triangle_count;
+  if (vc == 0 || vc > kMaxClusterVertices) encode_fail("cluster vertex count outside 1..255");
+  if (tc == 0 || tc > kMaxClusterTriangles) encode_fail("cluster triangle count outside 1..128");
+  if (uint64_t(cl.vertex_offset) + vc > dag.vertex_count() ||
+      uint64_t(cl.triangle_offset) + tc > dag.triangle_count())
+    encode_fail("cluster vertex/triangle range outside the mesh arrays");
+  *out = CanonicalCluster{};
+  out->vertex_count = vc;
+  out->triangle_count = tc;
+
+  uint8_t tris[kMaxClusterTriangles][3];
+  uint32_t mat[kMaxClusterTriangles];
+  for (uint32_t t = 0; t < tc; ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const uint8_t v = dag.indices[3 * (size_t(cl.triangle_offset) + t) + k];
+      if (v >= vc) encode_fail("triangle index beyond the cluster's vertex count");
+      tris[t][k] = v;
+    }
+    mat[t] = size_t(cl.triangle_offset) + t < dag.triangle_materials.size()
+                 ? dag.triangle_materials[cl.triangle_offset + t] : 0u;
+    if (mat[t] > kMaxMaterialId) encode_fail("material id beyond 2^24 - 1");
+  }
+
+  // Triangles sorted by material (stable), then generalized strips per material run.
+  uint32_t order[kMaxClusterTriangles];
+  for (uint32_t t = 0; t < tc; ++t) order[t] = t;
+  std::stable_sort(order, order + tc, [&](uint32_t a, uint32_t b) { return mat[a] < mat[b]; });
+
+  int32_t new_id[kMaxClusterVertices];
+  std::fill(new_id, new_id + vc, -1);
+  uint32_t seen = 0, emitted = 0;
+  auto corner = [&](uint8_t v, uint8_t* ctl, uint8_t flag) {
+    if (new_id[v] < 0) {
+      new_id[v] = int32_t(seen++);
+    } else {
+      *ctl |= flag;
+      out->refs[out->ref_count++] = uint8_t(seen - 1 - uint32_t(new_id[v]));
+    }
+    return uint8_t(new_id[v]);
+  };
+  bool visited[kMaxClusterTriangles];
+  for (uint32_t r0 = 0; r0 < tc;) {
+    uint32_t r1 = r0;
+    while (r1 < tc && mat[order[r1]] == mat[order[r0]]) ++r1;
+    out->run_start[out->run_count] = uint8_t(r0);
+    out->run_material[out->run_count++] = mat[order[r0]];
+    StripBuilder sb{tris, order + r0, r1 - r0, visited, {}};
+    std::fill(visited, visited + sb.run_size, false);
+    sb.index();
+    for (uint32_t left = sb.run_size; left > 0;) {
+      // Start where the fewest open neighbours are (strips then end less often mid-run).
+      uint32_t start = 0, best = 4;
+      for (uint32_t i = 0; i < sb.run_size; ++i)
+        if (!visited[i]) {
+          const uint32_t n = sb.open_neighbors(i);
+          if (n < best) best = n, start = i;
+        }
+      visited[start] = true;
+      --left;
+      const uint8_t* t = tris[order[r0 + start]];
+      int rot = 0;
+      for (int r = 0; r < 3; ++r) {
+        const uint8_t a = t[r], b = t[(r + 1) % 3], c = t[(r + 2) % 3];
+        uint8_t d;
+        if (sb.find(c, b, &d) >= 0 || sb.find(a, c, &d) >= 0) { rot = r; break; }
+      }
+      uint8_t a = t[rot], b = t[(rot + 1) % 3], c = t[(rot + 2) % 3];
+      uint8_t ctl = kCtlReset;
+      uint8_t* s = out->strip[emitted];
+      s[0] = corner(a, &ctl, kCtlRef0);
+      s[1] = corner(b, &ctl, kCtlRef0 << 1);
+      s[2] = corner(c, &ctl, kCtlRef0 << 2);
+      out->ctl[emitted++] = ctl;
+      while (left > 0) {
+        uint8_t d1 = 0, d2 = 0;
+        const int n1 = sb.find(c, b, &d1), n2 = sb.find(a, c, &d2);
+        if (n1 < 0 && n2 < 0) break;
+        bool side = n1 < 0;
+        if (n1 >= 0 && n2 >= 0) {
+          visited[n1] = visited[n2] = true;  // exclude each other from the neighbour counts
+          const uint32_t o1 = sb.open_neighbors(uint32_t(n1)), o2 = sb.open_neighbors(uint32_t(n2));
+          visited[n1] = visited[n2] = false;
+          side = o2 < o1;
+        }
+        visited[side ? n2 : n1] = true;
+        --left;
+        uint8_t na, nb, nd = side ? d2 : d1;
+        if (!side) na = c, nb = b; else na = a, nb = c;
+        ctl = side ? kCtlSide : 0;
+        s = out->strip[emitted];
+        s[0] = uint8_t(new_id[na]);
+        s[1] = uint8_t(new_id[nb]);
+        s[2] = corner(nd, &ctl, kCtlRef0);
+        out->ctl[emitted++] = ctl;
+        a = na, b = nb, c = nd;
+      }
+    }
+    r0 = r1;
+  }
+  assert(emitted == tc);
+  // Vertices no triangle uses keep their relative order after the used ones.
+  for (uint32_t v = 0; v < vc; ++v)
+    if (new_id[v] < 0) new_id[v] = int32_t(seen++);
+
+  const size_t base = cl.vertex_offset;
+  const bool normals = q.has_normals, uvs = q.has_uvs;
+  for (uint32_t v = 0; v < vc; ++v) {
+    const uint32_t n = uint32_t(new_id[v]);
+    for (int k = 0; k < 3; ++k)
+      out->values[k][n] = quantize_scalar(dag.positions[3 * (base + v) + k], q.position_step_log2, "position");
+    uint32_t ch = 3;
+    if (normals) {
+      uint32_t o[2];
+      octahedral_encode(&dag.normals[3 * (base + v)], q.normal_bits, o);
+      out->values[ch++][n] = int32_t(o[0]);
+      out->values[ch++][n] = int32_t(o[1]);
+    }
+    if (uvs)
+      for (int k = 0; k < 2; ++k)
+        out->values[ch++][n] = quantize_scalar(dag.uvs[2 * (base + v) + k], q.uv_step_log2, "uv");
+  }
+  compute_channel_ranges(out, q.channel_count());
+}
+
+// ---------------------------------------------------------------- memory form
+
+namespace {
+uint32_t vertex_bits(const CanonicalCluster& c) {
+  uint32_t b = 0;
+  for (uint32_t k = 0; k < kMaxChannels; ++k) b += c.bits[k];
+  return b;
+}
+// Base index (enough bits for vertex_count - 1) plus two offsets of `offset_bits` each.
+uint32_t triangle_bits(uint32_t vertex_count, uint32_t offset_bits) {
+  return bits_for_range(vertex_count - 1) + 2 * offset_bits;
+}
+uint32_t words_for_bits(uint64_t bits) { return uint32_t((bits + 31) / 32); }
+}  // namespace
+
+uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t) {
+  const uint32_t ob = index_offset_bits(c);
+  return kDescriptorWords + words_for_bits(uint64_t(c.vertex_count) * vertex_bits(c)) +
+         words_for_bits(uint64_t(c.triangle_count) * triangle_bits(c.vertex_count, ob)) + c.run_count;
+}
+
+MemoryPageBuilder::MemoryPageBuilder(uint32_t cluster_count, uint64_t max_words, const std::string& where)
+    : n_(cluster_count), max_words_(max_words), where_(where) {
+  const uint64_t head = 1 + uint64_t(cluster_count) * kDescriptorWords;
+  if (head > max_words_) fail(kErrInconsistent, where_, "memory form exceeds the page table's memory size");
+  w_.assign(head, 0u);
+  w_[0] = cluster_count;
+}
+
+void MemoryPageBuilder::add(const CanonicalCluster& c) {
+  assert(next_ < n_);
+  const uint32_t ob = index_offset_bits(c);
+  const uint32_t vb = vertex_bits(c), tb = triangle_bits(c.vertex_count, ob), bb = tb - 2 * ob;
+  const uint64_t data = w_.size();
+  const uint64_t vwords = words_for_bits(uint64_t(c.vertex_count) * vb);
+  const uint64_t twords = words_for_bits(uint64_t(c.triangle_count) * tb);
+  if (data + vwords + twords + c.run_count > max_words_)
+    fail(kErrInconsistent, where_, "memory form exceeds the page table's memory size");
+  w_.resize(data + vwords + twords + c.run_count, 0u);
+  uint32_t* d = &w_[1 + size_t(next_++) * kDescriptorWords];
+  d[0] = c.vertex_count | (c.triangle_count << 8) | (c.run_count << 16) | (ob << 24);
+  for (uint32_t k = 0; k < 6; ++k) d[1] |= c.bits[k] << (5 * k);
+  d[2] = c.bits[6] | uint32_t(data << 10);
+  for (uint32_t k = 0; k < kMaxChannels; ++k) d[3 + k] = uint32_t(c.min[k]);
+  // Vertices: fixed-width records, fields in channel order.
+  uint64_t bit = data * 32;
+  for (uint32_t v = 0; v < c.vertex_count; ++v)
+    for (uint32_t k = 0; k < kMaxChannels; ++k) {
+      write_bits(w_.data(), bit, c.bits[k], uint32_t(int64_t(c.values[k][v]) - c.min[k]));
+      bit += c.bits[k];
+    }
+  bit = (data + vwords) * 32;
+  for (uint32_t t = 0; t < c.triangle_count; ++t, bit += tb) {
+    uint8_t m[3];
+    min_first(c.strip[t], m);
+    write_bits(w_.data(), bit, bb, m[0]);
+    write_bits(w_.data(), bit + bb, ob, uint32_t(m[1] - m[0]));
+    write_bits(w_.data(), bit + bb + ob, ob, uint32_t(m[2] - m[0]));
+  }
+  uint64_t mat = data + vwords + twords;
+  for (uint32_t r = 0; r < c.run_count; ++r) w_[mat++] = c.run_start[r] | (c.run_material[r] << 8);
+}
+
+std::vector<uint32_t> MemoryPageBuilder::finish() {
+  assert(next_ == n_);
+  return std::move(w_);
+}
+
+std::vector<uint32_t> encode_memory_page(const std::vector<const CanonicalCluster*>& clusters,
+                                         const MeshQuantization&) {
+  static const std::string where = "<encoder>";
+  MemoryPageBuilder b(uint32_t(clusters.size()), UINT64_MAX, where);
+  for (const CanonicalCluster* c : clusters) b.add(*c);
+  return b.finish();
+}
+
+}  // namespace vgeo::format_detail
+
+namespace vgeo {
+using namespace format_detail;
+
+uint32_t memory_page_cluster_count(const uint32_t* words) { return words[0]; }
+
+void validate_memory_page(const uint32_t* w, size_t word_count, const MeshQuantization& q,
+                          const std::string& where) {
+  if (word_count < 1) fail(kErrTruncated, where, "memory page has no header word");
+  const uint32_t n = w[0];
+  if (n == 0) fail(kErrOutOfRange, where, "memory page with no cluster");
+  if (uint64_t(n) * kDescriptorWords + 1 > word_count)
+    fail(kErrTruncated, where, "memory page shorter than its cluster descriptors");
+  const uint32_t channels = q.channel_count();
+  uint64_t data = 1 + uint64_t(n) * kDescriptorWords;
+  for (uint32_t i = 0; i < n; ++i) {
+    const uint32_t* d = &w[1 + i * kDescriptorWords];
+    const uint32_t vc = d[0] & 0xFFu, tc = (d[0] >> 8) & 0xFFu, runs = (d[0] >> 16) & 0xFFu,
+                   ob = (d[0] >> 24) & 15u;
+    const std::string at = "cluster " + std::to_string(i) + ": ";
+    if (vc == 0 || tc == 0 || tc > kMaxClusterTriangles || runs == 0 || runs > tc || ob > kMaxIndexOffsetBits ||
+        (d[0] >> 28) != 0)
+      fail(kErrOutOfRange, where, at + "descriptor counts/flags out of range");
+    if ((d[1] >> 30) != 0 || ((d[2] >> 5) & 31u) != 0) fail(kErrOutOfRange, where, at + "reserved bits set");
+    uint32_t bits[kMaxChannels], vb = 0;
+    for (uint32_t k = 0; k < kMaxChannels; ++k) {
+      bits[k] = k < 6 ? (d[1] >> (5 * k)) & 31u : d[2] & 31u;
+      const int32_t mn = int32_t(d[3 + k]);
+      if (k >= channels ? (bits[k] != 0 || mn != 0) : bits[k] > channel_max_bits(q, k))
+        fail(kErrOutOfRange, where, at + "channel bit width out of range");
+      if (k < channels && (channel_is_normal(q, k) ? mn < 0 : (mn < -kMaxQuantized || mn > kMaxQuantized)))
+        fail(kErrOutOfRange, where, at + "channel minimum out of range");
+      vb += bits[k];
+    }
+    if ((d[2] >> 10) != data) fail(kErrInconsistent, where, at + "data offset is not the running offset");
+    const uint32_t tb = triangle_bits(vc, ob), bb = tb - 2 * ob;
+    const uint64_t vwords = words_for_bits(uint64_t(vc) * vb), twords = words_for_bits(uint64_t(tc) * tb);
+    if (data + vwords + twords + runs > word_count) fail(kErrTruncated, where, at + "data beyond the page");
+    uint64_t bit = data * 32;
+    for (uint32_t v = 0; v < vc; ++v)
+      for (uint32_t k = 0; k < channels; ++k) {
+        const int64_t value = int64_t(int32_t(d[3 + k])) + read_bits(w, bit, bits[k]);
+        bit += bits[k];
+        const int64_t hi = channel_is_normal(q, k) ? (1 << q.normal_bits) - 1 : kMaxQuantized;
+        if (value > hi) fail(kErrOutOfRange, where, at + "vertex value beyond the quantized range");
+      }
+    data += vwords;
+    bit = data * 32;
+    for (uint32_t t = 0; t < tc; ++t, bit += tb) {
+      const uint32_t i0 = read_bits(w, bit, bb);
+      const uint32_t i1 = i0 + read_bits(w, bit + bb, ob), i2 = i0 + read_bits(w, bit + bb + ob, ob);
+      if (i0 >= vc || i1 >= vc || i2 >= vc) fail(kErrOutOfRange, where, at + "triangle index beyond vertex count");
+    }
+    data += twords;
+    for (uint32_t r = 0; r < runs; ++r) {
+      const uint32_t start = w[data + r] & 0xFFu;
+      if (r == 0 ? start != 0 : start <= (w[data + r - 1] & 0xFFu) || start >= tc)
+        fail(kErrOutOfRange, where, at + "material runs not strictly increasing from 0");
+    }
+    data += runs;
+  }
+  if (data != word_count) fail(kErrTrailingBytes, where, "memory page longer than its clusters");
+}
+
+void decode_cluster(const uint32_t* w, uint32_t i, const MeshQuantization& q, DecodedCluster* out) {
+  assert(i < w[0]);
+  const uint32_t* d = &w[1 + i * kDescriptorWords];
+  const uint32_t vc = d[0] & 0xFFu, tc = (d[0] >> 8) & 0xFFu, runs = (d[0] >> 16) & 0xFFu;
+  const uint32_t ob = (d[0] >> 24) & 15u;
+  const uint32_t channels = q.channel_count();
+  uint32_t bits[kMaxChannels], vb = 0;
+  for (uint32_t k = 0; k < kMaxChannels; ++k) {
+    bits[k] = k < 6 ? (d[1] >> (5 * k)) & 31u : d[2] & 31u;
+    vb += bits[k];
+  }
+  uint64_t data = d[2] >> 10;
+  out->vertex_count = vc;
+  out->triangle_count = tc;
+  out->index_offset_bits = ob;
+  out->quantized.assign(size_t(vc) * channels, 0);
+  out->positions.assign(size_t(vc) * 3, 0.0f);
+  out->normals.assign(q.has_normals ? size_t(vc) * 3 : 0, 0.0f);
+  out->uvs.assign(q.has_uvs ? size_t(vc) * 2 : 0, 0.0f);
+  uint64_t bit = data * 32;
+  for (uint32_t v = 0; v < vc; ++v) {
+    int32_t* qv = &out->quantized[size_t(v) * channels];
+    for (uint32_t k = 0; k < channels; ++k) {
+      qv[k] = int32_t(d[3 + k]) + int32_t(read_bits(w, bit, bits[k]));
+      bit += bits[k];
+    }
+    for (int k = 0; k < 3; ++k) out->positions[3 * v + k] = dequantize_position(qv[k], q.position_step_log2);
+    uint32_t ch = 3;
+    if (q.has_normals) {
+      const uint32_t oct[2] = {uint32_t(qv[3]), uint32_t(qv[4])};
+      octahedral_decode(oct, q.normal_bits, &out->normals[3 * v]);
+      ch = 5;
+    }
+    if (q.has_uvs)
+      for (int k = 0; k < 2; ++k) out->uvs[2 * v + k] = dequantize_position(qv[ch + k], q.uv_step_log2);
+  }
+  data += words_for_bits(uint64_t(vc) * vb);
+  const uint32_t tb = triangle_bits(vc, ob), bb = tb - 2 * ob;
+  out->indices.resize(size_t(tc) * 3);
+  bit = data * 32;
+  for (uint32_t t = 0; t < tc; ++t, bit += tb) {
+    uint8_t* o = &out->indices[3 * t];
+    const uint32_t b = read_bits(w, bit, bb);
+    o[0] = uint8_t(b);
+    o[1] = uint8_t(b + read_bits(w, bit + bb, ob));
+    o[2] = uint8_t(b + read_bits(w, bit + bb + ob, ob));
+  }
+  data += words_for_bits(uint64_t(tc) * tb);
+  out->materials.resize(tc);
+  for (uint32_t r = 0; r < runs; ++r) {
+    const uint32_t start = w[data + r] & 0xFFu, end = r + 1 < runs ? w[data + r + 1] & 0xFFu : tc;
+    for (uint32_t t = start; t < end; ++t) out->materials[t] = w[data + r] >> 8;
+  }
+}
+
+}  // namespace vgeo
+
+namespace vgeo::format_detail {
+
+// ---------------------------------------------------------------- disk form
+
+namespace {
+void put_u32(std::vector<uint8_t>& b, uint32_t v) {
+  for (int k = 0; k < 4; ++k) b.push_back(uint8_t(v >> (8 * k)));
+}
+
+struct Reader {
+  const uint8_t* p;
+  size_t size, pos = 0;
+  const std::string& where;
+  const uint8_t* take(size_t n) {
+    if (n > size - pos) fail(kErrTruncated, where, "disk page ends inside a field");
+    const uint8_t* r = p + pos;
+    pos += n;
+    return r;
+  }
+  uint8_t u8() { return *take(1); }
+  uint32_t u32() {
+    const uint8_t* b = take(4);
+    return uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24;
+  }
+};
+}  // namespace
+
+uint32_t disk_cluster_bytes(const CanonicalCluster& c, uint32_t channel_count) {
+  uint32_t b = 3 + 5 * channel_count + c.triangle_count + c.ref_count + 5 * c.run_count;
+  for (uint32_t k = 0; k < channel_count; ++k) b += delta_bytes(c.bits[k]) * c.vertex_count;
+  return b;
+}
+
+std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>& clusters,
+                                      const MeshQuantization& q, DiskStreams* streams) {
+  const uint32_t channels = q.channel_count();
+  std::vector<uint8_t> b;
+  put_u32(b, kDiskPageMagic);
+  put_u32(b, uint32_t(clusters.size()));
+  for (const auto* c : clusters) b.push_back(uint8_t(c->vertex_count));
+  for (const auto* c : clusters) b.push_back(uint8_t(c->triangle_count));
+  for (const auto* c : clusters) b.push_back(uint8_t(c->run_count));
+  for (const auto* c : clusters)
+    for (uint32_t k = 0; k < channels; ++k) b.push_back(uint8_t(c->bits[k]));
+  for (const auto* c : clusters)
+    for (uint32_t k = 0; k < channels; ++k) put_u32(b, uint32_t(c->min[k]));
+  size_t mark = b.size();
+  if (streams) streams->headers.insert(streams->headers.end(), b.begin(), b.end());
+  auto section = [&](std::vector<uint8_t> DiskStreams::*s) {
+    if (streams) (streams->*s).insert((streams->*s).end(), b.begin() + long(mark), b.end());
+    mark = b.size();
+  };
+  // Topology: one control byte per triangle, then the explicit references.
+  uint32_t refs = 0;
+  for (const auto* c : clusters) {
+    b.insert(b.end(), c->ctl, c->ctl + c->triangle_count);
+    refs += c->ref_count;
+  }
+  put_u32(b, refs);
+  for (const auto* c : clusters) b.insert(b.end(), c->refs, c->refs + c->ref_count);
+  section(&DiskStreams::topology);
+  for (const auto* c : clusters) b.insert(b.end(), c->run_start, c->run_start + c->run_count);
+  for (const auto* c : clusters)
+    for (uint32_t r = 0; r < c->run_count; ++r) put_u32(b, c->run_material[r]);
+  section(&DiskStreams::materials);
+  // Vertices: per channel, per cluster, byte planes of zigzag deltas along first-use order.
+  for (uint32_t k = 0; k < channels; ++k) {
+    for (const auto* c : clusters) {
+      const uint32_t nb = delta_bytes(c->bits[k]);
+      for (uint32_t plane = 0; plane < nb; ++plane) {
+        int32_t prev = c->min[k];
+        for (uint32_t v = 0; v < c->vertex_count; ++v) {
+          b.push_back(uint8_t(zigzag(c->values[k][v] - prev) >> (8 * plane)));
+          prev = c->values[k][v];
+        }
+      }
+    }
+    section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs);
+  }
+  return b;
+}
+
+void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q,
+                     uint32_t expected_clusters, ClusterSink& sink, const std::string& where) {
+  Reader r{data, size, 0, where};
+  if (r.u32() != kDiskPageMagic) fail(kErrBadMagic, where, "disk page magic is not VDPG");
+  const uint32_t n = r.u32();
+  if (n != expected_clusters) fail(kErrInconsistent, where, "disk page cluster count differs from the page table");
+  // Each cluster takes ≥ 3 + 5·channels header bytes: n is bounded by the page size
+  // before the (small) per-cluster header arrays are allocated.
+  const uint32_t channels = q.channel_count();
+  if (uint64_t(n) * (3 + 5 * channels) > size - r.pos) fail(kErrTruncated, where, "disk page shorter than its cluster headers");
+  struct Head {
+    uint32_t vc, tc, runs, bits[kMaxChannels];
+    int32_t min[kMaxChannels];
+    size_t ctl, refs, run_start, run_material;  // section offsets of this cluster
+  };
+  std::vector<Head> hs(n);
+  for (Head& h : hs) h.vc = r.u8();
+  for (Head& h : hs) h.tc = r.u8();
+  for (Head& h : hs) h.runs = r.u8();
+  for (const Head& h : hs)
+    if (h.vc == 0 || h.tc == 0 || h.tc > kMaxClusterTriangles || h.runs == 0 || h.runs > h.tc)
+      fail(kErrOutOfRange, where, "cluster vertex/triangle/run count out of range");
+  for (Head& h : hs)
+    for (uint32_t k = 0; k < channels; ++k) {
+      h.bits[k] = r.u8();
+      if (h.bits[k] > channel_max_bits(q, k)) fail(kErrOutOfRange, where, "channel bit width out of range");
+    }
+  for (Head& h : hs)
+    for (uint32_t k = 0; k < channels; ++k) {
+      h.min[k] = int32_t(r.u32());
+      if (channel_is_normal(q, k) ? (h.min[k] < 0 || h.min[k] >= (1 << q.normal_bits))
+                                  : (h.min[k] < -kMaxQuantized || h.min[k] > kMaxQuantized))
+        fail(kErrOutOfRange, where, "channel minimum out of range");
+    }
+  // Section layout from the headers alone.
+  uint64_t total_tris = 0;
+  for (Head& h : hs) {
+    h.ctl = r.pos;
+    r.take(h.tc);
+    total_tris += h.tc;
+  }
+  const uint32_t ref_total = r.u32();
+  if (ref_total > 3 * total_tris) fail(kErrOutOfRange, where, "more references than triangle corners");
+  const uint8_t* refs = r.take(ref_total);
+  for (Head& h : hs) {
+    h.run_start = r.pos;
+    r.take(h.runs);
+  }
+  for (Head& h : hs) {
+    h.run_material = r.pos;
+    r.take(4 * size_t(h.runs));
+  }
+  std::vector<size_t> planes(size_t(n) * channels);
+  for (uint32_t k = 0; k < channels; ++k)
+    for (uint32_t i = 0; i < n; ++i) {
+      planes[size_t(i) * channels + k] = r.pos;
+      r.take(size_t(delta_bytes(hs[i].bits[k])) * hs[i].vc);
+    }
+  if (r.pos != size) fail(kErrTrailingBytes, where, "disk page longer than its clusters");
+
+  CanonicalCluster c;
+  uint32_t ref_used = 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    const Head& h = hs[i];
+    c.vertex_count = h.vc;
+    c.triangle_count = h.tc;
+    c.run_count = h.runs;
+    c.ref_count = 0;
+    for (uint32_t k = 0; k < kMaxChannels; ++k) {
+      c.bits[k] = k < channels ? h.bits[k] : 0;
+      c.min[k] = k < channels ? h.min[k] : 0;
+    }
+    // Topology.
+    uint32_t seen = 0;
+    auto corner = [&](bool is_ref) -> uint8_t {
+      if (!is_ref) {
+        if (seen >= c.vertex_count) fail(kErrOutOfRange, where, "strip introduces more vertices than the cluster has");
+        return uint8_t(seen++);
+      }
+      if (ref_used >= ref_total) fail(kErrInconsistent, where, "strip uses more references than declared");
+      const uint32_t back = refs[ref_used++];
+      c.refs[c.ref_count++] = uint8_t(back);
+      if (back >= seen) fail(kErrOutOfRange, where, "reference to a vertex not yet introduced");
+      return uint8_t(seen - 1 - back);
+    };
+    for (uint32_t t = 0; t < c.triangle_count; ++t) {
+      const uint8_t ctl = data[h.ctl + t];
+      c.ctl[t] = ctl;
+      uint8_t* s = c.strip[t];
+      if (ctl & kCtlReset) {
+        if (ctl & (0xE0u | kCtlSide)) fail(kErrOutOfRange, where, "strip control byte has reserved bits set");
+        for (int k = 0; k < 3; ++k) s[k] = corner(ctl & (kCtlRef0 << k));
+      } else {
+        if (t == 0) fail(kErrOutOfRange, where, "first triangle of a cluster does not start a strip");
+        if (ctl & 0xF8u) fail(kErrOutOfRange, where, "strip control byte has reserved bits set");
+        const uint8_t* p = c.strip[t - 1];
+        if (ctl & kCtlSide) s[0] = p[0], s[1] = p[2];
+        else s[0] = p[2], s[1] = p[1];
+        s[2] = corner(ctl & kCtlRef0);
+      }
+    }
+    // Material runs.
+    for (uint32_t k = 0; k < c.run_count; ++k) {
+      c.run_start[k] = data[h.run_start + k];
+      const uint8_t* m = data + h.run_material + 4 * k;
+      c.run_material[k] = uint32_t(m[0]) | uint32_t(m[1]) << 8 | uint32_t(m[2]) << 16 | uint32_t(m[3]) << 24;
+      if (k == 0 ? c.run_start[0] != 0 : c.run_start[k] <= c.run_start[k - 1] || c.run_start[k] >= c.triangle_count)
+        fail(kErrOutOfRange, where, "material runs not strictly increasing from 0");
+      if (c.run_material[k] > kMaxMaterialId) fail(kErrOutOfRange, where, "material id beyond 2^24 - 1");
+      if (k > 0 && c.run_material[k] <= c.run_material[k - 1])
+        fail(kErrNonCanonical, where, "material ids of a cluster's runs not strictly increasing");
+    }
+    // Vertices.
+    for (uint32_t k = 0; k < channels; ++k) {
+      const uint32_t nb = delta_bytes(c.bits[k]);
+      const uint8_t* pl = data + planes[size_t(i) * channels + k];
+      const int64_t lo = c.min[k], hi = lo + (int64_t(1) << c.bits[k]) - 1;
+      const int64_t kind_hi = channel_is_normal(q, k) ? (1 << q.normal_bits) - 1 : kMaxQuantized;
+      int64_t prev = lo, seen_lo = INT64_MAX, seen_hi = INT64_MIN;
+      for (uint32_t v = 0; v < c.vertex_count; ++v) {
+        uint32_t z = 0;
+        for (uint32_t plane = 0; plane < nb; ++plane) z |= uint32_t(pl[size_t(plane) * c.vertex_count + v]) << (8 * plane);
+        const int64_t value = prev + unzigzag(z);
+        if (value < lo || value > hi || value > kind_hi) fail(kErrOutOfRange, where, "vertex value outside its cluster range");
+        c.values[k][v] = int32_t(value);
+        seen_lo = std::min(seen_lo, value);
+        seen_hi = std::max(seen_hi, value);
+        prev = value;
+      }
+      if (seen_lo != lo || bits_for_range(uint32_t(seen_hi - seen_lo)) != c.bits[k])
+        fail(kErrNonCanonical, where, "channel minimum/bit width not the tightest");
+    }
+    sink.cluster(i, c);
+  }
+  if (ref_used != ref_total) fail(kErrInconsistent, where, "declared references left unused");
+}
+
+}  // namespace vgeo::format_detail

@@ -1,0 +1,192 @@
+// Decoder hardening (spec/format.md §Decoder obligations): every prefix truncation and a
+// one-byte extension are rejected with the right code, every single-bit flip of a page is
+// caught by its CRC, malformed fields map to their stable codes, and mutated pages whose
+// CRCs were recomputed never crash the decoder (runs under ASan in CI).
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <random>
+
+#include "format_test_util.h"
+#include "vgeo/format/crc32c.h"
+#include "vgeo/format/page_codec.h"
+
+namespace vgeo {
+namespace {
+
+using test::error_code_of;
+
+std::vector<uint8_t> small_file(Compression c = Compression::kZstd, uint32_t rings = 6) {
+  FormatOptions o;
+  o.compression = c;
+  o.zstd_level = 3;
+  return encode_format(test::scene_of({test::make_leaf_dag(test::make_sphere(rings, 2 * rings))}), o);
+}
+
+uint32_t le32(const uint8_t* p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24; }
+void put32(uint8_t* p, uint32_t v) { for (int k = 0; k < 4; ++k) p[k] = uint8_t(v >> (8 * k)); }
+
+// Recomputes every CRC (pages, metadata, header) after a deliberate edit.
+void fix_crcs(std::vector<uint8_t>& f) {
+  const uint32_t meta_size = le32(&f[36]), pages = le32(&f[32]);
+  uint8_t* table = &f[64 + meta_size - 24 * size_t(pages)];
+  size_t offset = 64 + meta_size;
+  for (uint32_t p = 0; p < pages; ++p) {
+    const uint32_t stored = le32(table + 24 * p + 4);
+    if (offset + stored <= f.size()) put32(table + 24 * p + 20, crc32c(&f[offset], stored));
+    offset += stored;
+  }
+  put32(&f[40], crc32c(&f[64], meta_size));
+  put32(&f[60], crc32c(&f[0], 60));
+}
+
+std::string decode_code(const std::vector<uint8_t>& f) {
+  return error_code_of([&] { decode_format(f.data(), f.size(), "<test>"); });
+}
+
+TEST(FormatHardening, ValidFileDecodes) { EXPECT_EQ(decode_code(small_file()), "OK"); }
+
+TEST(FormatHardening, EveryPrefixTruncationIsRejectedAsTruncated) {
+  for (Compression c : {Compression::kNone, Compression::kZstd, Compression::kLz4}) {
+    const std::vector<uint8_t> f = small_file(c);
+    for (size_t n = 0; n < f.size(); ++n) {
+      const std::vector<uint8_t> cut(f.begin(), f.begin() + long(n));
+      ASSERT_EQ(decode_code(cut), kErrTruncated) << "prefix " << n << " of " << f.size();
+    }
+  }
+}
+
+TEST(FormatHardening, OneByteExtensionIsRejectedAsTrailing) {
+  for (uint8_t extra : {0x00, 0xFF}) {
+    std::vector<uint8_t> f = small_file();
+    f.push_back(extra);
+    EXPECT_EQ(decode_code(f), kErrTrailingBytes);
+  }
+}
+
+TEST(FormatHardening, PageTruncationAndExtensionRejected) {
+  for (Compression c : {Compression::kNone, Compression::kZstd, Compression::kLz4}) {
+    const std::vector<uint8_t> f = small_file(c, 12);
+    const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+    for (uint32_t p = 0; p < fc.pages.size(); ++p) {
+      const PageEntry& e = fc.pages[p];
+      std::vector<uint8_t> page(f.begin() + long(e.file_offset), f.begin() + long(e.file_offset + e.stored_size));
+      for (size_t n = 0; n < page.size(); ++n)
+        ASSERT_EQ(error_code_of([&] { transcode_page(fc, p, page.data(), n, "<test>"); }), kErrTruncated) << n;
+      page.push_back(0);
+      EXPECT_EQ(error_code_of([&] { transcode_page(fc, p, page.data(), page.size(), "<test>"); }), kErrTrailingBytes);
+    }
+  }
+}
+
+TEST(FormatHardening, RawDiskPageTruncationAndExtensionRejected) {
+  const std::vector<uint8_t> f = small_file(Compression::kNone, 12);
+  const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+  const PageEntry& e = fc.pages[0];
+  std::vector<uint8_t> raw(f.begin() + long(e.file_offset), f.begin() + long(e.file_offset + e.stored_size));
+  struct Null final : format_detail::ClusterSink {
+    void cluster(uint32_t, const format_detail::CanonicalCluster&) override {}
+  } sink;
+  const MeshQuantization& q = fc.meshes[0].quantization;
+  EXPECT_EQ(error_code_of([&] { format_detail::parse_disk_page(raw.data(), raw.size(), q, e.cluster_count, sink, "t"); }), "OK");
+  for (size_t n = 0; n < raw.size(); ++n)
+    ASSERT_EQ(error_code_of([&] { format_detail::parse_disk_page(raw.data(), n, q, e.cluster_count, sink, "t"); }), kErrTruncated) << n;
+  raw.push_back(0);
+  EXPECT_EQ(error_code_of([&] { format_detail::parse_disk_page(raw.data(), raw.size(), q, e.cluster_count, sink, "t"); }),
+            kErrTrailingBytes);
+}
+
+TEST(FormatHardening, MemoryPageTruncationAndExtensionRejected) {
+  const std::vector<uint8_t> f = small_file(Compression::kZstd, 12);
+  const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+  const PageEntry& e = fc.pages[0];
+  std::vector<uint32_t> words = transcode_page(fc, 0, f.data() + e.file_offset, e.stored_size, "<test>");
+  const MeshQuantization& q = fc.meshes[0].quantization;
+  EXPECT_EQ(error_code_of([&] { validate_memory_page(words.data(), words.size(), q, "t"); }), "OK");
+  for (size_t n = 0; n < words.size(); ++n) {
+    // Exact-size copies so that ASan sees any read beyond the declared length.
+    std::vector<uint32_t> cut(words.begin(), words.begin() + long(n));
+    ASSERT_EQ(error_code_of([&] { validate_memory_page(cut.data(), cut.size(), q, "t"); }), kErrTruncated) << n;
+  }
+  words.push_back(0);
+  EXPECT_EQ(error_code_of([&] { validate_memory_page(words.data(), words.size(), q, "t"); }), kErrTrailingBytes);
+}
+
+TEST(FormatHardening, EverySingleBitFlipOfAPageIsCaughtByItsChecksum) {
+  const std::vector<uint8_t> f = small_file(Compression::kZstd, 10);
+  const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+  for (uint32_t p = 0; p < fc.pages.size(); ++p) {
+    const PageEntry& e = fc.pages[p];
+    std::vector<uint8_t> page(f.begin() + long(e.file_offset), f.begin() + long(e.file_offset + e.stored_size));
+    for (size_t bit = 0; bit < page.size() * 8; ++bit) {
+      page[bit / 8] ^= uint8_t(1u << (bit % 8));
+      ASSERT_EQ(error_code_of([&] { transcode_page(fc, p, page.data(), page.size(), "<test>"); }), kErrChecksum) << bit;
+      page[bit / 8] ^= uint8_t(1u << (bit % 8));
+    }
+  }
+}
+
+TEST(FormatHardening, EverySingleBitFlipOfTheFileIsRejected) {
+  const std::vector<uint8_t> f = small_file(Compression::kZstd, 4);
+  std::vector<uint8_t> g = f;
+  for (size_t bit = 0; bit < f.size() * 8; ++bit) {
+    g[bit / 8] ^= uint8_t(1u << (bit % 8));
+    const std::string code = decode_code(g);
+    const size_t byte = bit / 8;
+    const std::string expected = byte < 8 ? kErrBadMagic : byte < 12 ? kErrBadVersion : kErrChecksum;
+    ASSERT_EQ(code, expected) << "bit " << bit;
+    g[bit / 8] ^= uint8_t(1u << (bit % 8));
+  }
+}
+
+TEST(FormatHardening, MalformedFieldsMapToStableCodes) {
+  const std::vector<uint8_t> f = small_file(Compression::kZstd);
+  auto edited = [&](auto edit) {
+    std::vector<uint8_t> g = f;
+    edit(g);
+    fix_crcs(g);
+    return decode_code(g);
+  };
+  EXPECT_EQ(edited([](auto& g) { g[0] = 'X'; }), kErrBadMagic);
+  EXPECT_EQ(edited([](auto& g) { put32(&g[8], 2); }), kErrBadVersion);
+  EXPECT_EQ(edited([](auto& g) { put32(&g[24], 7); }), kErrUnsupported);          // compression
+  EXPECT_EQ(edited([](auto& g) { put32(&g[28], 1000); }), kErrOutOfRange);        // page size
+  EXPECT_EQ(edited([](auto& g) { g[50] = 1; }), kErrUnsupported);                 // reserved
+  EXPECT_EQ(edited([](auto& g) { put32(&g[16], le32(&g[16]) + 1); }), kErrInconsistent);  // file size
+  // First page's zstd frame magic broken (CRC recomputed): the decompressor rejects it.
+  const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+  const size_t page0 = fc.pages[0].file_offset;
+  EXPECT_EQ(edited([&](auto& g) { g[page0] ^= 0xFF; }), kErrDecompress);
+  // Metadata: first material's name length made huge.
+  EXPECT_EQ(edited([](auto& g) { put32(&g[68], 5000); }), kErrOutOfRange);
+  // Material count bigger than the metadata can hold.
+  EXPECT_EQ(edited([](auto& g) { put32(&g[64], 0x7FFFFFFF); }), kErrTruncated);
+}
+
+TEST(FormatHardening, MutatedPagesWithFixedChecksumsNeverCrash) {
+  // A small deterministic in-test fuzzer: byte mutations of valid files with the CRCs
+  // recomputed, so mutations reach the page parsers. Any VgeoError is fine; a crash or an
+  // exception of another type is not.
+  std::mt19937 rng(12345);
+  for (Compression c : {Compression::kNone, Compression::kZstd}) {
+    const std::vector<uint8_t> f = small_file(c, 8);
+    const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+    const size_t pages_begin = fc.pages[0].file_offset;
+    for (int iter = 0; iter < 3000; ++iter) {
+      std::vector<uint8_t> g = f;
+      const int edits = 1 + int(rng() % 4);
+      for (int k = 0; k < edits; ++k) {
+        const size_t at = (iter & 1) ? pages_begin + rng() % (g.size() - pages_begin) : 64 + rng() % (g.size() - 64);
+        g[at] = (rng() & 1) ? uint8_t(rng()) : uint8_t(g[at] ^ (1u << (rng() % 8)));
+      }
+      fix_crcs(g);
+      try {
+        decode_format(g.data(), g.size(), "<test>");
+      } catch (const VgeoError&) {
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace vgeo

@@ -1,0 +1,183 @@
+// Round-trip properties of the page format (spec/format.md §Decoded scene):
+//  - decode(encode(x)) equals x quantized, up to the documented canonical order
+//    (triangles permuted within a cluster, each triangle rotated, vertices permuted);
+//  - quantization error ≤ half a grid step; metadata bit-identical;
+//  - the decoded scene is a fixed point of quantization (re-encoding it is lossless);
+//  - transcode(disk page) == memory page built directly from the clusters.
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include "format_roundtrip_check.h"
+#include "vgeo/build/build.h"
+#include "format_test_util.h"
+#include "vgeo/format/crc32c.h"
+#include "vgeo/format/page_codec.h"
+
+namespace vgeo {
+namespace {
+
+// Random DAG with small integer-ish coordinates: coincident vertices, degenerate and
+// duplicate triangles, unused vertices and zero normals are common.
+ClusterDag random_dag(uint32_t seed, uint32_t clusters, bool normals, bool uvs) {
+  std::mt19937 rng(seed);
+  auto uni = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
+  ClusterDag d;
+  for (uint32_t c = 0; c < clusters; ++c) {
+    DagCluster cl;
+    cl.vertex_offset = uint32_t(d.vertex_count());
+    cl.triangle_offset = cl.material_offset = uint32_t(d.triangle_count());
+    cl.vertex_count = uint32_t(uni(0, 3) == 0 ? uni(1, 255) : uni(1, 40));
+    cl.triangle_count = uint32_t(uni(0, 3) == 0 ? uni(1, 128) : uni(1, 40));
+    const int spread = uni(0, 3) == 0 ? 4000 : 8;
+    for (uint32_t v = 0; v < cl.vertex_count; ++v) {
+      for (int k = 0; k < 3; ++k) d.positions.push_back(float(uni(-spread, spread)) * 0.25f + (uni(0, 4) == 0 ? 0.1f : 0.0f));
+      if (normals) for (int k = 0; k < 3; ++k) d.normals.push_back(float(uni(-2, 2)));
+      if (uvs) for (int k = 0; k < 2; ++k) d.uvs.push_back(float(uni(-8, 8)) * 0.125f);
+    }
+    for (uint32_t t = 0; t < cl.triangle_count; ++t) {
+      for (int k = 0; k < 3; ++k) d.indices.push_back(uint8_t(uni(0, int(cl.vertex_count) - 1)));
+      const uint32_t mats[] = {0, 1, 2, 1000, kMaxMaterialId};
+      d.triangle_materials.push_back(mats[uni(0, 4)]);
+    }
+    cl.bounds = cl.lod_bounds = test::sphere_of(d.positions, cl.vertex_offset, cl.vertex_count);
+    d.clusters.push_back(cl);
+  }
+  test::group_clusters(d, 0, uint32_t(uni(1, 4)), uni(0, 1) == 0);
+  test::finish_dag(d);
+  return d;
+}
+
+std::vector<uint8_t> encode(const BuiltScene& s, const FormatOptions& o = {}) { return encode_format(s, o); }
+
+TEST(FormatRoundTrip, CrcTestVector) {
+  EXPECT_EQ(crc32c("123456789", 9), 0xE3069283u);
+  EXPECT_EQ(crc32c("", 0), 0u);
+  EXPECT_EQ(crc32c("56789", 5, crc32c("1234", 4)), 0xE3069283u);
+}
+
+TEST(FormatRoundTrip, LeafDagOfSphereDecodesToQuantizedInput) {
+  BuiltScene s = test::scene_of({test::make_leaf_dag(test::make_sphere(24, 48)), test::make_leaf_dag(test::make_grid(20))});
+  for (Compression c : {Compression::kNone, Compression::kZstd, Compression::kLz4}) {
+    FormatOptions o;
+    o.compression = c;
+    const std::vector<uint8_t> f = encode(s, o);
+    const BuiltScene d = decode_format(f.data(), f.size(), "<test>");
+    const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+    EXPECT_EQ(compare_roundtrip(s, d, fc), "") << "compression " << int(c);
+    // The decoded scene is a fixed point of quantization: encoding it again loses nothing.
+    FormatOptions again = o;
+    again.position_step_log2 = fc.meshes[0].quantization.position_step_log2;
+    const std::vector<uint8_t> f2 = encode(d, again);
+    EXPECT_EQ(compare_roundtrip(d, decode_format(f2.data(), f2.size(), "<test>"), parse_container(f2.data(), f2.size(), "<test>")), "");
+  }
+}
+
+TEST(FormatRoundTrip, TwoLevelDagKeepsStructureAndGroupPartsConsecutive) {
+  BuiltScene s = test::scene_of({test::make_two_level_dag(test::make_grid(80, 2.0f, true), test::make_grid(20, 2.0f, true))});
+  FormatOptions o;
+  o.page_size = kMinPageSize;  // force several pages and split groups
+  const std::vector<uint8_t> f = encode(s, o);
+  const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+  EXPECT_GT(fc.pages.size(), 2u);
+  EXPECT_EQ(compare_roundtrip(s, decode_format(f.data(), f.size(), "<test>"), fc), "");
+  // Root page holds the coarsest level; a group's parts are consecutive pages.
+  const MeshMetadata& mm = fc.meshes[0];
+  EXPECT_EQ(mm.dag.clusters[mm.page_clusters[0]].level, 1u);
+  for (uint32_t g = 0; g < mm.dag.groups.size(); ++g)
+    for (uint32_t c = mm.dag.groups[g].first_cluster; c < mm.dag.groups[g].first_cluster + mm.dag.groups[g].cluster_count; ++c) {
+      EXPECT_GE(mm.cluster_page[c], mm.group_first_page[g]);
+      EXPECT_LT(mm.cluster_page[c], mm.group_first_page[g] + mm.group_page_count[g]);
+    }
+}
+
+TEST(FormatRoundTrip, EncodingIsDeterministic) {
+  BuiltScene s = test::scene_of({test::make_leaf_dag(test::make_sphere(16, 32))});
+  EXPECT_EQ(encode(s), encode(s));
+}
+
+TEST(FormatRoundTrip, TranscodeEqualsDirectMemoryForm) {
+  BuiltScene s = test::scene_of({test::make_leaf_dag(test::make_sphere(30, 60))});
+  FormatOptions o;
+  o.page_size = kMinPageSize;
+  const std::vector<uint8_t> f = encode(s, o);
+  const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+  for (uint32_t p = 0; p < fc.pages.size(); ++p) {
+    const PageEntry& e = fc.pages[p];
+    const MeshMetadata& mm = fc.meshes[e.mesh];
+    std::vector<format_detail::CanonicalCluster> canon(e.cluster_count);
+    std::vector<const format_detail::CanonicalCluster*> ptrs;
+    for (uint32_t k = 0; k < e.cluster_count; ++k) {
+      format_detail::canonicalize_cluster(s.meshes[e.mesh], mm.page_clusters[e.first_cluster_slot + k], mm.quantization, &canon[k]);
+      ptrs.push_back(&canon[k]);
+    }
+    const std::vector<uint32_t> direct = format_detail::encode_memory_page(ptrs, mm.quantization);
+    const std::vector<uint32_t> transcoded = transcode_page(fc, p, f.data() + e.file_offset, e.stored_size, "<test>");
+    ASSERT_EQ(direct, transcoded) << "page " << p;
+    EXPECT_NO_THROW(validate_memory_page(transcoded.data(), transcoded.size(), mm.quantization, "<test>"));
+  }
+}
+
+RC_GTEST_PROP(FormatRoundTrip, RandomDagsRoundTripExactly, ()) {
+  const uint32_t seed = *rc::gen::arbitrary<uint32_t>();
+  const uint32_t clusters = *rc::gen::inRange(1, 12);
+  const bool normals = *rc::gen::arbitrary<bool>(), uvs = *rc::gen::arbitrary<bool>();
+  BuiltScene s = test::scene_of({random_dag(seed, clusters, normals, uvs)});
+  FormatOptions o;
+  o.normal_bits = *rc::gen::inRange(1, 17);
+  o.compression = *rc::gen::element(Compression::kNone, Compression::kZstd, Compression::kLz4);
+  o.zstd_level = 3;
+  if (*rc::gen::arbitrary<bool>()) o.position_step_log2 = *rc::gen::inRange(-6, 3);
+  std::vector<uint8_t> f;
+  try {
+    f = encode_format(s, o);
+  } catch (const VgeoError& e) {
+    RC_ASSERT(e.error().code == std::string(kErrEncode));
+    RC_ASSERT(o.position_step_log2.has_value());  // only a too-fine explicit step may fail here
+    return;
+  }
+  const BuiltScene d = decode_format(f.data(), f.size(), "<test>");
+  const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+  RC_ASSERT(compare_roundtrip(s, d, fc) == std::string());
+  FormatOptions again = o;
+  again.position_step_log2 = fc.meshes[0].quantization.position_step_log2;
+  const std::vector<uint8_t> f2 = encode_format(d, again);
+  RC_ASSERT(compare_roundtrip(d, decode_format(f2.data(), f2.size(), "<test>"), parse_container(f2.data(), f2.size(), "<test>")) ==
+            std::string());
+}
+
+}  // namespace
+}  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+// The real builder's DAGs (several levels, split groups, real BVH) round-trip exactly too.
+TEST(FormatRoundTrip, BuiltDagsRoundTripExactly) {
+  BuildOptions bo;
+  bo.threads = 1;
+  Mesh grid = test::make_grid(48, 2.0f, true);
+  Mesh sphere = test::make_sphere(40, 80);
+  BuiltScene s = test::scene_of({build_dag(sphere, bo), build_dag(grid, bo)});
+  FormatOptions o;
+  o.page_size = kMinPageSize;
+  o.zstd_level = 3;
+  FormatReport report;
+  const std::vector<uint8_t> f = encode_format(s, o, &report);
+  const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+  EXPECT_GT(s.meshes[0].level_count, 1u);
+  EXPECT_EQ(compare_roundtrip(s, decode_format(f.data(), f.size(), "<test>"), fc), "");
+  EXPECT_EQ(report.triangles, s.meshes[0].triangle_count() + s.meshes[1].triangle_count());
+  // Root page of each mesh holds clusters of its coarsest level.
+  for (const MeshMetadata& mm : fc.meshes) {
+    uint32_t top = 0;
+    for (const DagCluster& c : mm.dag.clusters) top = std::max(top, c.level);
+    EXPECT_EQ(mm.dag.clusters[mm.page_clusters[0]].level, top);
+  }
+}
+
+}  // namespace
+}  // namespace vgeo
