@@ -1,13 +1,105 @@
-// Placeholder until the issue that owns `vgeo bench` lands.
+// `vgeo bench SUITE|all --out DIR [--quick] [--repeat N] [--threads N]`: measured curves of
+// what accuracy costs in time. Writes DIR/report.md, DIR/report.json and SVG plots.
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "bench_harness.h"
+#include "bench_suites.h"
 #include "commands.h"
 #include "vgeo/core/error.h"
+#include "vgeo/core/progress.h"
 
 namespace vgeo::cli {
 
+namespace {
+struct BenchArgs {
+  std::string suite;
+  std::string out;
+  bool quick = false;
+  int repeat = 0;
+  unsigned threads = 0;
+};
+
+void run_bench(const BenchArgs& args) {
+  using namespace vgeo::bench;
+  std::vector<SuiteDef> suites = suite_list();
+  std::vector<SuiteDef> chosen;
+  for (const SuiteDef& s : suites)
+    if (args.suite == "all" || args.suite == s.name) chosen.push_back(s);
+  if (chosen.empty()) {
+    std::string names;
+    for (const SuiteDef& s : suites) names += std::string(names.empty() ? "" : ", ") + s.name;
+    fail("BENCH_UNKNOWN_SUITE", "vgeo bench", "unknown suite '" + args.suite + "' (expected all, " + names + ")",
+         kExitUsage);
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(args.out, ec);
+  if (ec || !std::filesystem::is_directory(args.out))
+    fail("IO_CREATE_DIR", args.out, "cannot create output directory" + (ec ? ": " + ec.message() : std::string()),
+         kExitIo);
+
+  BenchConfig cfg;
+  cfg.quick = args.quick;
+  cfg.repeat = args.repeat;
+  cfg.threads = args.threads;
+  cfg.out_dir = args.out;
+  cfg.progress = progress_wanted();
+  MachineInfo machine = describe_machine();
+  std::vector<SuiteReport> reports;
+  double t0 = now_seconds();
+  for (const SuiteDef& s : chosen) {
+    SuiteReport r;
+    r.name = s.name;
+    double ts = now_seconds();
+    // A stage that throws is a finding for that stage, not a reason to lose the other suites:
+    // record it in the report (and on stderr) and go on. Exit status stays 0 so the smoke
+    // run in tools/test keeps the harness alive; the report names the failure.
+    try {
+      s.run(cfg, r);
+    } catch (const VgeoError& e) {
+      r = SuiteReport{};
+      r.name = s.name;
+      r.skipped_reason = "failed: " + e.error().line();
+      std::fprintf(stderr, "suite %s: failed: %s\n", s.name, e.error().line().c_str());
+    } catch (const std::exception& e) {
+      r = SuiteReport{};
+      r.name = s.name;
+      r.skipped_reason = std::string("failed: ") + e.what();
+      std::fprintf(stderr, "suite %s: failed: %s\n", s.name, e.what());
+    }
+    r.seconds = now_seconds() - ts;
+    if (cfg.progress) {
+      if (r.ran) std::fprintf(stderr, "suite %s: done in %.1f s\n", s.name, r.seconds);
+      else if (r.skipped_reason.rfind("failed", 0) != 0)
+        std::fprintf(stderr, "suite %s: skipped (%s)\n", s.name, r.skipped_reason.c_str());
+    }
+    reports.push_back(std::move(r));
+  }
+  write_reports(cfg, machine, reports, now_seconds() - t0);
+  if (cfg.progress) std::fprintf(stderr, "wrote %s/report.md\n", args.out.c_str());
+}
+}  // namespace
+
 void add_bench_command(CLI::App& app, Context& ctx) {
-  auto* cmd = app.add_subcommand("bench", "(not implemented yet)");
-  cmd->allow_extras();
-  cmd->callback([&ctx] { fail("NOT_IMPLEMENTED", "vgeo bench", "this command is not implemented yet", kExitInternal); (void)ctx; });
+  auto args = std::make_shared<BenchArgs>();
+  std::string suite_help = "suite to run: all";
+  for (const auto& s : bench::suite_list()) suite_help += std::string(", ") + s.name;
+  auto* cmd = app.add_subcommand("bench", "measure what accuracy costs in time (report.md/.json + SVG plots)");
+  cmd->add_option("suite", args->suite, suite_help)->required();
+  cmd->add_option("--out", args->out, "output directory (created if missing)")->required();
+  cmd->add_flag("--quick", args->quick, "smoke sizes: all suites in well under 2 minutes");
+  cmd->add_option("--repeat", args->repeat, "repetitions per measurement (default: per suite; quick: 3)")
+      ->check(CLI::Range(1, 1000));
+  cmd->add_option("--threads", args->threads, "worker threads (default: hardware concurrency)")
+      ->check(CLI::Range(0u, 1024u));
+  cmd->callback([args, &ctx] {
+    run_bench(*args);
+    ctx.exit_code = kExitOk;
+  });
 }
 
 }  // namespace vgeo::cli

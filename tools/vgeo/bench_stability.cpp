@@ -1,0 +1,200 @@
+// Suite "stability": hard cases (far instances, extreme scales, camera inside the bounds or
+// at the near plane, sliver and degenerate input) measured with the lod suite's accuracy
+// metrics at tau = 1, to show they neither degrade nor blow up.
+#include <cmath>
+
+#include "bench_frame.h"
+#include "bench_shapes.h"
+#include "bench_suites.h"
+#include "vgeo/build/build.h"
+#include "vgeo/core/error.h"
+#include "vgeo/core/progress.h"
+
+namespace vgeo {
+ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report) __attribute__((weak));
+}
+
+namespace vgeo::bench {
+namespace {
+
+constexpr float kTau = 1.0f;  // the default the lod suite supports
+constexpr double kFar = 1e7;  // spec/invariants.md: instances up to 1e7 units from the origin
+
+struct Case {
+  std::string name;
+  int mesh = 0;  // index into the case meshes
+  BenchInstance instance;
+  BenchCamera camera;
+  bool compare_to_baseline = false;  // same view up to translation/scale: image must match
+};
+
+// Keys whose depth is not a finite value in (0, 1]: must never be written (visbuffer.h).
+uint64_t invalid_keys(const VisBuffer& vb) {
+  uint64_t n = 0;
+  for (uint64_t k : vb.keys) {
+    if (k == 0) continue;
+    float d = vis_key_depth(k);
+    n += !(std::isfinite(d) && d > 0 && d <= 1);
+  }
+  return n;
+}
+
+}  // namespace
+
+void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
+  if (!frame_stages_available(out)) return;
+  out.ran = true;
+  const uint32_t tris = cfg.quick ? 5000 : 40000;
+  const int reps = cfg.repetitions(5);
+  const uint32_t w = cfg.quick ? 320 : 640, h = cfg.quick ? 180 : 360;
+  ThreadPool pool(cfg.threads);
+
+  struct MeshCase {
+    std::string name;
+    Mesh mesh;
+  };
+  std::vector<MeshCase> inputs;
+  inputs.push_back({"sphere", make_shape(Shape::kSphere, tris, 5)});
+  inputs.push_back({"terrain", make_shape(Shape::kTerrain, tris, 5)});
+  inputs.push_back({"ellipsoid 1:1:0.001 (slivers)", make_ellipsoid(tris, 1e-3f)});
+  inputs.push_back({"sphere + degenerate triangles", add_degenerate_triangles(make_shape(Shape::kSphere, tris, 5), 7)});
+
+  BenchCamera base;
+  base.width = w;
+  base.height = h;
+  base.eye = {2.2, 1.4, 1.8};
+  base.target = {0, 0, 0};
+  base.up = {0, 1, 0};
+
+  std::vector<Case> cases;
+  cases.push_back({"baseline: sphere, camera outside", 0, {}, base, false});
+  {
+    Case c{"far: instance and camera at 1e7", 0, {}, base, true};
+    c.instance.translation = {kFar, 0, kFar};
+    c.camera.eye = {base.eye.x + kFar, base.eye.y, base.eye.z + kFar};
+    c.camera.target = {kFar, 0, kFar};
+    cases.push_back(c);
+  }
+  for (double s : {1e-4, 1e4}) {
+    Case c{std::string("scale ") + (s < 1 ? "1e-4" : "1e4") + ": instance, camera and near plane scaled", 0, {}, base,
+           true};
+    c.instance.scale = s;
+    c.camera.eye = {base.eye.x * s, base.eye.y * s, base.eye.z * s};
+    c.camera.z_near = float(base.z_near * s);
+    cases.push_back(c);
+  }
+  {
+    BoxFrame f = box_frame(inputs[1].mesh);
+    Case c{"camera inside bounds: just under the terrain's top, looking across", 1, {}, base, false};
+    c.camera.eye = {f.center.x - 0.2 * f.half.x, f.center.y + 0.8 * f.half.y, f.center.z - 0.5 * f.half.z};
+    c.camera.target = {f.center.x + 0.3 * f.half.x, f.center.y, f.center.z + 0.5 * f.half.z};
+    cases.push_back(c);
+  }
+  {
+    // The surface point nearest the +Z axis top, then the eye half a near distance above it:
+    // triangles there cross the near plane and must be clipped, not drawn unclipped.
+    const Mesh& m = inputs[0].mesh;
+    Vec3 top{0, 0, -1e30f};
+    for (size_t v = 0; v < m.vertex_count(); ++v)
+      if (m.position(v).z > top.z) top = m.position(v);
+    Case c{"near plane: surface closer than z_near in the view centre", 0, {}, base, false};
+    c.camera.z_near = 0.05f;
+    c.camera.eye = {top.x, top.y, top.z + 0.5 * c.camera.z_near};
+    c.camera.target = {0, 0, 0};
+    c.camera.up = {0, 1, 0};
+    cases.push_back(c);
+  }
+  {
+    Case c{"slivers: ellipsoid 1:1:0.001 seen obliquely", 2, {}, base, false};
+    c.camera.eye = {1.8, 0.9, 0.6};
+    cases.push_back(c);
+  }
+  cases.push_back({"degenerate input: zero-area and collinear triangles added", 3, {}, base, false});
+
+  std::vector<ClusterDag> dags(inputs.size());
+  std::vector<std::string> build_status(inputs.size(), "ok");
+  BuildOptions bo;
+  bo.threads = cfg.threads;
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    try {
+      dags[i] = build_dag(inputs[i].mesh, bo, nullptr);
+    } catch (const VgeoError& e) {
+      build_status[i] = "rejected: " + e.error().code;
+    }
+    out.inputs.push_back(inputs[i].name + ": " + std::to_string(inputs[i].mesh.triangle_count()) + " triangles, build " +
+                         build_status[i] + (build_status[i] == "ok" ? ", " + std::to_string(dags[i].level_count) + " levels" : ""));
+  }
+  out.summary =
+      "Each case renders at tau = " + fmt(kTau) + " px and at full detail (all leaves) with the bench frame driver, " +
+      std::to_string(reps) + " interleaved repetitions, " + std::to_string(w) + "x" + std::to_string(h) +
+      ". Accuracy metrics as in the lod suite, against the case's own full-detail frame; cases that are the baseline "
+      "view translated or scaled are also compared with the baseline's image (they should match it). "
+      "'bad keys' counts visibility-buffer depths that are not finite in (0, 1] (must be 0).";
+
+  Table t{"Hard cases at tau = 1", {"case", "tris drawn", "full tris", "frame CPU", "frame CPU / full", "mean |d|",
+                                    "max |d|", "surface differs", "vs baseline: mean |d|", "vs baseline: surface differs",
+                                    "bad keys"}, {}};
+  nlohmann::json jcases = nlohmann::json::array();
+  Series err = named_series("mean |shade diff| vs full detail"), surf = named_series("% surface differs vs full detail");
+  Progress progress("bench stability", cases.size(), cfg.progress);
+  FrameResult baseline;
+  for (size_t ci = 0; ci < cases.size(); ++ci) {
+    const Case& c = cases[ci];
+    if (build_status[size_t(c.mesh)] != "ok") {
+      t.rows.push_back({c.name, "build " + build_status[size_t(c.mesh)], "", "", "", "", "", "", "", "", ""});
+      jcases.push_back({{"case", c.name}, {"build", build_status[size_t(c.mesh)]}});
+      progress.advance();
+      continue;
+    }
+    std::vector<const ClusterDag*> meshes{&dags[size_t(c.mesh)]};
+    std::vector<BenchInstance> inst{c.instance};
+    FrameResult frames[2];
+    auto samples = time_interleaved(reps, 2, [&](size_t v) {
+      FrameOptions o;
+      o.tau = kTau;
+      o.leaves_only = v == 1;
+      render_frame(meshes, inst, c.camera, o, pool, frames[v]);
+    });
+    ImageError e = compare_frames(frames[0], frames[1]);
+    Stats cpu = summarize(samples.cpu[0]), ratio = ratio_stats(samples.cpu[0], samples.cpu[1]);
+    uint64_t bad = invalid_keys(frames[0].vis) + invalid_keys(frames[1].vis);
+    std::string vb_mean = "-", vb_surf = "-";
+    nlohmann::json j{{"case", c.name},
+                     {"build", "ok"},
+                     {"triangles_drawn", frames[0].triangles},
+                     {"full_triangles", frames[1].triangles},
+                     {"frame_cpu_seconds", to_json(cpu)},
+                     {"frame_cpu_over_full", to_json(ratio)},
+                     {"mean_abs_diff", e.mean_abs},
+                     {"max_abs_diff", e.max_abs},
+                     {"surface_differs_share", e.surface_differs},
+                     {"bad_keys", bad}};
+    if (ci == 0) baseline = frames[0];
+    if (c.compare_to_baseline && !baseline.image.empty()) {
+      ImageError b = compare_frames(frames[0], baseline);
+      vb_mean = fmt(b.mean_abs);
+      vb_surf = fmt(100 * b.surface_differs) + "%";
+      j["vs_baseline_mean_abs_diff"] = b.mean_abs;
+      j["vs_baseline_surface_differs_share"] = b.surface_differs;
+    }
+    t.rows.push_back({c.name, std::to_string(frames[0].triangles), std::to_string(frames[1].triangles),
+                      fmt_stats_time(cpu), fmt_ratio(ratio), fmt(e.mean_abs), fmt(e.max_abs),
+                      fmt(100 * e.surface_differs) + "%", vb_mean, vb_surf, std::to_string(bad)});
+    err.x.push_back(double(ci + 1));
+    err.y.push_back(e.mean_abs);
+    surf.x.push_back(double(ci + 1));
+    surf.y.push_back(100 * e.surface_differs);
+    jcases.push_back(j);
+    progress.advance();
+  }
+  err.line = surf.line = false;
+  out.tables.push_back(t);
+  out.data["cases"] = jcases;
+  std::string legend;
+  for (size_t ci = 0; ci < cases.size(); ++ci) legend += (ci ? "; " : "") + std::to_string(ci + 1) + " = " + cases[ci].name;
+  add_plot(out, cfg, "stability_cases.svg",
+           Plot{"Hard cases: error at tau = 1 against full detail", "case number", "error", false, false, {err, surf}},
+           "Accuracy per hard case (" + legend + ")");
+}
+
+}  // namespace vgeo::bench

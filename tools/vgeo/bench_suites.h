@@ -1,0 +1,51 @@
+#pragma once
+// The `vgeo bench` suites. Each fills a SuiteReport; a suite whose pipeline stage is not
+// linked into this build marks itself skipped ("needs lib/X") instead of failing, so
+// `vgeo bench all --quick` always exits 0.
+#include <string>
+#include <vector>
+
+#include "bench_harness.h"
+
+namespace vgeo::bench {
+
+using SuiteFn = void (*)(const BenchConfig&, SuiteReport&);
+
+struct SuiteDef {
+  const char* name;
+  const char* what;  // one line for --help
+  SuiteFn run;
+};
+
+void run_raster_suite(const BenchConfig& cfg, SuiteReport& out);
+void run_simplifier_suite(const BenchConfig& cfg, SuiteReport& out);
+void run_lod_suite(const BenchConfig& cfg, SuiteReport& out);
+void run_quantization_suite(const BenchConfig& cfg, SuiteReport& out);
+void run_occlusion_suite(const BenchConfig& cfg, SuiteReport& out);
+void run_scaling_suite(const BenchConfig& cfg, SuiteReport& out);
+void run_stability_suite(const BenchConfig& cfg, SuiteReport& out);
+
+// In report order.
+inline std::vector<SuiteDef> suite_list() {
+  return {
+      {"raster", "micropoly vs scanline vs brute-force reference, by triangle size", run_raster_suite},
+      {"simplifier", "meshopt vs OpenMesh DAG build: time, levels, triangles drawn at equal tau", run_simplifier_suite},
+      {"lod", "tau sweep: triangles drawn, frame time, image error vs full detail", run_lod_suite},
+      {"quantization", "position grid bits: size, position error, decode time", run_quantization_suite},
+      {"occlusion", "HZB occlusion off / coarse / fine mip: clusters culled, time saved", run_occlusion_suite},
+      {"scaling", "instances and triangles per mesh vs triangles drawn and frame time", run_scaling_suite},
+      {"stability", "far instances, extreme scales, camera inside/near plane, slivers", run_stability_suite},
+  };
+}
+
+inline void mark_skipped(SuiteReport& out, const std::string& needs) {
+  out.ran = false;
+  out.skipped_reason = "needs " + needs;
+}
+
+}  // namespace vgeo::bench
+
+namespace vgeo::bench {
+// True when build_dag and rasterize_cluster are linked in; otherwise marks `out` skipped.
+bool frame_stages_available(SuiteReport& out);
+}  // namespace vgeo::bench
