@@ -86,7 +86,7 @@ ImportResult import_scene(const std::string& path, const ImportOptions& options)
   } else if (ext == "obj" || ext == "ply" || ext == "off" || ext == "stl") {
     detail::import_openmesh(path, ext, r);
   } else {
-    fail("FORMAT_UNSUPPORTED", path, "unknown extension '." + ext + "' (expected .gltf .glb .obj .ply .off .stl)");
+    fail("MESH_FORMAT_UNSUPPORTED", path, "unknown extension '." + ext + "' (expected .gltf .glb .obj .ply .off .stl)");
   }
   finish(r, options, path);
   return r;
@@ -97,7 +97,7 @@ ImportResult import_scene_from_memory(const uint8_t* data, size_t size, const st
   const std::string ext = lower_extension(name_for_format_detection);
   const std::string where = name_for_format_detection.empty() ? "<memory>" : name_for_format_detection;
   if (ext != "gltf" && ext != "glb")
-    fail("FORMAT_UNSUPPORTED", where, "memory import supports .gltf and .glb only, got '." + ext + "'");
+    fail("MESH_FORMAT_UNSUPPORTED", where, "memory import supports .gltf and .glb only, got '." + ext + "'");
   ImportResult r;
   static const uint8_t kEmpty = 0;
   detail::import_gltf(size == 0 ? &kEmpty : data, size, nullptr, ext == "glb", where, "", false, r);

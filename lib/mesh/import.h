@@ -69,7 +69,7 @@ ImportResult import_scene(const std::string& path, const ImportOptions& options 
 
 // Imports glTF/GLB bytes (format from the extension of `name_for_format_detection`). No file
 // system access: a glTF that references an external buffer fails with EXTERNAL_BUFFER_MISSING.
-// Only .gltf and .glb are accepted here (FORMAT_UNSUPPORTED otherwise).
+// Only .gltf and .glb are accepted here (MESH_FORMAT_UNSUPPORTED otherwise).
 ImportResult import_scene_from_memory(const uint8_t* data, size_t size,
                                       const std::string& name_for_format_detection,
                                       const ImportOptions& options = {});

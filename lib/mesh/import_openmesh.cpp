@@ -58,7 +58,7 @@ void check_off_header(const std::string& head, uint64_t file_size, const std::st
   if (token.find("OFF") == std::string::npos)
     fail("MESH_PARSE_ERROR", where, "OFF file does not start with an OFF keyword");
   if (token.find('n') != std::string::npos || token.find('4') != std::string::npos)
-    fail("FORMAT_UNSUPPORTED", where, "OFF variant '" + token + "' (nOFF/4OFF) is not supported");
+    fail("MESH_FORMAT_UNSUPPORTED", where, "OFF variant '" + token + "' (nOFF/4OFF) is not supported");
   std::string rest;
   std::getline(kw, rest);
   if (rest.find("BINARY") != std::string::npos) return;  // OpenMesh checks binary reads itself

@@ -156,8 +156,8 @@ TEST(ImportCleanup, OpenMeshFormatErrors) {
       {"empty.stl", "", "MESH_EMPTY"},
       {"short.stl", std::string(80, 'x') + std::string("\x10\x00\x00\x00", 4) + std::string(50, '\0'), "FILE_TRUNCATED"},
       {"garbage.off", "this is not an off file\n", "MESH_PARSE_ERROR"},
-      {"mesh.xyz", "1 2 3\n", "FORMAT_UNSUPPORTED"},
-      {"four.off", "4OFF\n1 0 0\n0 0 0 0\n", "FORMAT_UNSUPPORTED"},
+      {"mesh.xyz", "1 2 3\n", "MESH_FORMAT_UNSUPPORTED"},
+      {"four.off", "4OFF\n1 0 0\n0 0 0 0\n", "MESH_FORMAT_UNSUPPORTED"},
   };
   for (const auto& [name, content, code] : cases) {
     TempFile f(name, content);

@@ -527,7 +527,7 @@ TEST(ImportGltf, ContainerAndFormatErrors) {
             }),
             "GLTF_PARSE_ERROR");
   EXPECT_EQ(error_code_of([&] { vgeo::import_scene_from_memory(glb.data(), glb.size(), "mesh.obj"); }),
-            "FORMAT_UNSUPPORTED");
+            "MESH_FORMAT_UNSUPPORTED");
   EXPECT_EQ(error_code_of([&] { vgeo::import_scene_from_memory(nullptr, 0, "empty.gltf"); }), "GLTF_PARSE_ERROR");
   EXPECT_EQ(error_code_of([&] { vgeo::import_scene("/nonexistent/x.glb"); }), "FILE_NOT_FOUND");
 }
