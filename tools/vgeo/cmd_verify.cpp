@@ -7,7 +7,7 @@
 #include <string>
 
 #include "commands.h"
-#include "vgeo/build/dag_io.h"
+#include "vgeo/format/asset_file.h"
 #include "vgeo/core/error.h"
 #include "vgeo/verify/verify.h"
 
@@ -41,7 +41,7 @@ int run_verify(const VerifyArgs& a) {
   options.max_stored_per_code = a.max_stored;
   options.strict_border = a.strict_border;
 
-  BuiltScene scene = read_dag_file(a.input);  // throws VgeoError (DAGFILE_*, I/O)
+  BuiltScene scene = read_asset_file(a.input);  // page format or VGEODAG1; throws VgeoError
   bool all_ok = true;
   nlohmann::json json{{"file", a.input}, {"meshes", nlohmann::json::array()}};
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
@@ -74,7 +74,7 @@ int run_verify(const VerifyArgs& a) {
 void add_verify_command(CLI::App& app, Context& ctx) {
   auto args = std::make_shared<VerifyArgs>();
   auto* cmd = app.add_subcommand("verify", "check a DAG file against every invariant of spec/invariants.md");
-  cmd->add_option("file", args->input, "DAG file written by `vgeo build` (VGEODAG1)")->required();
+  cmd->add_option("file", args->input, "asset file written by `vgeo build` (page format VGEOPAGE or DAG file VGEODAG1)")->required();
   cmd->add_option("--json", args->json_path, "write the full report (every stored violation) as JSON");
   cmd->add_option("--checks", args->checks, "comma-separated: structure,monotonic,cut,crack,error_bound (default all)");
   cmd->add_option("--views", args->views, "random viewpoints for the projected-error, cut and crack checks");
