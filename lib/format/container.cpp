@@ -8,6 +8,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <numeric>
 
 #include "vgeo/core/error.h"
@@ -214,6 +215,60 @@ void add_memory_sizes(const CanonicalCluster& c, const MeshQuantization& q, Comp
 
 }  // namespace
 
+namespace {
+// Smallest float ≥ x / largest float ≤ x (x finite double; may give ±inf on overflow).
+float float_up(double x) {
+  float f = float(x);
+  if (double(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
+}
+float float_down(double x) {
+  float f = float(x);
+  if (double(f) > x) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+  return f;
+}
+}  // namespace
+
+void inflate_metadata_for_quantization(ClusterDag* dag, int32_t step_log2) {
+  const double step = std::ldexp(1.0, step_log2);
+  auto radius = [&](Sphere& s) {
+    if (s.radius < 0) return;  // negative radius: "no bounds" marker (lib/verify), kept
+    s.radius = float_up(double(s.radius) + kQuantRadiusSlack * step);
+    if (!std::isfinite(s.radius)) encode_fail("bounding sphere radius overflows after quantization slack");
+  };
+  auto error = [&](float& e) {
+    if (std::isinf(e)) return;  // terminal: never refined
+    e = float_up(double(e) + kQuantErrorSlack * step);
+    if (!std::isfinite(e)) encode_fail("LOD error overflows after quantization slack");
+  };
+  for (DagCluster& c : dag->clusters) {
+    radius(c.bounds);
+    radius(c.lod_bounds);
+    radius(c.parent_bounds);
+    if (c.generating_group != kNone) error(c.lod_error);  // a leaf's lod_error is exact (0)
+    error(c.parent_error);
+  }
+  for (DagGroup& g : dag->groups) {
+    radius(g.bounds);
+    radius(g.parent_bounds);
+    error(g.parent_error);
+  }
+  for (BvhNode& n : dag->bvh_nodes) {
+    radius(n.bounds);
+    radius(n.lod_bounds);
+    error(n.max_parent_error);
+  }
+  Aabb& b = dag->bounds;
+  if (!b.empty())
+    for (int k = 0; k < 3; ++k) {
+      // Rounding to the grid is monotone: a coordinate inside [min, max] quantizes inside
+      // [floor(min / step), ceil(max / step)] steps.
+      b.min[k] = float_down(std::ldexp(std::floor(std::ldexp(double(b.min[k]), -step_log2)), step_log2));
+      b.max[k] = float_up(std::ldexp(std::ceil(std::ldexp(double(b.max[k]), -step_log2)), step_log2));
+      if (!std::isfinite(b.min[k]) || !std::isfinite(b.max[k])) encode_fail("mesh bounds overflow on the grid");
+    }
+}
+
 float dequantize_position(int32_t q, int32_t step_log2) { return float(std::ldexp(double(q), step_log2)); }
 
 void octahedral_encode(const float n[3], uint32_t bits, uint32_t out[2]) {
@@ -384,19 +439,26 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
     meta.i32(q.position_step_log2);
     meta.i32(q.uv_step_log2);
     meta.u32(q.normal_bits);
+    // Stored metadata covers the quantized geometry (spec/format.md §2.1).
+    ClusterDag stored;
+    stored.bounds = dag.bounds;
+    stored.clusters = dag.clusters;
+    stored.groups = dag.groups;
+    stored.bvh_nodes = dag.bvh_nodes;
+    inflate_metadata_for_quantization(&stored, q.position_step_log2);
     meta.u32(dag.level_count);
-    for (int k = 0; k < 3; ++k) meta.f32(dag.bounds.min[k]);
-    for (int k = 0; k < 3; ++k) meta.f32(dag.bounds.max[k]);
+    for (int k = 0; k < 3; ++k) meta.f32(stored.bounds.min[k]);
+    for (int k = 0; k < 3; ++k) meta.f32(stored.bounds.max[k]);
     meta.u32(nc);
     meta.u32(ng);
     meta.u32(uint32_t(dag.generated_clusters.size()));
     meta.u32(uint32_t(dag.bvh_nodes.size()));
     meta.u32(first_page);
     meta.u32(uint32_t(pages.size()) - first_page);
-    for (const DagCluster& c : dag.clusters) write_cluster(meta, c);
-    for (const DagGroup& g : dag.groups) write_group(meta, g);
+    for (const DagCluster& c : stored.clusters) write_cluster(meta, c);
+    for (const DagGroup& g : stored.groups) write_group(meta, g);
     for (uint32_t id : dag.generated_clusters) meta.u32(id);
-    for (const BvhNode& n : dag.bvh_nodes) {
+    for (const BvhNode& n : stored.bvh_nodes) {
       if (n.child_count > kBvhMaxChildren) encode_fail("BVH node with more than 8 children");
       write_node(meta, n);
     }

@@ -173,6 +173,20 @@ uint32_t memory_page_cluster_count(const uint32_t* words);
 void decode_cluster(const uint32_t* words, uint32_t cluster_in_page, const MeshQuantization& q,
                     DecodedCluster* out);
 
+// Conservative metadata for quantized geometry (spec/format.md §2.1). Quantization moves
+// every vertex by at most half a grid step per axis (√3/2·step in space), so the encoder
+// stores, instead of the builder's values: every sphere radius (cluster bounds, lod_bounds,
+// parent_bounds, group bounds/parent_bounds, BVH bounds/lod_bounds) plus
+// kQuantRadiusSlack·step, every LOD error except a leaf's lod_error (0) and +inf plus
+// kQuantErrorSlack·step (both surfaces of a one-sided distance move by ≤ √3/2·step), each
+// sum rounded up to float, and the mesh AABB widened outward to whole grid steps. The same
+// function maps equal inputs to equal outputs and is monotone, so shared values stay
+// bit-identical and every monotonicity / containment relation of the DAG is kept.
+// Throws FORMAT_ENCODE if an adjusted value is not finite.
+inline constexpr double kQuantRadiusSlack = 0.8660254038;  // ≥ √3/2 = 0.86602540378…
+inline constexpr double kQuantErrorSlack = 1.7320508076;   // ≥ √3 = 1.73205080756…
+void inflate_metadata_for_quantization(ClusterDag* dag, int32_t position_step_log2);
+
 // Dequantization (the one definition the renderer and the tests use).
 float dequantize_position(int32_t q, int32_t step_log2);
 void octahedral_encode(const float n[3], uint32_t bits, uint32_t out[2]);

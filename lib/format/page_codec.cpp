@@ -32,6 +32,12 @@ uint32_t delta_bytes(uint32_t bits) { return bits == 0 ? 0 : (bits + 1 + 7) / 8;
 // ---- generalized strips over one material run ----
 // Directed edges of the run sorted by (from, to): a lookup is a binary search, so strip
 // building stays O(n^2 log n) even for random (non-manifold) topology.
+// Largest triangle span the 5-bit memory-form offsets hold (Nanite's window of 32).
+constexpr uint32_t kIndexSpanWindow = (1u << kNaniteIndexOffsetBits) - 1;
+// First triangles tried when the greedy order exceeds the window: bounds encode time
+// (each try is O(triangles^2)) while catching most clusters the first try misses.
+constexpr uint32_t kStripRetries = 16;
+
 struct StripBuilder {
   const uint8_t (*tris)[3];   // original local indices
   const uint32_t* run;         // triangle ids of the run
@@ -152,7 +158,6 @@ void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantiza
   std::stable_sort(order, order + tc, [&](uint32_t a, uint32_t b) { return mat[a] < mat[b]; });
 
   int32_t new_id[kMaxClusterVertices];
-  std::fill(new_id, new_id + vc, -1);
   uint32_t seen = 0, emitted = 0;
   auto corner = [&](uint8_t v, uint8_t* ctl, uint8_t flag) {
     if (new_id[v] < 0) {
@@ -164,65 +169,141 @@ void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantiza
     return uint8_t(new_id[v]);
   };
   bool visited[kMaxClusterTriangles];
-  for (uint32_t r0 = 0; r0 < tc;) {
-    uint32_t r1 = r0;
-    while (r1 < tc && mat[order[r1]] == mat[order[r0]]) ++r1;
-    out->run_start[out->run_count] = uint8_t(r0);
-    out->run_material[out->run_count++] = mat[order[r0]];
-    StripBuilder sb{tris, order + r0, r1 - r0, visited, {}};
-    std::fill(visited, visited + sb.run_size, false);
-    sb.index();
-    for (uint32_t left = sb.run_size; left > 0;) {
-      // Start where the fewest open neighbours are (strips then end less often mid-run).
-      uint32_t start = 0, best = 4;
-      for (uint32_t i = 0; i < sb.run_size; ++i)
-        if (!visited[i]) {
-          const uint32_t n = sb.open_neighbors(i);
-          if (n < best) best = n, start = i;
+  // One strip order; `first` forces the first triangle of the cluster (position in the
+  // first material run), UINT32_MAX = the heuristic's choice.
+  auto build_strips = [&](uint32_t first) {
+    std::fill(new_id, new_id + vc, -1);
+    seen = 0, emitted = 0;
+    out->ref_count = 0, out->run_count = 0;
+    for (uint32_t r0 = 0; r0 < tc;) {
+      uint32_t r1 = r0;
+      while (r1 < tc && mat[order[r1]] == mat[order[r0]]) ++r1;
+      out->run_start[out->run_count] = uint8_t(r0);
+      out->run_material[out->run_count++] = mat[order[r0]];
+      StripBuilder sb{tris, order + r0, r1 - r0, visited, {}};
+      std::fill(visited, visited + sb.run_size, false);
+      sb.index();
+      // Span of a triangle if emitted now: its new corners get the next first-use ids.
+      auto span_now = [&](uint32_t i, uint32_t* oldest) {
+        const uint8_t* t = tris[order[r0 + i]];
+        uint32_t next = seen, lo = UINT32_MAX, hi = 0, old = UINT32_MAX;
+        for (int k = 0; k < 3; ++k) {
+          uint32_t id;
+          if (new_id[t[k]] >= 0) {
+            id = uint32_t(new_id[t[k]]);
+            old = std::min(old, id);
+          } else if (k > 0 && t[k] == t[k - 1]) {
+            id = next - 1;  // degenerate corner repeated: one new vertex
+          } else if (k == 2 && t[2] == t[0] && new_id[t[0]] < 0) {
+            id = seen;
+          } else {
+            id = next++;
+          }
+          lo = std::min(lo, id), hi = std::max(hi, id);
         }
-      visited[start] = true;
-      --left;
-      const uint8_t* t = tris[order[r0 + start]];
-      int rot = 0;
-      for (int r = 0; r < 3; ++r) {
-        const uint8_t a = t[r], b = t[(r + 1) % 3], c = t[(r + 2) % 3];
-        uint8_t d;
-        if (sb.find(c, b, &d) >= 0 || sb.find(a, c, &d) >= 0) { rot = r; break; }
-      }
-      uint8_t a = t[rot], b = t[(rot + 1) % 3], c = t[(rot + 2) % 3];
-      uint8_t ctl = kCtlReset;
-      uint8_t* s = out->strip[emitted];
-      s[0] = corner(a, &ctl, kCtlRef0);
-      s[1] = corner(b, &ctl, kCtlRef0 << 1);
-      s[2] = corner(c, &ctl, kCtlRef0 << 2);
-      out->ctl[emitted++] = ctl;
-      while (left > 0) {
-        uint8_t d1 = 0, d2 = 0;
-        const int n1 = sb.find(c, b, &d1), n2 = sb.find(a, c, &d2);
-        if (n1 < 0 && n2 < 0) break;
-        bool side = n1 < 0;
-        if (n1 >= 0 && n2 >= 0) {
-          visited[n1] = visited[n2] = true;  // exclude each other from the neighbour counts
-          const uint32_t o1 = sb.open_neighbors(uint32_t(n1)), o2 = sb.open_neighbors(uint32_t(n2));
-          visited[n1] = visited[n2] = false;
-          side = o2 < o1;
+        if (oldest) *oldest = old;
+        return hi - lo;
+      };
+      // Would emitting a triangle with `fresh` new vertices push another unvisited triangle's
+      // span beyond the window? Then the strip stops and that triangle goes next.
+      auto strands_another = [&](uint32_t skip, uint32_t fresh) {
+        if (fresh == 0) return false;
+        for (uint32_t i = 0; i < sb.run_size; ++i) {
+          if (visited[i] || i == skip) continue;
+          uint32_t old;
+          const uint32_t sp = span_now(i, &old);
+          if (old != UINT32_MAX && sp <= kIndexSpanWindow && sp + fresh > kIndexSpanWindow) return true;
         }
-        visited[side ? n2 : n1] = true;
+        return false;
+      };
+      auto fresh_of = [&](uint8_t v) { return new_id[v] < 0 ? 1u : 0u; };
+      for (uint32_t left = sb.run_size; left > 0;) {
+        // Start (span-aware, spec/format.md §3): a triangle whose span fits the 5-bit window,
+        // preferring the one that uses the oldest seen vertex (it leaves the window first),
+        // then the fewest open neighbours (strips then end less often mid-run).
+        uint32_t start = 0;
+        uint64_t best = UINT64_MAX;
+        for (uint32_t i = 0; i < sb.run_size; ++i)
+          if (!visited[i]) {
+            uint32_t old;
+            const uint32_t sp = span_now(i, &old);
+            const uint64_t key = uint64_t(sp > kIndexSpanWindow ? sp : 0) << 40 |
+                                 uint64_t(std::min<uint32_t>(old, 0xFFFF)) << 8 | sb.open_neighbors(i);
+            if (key < best) best = key, start = i;
+          }
+        if (first < sb.run_size && emitted == 0) start = first;
+        visited[start] = true;
         --left;
-        uint8_t na, nb, nd = side ? d2 : d1;
-        if (!side) na = c, nb = b; else na = a, nb = c;
-        ctl = side ? kCtlSide : 0;
-        s = out->strip[emitted];
-        s[0] = uint8_t(new_id[na]);
-        s[1] = uint8_t(new_id[nb]);
-        s[2] = corner(nd, &ctl, kCtlRef0);
+        const uint8_t* t = tris[order[r0 + start]];
+        int rot = 0;
+        for (int r = 0; r < 3; ++r) {
+          const uint8_t a = t[r], b = t[(r + 1) % 3], c = t[(r + 2) % 3];
+          uint8_t d;
+          if (sb.find(c, b, &d) >= 0 || sb.find(a, c, &d) >= 0) { rot = r; break; }
+        }
+        uint8_t a = t[rot], b = t[(rot + 1) % 3], c = t[(rot + 2) % 3];
+        uint8_t ctl = kCtlReset;
+        uint8_t* s = out->strip[emitted];
+        s[0] = corner(a, &ctl, kCtlRef0);
+        s[1] = corner(b, &ctl, kCtlRef0 << 1);
+        s[2] = corner(c, &ctl, kCtlRef0 << 2);
         out->ctl[emitted++] = ctl;
-        a = na, b = nb, c = nd;
+        while (left > 0) {
+          uint8_t d1 = 0, d2 = 0;
+          const int n1 = sb.find(c, b, &d1), n2 = sb.find(a, c, &d2);
+          // A continuation must keep the span within the window and strand no other triangle.
+          auto fits = [&](int n, uint8_t d) {
+            return n >= 0 && span_now(uint32_t(n), nullptr) <= kIndexSpanWindow && !strands_another(uint32_t(n), fresh_of(d));
+          };
+          const bool ok1 = fits(n1, d1), ok2 = fits(n2, d2);
+          if (!ok1 && !ok2) break;
+          bool side = !ok1;
+          if (ok1 && ok2) {
+            visited[n1] = visited[n2] = true;  // exclude each other from the neighbour counts
+            const uint32_t o1 = sb.open_neighbors(uint32_t(n1)), o2 = sb.open_neighbors(uint32_t(n2));
+            visited[n1] = visited[n2] = false;
+            side = o2 < o1;
+          }
+          visited[side ? n2 : n1] = true;
+          --left;
+          uint8_t na, nb, nd = side ? d2 : d1;
+          if (!side) na = c, nb = b; else na = a, nb = c;
+          ctl = side ? kCtlSide : 0;
+          s = out->strip[emitted];
+          s[0] = uint8_t(new_id[na]);
+          s[1] = uint8_t(new_id[nb]);
+          s[2] = corner(nd, &ctl, kCtlRef0);
+          out->ctl[emitted++] = ctl;
+          a = na, b = nb, c = nd;
+        }
       }
+      r0 = r1;
     }
-    r0 = r1;
+    assert(emitted == tc);
+  };
+  // Largest triangle span of the built order (what the memory-form offsets must hold).
+  auto max_span = [&] {
+    uint32_t m = 0;
+    for (uint32_t t = 0; t < tc; ++t) {
+      const uint8_t* x = out->strip[t];
+      m = std::max<uint32_t>(m, std::max({x[0], x[1], x[2]}) - std::min({x[0], x[1], x[2]}));
+    }
+    return m;
+  };
+  // The greedy order fits the window for most clusters; for the rest, retry from other
+  // first triangles (deterministic order) and keep the smallest span.
+  build_strips(UINT32_MAX);
+  uint32_t best_span = max_span(), best_first = UINT32_MAX;
+  uint32_t first_run = 1;
+  while (first_run < tc && mat[order[first_run]] == mat[order[0]]) ++first_run;
+  uint32_t last_first = UINT32_MAX;
+  for (uint32_t f = 0; f < first_run && f < kStripRetries && best_span > kIndexSpanWindow; ++f) {
+    build_strips(f);
+    last_first = f;
+    const uint32_t sp = max_span();
+    if (sp < best_span) best_span = sp, best_first = f;
   }
-  assert(emitted == tc);
+  if (last_first != best_first) build_strips(best_first);
   // Vertices no triangle uses keep their relative order after the used ones.
   for (uint32_t v = 0; v < vc; ++v)
     if (new_id[v] < 0) new_id[v] = int32_t(seen++);

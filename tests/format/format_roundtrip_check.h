@@ -81,8 +81,11 @@ inline std::string compare_roundtrip(const BuiltScene& in, const BuiltScene& out
     if (in.instances[i].mesh != out.instances[i].mesh || in.instances[i].transform != out.instances[i].transform)
       return "instance";
   for (size_t mi = 0; mi < in.meshes.size(); ++mi) {
-    const ClusterDag &a = in.meshes[mi], &b = out.meshes[mi];
     const MeshQuantization& q = fc.meshes[mi].quantization;
+    // Metadata is stored with the quantization slack of spec/format.md §2.1.
+    ClusterDag a = in.meshes[mi];
+    inflate_metadata_for_quantization(&a, q.position_step_log2);
+    const ClusterDag& b = out.meshes[mi];
     if (a.clusters.size() != b.clusters.size() || a.groups.size() != b.groups.size()) return "dag sizes";
     if (a.level_count != b.level_count || std::memcmp(&a.bounds, &b.bounds, sizeof(Aabb))) return "dag header";
     if (a.generated_clusters != b.generated_clusters) return "generated clusters";
