@@ -30,6 +30,8 @@ constexpr size_t kMaxSceneMeshes = 4096, kMaxSceneInstances = 1u << 20, kMaxScen
 // several LOD levels across the view; the ground's scale is 20 x 1.6 x 20 of the [-1,1]^2 terrain.
 constexpr uint64_t kDefaultSceneSphereTriangles = 131072, kDefaultSceneGroundTriangles = 131072;
 constexpr double kDefaultGroundHalfSize = 20.0, kDefaultGroundHeightScale = 1.6;
+// Terrain seed whose holes all lie far behind the spheres (seeds 1, 2 put one in the foreground).
+constexpr uint64_t kDefaultGroundSeed = 3;
 
 struct Ctx {
   std::string where;
@@ -488,6 +490,7 @@ SceneFile make_default_scene(uint32_t width, uint32_t height, uint32_t frames, c
   for (uint32_t& m : sphere.materials) m = m ? 2 : 1;
   gen.shape = GenShape::kTerrain;
   gen.target_triangles = kDefaultSceneGroundTriangles;
+  gen.seed = kDefaultGroundSeed;
   Mesh ground = generate_mesh(gen);
   ground.materials.assign(ground.triangle_count(), 0);
   out.scene.meshes.push_back(build_cached(c, sphere, "default.sphere"));
