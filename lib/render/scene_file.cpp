@@ -4,14 +4,15 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 
 #include "vgeo/build/dag_io.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/hash.h"
+#include "vgeo/mesh/generate.h"
 #include "vgeo/mesh/import.h"
-#include "vgeo/render/procedural.h"
 
 namespace vgeo {
 
@@ -24,6 +25,13 @@ constexpr const char* kCacheKeyVersion = "vgeo-dag-cache-1";
 // Limits on untrusted list sizes (memory bound before anything is generated).
 constexpr size_t kMaxSceneMeshes = 4096, kMaxSceneInstances = 1u << 20, kMaxSceneMaterials = 1u << 16,
                  kMaxSceneCameras = 1024, kMaxKeyframes = 10000;
+
+// Default scene sizes: ~130k triangles per mesh builds in about a second and still shows
+// several LOD levels across the view; the ground's scale is 20 x 1.6 x 20 of the [-1,1]^2 terrain.
+constexpr uint64_t kDefaultSceneSphereTriangles = 131072, kDefaultSceneGroundTriangles = 131072;
+constexpr double kDefaultGroundHalfSize = 20.0, kDefaultGroundHeightScale = 1.6;
+// Terrain seed whose holes all lie far behind the spheres (seeds 1, 2 put one in the foreground).
+constexpr uint64_t kDefaultGroundSeed = 3;
 
 struct Ctx {
   std::string where;
@@ -135,28 +143,35 @@ ClusterDag build_cached(const Ctx& c, const Mesh& mesh, const std::string& path)
   return dag;
 }
 
+// A generated mesh (lib/mesh/generate.h): the scene's `shape`, `triangles` and `seed` are
+// GenerateOptions' shape, target_triangles and seed, so `vgeo gen SHAPE --triangles N --seed S`
+// writes the same mesh.
 Mesh make_procedural(const Ctx& c, const json& p, const std::string& path) {
-  std::string type = get_string(c, p, path, "type", "", true);
-  if (type == "sphere") {
-    check_keys(c, p, path, {"type", "rings", "segments", "radius", "amplitude", "frequency"});
-    double rings = get_number(c, p, path, "rings", 64, 3, 1 << 16);
-    double segments = get_number(c, p, path, "segments", 128, 3, 1 << 16);
-    if (2 * rings * segments > double(kMaxProceduralTriangles))
-      bad(c, "SCENE_TOO_LARGE", path + ": more than " + std::to_string(kMaxProceduralTriangles) + " triangles");
-    return make_displaced_sphere(uint32_t(rings), uint32_t(segments), float(get_number(c, p, path, "radius", 1, 1e-6, 1e9)),
-                                 float(get_number(c, p, path, "amplitude", 0, 0, 0.9)),
-                                 float(get_number(c, p, path, "frequency", 3, 0, 1e4)));
+  check_keys(c, p, path, {"shape", "triangles", "seed"});
+  std::string name = get_string(c, p, path, "shape", "", true);
+  std::optional<GenShape> shape = parse_gen_shape(name);
+  if (!shape) {
+    std::string known;
+    for (GenShape g : kAllGenShapes) known += (known.empty() ? "" : ", ") + std::string(gen_shape_name(g));
+    bad(c, "SCENE_BAD_VALUE", path + ".shape: unknown shape '" + name + "' (" + known + ")");
   }
-  if (type == "grid") {
-    check_keys(c, p, path, {"type", "n", "size", "amplitude", "frequency"});
-    double n = get_number(c, p, path, "n", 64, 1, 1 << 16);
-    if (2 * n * n > double(kMaxProceduralTriangles))
-      bad(c, "SCENE_TOO_LARGE", path + ": more than " + std::to_string(kMaxProceduralTriangles) + " triangles");
-    return make_ground_grid(uint32_t(n), float(get_number(c, p, path, "size", 10, 1e-6, 1e9)),
-                            float(get_number(c, p, path, "amplitude", 0, 0, 1e9)),
-                            float(get_number(c, p, path, "frequency", 2, 0, 1e4)));
+  GenerateOptions o;
+  o.shape = *shape;
+  // Bounds checked in double before any conversion, so huge values cannot wrap.
+  double triangles = get_number(c, p, path, "triangles", double(kDefaultProceduralTriangles), 1, 1e300);
+  if (triangles > double(kMaxProceduralTriangles))
+    bad(c, "SCENE_TOO_LARGE", path + ".triangles: more than " + std::to_string(kMaxProceduralTriangles));
+  if (triangles != std::floor(triangles)) bad(c, "SCENE_BAD_VALUE", path + ".triangles: not an integer");
+  o.target_triangles = uint64_t(triangles);
+  if (p.contains("seed")) {
+    // Any uint64 (as `vgeo gen --seed`): read as an integer, never through double.
+    const json& v = p["seed"];
+    if (!v.is_number()) bad(c, "SCENE_FIELD_TYPE", path + ".seed: expected a number");
+    if (!v.is_number_unsigned()) bad(c, "SCENE_BAD_VALUE", path + ".seed: not a non-negative integer");
+    o.seed = v.get<uint64_t>();
   }
-  bad(c, "SCENE_BAD_VALUE", path + ".type: unknown procedural type '" + type + "' (sphere, grid)");
+  o.threads = c.options->build.threads;  // output is identical for any thread count
+  return generate_mesh(o);
 }
 
 void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
@@ -465,10 +480,18 @@ SceneFile make_default_scene(uint32_t width, uint32_t height, uint32_t frames, c
   SceneFile out;
   out.scene.materials = {Material{"ground", {0.35f, 0.42f, 0.30f, 1}}, Material{"clay", {0.80f, 0.45f, 0.30f, 1}},
                          Material{"stone", {0.55f, 0.57f, 0.62f, 1}}, Material{"sky", {0.30f, 0.50f, 0.85f, 1}}};
-  // Mesh 0: a displaced sphere (~130k triangles); mesh 1: a gently rolling ground grid.
-  Mesh sphere = make_displaced_sphere(256, 256, 1.0f, 0.12f, 3.0f);
-  sphere.materials.assign(sphere.triangle_count(), 1);
-  Mesh ground = make_ground_grid(256, 40.0f, 0.4f, 2.0f);
+  // Mesh 0: a displaced sphere; mesh 1: the terrain (holes included) flattened into a ground.
+  GenerateOptions gen;
+  gen.threads = options.build.threads;
+  gen.shape = GenShape::kSphere;
+  gen.target_triangles = kDefaultSceneSphereTriangles;
+  Mesh sphere = generate_mesh(gen);
+  // The generator's two materials (lowlands 0, highlands 1) become clay and stone.
+  for (uint32_t& m : sphere.materials) m = m ? 2 : 1;
+  gen.shape = GenShape::kTerrain;
+  gen.target_triangles = kDefaultSceneGroundTriangles;
+  gen.seed = kDefaultGroundSeed;
+  Mesh ground = generate_mesh(gen);
   ground.materials.assign(ground.triangle_count(), 0);
   out.scene.meshes.push_back(build_cached(c, sphere, "default.sphere"));
   out.scene.meshes.push_back(build_cached(c, ground, "default.ground"));
@@ -481,7 +504,15 @@ SceneFile make_default_scene(uint32_t width, uint32_t height, uint32_t frames, c
     inst.object_to_world.at(2, 3) = z;
     out.scene.instances.push_back(inst);
   };
-  place(1, 0, 0, 0, 1);
+  {
+    // The terrain spans [-1,1]^2 with heights within about ±kTerrainHeight (0.25): scaled to a
+    // 40 x 40 ground whose bumps stay below the spheres (±0.4, as the old grid's amplitude).
+    CullInstance g;
+    g.mesh = 1;
+    g.object_to_world.at(0, 0) = g.object_to_world.at(2, 2) = kDefaultGroundHalfSize;
+    g.object_to_world.at(1, 1) = kDefaultGroundHeightScale;
+    out.scene.instances.push_back(g);
+  }
   place(0, 0, 1.6, 0, 1.5);  // hero sphere
   // A ring of smaller spheres, some behind the hero (occluded from the default camera).
   for (int k = 0; k < 8; ++k) {

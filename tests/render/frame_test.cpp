@@ -96,11 +96,11 @@ TEST(RenderFrame, SkippedPassesAreAbsentWithAReason) {
     EXPECT_TRUE(has(f, "hzb_next"));  // the next frame needs it
     EXPECT_TRUE(h.valid);
   }
-  {  // single convex object: occlusion passes are never assembled
+  {  // single convex object (a plain UV sphere): occlusion passes are never assembled
     RenderScene one;
     BuildOptions bo;
     bo.threads = 1;
-    one.meshes.push_back(build_dag(make_displaced_sphere(16, 32, 1.0f, 0.0f, 0.0f), bo));
+    one.meshes.push_back(build_dag(test::make_sphere(16, 32), bo));
     one.materials.push_back({});
     one.instances.push_back({0, Mat4d{}});
     analyze_render_scene(&one);
@@ -118,7 +118,9 @@ TEST(RenderFrame, SkippedPassesAreAbsentWithAReason) {
     RenderScene one;
     BuildOptions bo;
     bo.threads = 1;
-    one.meshes.push_back(build_dag(make_displaced_sphere(16, 32, 1.0f, 0.2f, 3.0f), bo));
+    GenerateOptions gen;
+    gen.target_triangles = 1024;
+    one.meshes.push_back(build_dag(generate_mesh(gen), bo));
     one.instances.push_back({0, Mat4d{}});
     analyze_render_scene(&one);
     EXPECT_FALSE(one.single_convex_object);

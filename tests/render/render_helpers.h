@@ -1,14 +1,14 @@
 #pragma once
 // Small render scenes for pipeline tests (meshes from tests/support/shapes.h and
-// lib/render/procedural.h, DAGs from build_dag).
+// lib/mesh/generate.h, DAGs from build_dag).
 #include <cmath>
 #include <cstring>
 #include <vector>
 
 #include "support/shapes.h"
 #include "vgeo/build/build.h"
+#include "vgeo/mesh/generate.h"
 #include "vgeo/render/frame.h"
-#include "vgeo/render/procedural.h"
 
 namespace vgeo::test {
 
@@ -31,20 +31,28 @@ inline Camera look_camera(Vec3d eye, Vec3d target, uint32_t w = 160, uint32_t h 
   return c;
 }
 
-// A row of displaced spheres on a ground grid, spaced so that they occlude each other
+// A row of displaced spheres on a terrain ground, spaced so that they occlude each other
 // when seen along the row. `scale` scales the whole scene, `offset` moves it.
 inline RenderScene make_row_scene(double scale = 1.0, double offset = 0.0, uint32_t spheres = 5) {
   RenderScene s;
   s.materials = {Material{"a", {0.8f, 0.3f, 0.2f, 1}}, Material{"b", {0.2f, 0.6f, 0.3f, 1}}};
   BuildOptions bo;
   bo.threads = 1;
-  Mesh sphere = make_displaced_sphere(24, 48, 1.0f, 0.1f, 3.0f);
+  GenerateOptions gen;
+  gen.shape = GenShape::kSphere;
+  gen.target_triangles = 2304;  // as many as a 24 x 48 UV sphere
+  Mesh sphere = generate_mesh(gen);
   sphere.materials.assign(sphere.triangle_count(), 0);
-  Mesh ground = make_ground_grid(32, 30.0f, 0.2f, 2.0f);
+  gen.shape = GenShape::kTerrain;
+  gen.target_triangles = 2048;
+  Mesh ground = generate_mesh(gen);
   ground.materials.assign(ground.triangle_count(), 1);
   s.meshes.push_back(build_dag(sphere, bo));
   s.meshes.push_back(build_dag(ground, bo));
-  s.instances.push_back({1, translate_scale(offset, 0, offset, scale)});
+  // The [-1,1]^2 terrain (heights within about ±0.25) as a 30 x 30 ground with ±0.2 bumps.
+  Mat4d ground_to_world = translate_scale(offset, 0, offset, 15.0 * scale);
+  ground_to_world.at(1, 1) = 0.8 * scale;
+  s.instances.push_back({1, ground_to_world});
   for (uint32_t i = 0; i < spheres; ++i)
     s.instances.push_back({0, translate_scale(offset, 1.2 * scale, offset - 3.0 * i * scale, scale)});
   analyze_render_scene(&s);

@@ -8,11 +8,11 @@
 #include <unistd.h>
 
 #include "support/paths.h"
+#include "support/shapes.h"
 #include "vgeo/build/build.h"
 #include "vgeo/build/dag_io.h"
 #include "vgeo/core/error.h"
 #include "vgeo/render/run.h"
-#include "vgeo/render/procedural.h"
 #include "vgeo/render/scene_file.h"
 
 namespace vgeo {
@@ -61,7 +61,7 @@ TEST(SceneFile, CameraPathExpandsToItsFrameCount) {
 }
 
 TEST(SceneFile, MalformedScenesFailWithStableCodes) {
-  const std::string mesh = R"({"procedural": {"type": "sphere", "rings": 8, "segments": 8}})";
+  const std::string mesh = R"({"procedural": {"shape": "sphere", "triangles": 128}})";
   const std::string cam = R"({"position": [0, 0, 5], "look_at": [0, 0, 0]})";
   auto scene = [&](const std::string& meshes, const std::string& instances, const std::string& cameras,
                    const std::string& extra = "") {
@@ -102,14 +102,25 @@ TEST(SceneFile, MalformedScenesFailWithStableCodes) {
        "SCENE_BAD_CAMERA"},
       {scene("[" + mesh + "]", "[]", "[" + cam + "]", R"(, "camera_path": {"frames": 1e9, "keyframes": []})"),
        "SCENE_BAD_VALUE"},
-      {scene(R"([{"procedural": {"type": "sphere", "rings": 60000, "segments": 60000}}])", "[]", "[" + cam + "]"),
+      {scene(R"([{"procedural": {"shape": "sphere", "triangles": 5000000}}])", "[]", "[" + cam + "]"),
        "SCENE_TOO_LARGE"},
-      {scene(R"([{"procedural": {"type": "cube"}}])", "[]", "[" + cam + "]"), "SCENE_BAD_VALUE"},
+      {scene(R"([{"procedural": {"shape": "sphere", "triangles": 1e300}}])", "[]", "[" + cam + "]"),
+       "SCENE_TOO_LARGE"},
+      {scene(R"([{"procedural": {"shape": "sphere", "triangles": 0}}])", "[]", "[" + cam + "]"), "SCENE_BAD_VALUE"},
+      {scene(R"([{"procedural": {"shape": "sphere", "triangles": 100.5}}])", "[]", "[" + cam + "]"),
+       "SCENE_BAD_VALUE"},
+      {scene(R"([{"procedural": {"shape": "sphere", "seed": -1}}])", "[]", "[" + cam + "]"), "SCENE_BAD_VALUE"},
+      {scene(R"([{"procedural": {"shape": "sphere", "seed": 1.5}}])", "[]", "[" + cam + "]"), "SCENE_BAD_VALUE"},
+      {scene(R"([{"procedural": {"shape": "sphere", "seed": "1"}}])", "[]", "[" + cam + "]"), "SCENE_FIELD_TYPE"},
+      {scene(R"([{"procedural": {"shape": "cube"}}])", "[]", "[" + cam + "]"), "SCENE_BAD_VALUE"},
+      {scene(R"([{"procedural": {"triangles": 100}}])", "[]", "[" + cam + "]"), "SCENE_MISSING_FIELD"},
+      {scene(R"([{"procedural": {"type": "sphere", "rings": 8, "segments": 8}}])", "[]", "[" + cam + "]"),
+       "SCENE_UNKNOWN_FIELD"},
       {scene(R"([{"name": "x"}])", "[]", "[" + cam + "]"), "SCENE_MESH_SOURCE"},
       {scene(R"([{"dag": "does-not-exist.vgeodag"}])", "[]", "[" + cam + "]"), "SCENE_MESH_SOURCE"},
       {scene("[" + mesh + "]", "[]", "[" + cam + "]", R"(, "materials": [{"base_color": [2, 0, 0, 1]}])"),
        "SCENE_BAD_VALUE"},
-      {scene(R"([{"procedural": {"type": "sphere", "rings": 8, "segments": 8}, "material": 3}])", "[]", "[" + cam + "]"),
+      {scene(R"([{"procedural": {"shape": "sphere", "triangles": 128}, "material": 3}])", "[]", "[" + cam + "]"),
        "SCENE_BAD_VALUE"},
   };
   for (const Case& c : cases) EXPECT_EQ(error_code_of(c.text), c.code) << c.text;
@@ -123,7 +134,7 @@ TEST(SceneFile, SourceMeshesAreImportedAndDagFilesAreRead) {
     obj << "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n";
   }
   BuiltScene built;
-  built.meshes.push_back(build_dag(make_displaced_sphere(8, 16, 1.0f, 0.0f, 0.0f), {}));
+  built.meshes.push_back(build_dag(test::make_sphere(8, 16), {}));
   built.materials.push_back(Material{"red", {1, 0, 0, 1}});
   write_dag_file((dir / "sphere.vgeodag").string(), built);
   std::string text = R"({"version": 1,
@@ -158,7 +169,7 @@ TEST(SceneFile, MissingFileIsAnIoError) {
 }
 
 TEST(SceneFile, MeshContentHashDependsOnContent) {
-  Mesh a = make_displaced_sphere(8, 8, 1.0f, 0.0f, 0.0f), b = a;
+  Mesh a = test::make_sphere(8, 8), b = a;
   EXPECT_EQ(mesh_content_hash(a, {}), mesh_content_hash(b, {}));
   b.positions[0] += 1e-3f;
   EXPECT_NE(mesh_content_hash(a, {}), mesh_content_hash(b, {}));

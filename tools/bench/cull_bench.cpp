@@ -14,8 +14,8 @@
 
 #include "vgeo/build/build.h"
 #include "vgeo/cull/cull.h"
+#include "vgeo/mesh/generate.h"
 #include "vgeo/render/frame.h"
-#include "vgeo/render/procedural.h"
 #include "vgeo/render/scene_file.h"
 
 namespace vgeo {
@@ -54,7 +54,9 @@ const ClusterDag& sphere_dag(uint32_t rings) {
   auto& slot = cache[rings];
   if (!slot) {
     BuildOptions bo;
-    slot = std::make_unique<ClusterDag>(build_dag(make_displaced_sphere(rings, 2 * rings, 1.0f, 0.1f, 4.0f), bo));
+    GenerateOptions gen;
+    gen.target_triangles = 4ull * rings * rings;  // as many as a rings x 2·rings UV sphere
+    slot = std::make_unique<ClusterDag>(build_dag(generate_mesh(gen), bo));
   }
   return *slot;
 }
@@ -100,8 +102,9 @@ void BM_DefaultSceneFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_DefaultSceneFrame)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
-// Sphere radius 1 (+10% displacement): 2.2 leaves small gaps between neighbours.
-constexpr double kScalingSpacing = 2.2;
+// Generated sphere radius 1 (at most +12% displacement, lib/mesh/generate.cpp): 2.4 leaves
+// small gaps between neighbours.
+constexpr double kScalingSpacing = 2.4;
 
 void BM_Scaling(benchmark::State& state) {
   const char* r = std::getenv("VGEO_SCALING_RINGS");
