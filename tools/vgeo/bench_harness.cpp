@@ -247,9 +247,9 @@ void write_reports(const BenchConfig& cfg, const MachineInfo& machine, const std
   for (const SuiteReport& s : suites) {
     nlohmann::json js{{"name", s.name},
                       {"ran", s.ran},
-                      {"status", s.ran ? "ran" : s.skipped_reason.rfind("failed", 0) == 0 ? "failed" : "skipped"},
+                      {"status", s.ran ? "ran" : "failed"},
                       {"seconds", s.seconds}};
-    if (!s.ran) js["skipped_reason"] = s.skipped_reason;
+    if (!s.ran) js["failure"] = s.failure;
     js["inputs"] = s.inputs;
     js["notes"] = s.notes;
     js["plots"] = nlohmann::json::array();
@@ -284,15 +284,13 @@ void write_reports(const BenchConfig& cfg, const MachineInfo& machine, const std
   for (const SuiteReport& s : suites) {
     md << "- **" << s.name << "**: ";
     if (s.ran) md << "ran (" << fmt_time(s.seconds) << ")\n";
-    else if (s.skipped_reason.rfind("failed", 0) == 0) md << "suite " << s.name << ": " << s.skipped_reason << "\n";
-    else md << "suite " << s.name << ": skipped (" << s.skipped_reason << ")\n";
+    else md << "failed: " << md_cell(s.failure) << "\n";
   }
   md << "\n";
   for (const SuiteReport& s : suites) {
     md << "## " << s.name << "\n\n";
     if (!s.ran) {
-      if (s.skipped_reason.rfind("failed", 0) == 0) md << "suite " << s.name << ": " << s.skipped_reason << "\n\n";
-      else md << "suite " << s.name << ": skipped (" << s.skipped_reason << ")\n\n";
+      md << "suite " << s.name << ": failed: " << s.failure << "\n\n";
       continue;
     }
     if (!s.summary.empty()) md << s.summary << "\n\n";

@@ -75,7 +75,7 @@ struct Table {
 struct SuiteReport {
   std::string name;
   bool ran = false;
-  std::string skipped_reason;      // when !ran: e.g. "needs lib/render"
+  std::string failure;             // when !ran: the error that stopped the suite (one line)
   std::string summary;             // what was measured, one paragraph
   std::vector<std::string> inputs; // input descriptions
   std::vector<Table> tables;

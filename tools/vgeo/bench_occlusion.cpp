@@ -1,13 +1,11 @@
 // Suite "occlusion": two-pass HZB occlusion culling (lib/render) off / at the coarse
 // ≤2x2 mip / at Nanite's ≤4x4 mip / at the finest mip: clusters culled, the time the
 // occlusion passes cost and the frame time they save, measured side by side in steady
-// state (each variant keeps its own previous-frame HZB). Compiled only once lib/render exists.
-#include "bench_suites.h"
-
-#if __has_include("vgeo/render/frame.h")
+// state (each variant keeps its own previous-frame HZB).
 #include <cmath>
 
 #include "bench_shapes.h"
+#include "bench_suites.h"
 #include "vgeo/build/build.h"
 #include "vgeo/core/progress.h"
 #include "vgeo/cull/view.h"
@@ -148,11 +146,3 @@ void run_occlusion_suite(const BenchConfig& cfg, SuiteReport& out) {
 }
 
 }  // namespace vgeo::bench
-
-#else
-
-namespace vgeo::bench {
-void run_occlusion_suite(const BenchConfig&, SuiteReport& out) { mark_skipped(out, "lib/render"); }
-}  // namespace vgeo::bench
-
-#endif

@@ -1,12 +1,10 @@
 // Suite "quantization": the position grid (FormatOptions::position_bits) against size on disk
-// and in memory, position error after decode, and decode time. Compiled once lib/format exists.
-#include "bench_suites.h"
-
-#if __has_include("vgeo/format/format.h")
+// and in memory, position error after decode, and decode time.
 #include <algorithm>
 #include <cmath>
 
 #include "bench_shapes.h"
+#include "bench_suites.h"
 #include "vgeo/build/build.h"
 #include "vgeo/core/progress.h"
 #include "vgeo/format/format.h"
@@ -157,11 +155,3 @@ void run_quantization_suite(const BenchConfig& cfg, SuiteReport& out) {
 }
 
 }  // namespace vgeo::bench
-
-#else
-
-namespace vgeo::bench {
-void run_quantization_suite(const BenchConfig&, SuiteReport& out) { mark_skipped(out, "lib/format"); }
-}  // namespace vgeo::bench
-
-#endif

@@ -5,15 +5,11 @@
 #include <cmath>
 #include <tuple>
 
-#include "bench_frame.h"
+#include "bench_render.h"
 #include "bench_shapes.h"
 #include "bench_suites.h"
 #include "vgeo/build/build.h"
 #include "vgeo/core/progress.h"
-
-namespace vgeo {
-ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report) __attribute__((weak));
-}
 
 namespace vgeo::bench {
 namespace {
@@ -23,25 +19,16 @@ constexpr double kGridSpacing = 3.0;
 // The LOD threshold of the measured frames: 1 px, the default the lod suite supports.
 constexpr float kTau = 1.0f;
 
-std::vector<BenchInstance> grid_instances(uint32_t count) {
+std::vector<CullInstance> grid_instances(uint32_t count, uint32_t mesh) {
   uint32_t k = uint32_t(std::ceil(std::sqrt(double(count))));
-  std::vector<BenchInstance> v;
-  for (uint32_t i = 0; i < count; ++i) {
-    BenchInstance in;
-    in.translation = {(double(i % k) - 0.5 * (k - 1)) * kGridSpacing, double(i / k) * kGridSpacing, 0};
-    v.push_back(in);
-  }
+  std::vector<CullInstance> v;
+  for (uint32_t i = 0; i < count; ++i)
+    v.push_back(placed_instance(mesh, {(double(i % k) - 0.5 * (k - 1)) * kGridSpacing, double(i / k) * kGridSpacing, 0}));
   return v;
 }
 
-BenchCamera scaling_camera(bool quick) {
-  BenchCamera c;
-  c.eye = {0, -6, 3};
-  c.target = {0, 6, 0};
-  c.up = {0, 0, 1};
-  c.width = quick ? 480 : 960;
-  c.height = quick ? 270 : 540;
-  return c;
+Camera scaling_camera(bool quick) {
+  return look_at_camera({0, -6, 3}, {0, 6, 0}, {0, 0, 1}, quick ? 480 : 960, quick ? 270 : 540);
 }
 
 struct Config {
@@ -51,21 +38,23 @@ struct Config {
 }  // namespace
 
 void run_scaling_suite(const BenchConfig& cfg, SuiteReport& out) {
-  if (!frame_stages_available(out)) return;
   out.ran = true;
   const int reps = cfg.repetitions(5);
   ThreadPool pool(cfg.threads);
-  BenchCamera cam = scaling_camera(cfg.quick);
+  Camera cam = scaling_camera(cfg.quick);
   const std::vector<uint32_t> counts = cfg.quick ? std::vector<uint32_t>{1, 16, 64}
                                                  : std::vector<uint32_t>{1, 4, 16, 64, 256, 1024, 4096};
   const std::vector<uint32_t> sizes = cfg.quick ? std::vector<uint32_t>{2000, 8000}
                                                 : std::vector<uint32_t>{2000, 8000, 32000, 128000};
   const uint32_t base_size = cfg.quick ? 8000 : 32000, fixed_instances = cfg.quick ? 16 : 256;
 
-  std::vector<ClusterDag> dags;
+  // One scene holds every mesh; each configuration swaps in its instances (untimed).
+  RenderScene scene;
+  scene.materials.push_back(Material{});
   BuildOptions bo;
   bo.threads = cfg.threads;
-  for (uint32_t s : sizes) dags.push_back(build_dag(make_shape(Shape::kSphere, s, 3), bo, nullptr));
+  for (uint32_t s : sizes) scene.meshes.push_back(build_dag(make_shape(Shape::kSphere, s, 3), bo, nullptr));
+  const std::vector<ClusterDag>& dags = scene.meshes;
   size_t base_index = 0;
   for (size_t i = 0; i < sizes.size(); ++i)
     if (sizes[i] == base_size) base_index = i;
@@ -76,9 +65,11 @@ void run_scaling_suite(const BenchConfig& cfg, SuiteReport& out) {
   out.inputs.push_back("instances on a " + fmt(kGridSpacing) + "-radius-spaced grid receding from the camera, " +
                        std::to_string(cam.width) + "x" + std::to_string(cam.height) + ", tau = " + fmt(kTau) + " px");
   out.summary =
-      "Frames by the bench frame driver (LOD cut + frustum culling + raster + shade, " + std::to_string(pool.size()) +
-      " threads), " + std::to_string(reps) + " interleaved repetitions per configuration, CPU time (all threads) "
-      "and wall time. 'scene tris' is what a renderer without LOD would submit (instances x mesh triangles); "
+      "Frames by lib/render's render_frame with its default settings (instance + hierarchical cluster culling "
+      "with two-pass HZB occlusion, raster, lit shading; " + std::to_string(pool.size()) +
+      " threads) in steady state: each configuration keeps its own previous-frame history and is warmed up by one "
+      "frame; then " + std::to_string(reps) + " interleaved repetitions per configuration, CPU time (all threads) "
+      "and wall time. 'occluded' sums clusters_occluded over the frame's passes. 'scene tris' is what a renderer without LOD would submit (instances x mesh triangles); "
       "'covered px' is the number of non-background pixels. If cost tracks pixels, triangles drawn and frame time "
       "level off while scene triangles keep growing.";
 
@@ -88,41 +79,46 @@ void run_scaling_suite(const BenchConfig& cfg, SuiteReport& out) {
     if (i != base_index || std::find(counts.begin(), counts.end(), fixed_instances) == counts.end())
       configs.push_back({fixed_instances, uint32_t(i)});
 
-  std::vector<std::vector<BenchInstance>> scenes;
-  for (const Config& c : configs) {
-    std::vector<BenchInstance> inst = grid_instances(c.instances);
-    for (auto& i : inst) i.mesh = c.mesh_index;
-    scenes.push_back(inst);
+  std::vector<std::vector<CullInstance>> placements;
+  for (const Config& c : configs) placements.push_back(grid_instances(c.instances, c.mesh_index));
+  std::vector<Frame> frames(configs.size());
+  std::vector<FrameHistory> history(configs.size());
+  RenderSettings settings;
+  settings.threshold_px = kTau;
+  auto use_config = [&](size_t v) {
+    scene.instances = placements[v];
+    analyze_render_scene(&scene);
+  };
+  auto render = [&](size_t v) { render_frame(scene, cam, settings, pool, &history[v], &frames[v], true); };
+  for (size_t v = 0; v < configs.size(); ++v) {  // warm-up: builds each configuration's history
+    use_config(v);
+    render(v);
   }
-  std::vector<const ClusterDag*> meshes;
-  for (const auto& d : dags) meshes.push_back(&d);
-  std::vector<FrameResult> frames(configs.size());
   Progress progress("bench scaling", size_t(reps) * configs.size(), cfg.progress);
-  FrameOptions fo;
-  fo.tau = kTau;
-  auto samples = time_interleaved(reps, configs.size(), [&](size_t v) {
-    render_frame(meshes, scenes[v], cam, fo, pool, frames[v]);
-    progress.advance();
-  });
+  auto samples = time_interleaved(
+      reps, configs.size(),
+      [&](size_t v) {
+        render(v);
+        progress.advance();
+      },
+      use_config);
 
   auto row_for = [&](size_t v) {
-    const FrameResult& f = frames[v];
-    uint64_t scene_tris = uint64_t(configs[v].instances) * dags[configs[v].mesh_index].triangle_count();
+    uint64_t scene_tris = 0;
     // Leaf triangles: the mesh's triangle_count() counts every level; the leaves are level 0.
     uint64_t leaf_tris = 0;
     for (const DagCluster& c : dags[configs[v].mesh_index].clusters)
       if (c.level == 0) leaf_tris += c.triangle_count;
     scene_tris = uint64_t(configs[v].instances) * leaf_tris;
-    uint64_t covered = 0;
-    for (uint8_t p : f.image) covered += p != 0;
+    uint64_t covered = frames[v].stats.pixels_covered;
     return std::make_tuple(scene_tris, covered, summarize(samples.cpu[v]), summarize(samples.wall[v]));
   };
 
   Table ta{"Axis A: instances of a " + std::to_string(sizes[base_index]) + "-triangle mesh",
-           {"instances", "scene tris", "clusters", "tris drawn", "drawn / scene", "covered px", "tris / covered px",
+           {"instances", "scene tris", "occluded", "clusters", "tris drawn", "drawn / scene", "covered px", "tris / covered px",
             "frame CPU", "frame wall"}, {}};
   Table tb{"Axis B: triangles per mesh at " + std::to_string(fixed_instances) + " instances",
-           {"mesh tris", "scene tris", "clusters", "tris drawn", "drawn / scene", "covered px", "frame CPU",
+           {"mesh tris", "scene tris", "occluded", "clusters", "tris drawn", "drawn / scene", "covered px", "frame CPU",
             "frame wall"}, {}};
   Series sa_scene = named_series("scene triangles (no LOD)"), sa_drawn = named_series("triangles drawn (tau = 1)"), sa_px = named_series("covered pixels");
   Series ta_cpu = named_series("frame CPU time (ms)");
@@ -130,26 +126,29 @@ void run_scaling_suite(const BenchConfig& cfg, SuiteReport& out) {
   nlohmann::json ja = nlohmann::json::array(), jb = nlohmann::json::array();
   for (size_t v = 0; v < configs.size(); ++v) {
     auto [scene_tris, covered, cpu, wall] = row_for(v);
-    const FrameResult& f = frames[v];
+    const FrameStats& f = frames[v].stats;
+    uint64_t occluded = 0;
+    for (const PassStats& p : f.passes) occluded += p.clusters_occluded;
     nlohmann::json j{{"instances", configs[v].instances},
                      {"mesh_triangles", sizes[configs[v].mesh_index]},
                      {"scene_triangles", scene_tris},
-                     {"clusters", f.clusters},
-                     {"triangles_drawn", f.triangles},
+                     {"clusters_occluded", occluded},
+                     {"clusters", f.clusters_drawn},
+                     {"triangles_drawn", f.triangles_drawn},
                      {"covered_pixels", covered},
                      {"frame_cpu_seconds", to_json(cpu)},
                      {"frame_wall_seconds", to_json(wall)}};
-    double ratio = scene_tris ? double(f.triangles) / double(scene_tris) : 0;
+    double ratio = scene_tris ? double(f.triangles_drawn) / double(scene_tris) : 0;
     if (configs[v].mesh_index == base_index && v < counts.size()) {
-      ta.rows.push_back({std::to_string(configs[v].instances), std::to_string(scene_tris), std::to_string(f.clusters),
-                         std::to_string(f.triangles), fmt(ratio), std::to_string(covered),
-                         fmt(covered ? double(f.triangles) / double(covered) : 0), fmt_stats_time(cpu),
+      ta.rows.push_back({std::to_string(configs[v].instances), std::to_string(scene_tris), std::to_string(occluded),
+                         std::to_string(f.clusters_drawn), std::to_string(f.triangles_drawn), fmt(ratio),
+                         std::to_string(covered), fmt(covered ? double(f.triangles_drawn) / double(covered) : 0), fmt_stats_time(cpu),
                          fmt_stats_time(wall)});
       double x = configs[v].instances;
       sa_scene.x.push_back(x);
       sa_scene.y.push_back(double(scene_tris));
       sa_drawn.x.push_back(x);
-      sa_drawn.y.push_back(double(f.triangles));
+      sa_drawn.y.push_back(double(f.triangles_drawn));
       sa_px.x.push_back(x);
       sa_px.y.push_back(double(covered));
       ta_cpu.x.push_back(x);
@@ -160,13 +159,14 @@ void run_scaling_suite(const BenchConfig& cfg, SuiteReport& out) {
     }
     if (configs[v].instances == fixed_instances) {
       tb.rows.push_back({std::to_string(sizes[configs[v].mesh_index]), std::to_string(scene_tris),
-                         std::to_string(f.clusters), std::to_string(f.triangles), fmt(ratio), std::to_string(covered),
+                         std::to_string(occluded), std::to_string(f.clusters_drawn), std::to_string(f.triangles_drawn),
+                         fmt(ratio), std::to_string(covered),
                          fmt_stats_time(cpu), fmt_stats_time(wall)});
       double x = sizes[configs[v].mesh_index];
       sb_scene.x.push_back(x);
       sb_scene.y.push_back(double(scene_tris));
       sb_drawn.x.push_back(x);
-      sb_drawn.y.push_back(double(f.triangles));
+      sb_drawn.y.push_back(double(f.triangles_drawn));
       tb_cpu.x.push_back(x);
       tb_cpu.y.push_back(cpu.median * 1e3);
       tb_cpu.y_low.push_back(cpu.min * 1e3);

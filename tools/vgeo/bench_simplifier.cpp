@@ -7,14 +7,7 @@
 #include "bench_suites.h"
 #include "vgeo/build/build.h"
 #include "vgeo/core/progress.h"
-#if __has_include("vgeo/verify/verify.h")
 #include "vgeo/verify/verify.h"
-#define VGEO_BENCH_HAVE_VERIFY 1
-#endif
-
-namespace vgeo {
-ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report) __attribute__((weak));
-}
 
 namespace vgeo::bench {
 namespace {
@@ -33,7 +26,6 @@ constexpr double kCameraDistanceRadii = 4.0;
 }  // namespace
 
 void run_simplifier_suite(const BenchConfig& cfg, SuiteReport& out) {
-  if (&build_dag == nullptr) return mark_skipped(out, "lib/build (build_dag)");
   out.ran = true;
   struct Input {
     Shape shape;
@@ -103,7 +95,6 @@ void run_simplifier_suite(const BenchConfig& cfg, SuiteReport& out) {
       }
       cut_t.rows.push_back(row);
       nlohmann::json jerr = nullptr;
-#ifdef VGEO_BENCH_HAVE_VERIFY
       {
         VerifyOptions vo;
         vo.checks = kCheckErrorBound;
@@ -115,7 +106,6 @@ void run_simplifier_suite(const BenchConfig& cfg, SuiteReport& out) {
         jerr = {{"count", vr.error_ratio.count}, {"median", vr.error_ratio.median}, {"p95", vr.error_ratio.p95},
                 {"max", vr.error_ratio.max}, {"violations", vr.total_violations()}};
       }
-#endif
       cut_series.push_back(s);
       jrows.push_back({{"mesh", shape_name(in.shape)},
                        {"input_triangles", mesh.triangle_count()},
@@ -134,15 +124,11 @@ void run_simplifier_suite(const BenchConfig& cfg, SuiteReport& out) {
   }
   out.tables.push_back(build_t);
   out.tables.push_back(cut_t);
-#ifdef VGEO_BENCH_HAVE_VERIFY
   out.tables.push_back(err_t);
   out.notes.push_back("measured/stored > 1 means the stored lod_error understates the real deviation (an "
                       "invariant violation, counted in the last column): such a DAG draws too few triangles for its "
                       "promised tau. Well below 1 means a pessimistic stored error: the runtime refines more than "
                       "needed and draws more triangles at equal tau.");
-#else
-  out.notes.push_back("measured/stored error ratio: not measured (needs lib/verify's error-bound check).");
-#endif
   out.data["rows"] = jrows;
   add_plot(out, cfg, "simplifier_triangles_vs_tau.svg",
            Plot{"Triangles drawn at equal tau, per simplifier backend", "tau (pixels of projected error)",

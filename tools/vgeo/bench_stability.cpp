@@ -3,16 +3,12 @@
 // metrics at tau = 1, to show they neither degrade nor blow up.
 #include <cmath>
 
-#include "bench_frame.h"
+#include "bench_render.h"
 #include "bench_shapes.h"
 #include "bench_suites.h"
 #include "vgeo/build/build.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/progress.h"
-
-namespace vgeo {
-ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report) __attribute__((weak));
-}
 
 namespace vgeo::bench {
 namespace {
@@ -23,8 +19,9 @@ constexpr double kFar = 1e7;  // spec/invariants.md: instances up to 1e7 units f
 struct Case {
   std::string name;
   int mesh = 0;  // index into the case meshes
-  BenchInstance instance;
-  BenchCamera camera;
+  Vec3d translation;
+  double scale = 1;
+  Camera camera;
   bool compare_to_baseline = false;  // same view up to translation/scale: image must match
 };
 
@@ -42,7 +39,6 @@ uint64_t invalid_keys(const VisBuffer& vb) {
 }  // namespace
 
 void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
-  if (!frame_stages_available(out)) return;
   out.ran = true;
   const uint32_t tris = cfg.quick ? 5000 : 40000;
   const int reps = cfg.repetitions(5);
@@ -59,35 +55,27 @@ void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
   inputs.push_back({"ellipsoid 1:1:0.001 (slivers)", make_ellipsoid(tris, 1e-3f)});
   inputs.push_back({"sphere + degenerate triangles", add_degenerate_triangles(make_shape(Shape::kSphere, tris, 5), 7)});
 
-  BenchCamera base;
-  base.width = w;
-  base.height = h;
-  base.eye = {2.2, 1.4, 1.8};
-  base.target = {0, 0, 0};
-  base.up = {0, 1, 0};
+  const Vec3d base_eye{2.2, 1.4, 1.8}, origin{0, 0, 0}, up{0, 1, 0};
+  const Camera base = look_at_camera(base_eye, origin, up, w, h);
 
   std::vector<Case> cases;
-  cases.push_back({"baseline: sphere, camera outside", 0, {}, base, false});
+  cases.push_back({"baseline: sphere, camera outside", 0, {}, 1, base, false});
   {
-    Case c{"far: instance and camera at 1e7", 0, {}, base, true};
-    c.instance.translation = {kFar, 0, kFar};
-    c.camera.eye = {base.eye.x + kFar, base.eye.y, base.eye.z + kFar};
-    c.camera.target = {kFar, 0, kFar};
+    Case c{"far: instance and camera at 1e7", 0, {kFar, 0, kFar}, 1, base, true};
+    c.camera = look_at_camera({base_eye.x + kFar, base_eye.y, base_eye.z + kFar}, {kFar, 0, kFar}, up, w, h);
     cases.push_back(c);
   }
   for (double s : {1e-4, 1e4}) {
-    Case c{std::string("scale ") + (s < 1 ? "1e-4" : "1e4") + ": instance, camera and near plane scaled", 0, {}, base,
-           true};
-    c.instance.scale = s;
-    c.camera.eye = {base.eye.x * s, base.eye.y * s, base.eye.z * s};
-    c.camera.z_near = float(base.z_near * s);
+    Case c{std::string("scale ") + (s < 1 ? "1e-4" : "1e4") + ": instance, camera and near plane scaled", 0, {}, s,
+           base, true};
+    c.camera = look_at_camera({base_eye.x * s, base_eye.y * s, base_eye.z * s}, origin, up, w, h, base.z_near * s);
     cases.push_back(c);
   }
   {
     BoxFrame f = box_frame(inputs[1].mesh);
-    Case c{"camera inside bounds: just under the terrain's top, looking across", 1, {}, base, false};
-    c.camera.eye = {f.center.x - 0.2 * f.half.x, f.center.y + 0.8 * f.half.y, f.center.z - 0.5 * f.half.z};
-    c.camera.target = {f.center.x + 0.3 * f.half.x, f.center.y, f.center.z + 0.5 * f.half.z};
+    Case c{"camera inside bounds: just under the terrain's top, looking across", 1, {}, 1, base, false};
+    c.camera = look_at_camera({f.center.x - 0.2 * f.half.x, f.center.y + 0.8 * f.half.y, f.center.z - 0.5 * f.half.z},
+                              {f.center.x + 0.3 * f.half.x, f.center.y, f.center.z + 0.5 * f.half.z}, up, w, h);
     cases.push_back(c);
   }
   {
@@ -97,21 +85,23 @@ void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
     Vec3 top{0, 0, -1e30f};
     for (size_t v = 0; v < m.vertex_count(); ++v)
       if (m.position(v).z > top.z) top = m.position(v);
-    Case c{"near plane: surface closer than z_near in the view centre", 0, {}, base, false};
-    c.camera.z_near = 0.05f;
-    c.camera.eye = {top.x, top.y, top.z + 0.5 * c.camera.z_near};
-    c.camera.target = {0, 0, 0};
-    c.camera.up = {0, 1, 0};
+    constexpr double kNear = 0.05;
+    Case c{"near plane: surface closer than z_near in the view centre", 0, {}, 1, base, false};
+    c.camera = look_at_camera({top.x, top.y, top.z + 0.5 * kNear}, origin, up, w, h, kNear);
     cases.push_back(c);
   }
   {
-    Case c{"slivers: ellipsoid 1:1:0.001 seen obliquely", 2, {}, base, false};
-    c.camera.eye = {1.8, 0.9, 0.6};
+    Case c{"slivers: ellipsoid 1:1:0.001 seen obliquely", 2, {}, 1, base, false};
+    c.camera = look_at_camera({1.8, 0.9, 0.6}, origin, up, w, h);
     cases.push_back(c);
   }
-  cases.push_back({"degenerate input: zero-area and collinear triangles added", 3, {}, base, false});
+  cases.push_back({"degenerate input: zero-area and collinear triangles added", 3, {}, 1, base, false});
 
-  std::vector<ClusterDag> dags(inputs.size());
+  // One scene holds every mesh; each case places one instance of its mesh.
+  RenderScene scene;
+  scene.meshes.resize(inputs.size());
+  scene.materials.push_back(Material{});
+  std::vector<ClusterDag>& dags = scene.meshes;
   std::vector<std::string> build_status(inputs.size(), "ok");
   BuildOptions bo;
   bo.threads = cfg.threads;
@@ -125,7 +115,8 @@ void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
                          build_status[i] + (build_status[i] == "ok" ? ", " + std::to_string(dags[i].level_count) + " levels" : ""));
   }
   out.summary =
-      "Each case renders at tau = " + fmt(kTau) + " px and at full detail (all leaves) with the bench frame driver, " +
+      "Each case renders at tau = " + fmt(kTau) + " px and at full detail (tau = 0) with lib/render's render_frame "
+      "(occlusion off: one object), " +
       std::to_string(reps) + " interleaved repetitions, " + std::to_string(w) + "x" + std::to_string(h) +
       ". Accuracy metrics as in the lod suite, against the case's own full-detail frame; cases that are the baseline "
       "view translated or scaled are also compared with the baseline's image (they should match it). "
@@ -137,7 +128,7 @@ void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
   nlohmann::json jcases = nlohmann::json::array();
   Series err = named_series("mean |shade diff| vs full detail"), surf = named_series("% surface differs vs full detail");
   Progress progress("bench stability", cases.size(), cfg.progress);
-  FrameResult baseline;
+  Frame baseline;
   for (size_t ci = 0; ci < cases.size(); ++ci) {
     const Case& c = cases[ci];
     if (build_status[size_t(c.mesh)] != "ok") {
@@ -146,14 +137,14 @@ void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
       progress.advance();
       continue;
     }
-    std::vector<const ClusterDag*> meshes{&dags[size_t(c.mesh)]};
-    std::vector<BenchInstance> inst{c.instance};
-    FrameResult frames[2];
+    scene.instances = {placed_instance(uint32_t(c.mesh), c.translation, c.scale)};
+    analyze_render_scene(&scene);
+    Frame frames[2];
     auto samples = time_interleaved(reps, 2, [&](size_t v) {
-      FrameOptions o;
-      o.tau = kTau;
-      o.leaves_only = v == 1;
-      render_frame(meshes, inst, c.camera, o, pool, frames[v]);
+      RenderSettings s;
+      s.occlusion = false;
+      s.threshold_px = v == 1 ? kFullDetailTau : kTau;
+      render_frame(scene, c.camera, s, pool, nullptr, &frames[v], false);
     });
     ImageError e = compare_frames(frames[0], frames[1]);
     Stats cpu = summarize(samples.cpu[0]), ratio = ratio_stats(samples.cpu[0], samples.cpu[1]);
@@ -161,8 +152,8 @@ void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
     std::string vb_mean = "-", vb_surf = "-";
     nlohmann::json j{{"case", c.name},
                      {"build", "ok"},
-                     {"triangles_drawn", frames[0].triangles},
-                     {"full_triangles", frames[1].triangles},
+                     {"triangles_drawn", frames[0].stats.triangles_drawn},
+                     {"full_triangles", frames[1].stats.triangles_drawn},
                      {"frame_cpu_seconds", to_json(cpu)},
                      {"frame_cpu_over_full", to_json(ratio)},
                      {"mean_abs_diff", e.mean_abs},
@@ -170,14 +161,14 @@ void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
                      {"surface_differs_share", e.surface_differs},
                      {"bad_keys", bad}};
     if (ci == 0) baseline = frames[0];
-    if (c.compare_to_baseline && !baseline.image.empty()) {
+    if (c.compare_to_baseline && !baseline.image.rgb.empty()) {
       ImageError b = compare_frames(frames[0], baseline);
       vb_mean = fmt(b.mean_abs);
       vb_surf = fmt(100 * b.surface_differs) + "%";
       j["vs_baseline_mean_abs_diff"] = b.mean_abs;
       j["vs_baseline_surface_differs_share"] = b.surface_differs;
     }
-    t.rows.push_back({c.name, std::to_string(frames[0].triangles), std::to_string(frames[1].triangles),
+    t.rows.push_back({c.name, std::to_string(frames[0].stats.triangles_drawn), std::to_string(frames[1].stats.triangles_drawn),
                       fmt_stats_time(cpu), fmt_ratio(ratio), fmt(e.mean_abs), fmt(e.max_abs),
                       fmt(100 * e.surface_differs) + "%", vb_mean, vb_surf, std::to_string(bad)});
     err.x.push_back(double(ci + 1));

@@ -1,7 +1,6 @@
 #pragma once
-// The `vgeo bench` suites. Each fills a SuiteReport; a suite whose pipeline stage is not
-// linked into this build marks itself skipped ("needs lib/X") instead of failing, so
-// `vgeo bench all --quick` always exits 0.
+// The `vgeo bench` suites. Each fills a SuiteReport (and sets `ran`); a suite that throws is
+// recorded as failed by cmd_bench and the others still run.
 #include <string>
 #include <vector>
 
@@ -38,14 +37,4 @@ inline std::vector<SuiteDef> suite_list() {
   };
 }
 
-inline void mark_skipped(SuiteReport& out, const std::string& needs) {
-  out.ran = false;
-  out.skipped_reason = "needs " + needs;
-}
-
-}  // namespace vgeo::bench
-
-namespace vgeo::bench {
-// True when build_dag and rasterize_cluster are linked in; otherwise marks `out` skipped.
-bool frame_stages_available(SuiteReport& out);
 }  // namespace vgeo::bench

@@ -63,19 +63,17 @@ void run_bench(const BenchArgs& args) {
     } catch (const VgeoError& e) {
       r = SuiteReport{};
       r.name = s.name;
-      r.skipped_reason = "failed: " + e.error().line();
+      r.failure = e.error().line();
       std::fprintf(stderr, "suite %s: failed: %s\n", s.name, e.error().line().c_str());
     } catch (const std::exception& e) {
       r = SuiteReport{};
       r.name = s.name;
-      r.skipped_reason = std::string("failed: ") + e.what();
+      r.failure = e.what();
       std::fprintf(stderr, "suite %s: failed: %s\n", s.name, e.what());
     }
     r.seconds = now_seconds() - ts;
     if (cfg.progress) {
       if (r.ran) std::fprintf(stderr, "suite %s: done in %.1f s\n", s.name, r.seconds);
-      else if (r.skipped_reason.rfind("failed", 0) != 0)
-        std::fprintf(stderr, "suite %s: skipped (%s)\n", s.name, r.skipped_reason.c_str());
     }
     reports.push_back(std::move(r));
   }
