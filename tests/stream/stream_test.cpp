@@ -171,7 +171,7 @@ RC_GTEST_PROP(StreamProperty, FramesValidWithinBudgetAndConverge, ()) {
 RC_GTEST_PROP(StreamProperty, EvictionKeepsParentsOfResidentChildren, ()) {
   const Fixture& f = fixture();
   StreamOptions o;
-  o.budget_bytes = f.pinned + uint64_t(*rc::gen::inRange(1, 400)) * (f.total - f.pinned) / 1000;
+  o.budget_bytes = f.pinned + uint64_t(*rc::gen::inRange(100, 900)) * (f.total - f.pinned) / 1000;
   o.loader.asynchronous = false;
   Streamer s(f.path, o);
   const uint32_t np = uint32_t(f.container.pages.size());
@@ -179,8 +179,8 @@ RC_GTEST_PROP(StreamProperty, EvictionKeepsParentsOfResidentChildren, ()) {
   for (uint32_t i = 0; i < 30; ++i) {
     std::vector<PageState> before(np);
     for (uint32_t p = 0; p < np; ++p) before[p] = s.page_state(p);
-    // Close-ups from random sides need different leaf pages: the pool churns.
-    const float d = 1.1f + *rc::gen::inRange(0, 200) / 100.0f;
+    // Close-ups and far views from random sides need different pages: the pool churns.
+    const float d = 1.1f + *rc::gen::inRange(0, 1000) / 100.0f;
     const float a = *rc::gen::inRange(0, 628) / 100.0f;
     const StreamFrameStats st = s.update(views_at({d * std::cos(a), d * std::sin(a), 0.3f}), nullptr);
     evictions += st.pages_evicted;
