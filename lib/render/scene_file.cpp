@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "vgeo/build/dag_io.h"
+#include "vgeo/format/asset_file.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/hash.h"
 #include "vgeo/mesh/generate.h"
@@ -188,7 +189,7 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
       if (fp.is_relative()) fp = std::filesystem::path(c.base_dir) / fp;
       BuiltScene built;
       try {
-        built = read_dag_file(fp.string());
+        built = read_asset_file(fp.string());  // page format or VGEODAG1 (lib/format/asset_file.h)
       } catch (const VgeoError& e) {
         bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
       }
