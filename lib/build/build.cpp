@@ -406,7 +406,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
       // The stored error is a promise lib/verify checks (ERROR_BOUND): the backends'
       // estimates (meshopt's quadric, OpenMesh's removed-vertex distance) can be below the
       // distance from the simplified surface back to its input, so measure that too.
-      r.error = std::max(s.error, measured_simplification_error(*welded.mesh, merged, s.triangles));
+      r.error = simplification_error(*welded.mesh, merged, s.triangles, s.error);
     });
 
     // ---- combine in group order ----
