@@ -5,6 +5,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <chrono>
 #include <cmath>
@@ -331,30 +332,41 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
     lr.groups = group_count;
 
     // Locks: welded vertices used by two groups of this level, or by a retired cluster.
-    for (uint32_t c : active)
-      for (uint32_t v : clusters[c].triangles.corners) {
+    // Parallel over clusters: the first group to claim a vertex owns it, any other group
+    // locks it, so `locked` does not depend on the order (only `owner` does, and it is
+    // only reset below). Locks only ever go 0 → 1 within a level.
+    pool.parallel_for(active.size(), [&](size_t i) {
+      const WorkCluster& cl = clusters[active[i]];
+      const uint32_t g = cl.group;
+      for (uint32_t v : cl.triangles.corners) {
         uint32_t w = welded.weld[v];
-        uint32_t g = clusters[c].group;
-        if (owner[w] == kNone) owner[w] = g;
-        else if (owner[w] != g) locked[w] = 1;
+        uint32_t expected = kNone;
+        if ((!std::atomic_ref<uint32_t>(owner[w]).compare_exchange_strong(expected, g, std::memory_order_relaxed) &&
+             expected != g) ||
+            retired[w])
+          std::atomic_ref<uint8_t>(locked[w]).store(1, std::memory_order_relaxed);
       }
-    for (uint32_t c : active)
-      for (uint32_t v : clusters[c].triangles.corners) {
-        uint32_t w = welded.weld[v];
-        if (retired[w]) locked[w] = 1;
-      }
+    });
     // Shared edges: welded edges with both ends locked used by two groups of this level or
     // by a retired cluster (only those must survive; few: they lie on group borders).
     std::vector<uint64_t> shared_edges;
     {
-      std::vector<std::pair<uint64_t, uint32_t>> candidates;
-      for (uint32_t c : active) {
-        const TriangleSet& t = clusters[c].triangles;
+      std::vector<std::vector<std::pair<uint64_t, uint32_t>>> per_cluster(active.size());
+      pool.parallel_for(active.size(), [&](size_t ci) {
+        const TriangleSet& t = clusters[active[ci]].triangles;
+        const uint32_t g = clusters[active[ci]].group;
         for (size_t i = 0; i < t.triangle_count(); ++i)
           for (int k = 0; k < 3; ++k) {
             uint32_t a = welded.weld[t.corners[3 * i + k]], b = welded.weld[t.corners[3 * i + (k + 1) % 3]];
-            if (a != b && locked[a] && locked[b]) candidates.push_back({edge_key(a, b), clusters[c].group});
+            if (a != b && locked[a] && locked[b]) per_cluster[ci].push_back({edge_key(a, b), g});
           }
+      });
+      std::vector<std::pair<uint64_t, uint32_t>> candidates;
+      {
+        size_t total = 0;
+        for (const auto& v : per_cluster) total += v.size();
+        candidates.reserve(total);
+        for (const auto& v : per_cluster) candidates.insert(candidates.end(), v.begin(), v.end());
       }
       std::sort(candidates.begin(), candidates.end());
       for (size_t i = 0; i < candidates.size();) {
@@ -406,7 +418,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
       // The stored error is a promise lib/verify checks (ERROR_BOUND): the backends'
       // estimates (meshopt's quadric, OpenMesh's removed-vertex distance) can be below the
       // distance from the simplified surface back to its input, so measure that too.
-      r.error = std::max(s.error, measured_simplification_error(*welded.mesh, merged, s.triangles));
+      r.error = simplification_error(*welded.mesh, merged, s.triangles, s.error);
     });
 
     // ---- combine in group order ----
@@ -452,12 +464,14 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
       WorkCluster& c = clusters[next[i]];
       c.bounds = cluster_sphere(mesh, c.triangles);
     });
-    // Reset per-level lock state (only the touched entries).
-    for (uint32_t c : active)
-      for (uint32_t v : clusters[c].triangles.corners) {
-        owner[welded.weld[v]] = kNone;
-        locked[welded.weld[v]] = 0;
+    // Reset per-level lock state (only the touched entries; the same values from any task).
+    pool.parallel_for(active.size(), [&](size_t i) {
+      for (uint32_t v : clusters[active[i]].triangles.corners) {
+        uint32_t w = welded.weld[v];
+        std::atomic_ref<uint32_t>(owner[w]).store(kNone, std::memory_order_relaxed);
+        std::atomic_ref<uint8_t>(locked[w]).store(0, std::memory_order_relaxed);
       }
+    });
     if (!new_retired_edges.empty()) {
       retired_edges.insert(retired_edges.end(), new_retired_edges.begin(), new_retired_edges.end());
       std::sort(retired_edges.begin(), retired_edges.end());

@@ -91,6 +91,10 @@ struct SimplifyResult {
 // simplified triangles to the group's input triangles on the shared error lattice
 // (lib/core/surface_distance.h), rounded up to float.
 float measured_simplification_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified);
+// max(estimate, measured_simplification_error(...)), bit-identical, but the lattice search
+// stops early for points that cannot raise the maximum (lib/build/measure_error.cpp).
+float simplification_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
+                           float estimate);
 
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
                               const std::vector<uint8_t>& locked, Simplifier simplifier);

@@ -7,7 +7,7 @@
 #include "dag_checks.h"
 #include "support/paths.h"
 #include "vgeo/build/build.h"
-#include "vgeo/build/temp_import.h"
+#include "vgeo/mesh/import.h"
 
 namespace vgeo::test {
 namespace {
@@ -21,7 +21,7 @@ TEST_P(CgalCorpus, DagPropertiesAndLockedBorders) {
   auto [name, simplifier] = GetParam();
   std::filesystem::path path = data_dir() / "cgal" / "meshes" / (std::string(name) + ".off");
   ASSERT_TRUE(std::filesystem::exists(path)) << path << " missing: run tools/fetch-data";
-  Scene scene = build_detail::read_mesh_file_temporary(path.string());
+  Scene scene = import_scene(path.string()).scene;
   const Mesh& mesh = scene.meshes[0];
   BuildOptions o;
   o.simplifier = simplifier;

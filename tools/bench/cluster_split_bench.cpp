@@ -10,7 +10,7 @@
 
 #include "vgeo/build/build_internal.h"
 #include "vgeo/build/cluster_dag.h"
-#include "vgeo/build/temp_import.h"
+#include "vgeo/mesh/import.h"
 
 namespace {
 
@@ -27,7 +27,7 @@ void BM_LeafClusters(benchmark::State& state) {
     state.SkipWithError(("missing " + path + " (run tools/fetch-data)").c_str());
     return;
   }
-  Scene scene = read_mesh_file_temporary(path);
+  Scene scene = import_scene(path).scene;
   const Mesh& mesh = scene.meshes[0];
   WeldedMesh welded = weld_positions(mesh);
   TriangleSet all;

@@ -8,9 +8,9 @@
 #include "commands.h"
 #include "vgeo/build/build.h"
 #include "vgeo/build/dag_io.h"
-#include "vgeo/build/temp_import.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/progress.h"
+#include "vgeo/mesh/import.h"
 
 namespace vgeo::cli {
 
@@ -21,9 +21,15 @@ struct BuildArgs {
   unsigned threads = 0;
 };
 
-// TODO(lead): switch to vgeo::import_scene(path) from "vgeo/mesh/import.h" once merged,
-// then delete lib/build/temp_import.*.
-Scene load_input(const std::string& path) { return build_detail::read_mesh_file_temporary(path); }
+// Every format the importer reads (glTF/GLB, OBJ, PLY, OFF, STL); every mesh of the scene is
+// built. Import errors are VgeoErrors with their own codes and exit codes; warnings go to
+// stderr and never stop the build.
+Scene load_input(const std::string& path) {
+  ImportResult imported = import_scene(path);
+  for (const Warning& w : imported.warnings)
+    std::fprintf(stderr, "warning[%s]: %s: %s\n", w.code.c_str(), path.c_str(), w.what.c_str());
+  return std::move(imported.scene);
+}
 
 nlohmann::json report_json(const BuildReport& r) {
   nlohmann::json j;
@@ -46,27 +52,12 @@ nlohmann::json report_json(const BuildReport& r) {
   return j;
 }
 
-void print_summary(const std::string& name, const BuildReport& r) {
-  std::printf("mesh %s: %llu input triangles -> %llu stored (%.2fx), %llu root clusters (%llu triangles)\n",
-              name.c_str(), (unsigned long long)r.input_triangles, (unsigned long long)r.stored_triangles,
-              r.input_triangles ? double(r.stored_triangles) / double(r.input_triangles) : 0.0,
-              (unsigned long long)r.root_clusters, (unsigned long long)r.root_triangles);
-  std::printf("  level  clusters  triangles   groups  stuck  fill   border\n");
-  for (const BuildLevelReport& l : r.levels)
-    std::printf("  %5u  %8llu  %9llu  %7llu  %5llu  %4.0f%%  %5.1f%%\n", l.level, (unsigned long long)l.clusters,
-                (unsigned long long)l.triangles, (unsigned long long)l.groups, (unsigned long long)l.stuck_groups,
-                100.0 * l.average_fill, 100.0 * l.boundary_edge_fraction);
-  std::printf("  time %.2fs (cluster %.2f, group %.2f, simplify %.2f, split %.2f, hierarchy %.2f), peak %.0f MiB\n",
-              r.seconds_total, r.seconds_cluster, r.seconds_group, r.seconds_simplify, r.seconds_split,
-              r.seconds_hierarchy, double(r.peak_memory_bytes) / (1 << 20));
-}
-
 }  // namespace
 
 void add_build_command(CLI::App& app, Context& ctx) {
   auto args = std::make_shared<BuildArgs>();
   auto* cmd = app.add_subcommand("build", "Build the cluster DAG of a mesh file (writes VGEODAG1, spec/dag.md)");
-  cmd->add_option("input", args->input, "input mesh (OFF, OBJ, PLY, STL)")->required();
+  cmd->add_option("input", args->input, "input scene (glTF/GLB, OBJ, PLY, OFF, STL)")->required();
   cmd->add_option("-o,--output", args->output, "output .vgeodag file")->required();
   cmd->add_option("--simplifier", args->simplifier, "meshopt (default) or openmesh")
       ->check(CLI::IsMember({"meshopt", "openmesh"}));
@@ -82,7 +73,9 @@ void add_build_command(CLI::App& app, Context& ctx) {
     BuiltScene built = build_scene(scene, options, &reports);
     write_dag_file(args->output, built);
     for (size_t i = 0; i < reports.size(); ++i)
-      print_summary(scene.meshes[i].name.empty() ? std::to_string(i) : scene.meshes[i].name, reports[i]);
+      std::fputs(build_report_summary(scene.meshes[i].name.empty() ? std::to_string(i) : scene.meshes[i].name, reports[i])
+                     .c_str(),
+                 stdout);
     if (!args->report.empty()) {
       nlohmann::json j;
       j["input"] = args->input;

@@ -1,0 +1,72 @@
+// The builder's error measurement (lib/build/measure_error.cpp) takes shortcuts in *how* it
+// finds the maximum; these properties pin that its value is bit-identical to the reference
+// sampled_one_sided_distance of lib/core on the same lattice (what lib/verify checks).
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "vgeo/build/build_internal.h"
+#include "vgeo/core/surface_distance.h"
+
+namespace vgeo::test {
+namespace {
+
+using build_detail::TriangleSet;
+
+float reference_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified) {
+  std::vector<DVec3> corners(input.corners.size());
+  for (size_t i = 0; i < corners.size(); ++i) {
+    const float* p = &mesh.positions[3 * size_t(input.corners[i])];
+    corners[i] = {p[0], p[1], p[2]};
+  }
+  TriangleDistanceTree tree(std::move(corners));
+  double d = sampled_one_sided_distance(mesh.positions.data(), simplified.corners.data(),
+                                        simplified.triangle_count(), tree, kErrorLatticeSubdivisions);
+  float e = float(d);
+  if (double(e) < d) e = std::nextafter(e, std::numeric_limits<float>::infinity());
+  return e;
+}
+
+uint32_t bits(float f) {
+  uint32_t b;
+  std::memcpy(&b, &f, 4);
+  return b;
+}
+
+// Positions on a coarse grid (coincident and collinear points common), triangles over them.
+RC_GTEST_PROP(MeasureError, BitIdenticalToReferenceLattice, ()) {
+  const uint32_t vertex_count = *rc::gen::inRange<uint32_t>(3, 40);
+  Mesh mesh;
+  for (uint32_t v = 0; v < 3 * vertex_count; ++v) mesh.positions.push_back(float(*rc::gen::inRange(-4, 5)) * 0.25f);
+  auto triangles = [&](uint32_t min_count) {
+    TriangleSet t;
+    const uint32_t count = *rc::gen::inRange<uint32_t>(min_count, 60);
+    for (uint32_t i = 0; i < count; ++i) {
+      for (int k = 0; k < 3; ++k) t.corners.push_back(*rc::gen::inRange<uint32_t>(0, vertex_count));
+      t.materials.push_back(0);
+    }
+    return t;
+  };
+  TriangleSet input = triangles(1);
+  // Simplified corners are input vertices (both backends only remove vertices); the
+  // triangles themselves are arbitrary.
+  TriangleSet simplified;
+  const uint32_t count = *rc::gen::inRange<uint32_t>(1, 40);
+  for (uint32_t i = 0; i < count; ++i) {
+    for (int k = 0; k < 3; ++k)
+      simplified.corners.push_back(input.corners[*rc::gen::inRange<size_t>(0, input.corners.size())]);
+    simplified.materials.push_back(0);
+  }
+  const float reference = reference_error(mesh, input, simplified);
+  RC_ASSERT(bits(build_detail::measured_simplification_error(mesh, input, simplified)) == bits(reference));
+  const float estimate = *rc::gen::element(0.0f, 0.01f, 0.1f, 0.3f, 1.0f, 10.0f, reference,
+                                           std::nextafter(reference, 0.0f));
+  RC_ASSERT(bits(build_detail::simplification_error(mesh, input, simplified, estimate)) ==
+            bits(std::max(estimate, reference)));
+}
+
+}  // namespace
+}  // namespace vgeo::test
