@@ -8,6 +8,7 @@
 #include "commands.h"
 #include "vgeo/build/build.h"
 #include "vgeo/build/dag_io.h"
+#include "vgeo/format/asset_file.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/progress.h"
 #include "vgeo/mesh/import.h"
@@ -58,7 +59,9 @@ void add_build_command(CLI::App& app, Context& ctx) {
   auto args = std::make_shared<BuildArgs>();
   auto* cmd = app.add_subcommand("build", "Build the cluster DAG of a mesh file (writes VGEODAG1, spec/dag.md)");
   cmd->add_option("input", args->input, "input scene (glTF/GLB, OBJ, PLY, OFF, STL)")->required();
-  cmd->add_option("-o,--output", args->output, "output .vgeodag file")->required();
+  cmd->add_option("-o,--output", args->output,
+                 "output asset: the page format (spec/format.md), or a lossless VGEODAG1 DAG file if it ends in .vgeodag")
+      ->required();
   cmd->add_option("--simplifier", args->simplifier, "meshopt (default) or openmesh")
       ->check(CLI::IsMember({"meshopt", "openmesh"}));
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores); output is identical for any value");
@@ -71,7 +74,11 @@ void add_build_command(CLI::App& app, Context& ctx) {
     options.progress = progress_wanted();
     std::vector<BuildReport> reports;
     BuiltScene built = build_scene(scene, options, &reports);
-    write_dag_file(args->output, built);
+    AssetFileKind kind = asset_file_kind_for_path(args->output);
+    FormatReport format_report;
+    write_asset_file(args->output, built, kind, FormatOptions{}, &format_report);
+    if (kind == AssetFileKind::kPages)
+      std::printf("wrote %s: page format, %zu pages\n", args->output.c_str(), format_report.pages.size());
     for (size_t i = 0; i < reports.size(); ++i)
       std::fputs(build_report_summary(scene.meshes[i].name.empty() ? std::to_string(i) : scene.meshes[i].name, reports[i])
                      .c_str(),
