@@ -173,9 +173,15 @@ TEST(ImportGltf, NonIndexedStripAndFanFollowGltfWinding) {
     b.add_node({{"mesh", 0}});
     auto r = import_glb(b);
     const auto& idx = r.scene.meshes[0].indices;
-    if (mode == 4) EXPECT_EQ(idx, (std::vector<uint32_t>{0, 1, 2, 3, 4, 5}));
-    if (mode == 5) EXPECT_EQ(idx, (std::vector<uint32_t>{0, 1, 2, 1, 3, 2}));
-    if (mode == 6) EXPECT_EQ(idx, (std::vector<uint32_t>{1, 2, 0, 2, 3, 0}));
+    if (mode == 4) {
+      EXPECT_EQ(idx, (std::vector<uint32_t>{0, 1, 2, 3, 4, 5}));
+    }
+    if (mode == 5) {
+      EXPECT_EQ(idx, (std::vector<uint32_t>{0, 1, 2, 1, 3, 2}));
+    }
+    if (mode == 6) {
+      EXPECT_EQ(idx, (std::vector<uint32_t>{1, 2, 0, 2, 3, 0}));
+    }
   }
 }
 
