@@ -59,7 +59,7 @@ RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
 
   RenderReport report;
   StreamSummary& sum = report.stream;
-  sum.requested = !file.page_meshes.empty();
+  sum.requested = request.stream.budget_bytes > 0;
   sum.budget_bytes = request.stream.budget_bytes;
   sum.page_bytes = file.page_bytes;
   sum.stop_frame = file.path.empty() ? 0 : uint32_t(file.path.size() - 1);
@@ -96,6 +96,8 @@ RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
     sum.note = "streaming: on (data " + format_bytes(file.page_bytes) + " > budget " + format_bytes(sum.budget_bytes) +
                ", " + std::to_string(paths.size()) + " page file(s)" +
                (in_memory ? ", " + std::to_string(in_memory) + " mesh(es) not from page files stay in memory" : "") + ")";
+  } else if (sum.requested && file.page_bytes == 0) {
+    sum.note = "streaming: off (no mesh of the scene comes from a page file)";
   } else if (sum.requested) {
     sum.note = "streaming: off (data " + format_bytes(file.page_bytes) + " <= budget " + format_bytes(sum.budget_bytes) + ")";
   }

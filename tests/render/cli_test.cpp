@@ -4,11 +4,13 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "render/stream_fixture.h"
 #include "support/paths.h"
 
 namespace vgeo {
@@ -76,6 +78,43 @@ TEST(RenderCli, BadInputGivesOneLineAndStableExitCode) {
   CliRun view = run_cli("render " + scene("spheres.json") + " --no-cache --view nope");
   EXPECT_EQ(view.exit_code, 2) << view.out;
   std::filesystem::remove_all(dir);
+}
+
+// --stream-budget: a bad size is one stable line and exit 2; a budget below the scene's page
+// bytes streams (per-frame metrics in --json, PNGs with --out-dir); a scene without page
+// files says streaming is off.
+TEST(RenderCli, StreamBudget) {
+  const test::StreamFixture& f = test::stream_fixture();
+  const std::string scene_path = f.dir + "/cli_scene.json";
+  std::ofstream(scene_path) << test::stream_scene_json("meshes.vgeo", 3, 12, 2, true);
+  CliRun bad = run_cli("render " + scene_path + " --stream-budget 64XB");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_EQ(bad.out.rfind("error[RENDER_STREAM_BUDGET]", 0), 0u) << bad.out;
+  EXPECT_EQ(std::count(bad.out.begin(), bad.out.end(), '\n'), 1);
+  CliRun negative = run_cli("render " + scene_path + " --stream-budget 1MiB --disk-latency-ms -1");
+  EXPECT_EQ(negative.exit_code, 2);
+  EXPECT_NE(negative.out.find("error[RENDER_STREAM_OPTION]"), std::string::npos) << negative.out;
+  CliRun small = run_cli("render " + scene_path + " --stream-budget 1KiB");
+  EXPECT_EQ(small.exit_code, 3);
+  EXPECT_NE(small.out.find("error[STREAM_BUDGET_TOO_SMALL]"), std::string::npos) << small.out;
+
+  const uint64_t budget = f.pinned + (f.total - f.pinned) / 3;
+  const std::string out_dir = f.dir + "/cli_frames";
+  CliRun ok = run_cli("render " + scene_path + " --stream-budget " + std::to_string(budget) +
+                      " --stream-sync --frames 10 --threads 2 --json --out-dir " + out_dir + " --save-every 5");
+  ASSERT_EQ(ok.exit_code, 0) << ok.out;
+  auto j = nlohmann::json::parse(ok.out);
+  EXPECT_TRUE(j["stream_summary"]["active"].get<bool>());
+  EXPECT_GT(j["stream_summary"]["bytes_read"].get<uint64_t>(), 0u);
+  ASSERT_EQ(j["frames"].size(), 10u);
+  for (const auto& fr : j["frames"]) EXPECT_LE(fr["stream"]["reserved_bytes"].get<uint64_t>(), budget);
+  EXPECT_TRUE(std::filesystem::exists(out_dir + "/frame_00000.png"));
+  EXPECT_TRUE(std::filesystem::exists(out_dir + "/frame_00005.png"));
+  EXPECT_TRUE(std::filesystem::exists(out_dir + "/frame_00009.png"));
+
+  CliRun off = run_cli("render " + scene("camera_path.json") + " --no-cache --threads 2 --frames 1 --stream-budget 64MiB");
+  ASSERT_EQ(off.exit_code, 0) << off.out;
+  EXPECT_EQ(off.out.rfind("streaming: off", 0), 0u) << off.out;
 }
 
 }  // namespace
