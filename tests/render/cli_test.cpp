@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "render/stream_fixture.h"
+#include "vgeo/stream/stream.h"
 #include "support/paths.h"
 
 namespace vgeo {
@@ -115,6 +116,25 @@ TEST(RenderCli, StreamBudget) {
   CliRun off = run_cli("render " + scene("camera_path.json") + " --no-cache --threads 2 --frames 1 --stream-budget 64MiB");
   ASSERT_EQ(off.exit_code, 0) << off.out;
   EXPECT_EQ(off.out.rfind("streaming: off", 0), 0u) << off.out;
+}
+
+// `vgeo build --page-size`: a bad size is BUILD_PAGE_SIZE (one line, exit 2, checked before
+// the input is read); a good one is the written file's page size.
+TEST(BuildCli, PageSize) {
+  for (const char* bad : {"8KiB", "48KiB", "32MiB", "0", "abc", "-16KiB"}) {
+    CliRun r = run_cli(std::string("build missing_input.ply -o /dev/null --page-size ") + bad);
+    EXPECT_EQ(r.exit_code, 2) << bad;
+    EXPECT_EQ(r.out.rfind("error[BUILD_PAGE_SIZE]", 0), 0u) << r.out;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+  }
+  auto dir = std::filesystem::temp_directory_path() / ("vgeo_build_page_size_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string ply = (dir / "s.ply").string(), out = (dir / "s.vgeo").string();
+  ASSERT_EQ(run_cli("gen sphere -n 3000 -o " + ply).exit_code, 0);
+  CliRun ok = run_cli("build " + ply + " -o " + out + " --threads 2 --page-size 16KiB");
+  ASSERT_EQ(ok.exit_code, 0) << ok.out;
+  EXPECT_EQ(read_container_metadata(out).page_size, 16u * 1024u);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
