@@ -1,9 +1,11 @@
 #include "vgeo/render/run.h"
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <thread>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
@@ -107,6 +109,7 @@ RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
   FrameHistory history;
   Frame frame;
   for (uint32_t f = 0; f < frames; ++f) {
+    const auto frame_start = std::chrono::steady_clock::now();
     const Camera& cam = file.path.empty() ? file.cameras[request.camera]
                                           : file.path[std::min<size_t>(f, file.path.size() - 1)];
     bool last = f + 1 == frames;
@@ -124,6 +127,9 @@ RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
       report.saved_pngs.push_back(png);
     }
     if (on_frame) on_frame(f, frame, streamer ? &streaming : nullptr);
+    if (request.frame_interval_ms > 0 && !last)
+      std::this_thread::sleep_until(frame_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                      std::chrono::duration<double, std::milli>(request.frame_interval_ms)));
   }
   report.width = frame.vis.width;
   report.height = frame.vis.height;
@@ -145,6 +151,11 @@ RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
       sum.faults += st.read_failures + st.checksum_failures + st.decode_failures;
       sum.pages_marked_bad += st.pages_marked_bad;
       sum.peak_reserved_bytes = std::max(sum.peak_reserved_bytes, st.reserved_bytes);
+      if (f >= sum.stop_frame) {
+        sum.bytes_read_after_stop += st.bytes_read;
+        sum.pages_loaded_after_stop += st.pages_loaded;
+      }
+      sum.stop_required_bytes = st.required_bytes;
       if (!st.cut_is_ideal) {
         sum.popin_frames++;
         converged_from = -1;
@@ -207,6 +218,13 @@ std::string RenderReport::stream_table() const {
                 (unsigned long long)stream.faults, (unsigned long long)stream.pages_marked_bad, stream.popin_frames,
                 frames.size());
   out += line;
+  std::snprintf(line, sizeof line,
+                "read while moving %s (%llu pages), after the stop %s (%llu pages); the stopped view needs %s, ",
+                format_bytes(stream.bytes_read - stream.bytes_read_after_stop).c_str(),
+                (unsigned long long)(stream.pages_loaded - stream.pages_loaded_after_stop),
+                format_bytes(stream.bytes_read_after_stop).c_str(), (unsigned long long)stream.pages_loaded_after_stop,
+                format_bytes(stream.stop_required_bytes).c_str());
+  out += line;
   if (stream.frames_to_converge >= 0)
     std::snprintf(line, sizeof line, "converged %lld frames after the camera stopped (frame %u), median %.2f ms/frame\n",
                   (long long)stream.frames_to_converge, stream.stop_frame, stream.median_frame_ms);
@@ -243,6 +261,9 @@ std::string RenderReport::json() const {
     s["peak_reserved_bytes"] = stream.peak_reserved_bytes;
     s["popin_frames"] = stream.popin_frames;
     s["stop_frame"] = stream.stop_frame;
+    s["bytes_read_after_stop"] = stream.bytes_read_after_stop;
+    s["pages_loaded_after_stop"] = stream.pages_loaded_after_stop;
+    s["stop_required_bytes"] = stream.stop_required_bytes;
     s["frames_to_converge"] = stream.frames_to_converge;
     s["median_frame_ms"] = stream.median_frame_ms;
     j["stream_summary"] = s;

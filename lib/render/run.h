@@ -23,6 +23,10 @@ struct RenderRequest {
   // stream budget and its page bytes exceed it (SceneFile::streaming); `stream.budget_bytes`
   // must equal that budget. threshold_px is taken from the settings.
   StreamOptions stream;
+  // Frame pacing: when > 0, frame f+1 starts no earlier than this many ms after frame f started
+  // (a display's refresh interval, e.g. 16.7). Only wall time changes, never the output; with
+  // the asynchronous loader it fixes how many simulated reads fit in a frame.
+  double frame_interval_ms = 0;
   // PNGs: when `out_dir` is set, frame f is shaded and written as out_dir/frame_NNNNN.png
   // for f % save_every == 0 (save_every > 0) and for the last frame.
   std::string out_dir;
@@ -40,6 +44,9 @@ struct StreamSummary {
   uint64_t peak_reserved_bytes = 0;
   uint32_t popin_frames = 0;     // frames whose cut was coarser than the ideal one
   uint32_t stop_frame = 0;       // first frame of the final (unchanging) camera
+  // Of bytes_read / pages_loaded, those completed in frames ≥ stop_frame (the rest: while moving).
+  uint64_t bytes_read_after_stop = 0, pages_loaded_after_stop = 0;
+  uint64_t stop_required_bytes = 0;  // required_bytes of the last frame: budget ≥ this ⇒ converges
   int64_t frames_to_converge = -1;  // after stop_frame, until every later frame is ideal; -1 never
   double median_frame_ms = 0;
 };

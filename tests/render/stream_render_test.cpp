@@ -96,6 +96,13 @@ TEST(StreamRender, EveryFrameCutValidWithinBudgetAndConverges) {
     ASSERT_FALSE(::testing::Test::HasFatalFailure()) << "case " << k;
     ASSERT_EQ(check.frames_checked, req.frames);
     const StreamFrameStats& last = r.frames.back().stream;
+    // The summary splits reads at the stop: frames ≥ stop_frame hold the final camera.
+    uint64_t after_stop = 0;
+    for (uint32_t fr = r.stream.stop_frame; fr < r.frames.size(); ++fr) after_stop += r.frames[fr].stream.bytes_read;
+    EXPECT_EQ(r.stream.stop_frame, file.path.size() - 1);
+    EXPECT_EQ(r.stream.bytes_read_after_stop, after_stop);
+    EXPECT_LE(r.stream.pages_loaded_after_stop, r.stream.pages_loaded);
+    EXPECT_EQ(r.stream.stop_required_bytes, last.required_bytes);
     // Convergence (occlusion off: requests depend only on the stopped camera).
     if (!occlusion && last.required_bytes <= budget) {
       EXPECT_TRUE(last.cut_is_ideal) << "case " << k;

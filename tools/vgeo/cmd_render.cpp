@@ -21,7 +21,7 @@ struct RenderArgs {
   bool json = false, no_occlusion = false, no_cache = false;
   // Streaming
   std::string stream_budget, camera_path, out_dir, json_file;
-  double disk_latency_ms = 0, disk_bandwidth_mbs = 0;
+  double disk_latency_ms = 0, disk_bandwidth_mbs = 0, frame_ms = 0;
   uint32_t save_every = 0, stream_issues = 8;
   bool stream_sync = false;
 };
@@ -59,6 +59,8 @@ void add_render_command(CLI::App& app, Context& ctx) {
   cmd->add_option("--disk-latency-ms", args->disk_latency_ms, "simulated per-read latency (streaming)");
   cmd->add_option("--disk-bandwidth-mbs", args->disk_bandwidth_mbs, "simulated disk bandwidth in MB/s (streaming; 0 = unlimited)");
   cmd->add_option("--stream-issues", args->stream_issues, "page reads issued per frame at most (streaming; default 8)");
+  cmd->add_option("--frame-ms", args->frame_ms,
+                  "pace frames: each frame starts at least this many ms after the previous one (e.g. 16.7; 0 = unpaced)");
   cmd->add_flag("--stream-sync", args->stream_sync, "deterministic loader: each read completes at the next frame");
   cmd->add_option("--out-dir", args->out_dir, "write PNGs of frames here (frame_NNNNN.png): every --save-every-th and the last");
   cmd->add_option("--save-every", args->save_every, "with --out-dir: save every K-th frame (0 = only the last)");
@@ -90,6 +92,9 @@ void add_render_command(CLI::App& app, Context& ctx) {
     if (!std::isfinite(args->disk_bandwidth_mbs) || args->disk_bandwidth_mbs < 0)
       bad_stream_option("--disk-bandwidth-mbs must be a non-negative number");
     if (args->stream_issues == 0) bad_stream_option("--stream-issues must be at least 1");
+    if (!std::isfinite(args->frame_ms) || args->frame_ms < 0 || args->frame_ms > 1e4)
+      bad_stream_option("--frame-ms must be in [0, 10000]");
+    request.frame_interval_ms = args->frame_ms;
     if (args->save_every > 0 && args->out_dir.empty()) bad_stream_option("--save-every needs --out-dir");
     request.stream.loader.latency_ms = args->disk_latency_ms;
     request.stream.loader.bandwidth_mb_s = args->disk_bandwidth_mbs;
