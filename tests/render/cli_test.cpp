@@ -95,6 +95,9 @@ TEST(RenderCli, StreamBudget) {
   CliRun negative = run_cli("render " + scene_path + " --stream-budget 1MiB --disk-latency-ms -1");
   EXPECT_EQ(negative.exit_code, 2);
   EXPECT_NE(negative.out.find("error[RENDER_STREAM_OPTION]"), std::string::npos) << negative.out;
+  CliRun pace = run_cli("render " + scene_path + " --stream-budget 1MiB --frame-ms nan");
+  EXPECT_EQ(pace.exit_code, 2);
+  EXPECT_NE(pace.out.find("error[RENDER_STREAM_OPTION]"), std::string::npos) << pace.out;
   CliRun small = run_cli("render " + scene_path + " --stream-budget 1KiB");
   EXPECT_EQ(small.exit_code, 3);
   EXPECT_NE(small.out.find("error[STREAM_BUDGET_TOO_SMALL]"), std::string::npos) << small.out;

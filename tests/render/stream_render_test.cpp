@@ -5,6 +5,8 @@
 // streaming at all (bit-identical output).
 #include <gtest/gtest.h>
 
+#include <chrono>
+
 #include <cstring>
 #include <random>
 
@@ -139,6 +141,20 @@ TEST(StreamRender, ConvergedFrameEqualsTheUnstreamedFrame) {
   RenderReport b = render_scene(plain, plain_req);
   EXPECT_EQ(a.vis_hash, b.vis_hash);
   EXPECT_EQ(a.image_hash, b.image_hash);
+  // Pacing changes wall time only (synchronous loader: the same frames, the same reads).
+  RenderRequest paced = req;
+  paced.frames = 6;
+  paced.frame_interval_ms = 2;
+  RenderRequest unpaced = paced;
+  unpaced.frame_interval_ms = 0;
+  const auto start = std::chrono::steady_clock::now();
+  RenderReport p = render_scene(streamed, paced);
+  const auto paced_wall = std::chrono::steady_clock::now() - start;
+  RenderReport u = render_scene(streamed, unpaced);
+  EXPECT_EQ(p.image_hash, u.image_hash);
+  EXPECT_EQ(p.vis_hash, u.vis_hash);
+  EXPECT_EQ(p.stream.bytes_read, u.stream.bytes_read);
+  EXPECT_GE(paced_wall, std::chrono::milliseconds(10));  // 5 paced intervals of 2 ms (not after the last frame)
 }
 
 // No budget, or data within it: the stream pass is absent and output is bit-identical.
