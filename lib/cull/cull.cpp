@@ -18,6 +18,7 @@ void CullCounters::add(const CullCounters& o) {
   cluster_candidates += o.cluster_candidates; clusters_selected_lod += o.clusters_selected_lod;
   clusters_frustum_culled += o.clusters_frustum_culled; clusters_occluded += o.clusters_occluded;
   clusters_visible += o.clusters_visible;
+  clusters_ideal += o.clusters_ideal; clusters_coarser += o.clusters_coarser;
 }
 
 std::vector<InstanceView> make_instance_views(const std::vector<CullInstance>& instances,
@@ -69,6 +70,7 @@ bool occluded(const CullOptions& o, uint32_t instance, const Sphere& bounds) {
 struct WorkerOut {
   std::vector<VisibleCluster> visible;
   std::vector<CullItem> occluded;
+  std::vector<GroupRequest> requests;
   CullCounters counters;
 };
 
@@ -125,10 +127,51 @@ void cull_clusters(const std::vector<ClusterDag>& meshes, const std::vector<Cull
 
   std::vector<WorkerOut> workers(pool.size());
 
-  auto test_cluster = [&](WorkerOut& w, uint32_t instance, const ClusterDag& dag, uint32_t ci) {
+  // Streaming: the residency rule; `from_group` is false for a cluster postponed by pass 1,
+  // whose request was already emitted there.
+  auto resident_lod_test = [&](WorkerOut& w, uint32_t instance, const ClusterDag& dag, uint32_t ci,
+                               const std::vector<uint8_t>& usable, bool from_group) {
+    const DagCluster& c = dag.clusters[ci];
+    const InstanceView& iv = instance_views[instance];
+    const float parent_px = projected_error(sphere_to_view(iv.object_to_view, iv.scale, c.parent_bounds),
+                                            error_to_view(c.parent_error, iv.scale), lv);
+    if (!(parent_px > tau)) return false;
+    const bool fine_enough = projected_error(sphere_to_view(iv.object_to_view, iv.scale, c.lod_bounds),
+                                             error_to_view(c.lod_error, iv.scale), lv) <= tau;
+    const bool group_usable = usable[c.group] != 0;
+    const bool drawn = group_usable && (fine_enough || (c.generating_group != kNone && !usable[c.generating_group]));
+    if (!drawn && !fine_enough) return false;
+    if (options.frustum && sphere_outside_frustum(culling_sphere(iv, c.bounds), view)) {
+      if (drawn) ++w.counters.clusters_frustum_culled;
+      return false;
+    }
+    if (fine_enough && from_group) {  // a cluster of the ideal cut, in view: request its group
+      ++w.counters.clusters_ideal;
+      w.counters.clusters_coarser += group_usable ? 0 : 1;
+      w.requests.push_back({instances[instance].mesh, c.group, parent_px});
+    }
+    return drawn;
+  };
+
+  auto test_cluster = [&](WorkerOut& w, uint32_t instance, const ClusterDag& dag, uint32_t ci, bool from_group) {
     const DagCluster& c = dag.clusters[ci];
     const InstanceView& iv = instance_views[instance];
     ++w.counters.cluster_candidates;
+    const std::vector<uint8_t>* usable =
+        options.usable_groups ? &(*options.usable_groups)[instances[instance].mesh] : nullptr;
+    if (usable && !usable->empty()) {
+      if (!resident_lod_test(w, instance, dag, ci, *usable, from_group)) return;
+      ++w.counters.clusters_selected_lod;
+      // Frustum already tested by resident_lod_test.
+      if (occluded(options, instance, c.bounds)) {
+        ++w.counters.clusters_occluded;
+        w.occluded.push_back({instance, ci, CullItem::kCluster});
+        return;
+      }
+      ++w.counters.clusters_visible;
+      w.visible.push_back({instance, ci});
+      return;
+    }
     if (!cluster_lod_selects(c, iv, lv, tau)) return;
     ++w.counters.clusters_selected_lod;
     if (options.frustum && sphere_outside_frustum(culling_sphere(iv, c.bounds), view)) {
@@ -172,9 +215,9 @@ void cull_clusters(const std::vector<ClusterDag>& meshes, const std::vector<Cull
         w.occluded.push_back(item);
         return;
       }
-      for (uint32_t k = 0; k < g.cluster_count; ++k) test_cluster(w, item.instance, dag, g.first_cluster + k);
+      for (uint32_t k = 0; k < g.cluster_count; ++k) test_cluster(w, item.instance, dag, g.first_cluster + k, true);
     } else {
-      test_cluster(w, item.instance, dag, item.index);
+      test_cluster(w, item.instance, dag, item.index, false);
     }
   };
 
@@ -218,7 +261,19 @@ void cull_clusters(const std::vector<ClusterDag>& meshes, const std::vector<Cull
   for (WorkerOut& w : workers) {
     out->visible.insert(out->visible.end(), w.visible.begin(), w.visible.end());
     out->occluded.insert(out->occluded.end(), w.occluded.begin(), w.occluded.end());
+    out->requests.insert(out->requests.end(), w.requests.begin(), w.requests.end());
     out->counters.add(w.counters);
+  }
+  if (!out->requests.empty()) {
+    // Canonical: one request per (mesh, group) with the max priority over its clusters.
+    std::sort(out->requests.begin(), out->requests.end(), [](const GroupRequest& a, const GroupRequest& b) {
+      return a.mesh != b.mesh ? a.mesh < b.mesh : a.group != b.group ? a.group < b.group : a.priority > b.priority;
+    });
+    out->requests.erase(std::unique(out->requests.begin(), out->requests.end(),
+                                    [](const GroupRequest& a, const GroupRequest& b) {
+                                      return a.mesh == b.mesh && a.group == b.group;
+                                    }),
+                        out->requests.end());
   }
   std::sort(out->visible.begin(), out->visible.end());
   std::sort(out->occluded.begin(), out->occluded.end());
@@ -226,7 +281,8 @@ void cull_clusters(const std::vector<ClusterDag>& meshes, const std::vector<Cull
 
 std::vector<VisibleCluster> select_cut(const std::vector<ClusterDag>& meshes,
                                        const std::vector<CullInstance>& instances,
-                                       const ViewParams& view, float threshold_px, ThreadPool& pool) {
+                                       const ViewParams& view, float threshold_px, ThreadPool& pool,
+                                       const std::vector<std::vector<uint8_t>>* usable_groups) {
   std::vector<InstanceView> views = make_instance_views(instances, view);
   std::vector<CullItem> seeds;
   for (uint32_t i = 0; i < instances.size(); ++i)
@@ -234,6 +290,7 @@ std::vector<VisibleCluster> select_cut(const std::vector<ClusterDag>& meshes,
   CullOptions options;
   options.threshold_px = threshold_px;
   options.frustum = false;
+  options.usable_groups = usable_groups;
   CullResult result;
   cull_clusters(meshes, instances, views, seeds, view, options, pool, &result);
   return result.visible;

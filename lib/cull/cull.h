@@ -19,6 +19,7 @@
 #include "vgeo/core/thread_pool.h"
 #include "vgeo/cull/hzb.h"
 #include "vgeo/cull/view.h"
+#include "vgeo/stream/stream.h"
 
 namespace vgeo {
 
@@ -64,6 +65,13 @@ struct CullOptions {
   float threshold_px = 1.0f;     // τ
   bool frustum = true;           // false: LOD only (the per-frame cut)
   OcclusionInput occlusion;      // hzb == nullptr: no occlusion test
+  // Streaming residency (spec/stream.md §Cut), indexed by mesh: usable_groups[m][g] != 0 iff
+  // group g of mesh m is usable; an empty vector = every group of that mesh usable. null
+  // (no streaming): the cluster test is exactly lod_selects, the path without residency.
+  // When set, a cluster is drawn iff usable(g) ∧ proj(parent) > τ ∧ (proj(lod) ≤ τ ∨
+  // ¬usable(generating group)), and every cluster of the ideal cut (lod_selects) that passes
+  // the frustum test emits a GroupRequest (before occlusion) into CullResult::requests.
+  const std::vector<std::vector<uint8_t>>* usable_groups = nullptr;
 };
 
 struct CullCounters {
@@ -72,12 +80,16 @@ struct CullCounters {
   uint64_t groups_visited = 0, groups_occluded = 0;
   uint64_t cluster_candidates = 0, clusters_selected_lod = 0, clusters_frustum_culled = 0,
            clusters_occluded = 0, clusters_visible = 0;
+  // Streaming only: ideal-cut clusters passing the frustum test, and those of them whose
+  // group is not usable (drawn coarser this frame).
+  uint64_t clusters_ideal = 0, clusters_coarser = 0;
   void add(const CullCounters& o);
 };
 
 struct CullResult {
   std::vector<VisibleCluster> visible;  // sorted
   std::vector<CullItem> occluded;       // sorted; retest these in pass 2
+  std::vector<GroupRequest> requests;   // streaming only: one per ideal in-frustum cluster, sorted by (mesh, group)
   CullCounters counters;
 };
 
@@ -96,9 +108,11 @@ void cull_clusters(const std::vector<ClusterDag>& meshes, const std::vector<Cull
 
 // The per-frame LOD cut: every (instance, cluster) selected by the LOD test alone, before
 // frustum and occlusion culling (hierarchical traversal with culling off). Sorted.
+// With `usable_groups` (CullOptions): the resident cut of spec/stream.md §Cut.
 std::vector<VisibleCluster> select_cut(const std::vector<ClusterDag>& meshes,
                                        const std::vector<CullInstance>& instances,
-                                       const ViewParams& view, float threshold_px, ThreadPool& pool);
+                                       const ViewParams& view, float threshold_px, ThreadPool& pool,
+                                       const std::vector<std::vector<uint8_t>>* usable_groups = nullptr);
 
 // True when the BVH reachable from node 0 is a tree (no node reached twice, so no cycle):
 // traversal of an untrusted DAG terminates. Index ranges are dag_io's job.

@@ -19,6 +19,7 @@ constexpr uint64_t kConvexCheckBudget = 20'000'000;
 constexpr size_t kRasterChunk = 32;
 
 bool dag_is_convex(const ClusterDag& dag) {
+  if (dag.positions.empty()) return false;  // metadata only (streamed): unknown, assume not
   uint64_t leaf_tris = 0;
   for (const DagCluster& c : dag.clusters)
     if (c.level == 0) leaf_tris += c.triangle_count;
@@ -57,7 +58,9 @@ std::vector<Mat4> clip_matrices(const std::vector<InstanceView>& views, const Ma
   return out;
 }
 
-void raster_pass(const RenderScene& scene, const std::vector<VisibleCluster>& visible, size_t first,
+// `geometry`: the scene's meshes, or the streamed frame's (FrameStreaming::geometry).
+void raster_pass(const RenderScene& scene, const std::vector<ClusterDag>& geometry,
+                 const std::vector<VisibleCluster>& visible, size_t first,
                  const std::vector<Mat4>& object_to_clip, const RenderSettings& settings, double z_near,
                  ThreadPool& pool, VisBuffer& vis, PassStats* stats) {
   size_t n = visible.size() - first;
@@ -70,7 +73,7 @@ void raster_pass(const RenderScene& scene, const std::vector<VisibleCluster>& vi
     size_t end = std::min(n, (k + 1) * kRasterChunk);
     for (size_t i = k * kRasterChunk; i < end; ++i) {
       const VisibleCluster& v = visible[first + i];
-      const ClusterDag& dag = scene.meshes[scene.instances[v.instance].mesh];
+      const ClusterDag& dag = geometry[scene.instances[v.instance].mesh];
       const DagCluster& c = dag.clusters[v.cluster];
       rasterize_cluster(vis, dag.positions.data() + 3 * size_t(c.vertex_offset), c.vertex_count,
                         dag.indices.data() + 3 * size_t(c.triangle_offset), c.triangle_count,
@@ -90,7 +93,8 @@ void raster_pass(const RenderScene& scene, const std::vector<VisibleCluster>& vi
 // Overdraw: each drawn cluster rasterized alone into a per-task scratch buffer; the count
 // buffer gets +1 for every pixel the cluster covers (overdraw at cluster granularity:
 // triangles of one cluster overlapping each other count once).
-void overdraw_pass(const RenderScene& scene, const std::vector<VisibleCluster>& visible,
+void overdraw_pass(const RenderScene& scene, const std::vector<ClusterDag>& geometry,
+                   const std::vector<VisibleCluster>& visible,
                    const std::vector<Mat4>& object_to_clip, const std::vector<InstanceView>& views,
                    const ViewParams& view, ThreadPool& pool, std::vector<uint32_t>* counts) {
   const uint32_t width = view.width, height = view.height;
@@ -107,7 +111,7 @@ void overdraw_pass(const RenderScene& scene, const std::vector<VisibleCluster>& 
       size_t i = next.fetch_add(1);
       if (i >= visible.size()) return;
       const VisibleCluster& v = visible[i];
-      const ClusterDag& dag = scene.meshes[scene.instances[v.instance].mesh];
+      const ClusterDag& dag = geometry[scene.instances[v.instance].mesh];
       const DagCluster& c = dag.clusters[v.cluster];
       rasterize_cluster(s, dag.positions.data() + 3 * size_t(c.vertex_offset), c.vertex_count,
                         dag.indices.data() + 3 * size_t(c.triangle_offset), c.triangle_count,
@@ -137,7 +141,8 @@ void analyze_render_scene(RenderScene* scene) {
 }
 
 void render_frame(const RenderScene& scene, const Camera& camera, const RenderSettings& settings,
-                  ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame) {
+                  ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame,
+                  FrameStreaming* streaming) {
   auto frame_start = std::chrono::steady_clock::now();
   FrameStats& stats = out->stats;
   stats = {};
@@ -159,9 +164,18 @@ void render_frame(const RenderScene& scene, const Camera& camera, const RenderSe
                        history->hzb.height == camera.height &&
                        history->instance_views.size() == scene.instances.size();
 
+  const std::vector<ClusterDag>& geometry = streaming ? streaming->geometry : scene.meshes;
+  double stream_ms = 0;
+  if (streaming) {
+    auto t0 = std::chrono::steady_clock::now();
+    begin_streamed_frame(scene, streaming);
+    stream_ms += ms_since(t0);
+  }
+
   // ---- pass 1 ----
   CullOptions options;
   options.threshold_px = settings.threshold_px;
+  if (streaming) options.usable_groups = &streaming->usable;
   if (have_previous) {
     options.occlusion.hzb = &history->hzb;
     options.occlusion.view = &history->view;
@@ -201,11 +215,16 @@ void render_frame(const RenderScene& scene, const Camera& camera, const RenderSe
   out->pass1_visible = uint32_t(std::min<size_t>(out->visible.size(), kMaxVisibleClusters));
   if (out->visible.size() > kMaxVisibleClusters)
     fail("RENDER_TOO_MANY_VISIBLE_CLUSTERS", "render", "more than 2^25 visible clusters in one view", kExitBadInput);
+  if (streaming) {
+    auto t0 = std::chrono::steady_clock::now();
+    bind_streamed_geometry(streaming, scene, out->visible, 0, pool);
+    stream_ms += ms_since(t0);
+  }
   {
     PassStats p;
     p.name = "raster";
     auto t0 = std::chrono::steady_clock::now();
-    raster_pass(scene, out->visible, 0, object_to_clip, settings, camera.z_near, pool, out->vis, &p);
+    raster_pass(scene, geometry, out->visible, 0, object_to_clip, settings, camera.z_near, pool, out->vis, &p);
     p.ms = ms_since(t0);
     stats.passes.push_back(p);
   }
@@ -214,6 +233,9 @@ void render_frame(const RenderScene& scene, const Camera& camera, const RenderSe
   bool pass1_occluded = !occluded_instances.empty() || !pass1.occluded.empty();
   Hzb hzb;
   bool hzb_is_complete = false;
+  std::vector<GroupRequest> requests;
+  uint64_t clusters_ideal = pass1.counters.clusters_ideal, clusters_coarser = pass1.counters.clusters_coarser;
+  if (streaming) requests = std::move(pass1.requests);
   if (!occlusion) {
     for (const char* name : {"hzb", "instance_cull_post", "cluster_cull_post", "raster_post", "hzb_next"})
       stats.skipped.push_back({name, no_occlusion_reason});
@@ -264,15 +286,25 @@ void render_frame(const RenderScene& scene, const Camera& camera, const RenderSe
     }
     if (out->visible.size() + pass2.visible.size() > kMaxVisibleClusters)
       fail("RENDER_TOO_MANY_VISIBLE_CLUSTERS", "render", "more than 2^25 visible clusters in one view", kExitBadInput);
+    if (streaming) {
+      requests.insert(requests.end(), pass2.requests.begin(), pass2.requests.end());
+      clusters_ideal += pass2.counters.clusters_ideal;
+      clusters_coarser += pass2.counters.clusters_coarser;
+    }
     if (pass2.visible.empty()) {
       stats.skipped.push_back({"raster_post", "pass 2 found nothing newly visible"});
       hzb_is_complete = true;  // nothing drawn after the pass-1 HZB
     } else {
       out->visible.insert(out->visible.end(), pass2.visible.begin(), pass2.visible.end());
+      if (streaming) {
+        auto t0 = std::chrono::steady_clock::now();
+        bind_streamed_geometry(streaming, scene, out->visible, out->pass1_visible, pool);
+        stream_ms += ms_since(t0);
+      }
       PassStats p;
       p.name = "raster_post";
       auto t0 = std::chrono::steady_clock::now();
-      raster_pass(scene, out->visible, out->pass1_visible, object_to_clip, settings, camera.z_near, pool, out->vis, &p);
+      raster_pass(scene, geometry, out->visible, out->pass1_visible, object_to_clip, settings, camera.z_near, pool, out->vis, &p);
       p.ms = ms_since(t0);
       stats.passes.push_back(p);
     }
@@ -294,11 +326,22 @@ void render_frame(const RenderScene& scene, const Camera& camera, const RenderSe
     }
   }
 
+  if (streaming) {
+    // Every cluster of this frame is bound: reads may now be issued and pages evicted.
+    PassStats p;
+    p.name = "stream";
+    auto t0 = std::chrono::steady_clock::now();
+    end_streamed_frame(streaming, requests, clusters_ideal, clusters_coarser, out->visible.size());
+    p.ms = stream_ms + ms_since(t0);
+    stats.passes.push_back(p);
+    stats.streamed = true;
+    stats.stream = streaming->stats;
+  }
   if (settings.shade && settings.view == ShadeView::kOverdraw) {
     PassStats p;
     p.name = "overdraw";
     auto t0 = std::chrono::steady_clock::now();
-    overdraw_pass(scene, out->visible, object_to_clip, out->instance_views, view, pool, &out->overdraw);
+    overdraw_pass(scene, geometry, out->visible, object_to_clip, out->instance_views, view, pool, &out->overdraw);
     p.ms = ms_since(t0);
     stats.passes.push_back(p);
   }
@@ -309,7 +352,7 @@ void render_frame(const RenderScene& scene, const Camera& camera, const RenderSe
     ShadeInput in;
     in.vis = &out->vis;
     in.visible = &out->visible;
-    in.meshes = &scene.meshes;
+    in.meshes = &geometry;
     in.materials = &scene.materials;
     in.instances = &scene.instances;
     in.instance_views = &out->instance_views;
@@ -356,6 +399,31 @@ std::string frame_stats_table(const FrameStats& s) {
   return out;
 }
 
+std::string stream_frame_stats_json(const StreamFrameStats& s) {
+  nlohmann::ordered_json j;
+  j["frame"] = s.frame;
+  j["active"] = s.active;
+  j["pages_requested"] = s.pages_requested;
+  j["pages_missing"] = s.pages_missing;
+  j["requested_bytes"] = s.requested_bytes;
+  j["required_bytes"] = s.required_bytes;
+  j["pages_issued"] = s.pages_issued;
+  j["pages_loaded"] = s.pages_loaded;
+  j["pages_evicted"] = s.pages_evicted;
+  j["bytes_read"] = s.bytes_read;
+  j["resident_bytes"] = s.resident_bytes;
+  j["reserved_bytes"] = s.reserved_bytes;
+  j["resident_pages"] = s.resident_pages;
+  j["read_failures"] = s.read_failures;
+  j["checksum_failures"] = s.checksum_failures;
+  j["decode_failures"] = s.decode_failures;
+  j["pages_marked_bad"] = s.pages_marked_bad;
+  j["clusters_drawn"] = s.clusters_drawn;
+  j["clusters_coarser"] = s.clusters_coarser;
+  j["cut_is_ideal"] = s.cut_is_ideal;
+  return j.dump();
+}
+
 std::string frame_stats_json(const FrameStats& s) {
   nlohmann::ordered_json j;
   j["total_ms"] = s.total_ms;
@@ -382,6 +450,7 @@ std::string frame_stats_json(const FrameStats& s) {
   }
   j["skipped"] = nlohmann::ordered_json::array();
   for (const auto& [name, reason] : s.skipped) j["skipped"].push_back({{"name", name}, {"reason", reason}});
+  if (s.streamed) j["stream"] = nlohmann::ordered_json::parse(stream_frame_stats_json(s.stream));
   return j.dump();
 }
 

@@ -18,6 +18,7 @@
 #include "vgeo/cull/cull.h"
 #include "vgeo/raster/raster.h"
 #include "vgeo/raster/visbuffer.h"
+#include "vgeo/render/streaming.h"
 #include "vgeo/shade/shade.h"
 
 namespace vgeo {
@@ -54,6 +55,8 @@ struct FrameStats {
   std::vector<std::pair<std::string, std::string>> skipped;       // (pass, reason)
   uint64_t instances = 0, clusters_drawn = 0, triangles_drawn = 0, pixels_covered = 0, pixels = 0;
   double total_ms = 0;
+  bool streamed = false;        // the frame ran with streaming (pass "stream")
+  StreamFrameStats stream;      // when streamed
   const PassStats* find(const std::string& name) const {
     for (const PassStats& p : passes)
       if (p.name == name) return &p;
@@ -80,15 +83,20 @@ struct Frame {
   FrameStats stats;
 };
 
-// Renders one frame. `history` may be null (no occlusion history at all); otherwise pass 1
+// Renders one frame. `streaming` null: every mesh fully in memory (the path without
+// streaming, unchanged). Otherwise the traversal applies its usable masks, drawn clusters'
+// geometry comes from resident pages and the traversal's requests go to its streamer
+// (spec/stream.md §Renderer). `history` may be null (no occlusion history at all); otherwise pass 1
 // tests against it when valid, and when `has_next_frame` it is replaced by this frame's
 // (pass hzb_next). Throws VgeoError RENDER_TOO_MANY_VISIBLE_CLUSTERS when the
 // visibility-buffer id space overflows.
 void render_frame(const RenderScene& scene, const Camera& camera, const RenderSettings& settings,
-                  ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame = true);
+                  ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame = true,
+                  FrameStreaming* streaming = nullptr);
 
 // Human-readable per-pass table and JSON (object) of one frame's statistics.
 std::string frame_stats_table(const FrameStats& stats);
 std::string frame_stats_json(const FrameStats& stats);
+std::string stream_frame_stats_json(const StreamFrameStats& stats);
 
 }  // namespace vgeo

@@ -14,6 +14,7 @@
 #include "vgeo/core/hash.h"
 #include "vgeo/mesh/generate.h"
 #include "vgeo/mesh/import.h"
+#include "vgeo/stream/stream.h"
 
 namespace vgeo {
 
@@ -187,6 +188,31 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
       std::string file = get_string(c, m, path, "dag", "");
       std::filesystem::path fp(file);
       if (fp.is_relative()) fp = std::filesystem::path(c.base_dir) / fp;
+      if (c.options->stream_budget && is_page_file(fp.string())) {
+        // Metadata only (header + metadata read; no page): decided after all meshes.
+        FormatContainer fc;
+        try {
+          fc = read_container_metadata(fp.string());
+        } catch (const VgeoError& e) {
+          bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
+        }
+        double index = get_number(c, m, path, "index", 0, 0, 1e9);
+        if (index >= double(fc.meshes.size())) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh in " + file);
+        ScenePageMesh pm;
+        pm.file = std::filesystem::weakly_canonical(fp).string();
+        pm.index = uint32_t(index);
+        pm.material_offset = uint32_t(out->scene.materials.size());
+        if (out->scene.materials.size() + fc.materials.size() > kMaxSceneMaterials)
+          bad(c, "SCENE_TOO_LARGE", path + ": too many materials");
+        out->scene.materials.insert(out->scene.materials.end(), fc.materials.begin(), fc.materials.end());
+        MeshMetadata& mm = fc.meshes[pm.index];
+        for (uint32_t p = mm.first_page; p < mm.first_page + mm.page_count; ++p) pm.page_bytes += fc.pages[p].memory_size;
+        if (!bvh_is_tree(mm.dag)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
+        out->page_meshes.resize(out->scene.meshes.size());
+        out->page_meshes.push_back(pm);
+        out->scene.meshes.push_back(std::move(mm.dag));
+        continue;
+      }
       BuiltScene built;
       try {
         built = read_asset_file(fp.string());  // page format or VGEODAG1 (lib/format/asset_file.h)
@@ -244,6 +270,36 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
       }
     }
     out->scene.meshes.push_back(build_cached(c, mesh, path));
+  }
+}
+
+// With a stream budget: page-file meshes stay metadata-only when their pages exceed it,
+// else they are decoded exactly as read_asset_file does without a budget.
+void resolve_page_meshes(const Ctx& c, SceneFile* out) {
+  if (!c.options->stream_budget) return;
+  out->page_meshes.resize(out->scene.meshes.size());
+  std::set<std::pair<std::string, uint32_t>> counted;
+  for (const ScenePageMesh& pm : out->page_meshes)
+    if (!pm.file.empty() && counted.insert({pm.file, pm.index}).second) out->page_bytes += pm.page_bytes;
+  if (counted.empty()) return;
+  out->streaming = out->page_bytes > *c.options->stream_budget;
+  if (out->streaming) return;
+  for (size_t i = 0; i < out->page_meshes.size(); ++i) {
+    ScenePageMesh& pm = out->page_meshes[i];
+    if (pm.file.empty()) continue;
+    const std::string path = "meshes[" + std::to_string(i) + "]";
+    BuiltScene built;
+    try {
+      built = read_asset_file(pm.file);
+    } catch (const VgeoError& e) {
+      bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
+    }
+    if (pm.index >= built.meshes.size()) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh");
+    ClusterDag dag = std::move(built.meshes[pm.index]);
+    if (!bvh_is_tree(dag)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
+    for (uint32_t& t : dag.triangle_materials) t += pm.material_offset;
+    out->scene.meshes[i] = std::move(dag);
+    pm.file.clear();
   }
 }
 
@@ -452,11 +508,31 @@ SceneFile parse_scene_json(const std::string& text, const std::string& where, co
     out.scene.instances.push_back(inst);
   }
   load_meshes(c, doc, &out);
+  resolve_page_meshes(c, &out);
   for (const ClusterDag& dag : out.scene.meshes)
     for (uint32_t t : dag.triangle_materials)
       if (t >= out.scene.materials.size()) bad(c, "SCENE_BAD_VALUE", "a mesh refers to material " + std::to_string(t) + " which does not exist");
   analyze_render_scene(&out.scene);
   return out;
+}
+
+std::vector<Camera> load_camera_path_file(const std::string& path, const Camera& base) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) fail("SCENE_READ_FAILED", path, "cannot open", kExitIo);
+  // A path of kMaxKeyframes keyframes is well below 4 MB of JSON.
+  constexpr std::streamoff kMaxPathBytes = 4 << 20;
+  f.seekg(0, std::ios::end);
+  std::streamoff size = f.tellg();
+  if (size < 0) fail("SCENE_READ_FAILED", path, "cannot read", kExitIo);
+  if (size > kMaxPathBytes) fail("SCENE_TOO_LARGE", path, "camera path file larger than 4 MB");
+  f.seekg(0);
+  std::string text(size_t(size), '\0');
+  f.read(text.data(), size);
+  SceneLoadOptions options;
+  Ctx c{path, "", &options};
+  json doc = json::parse(text, nullptr, false);
+  if (doc.is_discarded()) bad(c, "SCENE_JSON_PARSE", "not valid JSON");
+  return expand_path(c, doc, base);
 }
 
 SceneFile load_scene_file(const std::string& path, const SceneLoadOptions& options) {

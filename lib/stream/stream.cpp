@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cassert>
 #include <cerrno>
 #include <chrono>
 #include <condition_variable>
@@ -126,8 +127,8 @@ void read_page(int fd, const PageEntry& e, uint32_t page, uint32_t attempt, cons
 
 class PageLoader {
  public:
-  PageLoader(int fd, const FormatContainer& container, const LoaderOptions& options)
-      : fd_(fd), container_(container), options_(options) {
+  PageLoader(const std::vector<int>& page_fd, const FormatContainer& container, const LoaderOptions& options)
+      : page_fd_(page_fd), container_(container), options_(options) {
     if (options_.asynchronous) worker_ = std::thread([this] { run(); });
   }
   ~PageLoader() {
@@ -141,7 +142,7 @@ class PageLoader {
   void issue(uint32_t page, uint32_t attempt) {
     if (!options_.asynchronous) {
       Streamer::Completion c;
-      read_page(fd_, container_.pages[page], page, attempt, options_, &c);
+      read_page(page_fd_[page], container_.pages[page], page, attempt, options_, &c);
       std::lock_guard<std::mutex> lock(mutex_);
       done_.push_back(std::move(c));
       return;
@@ -176,7 +177,7 @@ class PageLoader {
         queue_.pop_front();
       }
       Streamer::Completion c;
-      read_page(fd_, container_.pages[job.first], job.first, job.second, options_, &c);
+      read_page(page_fd_[job.first], container_.pages[job.first], job.first, job.second, options_, &c);
       {
         std::lock_guard<std::mutex> lock(mutex_);
         done_.push_back(std::move(c));
@@ -186,7 +187,7 @@ class PageLoader {
     }
   }
 
-  int fd_;
+  const std::vector<int>& page_fd_;
   const FormatContainer& container_;
   LoaderOptions options_;
   std::mutex mutex_;
@@ -240,33 +241,101 @@ void read_exact(int fd, uint8_t* dst, size_t size, uint64_t offset, const std::s
 
 uint32_t get32(const uint8_t* p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24; }
 
+// The page format's magic (spec/format.md §1): told apart from VGEODAG1 files.
+constexpr char kPageFileMagic[8] = {'V', 'G', 'E', 'O', 'P', 'A', 'G', 'E'};
+
 // Projected errors are finite except for terminal groups; requests order by a finite key.
 constexpr float kMaxPriority = std::numeric_limits<float>::max();
 
 }  // namespace
 
-Streamer::Streamer(const std::string& path, const StreamOptions& options) : options_(options), path_(path) {
-  fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd_ < 0) fail(kErrStreamIo, path, std::string("cannot open: ") + std::strerror(errno), kExitIo);
+FormatContainer read_container_metadata(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) fail(kErrStreamIo, path, std::string("cannot open: ") + std::strerror(errno), kExitIo);
+  FormatContainer container;
   try {
     struct stat st{};
-    if (fstat(fd_, &st) != 0) fail(kErrStreamIo, path, "cannot stat", kExitIo);
+    if (fstat(fd, &st) != 0) fail(kErrStreamIo, path, "cannot stat", kExitIo);
     const uint64_t file_size = uint64_t(st.st_size);
     if (file_size < kFileHeaderSize) fail(kErrTruncated, path, "file shorter than the 64-byte header");
     std::vector<uint8_t> head(kFileHeaderSize);
-    read_exact(fd_, head.data(), head.size(), 0, path);
+    read_exact(fd, head.data(), head.size(), 0, path);
     // Allocation bound: the metadata must lie inside the real file.
     const uint64_t metadata_size = get32(&head[36]);
     if (kFileHeaderSize + metadata_size > file_size) fail(kErrTruncated, path, "metadata extends past the end of the file");
     head.resize(size_t(kFileHeaderSize + metadata_size));
-    read_exact(fd_, head.data() + kFileHeaderSize, size_t(metadata_size), kFileHeaderSize, path);
-    container_ = parse_container(head.data(), head.size(), path);
-    if (container_.file_size != file_size)
+    read_exact(fd, head.data() + kFileHeaderSize, size_t(metadata_size), kFileHeaderSize, path);
+    container = parse_container(head.data(), head.size(), path);
+    if (container.file_size != file_size)
       fail(kErrInconsistent, path, "file size " + std::to_string(file_size) + " differs from the header's " +
-                                       std::to_string(container_.file_size));
+                                       std::to_string(container.file_size));
   } catch (...) {
-    ::close(fd_);
+    ::close(fd);
     throw;
+  }
+  ::close(fd);
+  return container;
+}
+
+bool is_page_file(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  char magic[8] = {};
+  const ssize_t n = pread(fd, magic, sizeof magic, 0);
+  ::close(fd);
+  return n == ssize_t(sizeof magic) && std::memcmp(magic, kPageFileMagic, sizeof magic) == 0;
+}
+
+Streamer::Streamer(const std::string& path, const StreamOptions& options)
+    : Streamer(std::vector<std::string>{path}, options) {}
+
+Streamer::Streamer(const std::vector<std::string>& paths, const StreamOptions& options)
+    : options_(options), paths_(paths) {
+  auto close_all = [this] {
+    for (int fd : fds_) ::close(fd);
+    fds_.clear();
+  };
+  try {
+    for (const std::string& path : paths_) {
+      files_.push_back(read_container_metadata(path));
+      const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+      if (fd < 0) fail(kErrStreamIo, path, std::string("cannot open: ") + std::strerror(errno), kExitIo);
+      fds_.push_back(fd);
+    }
+  } catch (...) {
+    close_all();
+    throw;
+  }
+  // The concatenation: page and mesh indices of file k shift by the counts of files < k.
+  for (uint32_t k = 0; k < files_.size(); ++k) {
+    const FormatContainer& f = files_[k];
+    const uint32_t page_base = uint32_t(container_.pages.size()), mesh_base = uint32_t(container_.meshes.size());
+    if (k == 0) {
+      container_.version = f.version;
+      container_.compression = f.compression;
+      container_.page_size = f.page_size;
+      container_.materials = f.materials;
+      container_.instances = f.instances;
+    }
+    container_.file_size += f.file_size;
+    container_.metadata_size += f.metadata_size;
+    auto shift = [page_base](uint32_t& p) {
+      if (p != kNone) p += page_base;
+    };
+    for (MeshMetadata mm : f.meshes) {
+      mm.first_page += page_base;
+      for (uint32_t& p : mm.cluster_page) shift(p);
+      for (uint32_t& p : mm.group_first_page) shift(p);
+      container_.meshes.push_back(std::move(mm));
+    }
+    for (uint32_t p = 0; p < f.pages.size(); ++p) {
+      PageEntry e = f.pages[p];
+      e.mesh += mesh_base;
+      container_.pages.push_back(e);
+      page_file_.push_back(k);
+      page_local_.push_back(p);
+      page_fd_.push_back(fds_[k]);
+    }
   }
   const uint32_t np = uint32_t(container_.pages.size());
   state_.assign(np, PageState::kAbsent);
@@ -304,15 +373,16 @@ Streamer::Streamer(const std::string& path, const StreamOptions& options) : opti
   const uint64_t total = total_page_bytes(container_);
   active_ = total > options_.budget_bytes;
   const uint64_t pinned_bytes = pinned_page_bytes(container_);
+  const std::string& path = paths_.size() == 1 ? paths_[0] : std::string("stream");
   if (active_ && pinned_bytes > options_.budget_bytes) {
-    ::close(fd_);
+    close_all();
     fail(kErrStreamBudget, path, "pinned root pages need " + std::to_string(pinned_bytes) + " bytes, budget is " +
                                      std::to_string(options_.budget_bytes));
   }
   // Start-up loads are synchronous: pinned pages when streaming, every page otherwise.
   LoaderOptions sync = options_.loader;
   sync.asynchronous = false;
-  PageLoader boot(fd_, container_, sync);
+  PageLoader boot(page_fd_, container_, sync);
   for (uint32_t p = 0; p < np; ++p) {
     if (active_ && !pinned_[p]) continue;
     while (state_[p] == PageState::kAbsent) {
@@ -323,17 +393,17 @@ Streamer::Streamer(const std::string& path, const StreamOptions& options) : opti
       install(done.front(), nullptr);
     }
     if (state_[p] == PageState::kBad && pinned_[p]) {
-      ::close(fd_);
-      fail(kErrStreamRootPage, path, "pinned page " + std::to_string(p) + " failed " +
+      close_all();
+      fail(kErrStreamRootPage, paths_[page_file_[p]], "pinned page " + std::to_string(p) + " failed " +
                                          std::to_string(options_.max_attempts) + " times");
     }
   }
-  if (active_) loader_ = std::make_unique<PageLoader>(fd_, container_, options_.loader);
+  if (active_) loader_ = std::make_unique<PageLoader>(page_fd_, container_, options_.loader);
 }
 
 Streamer::~Streamer() {
   loader_.reset();  // joins the worker before the descriptor closes
-  if (fd_ >= 0) ::close(fd_);
+  for (int fd : fds_) ::close(fd);
 }
 
 void Streamer::wait_idle() {
@@ -358,8 +428,10 @@ void Streamer::install(Completion& c, StreamFrameStats* stats) {
     totals_.bytes_read += c.bytes.size();
     if (stats) stats->bytes_read += c.bytes.size();
     try {
-      std::vector<uint32_t> words = transcode_page(container_, p, c.bytes.data(), c.bytes.size(), path_);
-      validate_memory_page(words.data(), words.size(), container_.meshes[e.mesh].quantization, path_);
+      const std::string& where = paths_[page_file_[p]];
+      std::vector<uint32_t> words =
+          transcode_page(files_[page_file_[p]], page_local_[p], c.bytes.data(), c.bytes.size(), where);
+      validate_memory_page(words.data(), words.size(), container_.meshes[e.mesh].quantization, where);
       words_[p] = std::move(words);
       ok = true;
     } catch (const VgeoError& err) {
@@ -407,35 +479,32 @@ void Streamer::evict(uint32_t page, StreamFrameStats* stats) {
   stats->pages_evicted++;
 }
 
-StreamFrameStats Streamer::update(const std::vector<StreamView>& views, std::vector<std::vector<uint32_t>>* cuts) {
+StreamFrameStats Streamer::begin_frame() {
   ++frame_;
   StreamFrameStats stats;
   stats.frame = frame_;
   stats.active = active_;
   totals_.frames++;
+  if (!active_) return stats;
+  for (Completion& c : loader_->drain()) {
+    in_flight_--;
+    install(c, &stats);
+  }
+  return stats;
+}
+
+void Streamer::end_frame(const std::vector<GroupRequest>& requests, StreamFrameStats* out) {
+  StreamFrameStats& stats = *out;
   const uint32_t np = uint32_t(container_.pages.size());
-  std::vector<std::vector<uint32_t>> ideal(views.size());
   if (active_) {
-    // 1. Install what arrived.
-    for (Completion& c : loader_->drain()) {
-      in_flight_--;
-      install(c, &stats);
-    }
-    // 2. Requests: groups of the ideal cut, then their coarser ancestors (dependencies).
+    // Requests, then their coarser ancestors (dependencies).
     std::vector<float> page_priority(np, -1.0f);  // < 0: not wanted
     std::vector<std::vector<float>> group_priority(container_.meshes.size());
-    for (size_t v = 0; v < views.size(); ++v) {
-      const MeshMetadata& mm = container_.meshes[views[v].mesh];
-      const ClusterDag& dag = mm.dag;
-      std::vector<float>& gp = group_priority[views[v].mesh];
-      gp.resize(dag.groups.size(), -1.0f);
-      const std::vector<uint8_t> all(dag.groups.size(), 1);
-      ideal[v] = select_resident_cut(dag, all, views[v].view, options_.threshold_px);
-      for (uint32_t c : ideal[v]) {
-        const DagCluster& cl = dag.clusters[c];
-        const float pe = std::min(projected_error(cl.parent_bounds, cl.parent_error, views[v].view), kMaxPriority);
-        gp[cl.group] = std::max(gp[cl.group], pe);
-      }
+    for (const GroupRequest& r : requests) {
+      assert(r.mesh < container_.meshes.size() && r.group < container_.meshes[r.mesh].dag.groups.size());
+      std::vector<float>& gp = group_priority[r.mesh];
+      gp.resize(container_.meshes[r.mesh].dag.groups.size(), -1.0f);
+      gp[r.group] = std::max(gp[r.group], std::min(r.priority, kMaxPriority));
     }
     for (uint32_t m = 0; m < container_.meshes.size(); ++m) {
       std::vector<float>& gp = group_priority[m];
@@ -497,7 +566,7 @@ StreamFrameStats Streamer::update(const std::vector<StreamView>& views, std::vec
     std::sort(candidates.begin(), candidates.end(), [&](uint32_t a, uint32_t b) {
       return page_priority[a] != page_priority[b] ? page_priority[a] > page_priority[b] : a < b;
     });
-    // 3. Issue, evicting the lowest-priority evictable pages: not wanted this frame first
+    // Issue, evicting the lowest-priority evictable pages: not wanted this frame first
     // (least recently wanted first), then wanted pages of strictly lower priority.
     auto victim_key_less = [&](uint32_t a, uint32_t b) {
       const bool wa = last_wanted_frame_[a] == frame_, wb = last_wanted_frame_[b] == frame_;
@@ -531,15 +600,35 @@ StreamFrameStats Streamer::update(const std::vector<StreamView>& views, std::vec
       loader_->issue(p, attempts_[p]);
     }
   }
-  // 4. The drawn cut from usable groups only.
+  stats.resident_bytes = resident_bytes_;
+  stats.reserved_bytes = reserved_bytes_;
+  stats.resident_pages = 0;
+  for (uint32_t p = 0; p < np; ++p) stats.resident_pages += state_[p] == PageState::kResident;
+}
+
+StreamFrameStats Streamer::update(const std::vector<StreamView>& views, std::vector<std::vector<uint32_t>>* cuts) {
+  StreamFrameStats stats = begin_frame();
+  // Requests: the groups of the ideal cut (flat LOD test of every cluster of each view).
+  std::vector<std::vector<uint32_t>> ideal(views.size());
+  std::vector<GroupRequest> requests;
+  for (size_t v = 0; v < views.size(); ++v) {
+    const ClusterDag& dag = container_.meshes[views[v].mesh].dag;
+    ideal[v] = select_resident_cut(dag, std::vector<uint8_t>(dag.groups.size(), 1), views[v].view,
+                                   options_.threshold_px);
+    if (!active_) continue;
+    for (uint32_t c : ideal[v]) {
+      const DagCluster& cl = dag.clusters[c];
+      requests.push_back({views[v].mesh, cl.group, projected_error(cl.parent_bounds, cl.parent_error, views[v].view)});
+    }
+  }
+  end_frame(requests, &stats);
+  // The drawn cut from usable groups only.
   if (cuts) cuts->assign(views.size(), {});
   stats.cut_is_ideal = true;
   for (size_t v = 0; v < views.size(); ++v) {
     const uint32_t m = views[v].mesh;
     const ClusterDag& dag = container_.meshes[m].dag;
     std::vector<uint32_t> cut = select_resident_cut(dag, usable(m), views[v].view, options_.threshold_px);
-    if (!active_) ideal[v] = select_resident_cut(dag, std::vector<uint8_t>(dag.groups.size(), 1), views[v].view,
-                                                 options_.threshold_px);
     if (cut != ideal[v]) {
       stats.cut_is_ideal = false;
       std::vector<uint32_t> missing;
@@ -550,9 +639,6 @@ StreamFrameStats Streamer::update(const std::vector<StreamView>& views, std::vec
     if (cuts) (*cuts)[v] = std::move(cut);
   }
   if (!stats.cut_is_ideal) totals_.frames_coarser++;
-  stats.resident_bytes = resident_bytes_;
-  stats.reserved_bytes = reserved_bytes_;
-  for (uint32_t p = 0; p < np; ++p) stats.resident_pages += state_[p] == PageState::kResident;
   return stats;
 }
 

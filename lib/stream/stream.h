@@ -35,6 +35,14 @@ inline constexpr const char* kErrStreamBudget = "STREAM_BUDGET_TOO_SMALL";  // p
 inline constexpr const char* kErrStreamRootPage = "STREAM_ROOT_PAGE";      // a pinned page cannot be read/decoded
 inline constexpr const char* kErrStreamIo = "STREAM_IO";                   // the page file cannot be opened/read
 
+// Reads and parses a page file's header + metadata only (pread; no page is read).
+// Throws STREAM_IO (exit 4) or the FORMAT_* codes of parse_container; a file whose size
+// differs from the header's is FORMAT_INCONSISTENT; metadata past the end FORMAT_TRUNCATED.
+FormatContainer read_container_metadata(const std::string& path);
+// True when the file starts with the page format's magic (spec/format.md); false when it
+// cannot be read or holds anything else.
+bool is_page_file(const std::string& path);
+
 // ---- pure selection (no I/O): the rule of spec/stream.md §Cut ----
 
 // One mesh viewed this frame: `view` is in the mesh's object space and already includes
@@ -80,6 +88,13 @@ struct StreamOptions {
   LoaderOptions loader;
 };
 
+// One request from the traversal: group `group` of mesh `mesh` holds a cluster of the ideal
+// cut; `priority` = its projected parent error (max over views).
+struct GroupRequest {
+  uint32_t mesh = 0, group = 0;
+  float priority = 0;
+};
+
 enum class PageState : uint8_t { kAbsent = 0, kInFlight = 1, kResident = 2, kBad = 3 };
 
 struct StreamFrameStats {
@@ -116,6 +131,9 @@ class Streamer {
   // synchronously. Throws VgeoError STREAM_IO / FORMAT_* / STREAM_BUDGET_TOO_SMALL /
   // STREAM_ROOT_PAGE.
   Streamer(const std::string& path, const StreamOptions& options);
+  // Several page files sharing one pool: their meshes and pages are concatenated in file
+  // order (container().meshes[k] is mesh k of the concatenation; page indices likewise).
+  Streamer(const std::vector<std::string>& paths, const StreamOptions& options);
   ~Streamer();
   Streamer(const Streamer&) = delete;
   Streamer& operator=(const Streamer&) = delete;
@@ -125,7 +143,19 @@ class Streamer {
 
   // One frame: install completed reads, request/issue/evict, select the drawn cut per view
   // (cuts[i] = ascending cluster ids of views[i]'s mesh).
+  // = begin_frame + requests of the flat ideal cut + end_frame + select_resident_cut.
   StreamFrameStats update(const std::vector<StreamView>& views, std::vector<std::vector<uint32_t>>* cuts);
+
+  // The same frame in two halves, for a renderer whose traversal produces the requests:
+  // begin_frame installs completed reads (residency only grows); the caller then selects
+  // its cut from usable(mesh) and reads the geometry of resident pages; end_frame applies
+  // the frame's requests (parents added, priorities refreshed), issues reads and evicts.
+  // Pages are only evicted inside end_frame, so geometry read between the two is valid.
+  StreamFrameStats begin_frame();
+  void end_frame(const std::vector<GroupRequest>& requests, StreamFrameStats* stats);
+  // Counts a pop-in frame in totals() (a renderer using begin/end_frame selects its own cut).
+  void count_frame_cut(bool cut_is_ideal) { totals_.frames_coarser += cut_is_ideal ? 0 : 1; }
+  const std::vector<std::string>& paths() const { return paths_; }
   // Blocks until no read is in flight (asynchronous loader; tests and shutdown).
   void wait_idle();
 
@@ -147,9 +177,12 @@ class Streamer {
   void evict(uint32_t page, StreamFrameStats* stats);
 
   StreamOptions options_;
-  std::string path_;
-  int fd_ = -1;
-  FormatContainer container_;
+  std::vector<std::string> paths_;
+  std::vector<int> fds_;                   // per file
+  std::vector<FormatContainer> files_;     // per file (transcode_page needs the file's own)
+  std::vector<uint32_t> page_file_, page_local_;
+  std::vector<int> page_fd_;               // per page: its file's descriptor
+  FormatContainer container_;              // the concatenation
   bool active_ = false;
   std::vector<PageState> state_;
   std::vector<uint8_t> pinned_;

@@ -4,11 +4,14 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "render/stream_fixture.h"
+#include "vgeo/stream/stream.h"
 #include "support/paths.h"
 
 namespace vgeo {
@@ -75,6 +78,65 @@ TEST(RenderCli, BadInputGivesOneLineAndStableExitCode) {
   EXPECT_EQ(missing.exit_code, 4) << missing.out;
   CliRun view = run_cli("render " + scene("spheres.json") + " --no-cache --view nope");
   EXPECT_EQ(view.exit_code, 2) << view.out;
+  std::filesystem::remove_all(dir);
+}
+
+// --stream-budget: a bad size is one stable line and exit 2; a budget below the scene's page
+// bytes streams (per-frame metrics in --json, PNGs with --out-dir); a scene without page
+// files says streaming is off.
+TEST(RenderCli, StreamBudget) {
+  const test::StreamFixture& f = test::stream_fixture();
+  const std::string scene_path = f.dir + "/cli_scene.json";
+  std::ofstream(scene_path) << test::stream_scene_json("meshes.vgeo", 3, 12, 2, true);
+  CliRun bad = run_cli("render " + scene_path + " --stream-budget 64XB");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_EQ(bad.out.rfind("error[RENDER_STREAM_BUDGET]", 0), 0u) << bad.out;
+  EXPECT_EQ(std::count(bad.out.begin(), bad.out.end(), '\n'), 1);
+  CliRun negative = run_cli("render " + scene_path + " --stream-budget 1MiB --disk-latency-ms -1");
+  EXPECT_EQ(negative.exit_code, 2);
+  EXPECT_NE(negative.out.find("error[RENDER_STREAM_OPTION]"), std::string::npos) << negative.out;
+  CliRun pace = run_cli("render " + scene_path + " --stream-budget 1MiB --frame-ms nan");
+  EXPECT_EQ(pace.exit_code, 2);
+  EXPECT_NE(pace.out.find("error[RENDER_STREAM_OPTION]"), std::string::npos) << pace.out;
+  CliRun small = run_cli("render " + scene_path + " --stream-budget 1KiB");
+  EXPECT_EQ(small.exit_code, 3);
+  EXPECT_NE(small.out.find("error[STREAM_BUDGET_TOO_SMALL]"), std::string::npos) << small.out;
+
+  const uint64_t budget = f.pinned + (f.total - f.pinned) / 3;
+  const std::string out_dir = f.dir + "/cli_frames";
+  CliRun ok = run_cli("render " + scene_path + " --stream-budget " + std::to_string(budget) +
+                      " --stream-sync --frames 10 --threads 2 --json --out-dir " + out_dir + " --save-every 5");
+  ASSERT_EQ(ok.exit_code, 0) << ok.out;
+  auto j = nlohmann::json::parse(ok.out);
+  EXPECT_TRUE(j["stream_summary"]["active"].get<bool>());
+  EXPECT_GT(j["stream_summary"]["bytes_read"].get<uint64_t>(), 0u);
+  ASSERT_EQ(j["frames"].size(), 10u);
+  for (const auto& fr : j["frames"]) EXPECT_LE(fr["stream"]["reserved_bytes"].get<uint64_t>(), budget);
+  EXPECT_TRUE(std::filesystem::exists(out_dir + "/frame_00000.png"));
+  EXPECT_TRUE(std::filesystem::exists(out_dir + "/frame_00005.png"));
+  EXPECT_TRUE(std::filesystem::exists(out_dir + "/frame_00009.png"));
+
+  CliRun off = run_cli("render " + scene("camera_path.json") + " --no-cache --threads 2 --frames 1 --stream-budget 64MiB");
+  ASSERT_EQ(off.exit_code, 0) << off.out;
+  EXPECT_EQ(off.out.rfind("streaming: off", 0), 0u) << off.out;
+}
+
+// `vgeo build --page-size`: a bad size is BUILD_PAGE_SIZE (one line, exit 2, checked before
+// the input is read); a good one is the written file's page size.
+TEST(BuildCli, PageSize) {
+  for (const char* bad : {"8KiB", "48KiB", "32MiB", "0", "abc", "-16KiB"}) {
+    CliRun r = run_cli(std::string("build missing_input.ply -o /dev/null --page-size ") + bad);
+    EXPECT_EQ(r.exit_code, 2) << bad;
+    EXPECT_EQ(r.out.rfind("error[BUILD_PAGE_SIZE]", 0), 0u) << r.out;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+  }
+  auto dir = std::filesystem::temp_directory_path() / ("vgeo_build_page_size_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string ply = (dir / "s.ply").string(), out = (dir / "s.vgeo").string();
+  ASSERT_EQ(run_cli("gen sphere -n 3000 -o " + ply).exit_code, 0);
+  CliRun ok = run_cli("build " + ply + " -o " + out + " --threads 2 --page-size 16KiB");
+  ASSERT_EQ(ok.exit_code, 0) << ok.out;
+  EXPECT_EQ(read_container_metadata(out).page_size, 16u * 1024u);
   std::filesystem::remove_all(dir);
 }
 

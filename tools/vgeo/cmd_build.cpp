@@ -1,5 +1,6 @@
-// `vgeo build INPUT -o OUT [--simplifier meshopt|openmesh] [--threads N] [--report R.json]`:
-// builds the cluster DAG of every mesh of INPUT and writes a VGEODAG1 file (spec/dag.md).
+// `vgeo build INPUT -o OUT [--simplifier meshopt|openmesh] [--threads N] [--page-size SIZE]
+// [--report R.json]`: builds the cluster DAG of every mesh of INPUT and writes the page format
+// (spec/format.md), or a VGEODAG1 file (spec/dag.md) when OUT ends in .vgeodag.
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -12,13 +13,14 @@
 #include "vgeo/core/error.h"
 #include "vgeo/core/progress.h"
 #include "vgeo/mesh/import.h"
+#include "vgeo/render/run.h"
 
 namespace vgeo::cli {
 
 namespace {
 
 struct BuildArgs {
-  std::string input, output, report, simplifier = "meshopt";
+  std::string input, output, report, simplifier = "meshopt", page_size;
   unsigned threads = 0;
 };
 
@@ -53,6 +55,20 @@ nlohmann::json report_json(const BuildReport& r) {
   return j;
 }
 
+// --page-size: a size as --stream-budget takes it (parse_byte_size), which must be a page size
+// the format accepts (power of two in [kMinPageSize, kMaxPageSize]). Smaller pages stream at a
+// finer granularity; the default is Nanite's 128 KiB.
+uint32_t parse_page_size(const std::string& text) {
+  static_assert(kMinPageSize == 16u * 1024u && kMaxPageSize == 16u * 1024u * 1024u, "update the message below");
+  uint64_t bytes = 0;
+  const bool ok = parse_byte_size(text, &bytes) && bytes >= kMinPageSize && bytes <= kMaxPageSize &&
+                  (bytes & (bytes - 1)) == 0;
+  if (!ok)
+    fail("BUILD_PAGE_SIZE", "vgeo build",
+         "--page-size '" + text + "' is not a power of two in [16KiB, 16MiB] (e.g. 32KiB, 128KiB, 1MiB)", kExitUsage);
+  return uint32_t(bytes);
+}
+
 }  // namespace
 
 void add_build_command(CLI::App& app, Context& ctx) {
@@ -65,8 +81,12 @@ void add_build_command(CLI::App& app, Context& ctx) {
   cmd->add_option("--simplifier", args->simplifier, "meshopt (default) or openmesh")
       ->check(CLI::IsMember({"meshopt", "openmesh"}));
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores); output is identical for any value");
+  cmd->add_option("--page-size", args->page_size,
+                  "page size of the page format: power of two in [16KiB, 16MiB] (default 128KiB); ignored for .vgeodag");
   cmd->add_option("--report", args->report, "write the build report as JSON");
   cmd->callback([args, &ctx] {
+    FormatOptions format_options;
+    if (!args->page_size.empty()) format_options.page_size = parse_page_size(args->page_size);  // before the build
     Scene scene = load_input(args->input);
     BuildOptions options;
     options.simplifier = args->simplifier == "openmesh" ? Simplifier::kOpenMesh : Simplifier::kMeshopt;
@@ -76,7 +96,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
     BuiltScene built = build_scene(scene, options, &reports);
     AssetFileKind kind = asset_file_kind_for_path(args->output);
     FormatReport format_report;
-    write_asset_file(args->output, built, kind, FormatOptions{}, &format_report);
+    write_asset_file(args->output, built, kind, format_options, &format_report);
     if (kind == AssetFileKind::kPages)
       std::printf("wrote %s: page format, %zu pages\n", args->output.c_str(), format_report.pages.size());
     for (size_t i = 0; i < reports.size(); ++i)

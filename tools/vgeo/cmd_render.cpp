@@ -1,7 +1,10 @@
-// vgeo render SCENE.json -o frame.png: the CPU reference frame pipeline (spec/scene.md).
+// vgeo render SCENE.json -o frame.png: the CPU reference frame pipeline (spec/scene.md),
+// optionally streaming page-file meshes through a fixed pool (spec/stream.md §Renderer).
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 
 #include "commands.h"
 #include "vgeo/core/error.h"
@@ -16,12 +19,21 @@ struct RenderArgs {
   uint32_t frames = 0, camera = 0;
   float tau = 0;  // 0: the scene's setting
   bool json = false, no_occlusion = false, no_cache = false;
+  // Streaming
+  std::string stream_budget, camera_path, out_dir, json_file;
+  double disk_latency_ms = 0, disk_bandwidth_mbs = 0, frame_ms = 0;
+  uint32_t save_every = 0, stream_issues = 8;
+  bool stream_sync = false;
 };
 
 std::string default_cache_dir() {
   if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return std::string(x) + "/vgeo";
   if (const char* h = std::getenv("HOME"); h && *h) return std::string(h) + "/.cache/vgeo";
   return "";
+}
+
+[[noreturn]] void bad_stream_option(const std::string& what) {
+  fail("RENDER_STREAM_OPTION", "vgeo render", what, kExitUsage);
 }
 }  // namespace
 
@@ -32,13 +44,26 @@ void add_render_command(CLI::App& app, Context& ctx) {
   cmd->add_option("-o,--output", args->output, "PNG of the last frame");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores); output is identical for any value");
   cmd->add_flag("--json", args->json, "print statistics as JSON");
+  cmd->add_option("--json-file", args->json_file, "also write the JSON statistics (per-frame streaming metrics) to this file");
   cmd->add_option("--view", args->view, "lit|triangle|cluster|group|lod|error|overdraw");
-  cmd->add_option("--frames", args->frames, "frames to render (default: camera path length, else 1)");
+  cmd->add_option("--frames", args->frames, "frames to render (default: camera path length, else 1; frames past the path hold its last camera)");
   cmd->add_option("--camera", args->camera, "scene camera index when there is no camera path");
+  cmd->add_option("--camera-path", args->camera_path, "camera path JSON ({\"frames\",\"keyframes\"} as the scene's camera_path) replacing the scene's");
   cmd->add_option("--tau", args->tau, "pixel error threshold (overrides the scene's tau_px)");
   cmd->add_flag("--no-occlusion", args->no_occlusion, "disable HZB occlusion culling");
   cmd->add_option("--cache-dir", args->cache_dir, "DAG cache directory (default ~/.cache/vgeo)");
   cmd->add_flag("--no-cache", args->no_cache, "always build meshes, never read or write the cache");
+  cmd->add_option("--stream-budget", args->stream_budget,
+                  "stream page-file meshes through a pool of this many memory-form bytes (e.g. 64MiB, 512KiB, 1GB); "
+                  "off when the data fits");
+  cmd->add_option("--disk-latency-ms", args->disk_latency_ms, "simulated per-read latency (streaming)");
+  cmd->add_option("--disk-bandwidth-mbs", args->disk_bandwidth_mbs, "simulated disk bandwidth in MB/s (streaming; 0 = unlimited)");
+  cmd->add_option("--stream-issues", args->stream_issues, "page reads issued per frame at most (streaming; default 8)");
+  cmd->add_option("--frame-ms", args->frame_ms,
+                  "pace frames: each frame starts at least this many ms after the previous one (e.g. 16.7; 0 = unpaced)");
+  cmd->add_flag("--stream-sync", args->stream_sync, "deterministic loader: each read completes at the next frame");
+  cmd->add_option("--out-dir", args->out_dir, "write PNGs of frames here (frame_NNNNN.png): every --save-every-th and the last");
+  cmd->add_option("--save-every", args->save_every, "with --out-dir: save every K-th frame (0 = only the last)");
   cmd->callback([args, &ctx] {
     RenderRequest request;
     request.output_png = args->output;
@@ -52,19 +77,61 @@ void add_render_command(CLI::App& app, Context& ctx) {
       fail("USAGE_BAD_VIEW", "vgeo render", "--view must be one of lit, triangle, cluster, group, lod, error, overdraw",
            kExitUsage);
     request.view = view;
+    SceneLoadOptions options;
+    if (!args->stream_budget.empty()) {
+      uint64_t budget = 0;
+      if (!parse_byte_size(args->stream_budget, &budget) || budget == 0)
+        fail("RENDER_STREAM_BUDGET", "vgeo render",
+             "--stream-budget '" + args->stream_budget + "' is not a positive size like 64MiB, 512KiB, 1GB or 4096",
+             kExitUsage);
+      options.stream_budget = budget;
+      request.stream.budget_bytes = budget;
+    }
+    if (!std::isfinite(args->disk_latency_ms) || args->disk_latency_ms < 0 || args->disk_latency_ms > 1e4)
+      bad_stream_option("--disk-latency-ms must be in [0, 10000]");
+    if (!std::isfinite(args->disk_bandwidth_mbs) || args->disk_bandwidth_mbs < 0)
+      bad_stream_option("--disk-bandwidth-mbs must be a non-negative number");
+    if (args->stream_issues == 0) bad_stream_option("--stream-issues must be at least 1");
+    if (!std::isfinite(args->frame_ms) || args->frame_ms < 0 || args->frame_ms > 1e4)
+      bad_stream_option("--frame-ms must be in [0, 10000]");
+    request.frame_interval_ms = args->frame_ms;
+    if (args->save_every > 0 && args->out_dir.empty()) bad_stream_option("--save-every needs --out-dir");
+    request.stream.loader.latency_ms = args->disk_latency_ms;
+    request.stream.loader.bandwidth_mb_s = args->disk_bandwidth_mbs;
+    request.stream.loader.asynchronous = !args->stream_sync;
+    request.stream.max_issues_per_frame = args->stream_issues;
+    request.stream.max_in_flight = std::max<uint32_t>(16, 2 * args->stream_issues);
+    request.out_dir = args->out_dir;
+    request.save_every = args->save_every;
+    if (!args->out_dir.empty()) {
+      std::error_code ec;
+      std::filesystem::create_directories(args->out_dir, ec);
+      if (ec) fail("IO_WRITE_FAILED", args->out_dir, "cannot create directory: " + ec.message(), kExitIo);
+    }
     std::string cache = args->no_cache ? "" : (args->cache_dir.empty() ? default_cache_dir() : args->cache_dir);
     RenderReport report;
     if (args->scene.empty()) {
+      if (!args->stream_budget.empty() || !args->camera_path.empty())
+        bad_stream_option("--stream-budget and --camera-path need a scene file");
       report = render_default_scene(request, 1280, 720, cache);
     } else {
-      SceneLoadOptions options;
       options.cache_dir = cache;
       options.build.threads = args->threads;
       SceneFile scene = load_scene_file(args->scene, options);
+      if (!args->camera_path.empty()) scene.path = load_camera_path_file(args->camera_path, scene.cameras[0]);
       report = render_scene(scene, request);
     }
-    if (args->json) std::printf("%s\n", report.json().c_str());
-    else std::printf("%s", report.table().c_str());
+    if (!args->json_file.empty()) {
+      std::ofstream f(args->json_file, std::ios::binary | std::ios::trunc);
+      f << report.json() << "\n";
+      if (!f) fail("IO_WRITE_FAILED", args->json_file, "cannot write", kExitIo);
+    }
+    if (args->json) {
+      std::printf("%s\n", report.json().c_str());
+    } else {
+      std::printf("%s", report.stream_table().c_str());
+      std::printf("%s", report.table().c_str());
+    }
     ctx.exit_code = kExitOk;
   });
 }
