@@ -160,23 +160,16 @@ void cull_clusters(const std::vector<ClusterDag>& meshes, const std::vector<Cull
     const std::vector<uint8_t>* usable =
         options.usable_groups ? &(*options.usable_groups)[instances[instance].mesh] : nullptr;
     if (usable && !usable->empty()) {
+      // Tests LOD and frustum on the resident rule (and emits the page requests).
       if (!resident_lod_test(w, instance, dag, ci, *usable, from_group)) return;
       ++w.counters.clusters_selected_lod;
-      // Frustum already tested by resident_lod_test.
-      if (occluded(options, instance, c.bounds)) {
-        ++w.counters.clusters_occluded;
-        w.occluded.push_back({instance, ci, CullItem::kCluster});
+    } else {
+      if (!cluster_lod_selects(c, iv, lv, tau)) return;
+      ++w.counters.clusters_selected_lod;
+      if (options.frustum && sphere_outside_frustum(culling_sphere(iv, c.bounds), view)) {
+        ++w.counters.clusters_frustum_culled;
         return;
       }
-      ++w.counters.clusters_visible;
-      w.visible.push_back({instance, ci});
-      return;
-    }
-    if (!cluster_lod_selects(c, iv, lv, tau)) return;
-    ++w.counters.clusters_selected_lod;
-    if (options.frustum && sphere_outside_frustum(culling_sphere(iv, c.bounds), view)) {
-      ++w.counters.clusters_frustum_culled;
-      return;
     }
     if (occluded(options, instance, c.bounds)) {
       ++w.counters.clusters_occluded;
