@@ -103,10 +103,11 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
   // an edge shared by two simplified triangles are bit-identical, so the second visit cannot
   // change the maximum and is skipped.
   size_t edge_slots = 16;
-  while (edge_slots < 6 * simplified.triangle_count()) edge_slots <<= 1;
+  int edge_shift = 60;  // hash = top log2(edge_slots) bits of a multiplicative hash
+  while (edge_slots < 6 * simplified.triangle_count()) edge_slots <<= 1, --edge_shift;
   std::vector<uint64_t> edge_seen(edge_slots, ~uint64_t(0));
   auto first_visit = [&](uint64_t key) {
-    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> 20) & (edge_slots - 1);
+    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> edge_shift);
     while (edge_seen[h] != ~uint64_t(0)) {
       if (edge_seen[h] == key) return false;
       h = (h + 1) & (edge_slots - 1);
