@@ -75,7 +75,24 @@ Sphere cluster_sphere(const Mesh& mesh, const TriangleSet& t) {
 }
 
 // Leaf clustering input, cut into chunks of about kLeafChunkTriangles (see build_dag).
-std::vector<TriangleSet> leaf_chunks(const Mesh& mesh) {
+// Triangles per parallel_for task in the per-triangle passes (fixed, so results combined
+// in task order do not depend on the thread count).
+constexpr size_t kTrianglesPerTask = size_t(1) << 16;
+
+// AABB of the vertices referenced by triangles (fixed blocks combined in order).
+Aabb indexed_bounds(const Mesh& mesh, ThreadPool& pool) {
+  const size_t n = mesh.triangle_count(), tasks = (n + kTrianglesPerTask - 1) / kTrianglesPerTask;
+  std::vector<Aabb> part(tasks);
+  pool.parallel_for(tasks, [&](size_t k) {
+    size_t end = std::min(n, (k + 1) * kTrianglesPerTask);
+    for (size_t i = 3 * k * kTrianglesPerTask; i < 3 * end; ++i) part[k].extend(mesh.position(mesh.indices[i]));
+  });
+  Aabb box;
+  for (const Aabb& b : part) box.extend(b);
+  return box;
+}
+
+std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPool& pool) {
   size_t n = mesh.triangle_count();
   std::vector<TriangleSet> chunks;
   if (n <= kLeafChunkTriangles) {
@@ -86,8 +103,6 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh) {
     chunks.push_back(std::move(all));
     return chunks;
   }
-  Aabb box;
-  for (uint32_t i : mesh.indices) box.extend(mesh.position(i));
   constexpr uint32_t kCells = 16;  // per axis: 4096 cells, ≥ 2 chunks' worth each on 10M+
   auto cell_of = [&](size_t t) {
     uint32_t q[3];
@@ -105,30 +120,37 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh) {
   };
   std::vector<uint16_t> cell(n);
   std::vector<size_t> count(kCells * kCells * kCells + 1, 0);
-  for (size_t t = 0; t < n; ++t) {
-    cell[t] = uint16_t(cell_of(t));
-    ++count[cell[t] + 1];
-  }
+  pool.parallel_for((n + kTrianglesPerTask - 1) / kTrianglesPerTask, [&](size_t k) {
+    for (size_t t = k * kTrianglesPerTask; t < std::min(n, (k + 1) * kTrianglesPerTask); ++t)
+      cell[t] = uint16_t(cell_of(t));
+  });
+  for (size_t t = 0; t < n; ++t) ++count[cell[t] + 1];
   for (size_t c = 0; c + 1 < count.size(); ++c) count[c + 1] += count[c];
   std::vector<uint32_t> order(n);
   {
     std::vector<size_t> fill(count.begin(), count.end() - 1);
     for (size_t t = 0; t < n; ++t) order[fill[cell[t]]++] = uint32_t(t);
   }
-  TriangleSet current;
-  auto flush = [&] {
-    if (current.triangle_count()) chunks.push_back(std::move(current));
-    current = TriangleSet();
-  };
-  for (size_t c = 0; c + 1 < count.size(); ++c) {
-    for (size_t i = count[c]; i < count[c + 1]; ++i) {
-      uint32_t t = order[i];
-      current.corners.insert(current.corners.end(), &mesh.indices[3 * size_t(t)], &mesh.indices[3 * size_t(t)] + 3);
-      current.materials.push_back(mesh.material(t));
+  // Chunk = consecutive cells until it reaches kLeafChunkTriangles: ranges of `order`.
+  std::vector<std::pair<size_t, size_t>> ranges;
+  size_t begin = 0;
+  for (size_t c = 0; c + 1 < count.size(); ++c)
+    if (count[c + 1] - begin >= kLeafChunkTriangles) {
+      ranges.push_back({begin, count[c + 1]});
+      begin = count[c + 1];
     }
-    if (current.triangle_count() >= kLeafChunkTriangles) flush();
-  }
-  flush();
+  if (begin < n) ranges.push_back({begin, n});
+  chunks.resize(ranges.size());
+  pool.parallel_for(ranges.size(), [&](size_t k) {
+    TriangleSet& chunk = chunks[k];
+    chunk.corners.reserve(3 * (ranges[k].second - ranges[k].first));
+    chunk.materials.reserve(ranges[k].second - ranges[k].first);
+    for (size_t i = ranges[k].first; i < ranges[k].second; ++i) {
+      uint32_t t = order[i];
+      chunk.corners.insert(chunk.corners.end(), &mesh.indices[3 * size_t(t)], &mesh.indices[3 * size_t(t)] + 3);
+      chunk.materials.push_back(mesh.material(t));
+    }
+  });
   return chunks;
 }
 
@@ -215,6 +237,8 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
   ThreadPool pool(options.threads);
   WeldedMesh welded = weld_positions(mesh);
   const size_t vertex_count = mesh.vertex_count();
+  // Only vertices referenced by triangles count (leaf chunking, ClusterDag::bounds).
+  const Aabb mesh_box = indexed_bounds(mesh, pool);
   rep.seconds_prepare = now_seconds() - t_start;
   // Per-task scratch arrays (vertex_count entries, kept all-kNone between uses) come from
   // a small locked free list: parallel_for does not tell a task which worker runs it.
@@ -241,7 +265,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
     // Large meshes are cut into spatially coherent chunks (cells of a 16^3 grid in Morton
     // order, consecutive cells merged up to kLeafChunkTriangles) clustered in parallel.
     // The chunking depends only on the mesh, so the output does not depend on threads.
-    std::vector<TriangleSet> chunks = leaf_chunks(mesh);
+    std::vector<TriangleSet> chunks = leaf_chunks(mesh, mesh_box, pool);
     std::vector<std::vector<TriangleSet>> chunk_leaves(chunks.size());
     pool.parallel_for(chunks.size(), [&](size_t i) {
       std::vector<uint32_t> s = take_scratch();
@@ -735,9 +759,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
   });
   {
     // Only vertices referenced by triangles count as leaf positions.
-    Aabb b;
-    for (uint32_t i : mesh.indices) b.extend(mesh.position(i));
-    dag.bounds = b;
+    dag.bounds = mesh_box;
   }
 
   rep.seconds_layout = now_seconds() - th;
