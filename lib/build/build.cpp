@@ -8,6 +8,8 @@
 #include <atomic>
 #include <cassert>
 #include <chrono>
+#include <condition_variable>
+#include <exception>
 #include <cmath>
 #include <cstring>
 
@@ -73,7 +75,24 @@ Sphere cluster_sphere(const Mesh& mesh, const TriangleSet& t) {
 }
 
 // Leaf clustering input, cut into chunks of about kLeafChunkTriangles (see build_dag).
-std::vector<TriangleSet> leaf_chunks(const Mesh& mesh) {
+// Triangles per parallel_for task in the per-triangle passes (fixed, so results combined
+// in task order do not depend on the thread count).
+constexpr size_t kTrianglesPerTask = size_t(1) << 16;
+
+// AABB of the vertices referenced by triangles (fixed blocks combined in order).
+Aabb indexed_bounds(const Mesh& mesh, ThreadPool& pool) {
+  const size_t n = mesh.triangle_count(), tasks = (n + kTrianglesPerTask - 1) / kTrianglesPerTask;
+  std::vector<Aabb> part(tasks);
+  pool.parallel_for(tasks, [&](size_t k) {
+    size_t end = std::min(n, (k + 1) * kTrianglesPerTask);
+    for (size_t i = 3 * k * kTrianglesPerTask; i < 3 * end; ++i) part[k].extend(mesh.position(mesh.indices[i]));
+  });
+  Aabb box;
+  for (const Aabb& b : part) box.extend(b);
+  return box;
+}
+
+std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPool& pool) {
   size_t n = mesh.triangle_count();
   std::vector<TriangleSet> chunks;
   if (n <= kLeafChunkTriangles) {
@@ -84,8 +103,6 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh) {
     chunks.push_back(std::move(all));
     return chunks;
   }
-  Aabb box;
-  for (uint32_t i : mesh.indices) box.extend(mesh.position(i));
   constexpr uint32_t kCells = 16;  // per axis: 4096 cells, ≥ 2 chunks' worth each on 10M+
   auto cell_of = [&](size_t t) {
     uint32_t q[3];
@@ -103,30 +120,37 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh) {
   };
   std::vector<uint16_t> cell(n);
   std::vector<size_t> count(kCells * kCells * kCells + 1, 0);
-  for (size_t t = 0; t < n; ++t) {
-    cell[t] = uint16_t(cell_of(t));
-    ++count[cell[t] + 1];
-  }
+  pool.parallel_for((n + kTrianglesPerTask - 1) / kTrianglesPerTask, [&](size_t k) {
+    for (size_t t = k * kTrianglesPerTask; t < std::min(n, (k + 1) * kTrianglesPerTask); ++t)
+      cell[t] = uint16_t(cell_of(t));
+  });
+  for (size_t t = 0; t < n; ++t) ++count[cell[t] + 1];
   for (size_t c = 0; c + 1 < count.size(); ++c) count[c + 1] += count[c];
   std::vector<uint32_t> order(n);
   {
     std::vector<size_t> fill(count.begin(), count.end() - 1);
     for (size_t t = 0; t < n; ++t) order[fill[cell[t]]++] = uint32_t(t);
   }
-  TriangleSet current;
-  auto flush = [&] {
-    if (current.triangle_count()) chunks.push_back(std::move(current));
-    current = TriangleSet();
-  };
-  for (size_t c = 0; c + 1 < count.size(); ++c) {
-    for (size_t i = count[c]; i < count[c + 1]; ++i) {
-      uint32_t t = order[i];
-      current.corners.insert(current.corners.end(), &mesh.indices[3 * size_t(t)], &mesh.indices[3 * size_t(t)] + 3);
-      current.materials.push_back(mesh.material(t));
+  // Chunk = consecutive cells until it reaches kLeafChunkTriangles: ranges of `order`.
+  std::vector<std::pair<size_t, size_t>> ranges;
+  size_t begin = 0;
+  for (size_t c = 0; c + 1 < count.size(); ++c)
+    if (count[c + 1] - begin >= kLeafChunkTriangles) {
+      ranges.push_back({begin, count[c + 1]});
+      begin = count[c + 1];
     }
-    if (current.triangle_count() >= kLeafChunkTriangles) flush();
-  }
-  flush();
+  if (begin < n) ranges.push_back({begin, n});
+  chunks.resize(ranges.size());
+  pool.parallel_for(ranges.size(), [&](size_t k) {
+    TriangleSet& chunk = chunks[k];
+    chunk.corners.reserve(3 * (ranges[k].second - ranges[k].first));
+    chunk.materials.reserve(ranges[k].second - ranges[k].first);
+    for (size_t i = ranges[k].first; i < ranges[k].second; ++i) {
+      uint32_t t = order[i];
+      chunk.corners.insert(chunk.corners.end(), &mesh.indices[3 * size_t(t)], &mesh.indices[3 * size_t(t)] + 3);
+      chunk.materials.push_back(mesh.material(t));
+    }
+  });
   return chunks;
 }
 
@@ -213,6 +237,9 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
   ThreadPool pool(options.threads);
   WeldedMesh welded = weld_positions(mesh);
   const size_t vertex_count = mesh.vertex_count();
+  // Only vertices referenced by triangles count (leaf chunking, ClusterDag::bounds).
+  const Aabb mesh_box = indexed_bounds(mesh, pool);
+  rep.seconds_prepare = now_seconds() - t_start;
   // Per-task scratch arrays (vertex_count entries, kept all-kNone between uses) come from
   // a small locked free list: parallel_for does not tell a task which worker runs it.
   std::mutex scratch_mutex;
@@ -238,7 +265,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
     // Large meshes are cut into spatially coherent chunks (cells of a 16^3 grid in Morton
     // order, consecutive cells merged up to kLeafChunkTriangles) clustered in parallel.
     // The chunking depends only on the mesh, so the output does not depend on threads.
-    std::vector<TriangleSet> chunks = leaf_chunks(mesh);
+    std::vector<TriangleSet> chunks = leaf_chunks(mesh, mesh_box, pool);
     std::vector<std::vector<TriangleSet>> chunk_leaves(chunks.size());
     pool.parallel_for(chunks.size(), [&](size_t i) {
       std::vector<uint32_t> s = take_scratch();
@@ -275,6 +302,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
     lr.level = level;
     std::vector<std::vector<uint64_t>> open_keys;  // per active cluster, for grouping
     lr.clusters = active.size();
+    double te = now_seconds();
     {
       std::vector<uint64_t> open(active.size()), all(active.size());
       open_keys.assign(active.size(), {});
@@ -290,25 +318,259 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
       lr.boundary_edge_fraction = sa ? double(so) / double(sa) : 0.0;
       lr.average_fill = double(lr.triangles) / double(active.size()) / kMaxClusterTriangles;
     }
+    rep.seconds_edges += now_seconds() - te;
 
-    // ---- group ----
-    double t0 = now_seconds();
-    std::vector<std::vector<uint32_t>> level_groups;
+    // ---- group, locks, simplify: one pipelined parallel region per level ----
+    // The active clusters are cut into spatial blocks (block_clusters); each block is
+    // grouped by its own METIS call (serialised, GKlib's RNG is global), then its locks
+    // and shared edges are computed, then its groups are simplified. While one thread
+    // runs METIS on a block, the others simplify the groups of blocks already grouped.
+    // Groups never span blocks, so a vertex used by two blocks is used by two groups and
+    // is locked up front (cross-block locks); every other vertex belongs to one block.
     bool last_level = level + 1 >= kMaxLevels;
-    if (active.size() == 1 || last_level) {
-      for (uint32_t c : active) level_groups.push_back({c});
-      if (active.size() > 1) level_groups = {active};
+    const bool simplify_allowed = !(active.size() == 1 || last_level);
+    struct GroupResult {
+      bool terminal = true;
+      float error = 0.0f;
+      std::vector<TriangleSet> clusters;
+      double seconds_simplify = 0, seconds_split = 0, seconds_error = 0;
+    };
+    struct Block {
+      std::vector<uint32_t> items;                 // indices into `active`, ascending
+      std::vector<std::vector<uint32_t>> groups;   // members as cluster indices
+      std::vector<uint64_t> shared_edges;          // sorted welded edge keys
+      std::vector<GroupResult> results;
+      double seconds_group = 0, seconds_locks = 0;
+    };
+    std::vector<Block> blocks;
+    const double t0 = now_seconds();
+    if (!simplify_allowed) {
+      blocks.resize(1);
+      if (active.size() > 1) blocks[0].groups = {active};
+      else blocks[0].groups = {{active[0]}};
+      blocks[0].results.resize(blocks[0].groups.size());
     } else {
-      std::vector<const TriangleSet*> sets(active.size());
-      std::vector<Sphere> bounds(active.size());
-      for (size_t i = 0; i < active.size(); ++i) {
-        sets[i] = &clusters[active[i]].triangles;
-        bounds[i] = clusters[active[i]].bounds;
-      }
-      level_groups = group_clusters(sets, open_keys, bounds, internal.group_target_clusters);
-      for (auto& g : level_groups)
-        for (uint32_t& m : g) m = active[m];
+      std::vector<Vec3> centres(active.size());
+      for (size_t i = 0; i < active.size(); ++i) centres[i] = clusters[active[i]].bounds.center;
+      std::vector<std::vector<uint32_t>> items = spatial_blocks(centres, internal.group_block_clusters);
+      blocks.resize(items.size());
+      for (size_t b = 0; b < items.size(); ++b) blocks[b].items = std::move(items[b]);
     }
+    const size_t block_count = blocks.size();
+    assert(block_count < (size_t(1) << 16));
+    // Cross-block locks and edges (only with several blocks): the first block to claim a
+    // vertex owns it, any other locks it, so `locked` does not depend on the order.
+    std::vector<uint64_t> cross_edges;  // sorted welded edges used by clusters of two blocks
+    if (block_count > 1) {
+      std::vector<uint32_t> block_of(active.size());
+      for (size_t b = 0; b < block_count; ++b)
+        for (uint32_t i : blocks[b].items) block_of[i] = uint32_t(b);
+      pool.parallel_for(active.size(), [&](size_t i) {
+        for (uint32_t v : clusters[active[i]].triangles.corners) {
+          uint32_t w = welded.weld[v], expected = kNone;
+          if (!std::atomic_ref<uint32_t>(owner[w]).compare_exchange_strong(expected, block_of[i],
+                                                                            std::memory_order_relaxed) &&
+              expected != block_of[i])
+            std::atomic_ref<uint8_t>(locked[w]).store(1, std::memory_order_relaxed);
+        }
+      });
+      std::vector<std::vector<uint64_t>> per_cluster(active.size());
+      pool.parallel_for(active.size(), [&](size_t i) {
+        const TriangleSet& t = clusters[active[i]].triangles;
+        for (uint32_t v : t.corners) std::atomic_ref<uint32_t>(owner[welded.weld[v]]).store(kNone, std::memory_order_relaxed);
+        for (size_t k = 0; k < t.corners.size(); ++k) {
+          uint32_t a = welded.weld[t.corners[k]], b = welded.weld[t.corners[k - k % 3 + (k + 1) % 3]];
+          if (a != b && locked[a] && locked[b]) per_cluster[i].push_back(edge_key(a, b));
+        }
+      });
+      // (edge, block) pairs; an edge used by two blocks is shared.
+      std::vector<std::pair<uint64_t, uint32_t>> candidates;
+      for (size_t i = 0; i < active.size(); ++i)
+        for (uint64_t e : per_cluster[i]) candidates.push_back({e, block_of[i]});
+      std::sort(candidates.begin(), candidates.end());
+      for (size_t i = 0; i < candidates.size();) {
+        size_t j = i;
+        bool shared = false;
+        while (j < candidates.size() && candidates[j].first == candidates[i].first) {
+          shared |= candidates[j].second != candidates[i].second;
+          ++j;
+        }
+        if (shared) cross_edges.push_back(candidates[i].first);
+        i = j;
+      }
+    }
+    const double seconds_cross = now_seconds() - t0;
+
+    // Block task: METIS grouping, then locks and shared edges of the block's vertices
+    // (its own vertices only: cross-block ones are locked already, so no race).
+    auto run_block = [&](size_t b) {
+      Block& blk = blocks[b];
+      double tb = now_seconds();
+      {
+        const size_t n = blk.items.size();
+        std::vector<const TriangleSet*> sets(n);
+        std::vector<Sphere> bounds(n);
+        std::vector<std::vector<uint64_t>> keys(n);
+        for (size_t i = 0; i < n; ++i) {
+          sets[i] = &clusters[active[blk.items[i]]].triangles;
+          bounds[i] = clusters[active[blk.items[i]]].bounds;
+          keys[i] = std::move(open_keys[blk.items[i]]);
+        }
+        blk.groups = group_clusters(sets, keys, bounds, internal.group_target_clusters);
+        for (auto& g : blk.groups)
+          for (uint32_t& m : g) m = active[blk.items[m]];
+      }
+      double tl = now_seconds();
+      blk.seconds_group = tl - tb;
+      // Locks: welded vertices used by two groups of this level, or by a retired cluster.
+      for (size_t g = 0; g < blk.groups.size(); ++g) {
+        const uint32_t tag = uint32_t(b << 16 | g);
+        for (uint32_t m : blk.groups[g])
+          for (uint32_t v : clusters[m].triangles.corners) {
+            uint32_t w = welded.weld[v];
+            if (locked[w]) continue;
+            if (retired[w] || (owner[w] != kNone && owner[w] != tag)) locked[w] = 1;
+            else owner[w] = tag;
+          }
+      }
+      // Shared edges: welded edges with both ends locked used by two groups of this level,
+      // by two blocks, or by a retired cluster (only those must survive; few: they lie on
+      // group borders).
+      std::vector<std::pair<uint64_t, uint32_t>> candidates;
+      for (size_t g = 0; g < blk.groups.size(); ++g)
+        for (uint32_t m : blk.groups[g]) {
+          const TriangleSet& t = clusters[m].triangles;
+          for (size_t k = 0; k < t.corners.size(); ++k) {
+            uint32_t a = welded.weld[t.corners[k]], c = welded.weld[t.corners[k - k % 3 + (k + 1) % 3]];
+            if (a != c && locked[a] && locked[c]) candidates.push_back({edge_key(a, c), uint32_t(g)});
+          }
+        }
+      std::sort(candidates.begin(), candidates.end());
+      for (size_t i = 0; i < candidates.size();) {
+        size_t j = i;
+        bool shared = false;
+        while (j < candidates.size() && candidates[j].first == candidates[i].first) {
+          shared |= candidates[j].second != candidates[i].second;
+          ++j;
+        }
+        const uint64_t e = candidates[i].first;
+        if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), e) ||
+            std::binary_search(cross_edges.begin(), cross_edges.end(), e))
+          blk.shared_edges.push_back(e);
+        i = j;
+      }
+      blk.results.resize(blk.groups.size());
+      blk.seconds_locks = now_seconds() - tl;
+    };
+    // Group task: simplify, check the border, split, measure the error.
+    auto run_group = [&](size_t b, size_t g) {
+      const Block& blk = blocks[b];
+      GroupResult& r = blocks[b].results[g];
+      double ts = now_seconds();
+      TriangleSet merged;
+      for (uint32_t m : blk.groups[g]) {
+        const TriangleSet& t = clusters[m].triangles;
+        merged.corners.insert(merged.corners.end(), t.corners.begin(), t.corners.end());
+        merged.materials.insert(merged.materials.end(), t.materials.begin(), t.materials.end());
+      }
+      SimplifyResult s = simplify_group(welded, merged, locked, options.simplifier);
+      size_t before = merged.triangle_count(), after = s.triangles.triangle_count();
+      bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
+      bool sealed = enough && locked_border_preserved(welded, merged, s.triangles, locked, blk.shared_edges);
+      double tm = now_seconds();
+      r.seconds_simplify = tm - ts;
+      if (!sealed) return;
+      std::vector<uint32_t> sc = take_scratch();
+      r.clusters = split_into_clusters(welded, s.triangles, sc, internal.group_split);
+      give_scratch(std::move(sc));
+      r.seconds_split = now_seconds() - tm;
+      r.terminal = false;
+      const double tv = now_seconds();
+      // The stored error is a promise lib/verify checks (ERROR_BOUND): the backends'
+      // estimates (meshopt's quadric, OpenMesh's removed-vertex distance) can be below the
+      // distance from the simplified surface back to its input, so measure that too.
+      r.error = simplification_error(*welded.mesh, merged, s.triangles, s.error);
+      r.seconds_error = now_seconds() - tv;
+    };
+    const double tr = now_seconds();
+    if (simplify_allowed) {
+      // Scheduler: a block task whenever no block task runs (METIS is the serial path),
+      // otherwise a ready group task, otherwise the next block (or wait for one to finish).
+      std::mutex queue_mutex;
+      std::condition_variable queue_changed;
+      std::vector<std::pair<uint32_t, uint32_t>> ready;  // (block, group), taken from the back
+      size_t next_block = 0, blocks_done = 0, blocks_running = 0;
+      std::exception_ptr first_error;
+      pool.run_on_all([&](unsigned) {
+        std::unique_lock<std::mutex> lock(queue_mutex);
+        for (;;) {
+          bool take_block = next_block < block_count && (blocks_running == 0 || ready.empty());
+          if (take_block) {
+            size_t b = next_block++;
+            ++blocks_running;
+            lock.unlock();
+            try {
+              run_block(b);
+            } catch (...) {
+              std::lock_guard<std::mutex> guard(queue_mutex);
+              if (!first_error) first_error = std::current_exception();
+              blocks[b].results.assign(blocks[b].groups.size(), GroupResult());
+            }
+            lock.lock();
+            --blocks_running;
+            ++blocks_done;
+            for (size_t g = blocks[b].groups.size(); g-- > 0;) ready.push_back({uint32_t(b), uint32_t(g)});
+            queue_changed.notify_all();
+            continue;
+          }
+          if (!ready.empty()) {
+            auto [b, g] = ready.back();
+            ready.pop_back();
+            lock.unlock();
+            try {
+              run_group(b, g);
+            } catch (...) {
+              std::lock_guard<std::mutex> guard(queue_mutex);
+              if (!first_error) first_error = std::current_exception();
+            }
+            lock.lock();
+            continue;
+          }
+          if (blocks_done == block_count) return;
+          queue_changed.wait(lock);
+        }
+      });
+      if (first_error) std::rethrow_exception(first_error);
+    }
+    std::vector<GroupResult> results;
+    std::vector<std::vector<uint32_t>> level_groups;
+    {
+      // The region's wall time, divided between its parts by their summed task times.
+      double wall = now_seconds() - tr, group = 0, locks = 0, simplify = 0, split = 0, error = 0;
+      for (Block& blk : blocks) {
+        group += blk.seconds_group;
+        locks += blk.seconds_locks;
+        for (GroupResult& r : blk.results) {
+          simplify += r.seconds_simplify;
+          split += r.seconds_split;
+          error += r.seconds_error;
+          results.push_back(std::move(r));
+        }
+        for (auto& g : blk.groups) level_groups.push_back(std::move(g));
+      }
+      double sum = group + locks + simplify + split + error;
+      rep.seconds_locks += seconds_cross;
+      if (sum > 0) {
+        rep.seconds_group += wall * group / sum;
+        rep.seconds_locks += wall * locks / sum;
+        rep.seconds_simplify += wall * simplify / sum;
+        rep.seconds_split += wall * split / sum;
+        rep.seconds_error += wall * error / sum;
+      } else {
+        rep.seconds_group += wall;
+      }
+    }
+    const double tc = now_seconds();
     uint32_t first_group = uint32_t(groups.size());
     for (auto& members : level_groups) {
       WorkGroup g;
@@ -331,104 +593,12 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
     uint32_t group_count = uint32_t(groups.size()) - first_group;
     lr.groups = group_count;
 
-    // Locks: welded vertices used by two groups of this level, or by a retired cluster.
-    // Parallel over clusters: the first group to claim a vertex owns it, any other group
-    // locks it, so `locked` does not depend on the order (only `owner` does, and it is
-    // only reset below). Locks only ever go 0 → 1 within a level.
-    pool.parallel_for(active.size(), [&](size_t i) {
-      const WorkCluster& cl = clusters[active[i]];
-      const uint32_t g = cl.group;
-      for (uint32_t v : cl.triangles.corners) {
-        uint32_t w = welded.weld[v];
-        uint32_t expected = kNone;
-        if ((!std::atomic_ref<uint32_t>(owner[w]).compare_exchange_strong(expected, g, std::memory_order_relaxed) &&
-             expected != g) ||
-            retired[w])
-          std::atomic_ref<uint8_t>(locked[w]).store(1, std::memory_order_relaxed);
-      }
-    });
-    // Shared edges: welded edges with both ends locked used by two groups of this level or
-    // by a retired cluster (only those must survive; few: they lie on group borders).
-    std::vector<uint64_t> shared_edges;
-    {
-      std::vector<std::vector<std::pair<uint64_t, uint32_t>>> per_cluster(active.size());
-      pool.parallel_for(active.size(), [&](size_t ci) {
-        const TriangleSet& t = clusters[active[ci]].triangles;
-        const uint32_t g = clusters[active[ci]].group;
-        for (size_t i = 0; i < t.triangle_count(); ++i)
-          for (int k = 0; k < 3; ++k) {
-            uint32_t a = welded.weld[t.corners[3 * i + k]], b = welded.weld[t.corners[3 * i + (k + 1) % 3]];
-            if (a != b && locked[a] && locked[b]) per_cluster[ci].push_back({edge_key(a, b), g});
-          }
-      });
-      std::vector<std::pair<uint64_t, uint32_t>> candidates;
-      {
-        size_t total = 0;
-        for (const auto& v : per_cluster) total += v.size();
-        candidates.reserve(total);
-        for (const auto& v : per_cluster) candidates.insert(candidates.end(), v.begin(), v.end());
-      }
-      std::sort(candidates.begin(), candidates.end());
-      for (size_t i = 0; i < candidates.size();) {
-        size_t j = i;
-        bool shared = false;
-        while (j < candidates.size() && candidates[j].first == candidates[i].first) {
-          shared |= candidates[j].second != candidates[i].second;
-          ++j;
-        }
-        if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), candidates[i].first))
-          shared_edges.push_back(candidates[i].first);
-        i = j;
-      }
-    }
-    rep.seconds_group += now_seconds() - t0;
-
-    // ---- simplify + split, per group in parallel, results in per-group slots ----
-    struct GroupResult {
-      bool terminal = true;
-      float error = 0.0f;
-      std::vector<TriangleSet> clusters;
-      double seconds_simplify = 0, seconds_split = 0;
-    };
-    std::vector<GroupResult> results(group_count);
-    bool simplify_allowed = !(active.size() == 1 || last_level);
-    pool.parallel_for(group_count, [&](size_t i) {
-      if (!simplify_allowed) return;
-      const WorkGroup& g = groups[first_group + i];
-      GroupResult& r = results[i];
-      double ts = now_seconds();
-      TriangleSet merged;
-      for (uint32_t m : g.members) {
-        const TriangleSet& t = clusters[m].triangles;
-        merged.corners.insert(merged.corners.end(), t.corners.begin(), t.corners.end());
-        merged.materials.insert(merged.materials.end(), t.materials.begin(), t.materials.end());
-      }
-      SimplifyResult s = simplify_group(welded, merged, locked, options.simplifier);
-      size_t before = merged.triangle_count(), after = s.triangles.triangle_count();
-      bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
-      bool sealed = enough && locked_border_preserved(welded, merged, s.triangles, locked, shared_edges);
-      double tm = now_seconds();
-      r.seconds_simplify = tm - ts;
-      if (!sealed) return;
-      std::vector<uint32_t> sc = take_scratch();
-      r.clusters = split_into_clusters(welded, s.triangles, sc, internal.group_split);
-      give_scratch(std::move(sc));
-      r.seconds_split = now_seconds() - tm;
-      r.terminal = false;
-      // The stored error is a promise lib/verify checks (ERROR_BOUND): the backends'
-      // estimates (meshopt's quadric, OpenMesh's removed-vertex distance) can be below the
-      // distance from the simplified surface back to its input, so measure that too.
-      r.error = simplification_error(*welded.mesh, merged, s.triangles, s.error);
-    });
-
     // ---- combine in group order ----
     std::vector<uint32_t> next;
     std::vector<uint64_t> new_retired_edges;
     for (uint32_t i = 0; i < group_count; ++i) {
       GroupResult& r = results[i];
       uint32_t gi = first_group + i;
-      rep.seconds_simplify += r.seconds_simplify / pool.size();
-      rep.seconds_split += r.seconds_split / pool.size();
       if (r.terminal) {
         groups[gi].terminal = true;
         groups[gi].parent_error = kTerminalError;
@@ -477,6 +647,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
       std::sort(retired_edges.begin(), retired_edges.end());
       retired_edges.erase(std::unique(retired_edges.begin(), retired_edges.end()), retired_edges.end());
     }
+    rep.seconds_combine += now_seconds() - tc;
     processed += lr.triangles;
     progress.set(std::min<size_t>(processed, mesh.triangle_count()));
     rep.levels.push_back(lr);
@@ -588,10 +759,11 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
   });
   {
     // Only vertices referenced by triangles count as leaf positions.
-    Aabb b;
-    for (uint32_t i : mesh.indices) b.extend(mesh.position(i));
-    dag.bounds = b;
+    dag.bounds = mesh_box;
   }
+
+  rep.seconds_layout = now_seconds() - th;
+  th = now_seconds();
 
   // ---- culling hierarchy ----
   if (!dag.groups.empty()) {

@@ -28,8 +28,16 @@ struct BuildLevelReport {
 struct BuildReport {
   std::vector<BuildLevelReport> levels;
   uint64_t input_triangles = 0, stored_triangles = 0, root_clusters = 0, root_triangles = 0;
+  // Wall-clock seconds per stage; they add up to seconds_total (the parallel simplify
+  // region's wall time is divided between simplify/error/split by their summed task times).
   double seconds_cluster = 0, seconds_group = 0, seconds_simplify = 0, seconds_split = 0,
          seconds_hierarchy = 0, seconds_total = 0;
+  double seconds_prepare = 0;  // validation + position welding
+  double seconds_edges = 0;    // per-level cluster edge counts (report + grouping input)
+  double seconds_locks = 0;    // per-level locked vertices and shared edges
+  double seconds_error = 0;    // measured simplification error (part of the simplify region)
+  double seconds_combine = 0;  // per-level results in group order, bounds, lock reset
+  double seconds_layout = 0;   // final cluster/vertex arrays
   uint64_t peak_memory_bytes = 0;  // process peak RSS after the build
 };
 

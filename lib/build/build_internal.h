@@ -29,6 +29,11 @@ inline constexpr uint32_t kGroupTargetClusters = 8;
 inline constexpr uint32_t kSpatialNeighbors = 2;
 inline constexpr uint32_t kSpatialWindow = 8;
 inline constexpr int kSpatialEdgeWeight = 1;
+// Levels with more active clusters than this are grouped in spatial blocks of at most this
+// many clusters, one METIS call each, so the (serialised) METIS calls overlap the
+// simplification of blocks already grouped. 4096 clusters = 512 groups per block: block
+// borders are a few percent of the group borders (they are group borders at that level).
+inline constexpr size_t kGroupBlockClusters = 4096;
 // Fixed METIS seed: METIS is randomised; a fixed seed makes the grouping reproducible.
 inline constexpr int kMetisSeed = 42;
 // No mesh needs more: each level at least halves the non-terminal clusters or retires
@@ -73,11 +78,17 @@ std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const Triang
                                                   const std::vector<Sphere>& bounds,
                                                   uint32_t target_clusters = kGroupTargetClusters);
 
+// Splits items (by their centres) into spatially compact blocks of at most max_items:
+// recursive median split along the largest extent, ties by index. Each block's indices are
+// ascending; blocks are in split order (lower half first). Deterministic.
+std::vector<std::vector<uint32_t>> spatial_blocks(const std::vector<Vec3>& centres, size_t max_items);
+
 // Knobs for measuring alternatives (benchmarks, tests); build_dag uses the defaults.
 struct InternalBuildOptions {
   SplitMethod leaf_split = SplitMethod::kMeshopt;
   SplitMethod group_split = SplitMethod::kMeshopt;
   uint32_t group_target_clusters = kGroupTargetClusters;
+  size_t group_block_clusters = kGroupBlockClusters;  // tests force small blocks
 };
 ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, const InternalBuildOptions& internal,
                               BuildReport* report);

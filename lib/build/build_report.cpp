@@ -22,9 +22,11 @@ std::string build_report_summary(const std::string& name, const BuildReport& r) 
     out += line;
   }
   std::snprintf(line, sizeof line,
-                "  time %.2fs (cluster %.2f, group %.2f, simplify %.2f, split %.2f, hierarchy %.2f), peak %.0f MiB\n",
-                r.seconds_total, r.seconds_cluster, r.seconds_group, r.seconds_simplify, r.seconds_split,
-                r.seconds_hierarchy, double(r.peak_memory_bytes) / (1 << 20));
+                "  time %.2fs (prepare %.2f, cluster %.2f, edges %.2f, group %.2f, locks %.2f, simplify %.2f, "
+                "error %.2f, split %.2f, combine %.2f, layout %.2f, hierarchy %.2f), peak %.0f MiB\n",
+                r.seconds_total, r.seconds_prepare, r.seconds_cluster, r.seconds_edges, r.seconds_group,
+                r.seconds_locks, r.seconds_simplify, r.seconds_error, r.seconds_split, r.seconds_combine,
+                r.seconds_layout, r.seconds_hierarchy, double(r.peak_memory_bytes) / (1 << 20));
   out += line;
   return out;
 }

@@ -8,6 +8,7 @@
 
 #include <cerrno>
 #include <cstdio>
+#include <bit>
 #include <cstring>
 #include <algorithm>
 #include <filesystem>
@@ -42,6 +43,22 @@ class Writer {
     uint32_t v;
     std::memcpy(&v, &f, 4);
     u32(v);
+  }
+  // Arrays of 32-bit values: one copy on little-endian hosts (the file is little-endian).
+  template <class T>
+  void array32(const T* values, size_t count) {
+    static_assert(sizeof(T) == 4);
+    if constexpr (std::endian::native == std::endian::little) {
+      size_t at = bytes.size();
+      bytes.resize(at + 4 * count);
+      if (count) std::memcpy(bytes.data() + at, values, 4 * count);
+    } else {
+      for (size_t i = 0; i < count; ++i) {
+        uint32_t v;
+        std::memcpy(&v, &values[i], 4);
+        u32(v);
+      }
+    }
   }
   void sphere(const Sphere& s) {
     f32(s.center.x);
@@ -130,7 +147,7 @@ void encode_mesh(Writer& w, const ClusterDag& d) {
     w.sphere(g.parent_bounds);
     w.f32(g.parent_error);
   }
-  for (uint32_t c : d.generated_clusters) w.u32(c);
+  w.array32(d.generated_clusters.data(), d.generated_clusters.size());
   for (const BvhNode& n : d.bvh_nodes) {
     w.sphere(n.bounds);
     w.sphere(n.lod_bounds);
@@ -139,13 +156,11 @@ void encode_mesh(Writer& w, const ClusterDag& d) {
     w.u32(n.group_mask);
     for (uint32_t c : n.children) w.u32(c);
   }
-  for (size_t i = 0; i < 3 * vcount; ++i) w.f32(d.positions[i]);
-  if (normals)
-    for (size_t i = 0; i < 3 * vcount; ++i) w.f32(d.normals[i]);
-  if (uvs)
-    for (size_t i = 0; i < 2 * vcount; ++i) w.f32(d.uvs[i]);
+  w.array32(d.positions.data(), 3 * vcount);
+  if (normals) w.array32(d.normals.data(), 3 * vcount);
+  if (uvs) w.array32(d.uvs.data(), 2 * vcount);
   w.bytes.insert(w.bytes.end(), d.indices.begin(), d.indices.begin() + 3 * tcount);
-  for (size_t i = 0; i < tcount; ++i) w.u32(d.triangle_materials[i]);
+  w.array32(d.triangle_materials.data(), tcount);
 }
 
 ClusterDag decode_mesh(Reader& r, const std::string& where, uint32_t material_count) {
@@ -269,6 +284,16 @@ ClusterDag decode_mesh(Reader& r, const std::string& where, uint32_t material_co
 
 std::vector<uint8_t> encode_dag_file(const BuiltScene& scene) {
   Writer w;
+  {
+    // Reserve the whole file: the large arrays are appended without regrowth.
+    size_t size = 8 + 4 * 4 + scene.instances.size() * kInstanceBytes;
+    for (const Material& m : scene.materials) size += kMaterialMinBytes + m.name.size();
+    for (const ClusterDag& d : scene.meshes)
+      size += kMeshHeaderBytes + 88 * d.clusters.size() + 60 * d.groups.size() + 4 * d.generated_clusters.size() +
+              76 * d.bvh_nodes.size() + 4 * (d.positions.size() + d.normals.size() + d.uvs.size()) +
+              d.indices.size() + 4 * d.triangle_materials.size();
+    w.bytes.reserve(size);
+  }
   w.bytes.insert(w.bytes.end(), kMagic, kMagic + 8);
   w.u32(kVersion);
   w.u32(uint32_t(scene.meshes.size()));

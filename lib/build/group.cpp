@@ -32,6 +32,45 @@ struct WeightedEdge {
 
 }  // namespace
 
+std::vector<std::vector<uint32_t>> spatial_blocks(const std::vector<Vec3>& centres, size_t max_items) {
+  std::vector<std::vector<uint32_t>> blocks;
+  std::vector<uint32_t> items(centres.size());
+  for (size_t i = 0; i < items.size(); ++i) items[i] = uint32_t(i);
+  if (items.empty()) return blocks;
+  max_items = std::max<size_t>(max_items, 1);
+  // Explicit stack of [begin, end) ranges, upper half pushed first so the lower half
+  // comes out first.
+  std::vector<std::pair<size_t, size_t>> stack{{0, items.size()}};
+  while (!stack.empty()) {
+    auto [begin, end] = stack.back();
+    stack.pop_back();
+    if (end - begin <= max_items) {
+      std::vector<uint32_t> block(items.begin() + begin, items.begin() + end);
+      std::sort(block.begin(), block.end());
+      blocks.push_back(std::move(block));
+      continue;
+    }
+    float lo[3] = {centres[items[begin]].x, centres[items[begin]].y, centres[items[begin]].z};
+    float hi[3] = {lo[0], lo[1], lo[2]};
+    for (size_t i = begin; i < end; ++i)
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], centres[items[i]][k]);
+        hi[k] = std::max(hi[k], centres[items[i]][k]);
+      }
+    int axis = 0;
+    for (int k = 1; k < 3; ++k)
+      if (double(hi[k]) - lo[k] > double(hi[axis]) - lo[axis]) axis = k;
+    size_t mid = begin + (end - begin) / 2;
+    std::nth_element(items.begin() + begin, items.begin() + mid, items.begin() + end, [&](uint32_t a, uint32_t b) {
+      float ca = centres[a][axis], cb = centres[b][axis];
+      return ca < cb || (ca == cb && a < b);
+    });
+    stack.push_back({mid, end});
+    stack.push_back({begin, mid});
+  }
+  return blocks;
+}
+
 std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const TriangleSet*>& clusters,
                                                   const std::vector<std::vector<uint64_t>>& cluster_open_edges,
                                                   const std::vector<Sphere>& bounds, uint32_t target_clusters) {

@@ -37,32 +37,52 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
   auto vertex = [&](uint32_t v) { return DVec3{pos[3 * size_t(v)], pos[3 * size_t(v) + 1], pos[3 * size_t(v) + 2]}; };
   std::vector<DVec3> corners(3 * n);
   for (size_t i = 0; i < corners.size(); ++i) corners[i] = vertex(input.corners[i]);
-  // Input triangles incident to each input vertex id: (vertex, triangle) sorted by vertex.
-  std::vector<std::pair<uint32_t, uint32_t>> incident(3 * n);
-  for (size_t i = 0; i < 3 * n; ++i) incident[i] = {input.corners[i], uint32_t(i / 3)};
+  // Per input triangle its bounding box: a point farther than the running maximum from the
+  // box is farther from the triangle, so the exact distance is not needed to reject it.
+  std::vector<DVec3> box(2 * n);
+  for (size_t t = 0; t < n; ++t) {
+    const DVec3* c = &corners[3 * t];
+    box[2 * t] = {std::min({c[0].x, c[1].x, c[2].x}), std::min({c[0].y, c[1].y, c[2].y}),
+                  std::min({c[0].z, c[1].z, c[2].z})};
+    box[2 * t + 1] = {std::max({c[0].x, c[1].x, c[2].x}), std::max({c[0].y, c[1].y, c[2].y}),
+                      std::max({c[0].z, c[1].z, c[2].z})};
+  }
+  // Input triangles incident to each input vertex id: vertex << 32 | triangle, sorted.
+  std::vector<uint64_t> incident(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) incident[i] = (uint64_t(input.corners[i]) << 32) | uint64_t(i / 3);
   std::sort(incident.begin(), incident.end());
 
-  auto tri_d2 = [&](DVec3 p, uint32_t t) {
+  // True iff triangle t is within `threshold` of p; `d` gets its squared distance or, when
+  // the box alone rejects it, the box's (a lower bound, only used to pick a search hint).
+  auto within = [&](DVec3 p, uint32_t t, double threshold, double& d) {
+    const DVec3 lo = box[2 * size_t(t)], hi = box[2 * size_t(t) + 1];
+    const double dx = std::max({lo.x - p.x, 0.0, p.x - hi.x}), dy = std::max({lo.y - p.y, 0.0, p.y - hi.y}),
+                 dz = std::max({lo.z - p.z, 0.0, p.z - hi.z});
+    d = dx * dx + dy * dy + dz * dz;
+    if (d > threshold) return false;
     const DVec3* c = &corners[3 * size_t(t)];
-    return point_triangle_distance_squared(p, c[0], c[1], c[2]);
+    return point_triangle_within_squared(p, c[0], c[1], c[2], threshold, &d);
   };
   TriangleDistanceTree tree;  // built on the first point that needs an exact search
   bool tree_built = false;
   double best2 = 0.0;
   uint32_t hint = 0;
-  // Candidate rings: input triangles incident to each corner of the simplified triangle.
-  std::vector<uint32_t> ring[3];
+  // Candidate rings: input triangles incident to each corner of the simplified triangle
+  // (ranges of `incident`; the triangle is the low 32 bits).
+  const uint64_t* ring_begin[3] = {};
+  const uint64_t* ring_end[3] = {};
 
   // `first_ring`: the corner nearest to p (its ring is tried first).
   auto visit = [&](DVec3 p, int first_ring) {
     const double threshold = std::max(best2, floor_d2);
-    double d = tri_d2(p, hint);
-    if (d <= threshold) return;
+    double d;
+    if (within(p, hint, threshold, d)) return;
     uint32_t nearest = hint;
     for (int r = 0; r < 3; ++r)
-      for (uint32_t t : ring[(first_ring + r) % 3]) {
-        double dt = tri_d2(p, t);
-        if (dt <= threshold) {
+      for (const uint64_t* it = ring_begin[(first_ring + r) % 3]; it != ring_end[(first_ring + r) % 3]; ++it) {
+        const uint32_t t = uint32_t(*it);
+        double dt;
+        if (within(p, t, threshold, dt)) {
           hint = t;
           return;
         }
@@ -79,13 +99,33 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
     if (exact > best2) best2 = exact;
   };
 
+  // Edges already sampled (open addressing over (i0 << 32 | i1), load ≤ 1/2): the points of
+  // an edge shared by two simplified triangles are bit-identical, so the second visit cannot
+  // change the maximum and is skipped.
+  size_t edge_slots = 16;
+  int edge_shift = 60;  // hash = top log2(edge_slots) bits of a multiplicative hash
+  while (edge_slots < 6 * simplified.triangle_count()) edge_slots <<= 1, --edge_shift;
+  std::vector<uint64_t> edge_seen(edge_slots, ~uint64_t(0));
+  auto first_visit = [&](uint64_t key) {
+    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> edge_shift);
+    while (edge_seen[h] != ~uint64_t(0)) {
+      if (edge_seen[h] == key) return false;
+      h = (h + 1) & (edge_slots - 1);
+    }
+    edge_seen[h] = key;
+    return true;
+  };
   const uint32_t s = kErrorLatticeSubdivisions ? kErrorLatticeSubdivisions : 1;
   for (size_t t = 0; t < simplified.triangle_count(); ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
     for (int j = 0; j < 3; ++j) {
-      ring[j].clear();
-      auto lo = std::lower_bound(incident.begin(), incident.end(), std::make_pair(tri[j], 0u));
-      for (auto it = lo; it != incident.end() && it->first == tri[j]; ++it) ring[j].push_back(it->second);
+      const uint64_t* lo =
+          incident.data() + (std::lower_bound(incident.begin(), incident.end(), uint64_t(tri[j]) << 32) - incident.begin());
+      const uint64_t* end = incident.data() + incident.size();
+      const uint64_t* hi = lo;
+      while (hi != end && (*hi >> 32) == tri[j]) ++hi;
+      ring_begin[j] = lo;
+      ring_end[j] = hi;
     }
     DVec3 a = vertex(tri[0]), b = vertex(tri[1]), c = vertex(tri[2]);
     // Corner points are skipped: a simplified corner is an input vertex (both backends only
@@ -94,11 +134,12 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
     // cannot raise a maximum that starts at 0. Edge and interior points have the coordinates
     // for_each_lattice_point computes (edges from the smaller vertex id), so every point is
     // bit-identical to the one lib/verify samples. Points of shared edges are visited once
-    // per triangle: repeats cannot change a maximum.
+    // (first_visit).
     for (int j = 0; j < 3; ++j) {
       const int k = (j + 1) % 3;
       const bool forward = tri[j] <= tri[k];
       uint32_t i0 = forward ? tri[j] : tri[k], i1 = forward ? tri[k] : tri[j];
+      if (!first_visit((uint64_t(i0) << 32) | i1)) continue;
       DVec3 e0 = vertex(i0), e1 = vertex(i1);
       for (uint32_t i = 1; i < s; ++i) {
         double f = double(i) / s;

@@ -31,14 +31,37 @@ size_t target_triangles(size_t n) { return std::max<size_t>(1, size_t(double(n) 
 SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group) {
   const Mesh& mesh = *welded.mesh;
   size_t n = group.triangle_count();
-  std::vector<uint64_t> keys(3 * n);
-  for (size_t i = 0; i < 3 * n; ++i) keys[i] = (uint64_t(group.corners[i]) << 32) | group.materials[i / 3];
-  std::vector<uint64_t> unique_keys = keys;
-  std::sort(unique_keys.begin(), unique_keys.end());
-  unique_keys.erase(std::unique(unique_keys.begin(), unique_keys.end()), unique_keys.end());
+  // Sub-mesh vertex = rank of its (vertex << 32 | material) key among the distinct keys
+  // (sorted, so the sub-mesh does not depend on corner order). Distinct keys via an open
+  // addressing table (load ≤ 1/2); slot_of[i] remembers each corner's slot.
+  size_t slots = 16;
+  int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
+  while (slots < 6 * n) slots <<= 1, --shift;
+  constexpr uint64_t kEmpty = ~uint64_t(0);  // vertex ids < 2^32 - 1, so never a key
+  std::vector<uint64_t> slot_key(slots, kEmpty);
+  std::vector<uint32_t> slot_of(3 * n);
+  std::vector<uint64_t> unique_keys;
+  std::vector<std::pair<uint64_t, uint32_t>> unique_slots;  // (key, slot)
+  unique_slots.reserve(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) {
+    const uint64_t key = (uint64_t(group.corners[i]) << 32) | group.materials[i / 3];
+    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+    while (slot_key[h] != kEmpty && slot_key[h] != key) h = (h + 1) & (slots - 1);
+    if (slot_key[h] == kEmpty) {
+      slot_key[h] = key;
+      unique_slots.push_back({key, uint32_t(h)});
+    }
+    slot_of[i] = uint32_t(h);
+  }
+  std::sort(unique_slots.begin(), unique_slots.end());
+  std::vector<uint32_t> rank_of_slot(slots);
+  unique_keys.resize(unique_slots.size());
+  for (size_t r = 0; r < unique_slots.size(); ++r) {
+    unique_keys[r] = unique_slots[r].first;
+    rank_of_slot[unique_slots[r].second] = uint32_t(r);
+  }
   std::vector<unsigned int> indices(3 * n);
-  for (size_t i = 0; i < 3 * n; ++i)
-    indices[i] = unsigned(std::lower_bound(unique_keys.begin(), unique_keys.end(), keys[i]) - unique_keys.begin());
+  for (size_t i = 0; i < 3 * n; ++i) indices[i] = rank_of_slot[slot_of[i]];
   std::vector<float> positions(3 * unique_keys.size());
   for (size_t v = 0; v < unique_keys.size(); ++v)
     std::memcpy(&positions[3 * v], &mesh.positions[3 * size_t(unique_keys[v] >> 32)], 12);
@@ -258,34 +281,38 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
 
 bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
                              const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
-  auto edges_of = [&](const TriangleSet& t, bool shared_only) {
-    std::vector<uint64_t> keys;
-    keys.reserve(t.corners.size());
-    for (size_t i = 0; i < t.triangle_count(); ++i)
-      for (int k = 0; k < 3; ++k) {
-        uint32_t a = welded.weld[t.corners[3 * i + k]], b = welded.weld[t.corners[3 * i + (k + 1) % 3]];
-        if (a == b) continue;
-        uint64_t key = edge_key(a, b);
-        if (shared_only && !(locked[a] && locked[b] && std::binary_search(shared_edges.begin(), shared_edges.end(), key)))
-          continue;
-        keys.push_back(key);
-      }
-    std::sort(keys.begin(), keys.end());
-    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-    return keys;
+  // Welded edges and vertices of `after` in one open addressing set (load ≤ 1/2): edges
+  // as edge_key(a, b) (a < b), vertices as (v << 32 | v), which no edge key equals.
+  const size_t n = after.triangle_count();
+  size_t slots = 16;
+  int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
+  while (slots < 12 * n) slots <<= 1, --shift;
+  constexpr uint64_t kEmpty = ~uint64_t(0);
+  std::vector<uint64_t> table(slots, kEmpty);
+  auto slot = [&](uint64_t key) {
+    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+    while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
+    return h;
   };
-  std::vector<uint64_t> required = edges_of(before, true);
-  std::vector<uint64_t> present = edges_of(after, false);
-  if (!std::includes(present.begin(), present.end(), required.begin(), required.end())) return false;
-  std::vector<uint32_t> before_locked, after_vertices;
-  for (uint32_t v : before.corners)
-    if (locked[welded.weld[v]]) before_locked.push_back(welded.weld[v]);
-  for (uint32_t v : after.corners) after_vertices.push_back(welded.weld[v]);
-  std::sort(before_locked.begin(), before_locked.end());
-  before_locked.erase(std::unique(before_locked.begin(), before_locked.end()), before_locked.end());
-  std::sort(after_vertices.begin(), after_vertices.end());
-  after_vertices.erase(std::unique(after_vertices.begin(), after_vertices.end()), after_vertices.end());
-  return std::includes(after_vertices.begin(), after_vertices.end(), before_locked.begin(), before_locked.end());
+  for (size_t i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) {
+      uint32_t a = welded.weld[after.corners[3 * i + k]], b = welded.weld[after.corners[3 * i + (k + 1) % 3]];
+      table[slot((uint64_t(a) << 32) | a)] = (uint64_t(a) << 32) | a;
+      if (a != b) table[slot(edge_key(a, b))] = edge_key(a, b);
+    }
+  auto present = [&](uint64_t key) { return table[slot(key)] == key; };
+  for (size_t i = 0; i < before.triangle_count(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      uint32_t a = welded.weld[before.corners[3 * i + k]], b = welded.weld[before.corners[3 * i + (k + 1) % 3]];
+      if (!locked[a]) continue;
+      // Every locked vertex of `before` is used by `after`.
+      if (!present((uint64_t(a) << 32) | a)) return false;
+      // Every shared edge of `before` (both ends locked) is an edge of `after`.
+      if (a == b || !locked[b]) continue;
+      uint64_t key = edge_key(a, b);
+      if (std::binary_search(shared_edges.begin(), shared_edges.end(), key) && !present(key)) return false;
+    }
+  return true;
 }
 
 }  // namespace vgeo::build_detail

@@ -38,19 +38,51 @@ double point_triangle_distance_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c) {
   return std::min({point_segment_d2(p, a, b), point_segment_d2(p, b, c), point_segment_d2(p, c, a)});
 }
 
+bool point_triangle_within_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c, double threshold, double* d2) {
+  // The steps of point_triangle_distance_squared, in the same order and precision.
+  DVec3 n = cross(sub(b, a), sub(c, a));
+  double nn = dot(n, n);
+  if (nn > 0) {
+    DVec3 ap = sub(p, a), bp = sub(p, b), cp = sub(p, c);
+    if (dot(cross(sub(b, a), ap), n) >= 0 && dot(cross(sub(c, b), bp), n) >= 0 &&
+        dot(cross(sub(a, c), cp), n) >= 0) {
+      double h = dot(n, ap);
+      *d2 = h * h / nn;
+      return *d2 <= threshold;
+    }
+  }
+  // min of the three segment distances ≤ threshold iff one of them is.
+  double d = point_segment_d2(p, a, b);
+  if (d <= threshold) return *d2 = d, true;
+  d = std::min(d, point_segment_d2(p, b, c));
+  if (d <= threshold) return *d2 = d, true;
+  d = std::min(d, point_segment_d2(p, c, a));
+  *d2 = d;
+  return d <= threshold;
+}
+
 TriangleDistanceTree::TriangleDistanceTree(std::vector<DVec3> corners) : corners_(std::move(corners)) {
   const uint32_t n = uint32_t(corners_.size() / 3);
   order_.resize(n);
   std::iota(order_.begin(), order_.end(), 0u);
-  centroids_.resize(n);
+  // Build-time only: per triangle its box (lo, hi) and centroid, by axis (x of all
+  // triangles, then y, then z) so the median split compares plain doubles.
+  std::vector<DVec3> tri_box(2 * size_t(n));
+  std::vector<double> centroids(3 * size_t(n));
   for (uint32_t t = 0; t < n; ++t) {
     const DVec3* c = &corners_[3 * size_t(t)];
-    centroids_[t] = {(c[0].x + c[1].x + c[2].x) / 3, (c[0].y + c[1].y + c[2].y) / 3, (c[0].z + c[1].z + c[2].z) / 3};
+    tri_box[2 * size_t(t)] = {std::min({c[0].x, c[1].x, c[2].x}), std::min({c[0].y, c[1].y, c[2].y}),
+                              std::min({c[0].z, c[1].z, c[2].z})};
+    tri_box[2 * size_t(t) + 1] = {std::max({c[0].x, c[1].x, c[2].x}), std::max({c[0].y, c[1].y, c[2].y}),
+                                  std::max({c[0].z, c[1].z, c[2].z})};
+    centroids[t] = (c[0].x + c[1].x + c[2].x) / 3;
+    centroids[n + size_t(t)] = (c[0].y + c[1].y + c[2].y) / 3;
+    centroids[2 * size_t(n) + t] = (c[0].z + c[1].z + c[2].z) / 3;
   }
   if (n) {
     nodes_.reserve(2 * size_t(n) / kLeafSize + 2);
     nodes_.resize(1);
-    build(0, 0, n);
+    build(0, 0, n, tri_box.data(), centroids.data());
   }
 }
 
@@ -68,20 +100,21 @@ static double box_d2(DVec3 p, DVec3 lo, DVec3 hi) {
 
 // Median splits keep the depth ≤ log2(n) + 1, so the query's fixed stack (2 entries per
 // level) cannot overflow.
-void TriangleDistanceTree::build(uint32_t index, uint32_t first, uint32_t last) {
+void TriangleDistanceTree::build(uint32_t index, uint32_t first, uint32_t last, const DVec3* tri_box,
+                                 const double* centroids) {
   Node nd;
   const double inf = std::numeric_limits<double>::infinity();
+  const size_t n = order_.size();
   nd.lo = {inf, inf, inf};
   nd.hi = {-inf, -inf, -inf};
   DVec3 clo = nd.lo, chi = nd.hi;
   for (uint32_t i = first; i < last; ++i) {
     uint32_t t = order_[i];
-    for (int j = 0; j < 3; ++j) {
-      const DVec3& q = corners_[3 * size_t(t) + j];
-      nd.lo = {std::min(nd.lo.x, q.x), std::min(nd.lo.y, q.y), std::min(nd.lo.z, q.z)};
-      nd.hi = {std::max(nd.hi.x, q.x), std::max(nd.hi.y, q.y), std::max(nd.hi.z, q.z)};
-    }
-    const DVec3& c = centroids_[t];
+    const DVec3& lo = tri_box[2 * size_t(t)];
+    const DVec3& hi = tri_box[2 * size_t(t) + 1];
+    nd.lo = {std::min(nd.lo.x, lo.x), std::min(nd.lo.y, lo.y), std::min(nd.lo.z, lo.z)};
+    nd.hi = {std::max(nd.hi.x, hi.x), std::max(nd.hi.y, hi.y), std::max(nd.hi.z, hi.z)};
+    const DVec3 c{centroids[t], centroids[n + t], centroids[2 * n + t]};
     clo = {std::min(clo.x, c.x), std::min(clo.y, c.y), std::min(clo.z, c.z)};
     chi = {std::max(chi.x, c.x), std::max(chi.y, c.y), std::max(chi.z, c.z)};
   }
@@ -93,11 +126,11 @@ void TriangleDistanceTree::build(uint32_t index, uint32_t first, uint32_t last) 
   }
   DVec3 ext = sub(chi, clo);
   int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
-  auto key = [&](uint32_t t) { return axis == 0 ? centroids_[t].x : axis == 1 ? centroids_[t].y : centroids_[t].z; };
+  const double* key = centroids + size_t(axis) * n;
   uint32_t mid = first + (last - first) / 2;
   // Ties broken by triangle index: the tree (and so every query) is deterministic.
-  std::nth_element(order_.begin() + first, order_.begin() + mid, order_.begin() + last, [&](uint32_t a, uint32_t b) {
-    double ka = key(a), kb = key(b);
+  std::nth_element(order_.begin() + first, order_.begin() + mid, order_.begin() + last, [key](uint32_t a, uint32_t b) {
+    double ka = key[a], kb = key[b];
     return ka < kb || (ka == kb && a < b);
   });
   uint32_t child = uint32_t(nodes_.size());
@@ -105,8 +138,8 @@ void TriangleDistanceTree::build(uint32_t index, uint32_t first, uint32_t last) 
   nd.count = 0;
   nodes_[index] = nd;
   nodes_.resize(nodes_.size() + 2);
-  build(child, first, mid);
-  build(child + 1, mid, last);
+  build(child, first, mid, tri_box, centroids);
+  build(child + 1, mid, last, tri_box, centroids);
 }
 
 double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) const {

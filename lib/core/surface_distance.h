@@ -28,6 +28,11 @@ struct DVec3 {
 // Exact-in-double squared distance from p to triangle abc (degenerate triangles: nearest edge).
 double point_triangle_distance_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c);
 
+// Same decision as `point_triangle_distance_squared(p, a, b, c) <= threshold`, bit-exactly,
+// but stops at the first edge within `threshold` when p projects outside the triangle.
+// `*d2` gets the exact squared distance when all of it was computed, else a value ≤ threshold.
+bool point_triangle_within_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c, double threshold, double* d2);
+
 // Nearest-triangle queries against a fixed triangle soup (median-split AABB tree, double).
 class TriangleDistanceTree {
  public:
@@ -43,10 +48,9 @@ class TriangleDistanceTree {
     DVec3 lo, hi;
     uint32_t first = 0, count = 0;  // leaf: order_[first, +count); inner: children first, first+1
   };
-  void build(uint32_t index, uint32_t first, uint32_t last);
+  void build(uint32_t index, uint32_t first, uint32_t last, const DVec3* tri_box, const double* centroids);
   double triangle_d2(DVec3 p, uint32_t t) const;
   std::vector<DVec3> corners_;
-  std::vector<DVec3> centroids_;
   std::vector<uint32_t> order_;
   std::vector<Node> nodes_;
 };

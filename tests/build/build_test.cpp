@@ -6,6 +6,7 @@
 #include "dag_checks.h"
 #include "support/shapes.h"
 #include "vgeo/build/build.h"
+#include "vgeo/build/build_internal.h"
 #include "vgeo/build/dag_io.h"
 #include "vgeo/core/error.h"
 
@@ -222,6 +223,47 @@ TEST(Build, ChunkedLeafClusteringKeepsPropertiesAndDeterminism) {
   b.meshes.push_back(build(m, Simplifier::kMeshopt, 3));
   expect_dag_properties(a.meshes[0], m.triangle_count());
   EXPECT_EQ(encode_dag_file(a), encode_dag_file(b));
+}
+
+TEST(Build, SpatialBlocksPartitionTheItems) {
+  // Every item in exactly one block, blocks within the limit, each block ascending.
+  std::vector<Vec3> centres;
+  for (int i = 0; i < 1000; ++i) centres.push_back({float(i % 7), float((i * 13) % 11), i % 3 == 0 ? 0.0f : 1.0f});
+  for (size_t limit : {size_t(1), size_t(5), size_t(64), size_t(999), size_t(5000)}) {
+    auto blocks = build_detail::spatial_blocks(centres, limit);
+    std::vector<int> seen(centres.size(), 0);
+    for (const auto& b : blocks) {
+      EXPECT_LE(b.size(), limit);
+      EXPECT_FALSE(b.empty());
+      EXPECT_TRUE(std::is_sorted(b.begin(), b.end()));
+      for (uint32_t i : b) ++seen[i];
+    }
+    for (int c : seen) EXPECT_EQ(c, 1);
+  }
+}
+
+TEST(Build, BlockedGroupingKeepsPropertiesAndDeterminism) {
+  // Tiny blocks (16 clusters) force the pipelined per-block grouping with cross-block
+  // locks on every level above one block: borders must stay sealed and the bytes must
+  // not depend on the thread count.
+  build_detail::InternalBuildOptions internal;
+  internal.group_block_clusters = 16;
+  for (Simplifier s : {Simplifier::kMeshopt, Simplifier::kOpenMesh}) {
+    Mesh m = make_sphere(48, 64);
+    BuildOptions o;
+    o.simplifier = s;
+    BuiltScene a, b;
+    o.threads = 1;
+    a.meshes.push_back(build_detail::build_dag_internal(m, o, internal, nullptr));
+    o.threads = 3;
+    BuildReport r;
+    b.meshes.push_back(build_detail::build_dag_internal(m, o, internal, &r));
+    expect_dag_properties(a.meshes[0], m.triangle_count());
+    expect_borders_preserved(a.meshes[0]);
+    EXPECT_EQ(encode_dag_file(a), encode_dag_file(b));
+    ASSERT_GT(r.levels.size(), 2u);
+    EXPECT_GT(r.levels[0].clusters, 2 * internal.group_block_clusters) << "several blocks at level 0";
+  }
 }
 
 }  // namespace

@@ -41,7 +41,9 @@ nlohmann::json report_json(const BuildReport& r) {
   j["root_clusters"] = r.root_clusters;
   j["root_triangles"] = r.root_triangles;
   j["seconds"] = {{"cluster", r.seconds_cluster}, {"group", r.seconds_group},     {"simplify", r.seconds_simplify},
-                  {"split", r.seconds_split},     {"hierarchy", r.seconds_hierarchy}, {"total", r.seconds_total}};
+                  {"split", r.seconds_split},     {"hierarchy", r.seconds_hierarchy}, {"total", r.seconds_total},
+                  {"prepare", r.seconds_prepare}, {"edges", r.seconds_edges},         {"locks", r.seconds_locks},
+                  {"error", r.seconds_error},     {"combine", r.seconds_combine},     {"layout", r.seconds_layout}};
   j["peak_memory_bytes"] = r.peak_memory_bytes;
   j["levels"] = nlohmann::json::array();
   for (const BuildLevelReport& l : r.levels)
