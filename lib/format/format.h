@@ -38,7 +38,12 @@ inline constexpr const char* kErrNonCanonical = "FORMAT_NON_CANONICAL";    // de
 inline constexpr const char* kErrEncode = "FORMAT_ENCODE";                 // encoder cannot represent the input
 
 // ---- limits (each justified in spec/format.md §Limits) ----
-inline constexpr uint32_t kFormatVersion = 1;
+inline constexpr uint32_t kFormatVersion = 2;     // written by default
+inline constexpr uint32_t kMinFormatVersion = 1;  // oldest version still decoded (and writable)
+// Version 2 metadata is compressed with the file's codec; a declared raw size above this
+// multiple of the stored size is rejected before allocating (measured metadata compresses
+// 2-4x; the encoder stores the metadata uncompressed rather than exceed the ratio).
+inline constexpr uint32_t kMaxMetadataRatio = 32;
 inline constexpr uint32_t kFileHeaderSize = 64;
 inline constexpr uint32_t kDefaultPageSize = 128u * 1024u;  // Nanite's page size
 inline constexpr uint32_t kMinPageSize = 16u * 1024u;       // > largest memory-form cluster (~6.2 KiB)
@@ -69,6 +74,7 @@ struct FormatOptions {
   int32_t uv_step_log2 = -12;       // UV grid step (1/4096: ~1 texel of a 4K texture)
   Compression compression = Compression::kZstd;
   int zstd_level = 19;
+  uint32_t version = kFormatVersion;  // kMinFormatVersion .. kFormatVersion
 };
 
 // Per-mesh quantization, stored in the metadata.
@@ -117,7 +123,8 @@ struct FormatContainer {
 // ---- size report ----
 struct ComponentBytes {
   double positions = 0, normals = 0, uvs = 0, topology = 0, materials = 0, cluster_headers = 0;
-  double total() const { return positions + normals + uvs + topology + materials + cluster_headers; }
+  double vertex_refs = 0;  // version 2 disk form: copies of earlier vertices of the page
+  double total() const { return positions + normals + uvs + topology + materials + cluster_headers + vertex_refs; }
 };
 struct PageFill {
   uint32_t mesh = 0, clusters = 0, memory_bytes = 0, slack_bytes = 0, raw_bytes = 0, stored_bytes = 0;
@@ -126,6 +133,8 @@ struct FormatReport {
   uint64_t triangles = 0, vertices = 0, clusters = 0;
   uint64_t wide_index_clusters = 0;  // clusters whose index offsets need > 5 bits
   uint64_t file_bytes = 0, metadata_bytes = 0, header_bytes = kFileHeaderSize;
+  uint64_t metadata_raw_bytes = 0;   // before compression (version 2)
+  uint64_t copied_vertices = 0;      // version 2 disk form: vertices stored as copies
   ComponentBytes memory;           // memory-form bytes (bit fields rounded per stream)
   ComponentBytes disk_raw;         // disk form before compression
   ComponentBytes disk_compressed;  // each component's streams compressed on their own (estimate)

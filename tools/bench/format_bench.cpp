@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -21,6 +22,9 @@
 
 #include "vgeo/build/build.h"
 #include "vgeo/build/cluster_dag.h"
+#include "vgeo/build/dag_io.h"
+#include "vgeo/core/error.h"
+#include "vgeo/mesh/generate.h"
 #include "vgeo/format/format.h"
 #include "vgeo/format/format_measure.h"
 
@@ -180,8 +184,26 @@ const Case* get_case(const std::string& full_name) {
   static std::map<std::string, std::unique_ptr<Case>> cache;
   auto& slot = cache[full_name];
   if (slot) return slot.get();
+  slot = std::make_unique<Case>();
+  // Built DAGs are cached next to the build (format changes do not rebuild them):
+  // build/format_bench_cache/<name>.vgeodag.
+  const std::string cache_path = source_dir() + "/build/format_bench_cache/" + name + (leaf ? "_leaf" : "") + ".vgeodag";
+  bool cached = false;
+  try {
+    slot->scene = read_dag_file(cache_path);
+    cached = !slot->scene.meshes.empty();
+  } catch (const VgeoError&) {
+  }
   Mesh m;
-  if (name == "sphere") {
+  if (cached) {
+  } else if (name == "gen10m") {
+    // 10M-triangle generated mesh (vgeo gen sphere --triangles 10000000 --seed 1).
+    GenerateOptions g;
+    g.shape = GenShape::kSphere;
+    g.target_triangles = 10'000'000;
+    g.threads = 2;
+    m = generate_mesh(g);
+  } else if (name == "sphere") {
     const uint32_t rings = 160, seg = 320;
     const double pi = 3.14159265358979323846;
     for (uint32_t r = 0; r <= rings; ++r)
@@ -197,18 +219,23 @@ const Case* get_case(const std::string& full_name) {
       }
   } else {
     m = load_off(source_dir() + "/data/cgal/meshes/" + name + ".off");
-    if (m.indices.empty()) return nullptr;
+    if (m.indices.empty()) return slot.reset(), nullptr;
   }
-  add_normals_and_uvs(m);
-  slot = std::make_unique<Case>();
-  if (leaf) {
-    slot->scene.meshes.push_back(leaf_dag(m));
-  } else {
-    BuildOptions bo;
-    bo.threads = 1;
-    slot->scene.meshes.push_back(build_dag(m, bo));
+  if (!cached) {
+    m.normals.clear();
+    m.uvs.clear();
+    add_normals_and_uvs(m);
+    if (leaf) {
+      slot->scene.meshes.push_back(leaf_dag(m));
+    } else {
+      BuildOptions bo;
+      bo.threads = name == "gen10m" ? 2 : 1;
+      slot->scene.meshes.push_back(build_dag(m, bo));
+    }
+    slot->scene.materials.resize(m.materials.empty() ? 1 : 2);  // gen: materials 0 and 1
+    std::filesystem::create_directories(source_dir() + "/build/format_bench_cache");
+    write_dag_file(cache_path, slot->scene);
   }
-  slot->scene.materials.push_back(Material{});
   FormatOptions o;
   slot->file = encode_format(slot->scene, o, &slot->report);
   slot->container = parse_container(slot->file.data(), slot->file.size(), name);
@@ -282,7 +309,7 @@ void BM_FormatDecodeClusters(benchmark::State& state, const std::string& name) {
   state.SetItemsProcessed(int64_t(state.iterations() * c->report.triangles));
 }
 
-const char* const kMeshes[] = {"armadillo", "refined_elephant", "fandisk_large", "sphere", "armadillo/leaf"};
+const char* const kMeshes[] = {"bunny00", "armadillo", "refined_elephant", "fandisk_large", "sphere", "gen10m", "armadillo/leaf"};
 const int kRegistered = [] {
   for (const char* m : kMeshes) {
     benchmark::RegisterBenchmark((std::string("BM_FormatSize/") + m).c_str(), BM_FormatSize, std::string(m))
