@@ -70,7 +70,8 @@ struct FormatOptions {
   // the mesh's largest axis extent ≤ 2^position_bits steps (and |q| ≤ kMaxQuantized).
   std::optional<int32_t> position_step_log2;
   uint32_t position_bits = 16;
-  uint32_t normal_bits = 10;        // per octahedral component, 1..kMaxNormalBits
+  // 9 bits: largest angular error 0.47° (spec/format.md §2, measured ≤ 0.466° on the CGAL meshes).
+  uint32_t normal_bits = 9;         // per octahedral component, 1..kMaxNormalBits
   int32_t uv_step_log2 = -12;       // UV grid step (1/4096: ~1 texel of a 4K texture)
   Compression compression = Compression::kZstd;
   int zstd_level = 19;
@@ -81,7 +82,7 @@ struct FormatOptions {
 struct MeshQuantization {
   int32_t position_step_log2 = 0;
   int32_t uv_step_log2 = -12;
-  uint32_t normal_bits = 10;
+  uint32_t normal_bits = 9;
   bool has_normals = false, has_uvs = false;
   uint32_t channel_count() const { return 3 + (has_normals ? 2 : 0) + (has_uvs ? 2 : 0); }
 };

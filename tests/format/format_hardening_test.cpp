@@ -17,10 +17,12 @@ namespace {
 
 using test::error_code_of;
 
-std::vector<uint8_t> small_file(Compression c = Compression::kZstd, uint32_t rings = 6) {
+std::vector<uint8_t> small_file(Compression c = Compression::kZstd, uint32_t rings = 6,
+                                uint32_t version = kFormatVersion) {
   FormatOptions o;
   o.compression = c;
   o.zstd_level = 3;
+  o.version = version;
   return encode_format(test::scene_of({test::make_leaf_dag(test::make_sphere(rings, 2 * rings))}), o);
 }
 
@@ -37,8 +39,9 @@ std::string decode_code(const std::vector<uint8_t>& f) {
 TEST(FormatHardening, ValidFileDecodes) { EXPECT_EQ(decode_code(small_file()), "OK"); }
 
 TEST(FormatHardening, EveryPrefixTruncationIsRejectedAsTruncated) {
+  for (uint32_t version : {kMinFormatVersion, kFormatVersion})
   for (Compression c : {Compression::kNone, Compression::kZstd, Compression::kLz4}) {
-    const std::vector<uint8_t> f = small_file(c);
+    const std::vector<uint8_t> f = small_file(c, 6, version);
     for (size_t n = 0; n < f.size(); ++n) {
       const std::vector<uint8_t> cut(f.begin(), f.begin() + long(n));
       ASSERT_EQ(decode_code(cut), kErrTruncated) << "prefix " << n << " of " << f.size();
@@ -47,8 +50,9 @@ TEST(FormatHardening, EveryPrefixTruncationIsRejectedAsTruncated) {
 }
 
 TEST(FormatHardening, OneByteExtensionIsRejectedAsTrailing) {
+  for (uint32_t version : {kMinFormatVersion, kFormatVersion})
   for (uint8_t extra : {0x00, 0xFF}) {
-    std::vector<uint8_t> f = small_file();
+    std::vector<uint8_t> f = small_file(Compression::kZstd, 6, version);
     f.push_back(extra);
     EXPECT_EQ(decode_code(f), kErrTrailingBytes);
   }
@@ -70,7 +74,8 @@ TEST(FormatHardening, PageTruncationAndExtensionRejected) {
 }
 
 TEST(FormatHardening, RawDiskPageTruncationAndExtensionRejected) {
-  const std::vector<uint8_t> f = small_file(Compression::kNone, 12);
+  for (uint32_t version : {kMinFormatVersion, kFormatVersion}) {
+  const std::vector<uint8_t> f = small_file(Compression::kNone, 12, version);
   const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
   const PageEntry& e = fc.pages[0];
   std::vector<uint8_t> raw(f.begin() + long(e.file_offset), f.begin() + long(e.file_offset + e.stored_size));
@@ -84,6 +89,7 @@ TEST(FormatHardening, RawDiskPageTruncationAndExtensionRejected) {
   raw.push_back(0);
   EXPECT_EQ(error_code_of([&] { format_detail::parse_disk_page(raw.data(), raw.size(), q, e.cluster_count, sink, "t", fc.version); }),
             kErrTrailingBytes);
+  }
 }
 
 TEST(FormatHardening, MemoryPageTruncationAndExtensionRejected) {

@@ -54,6 +54,7 @@ std::vector<Vector> make_vectors(uint32_t version) {
   FormatOptions zstd;
   zstd.zstd_level = 9;
   zstd.version = version;
+  if (version == 1) zstd.normal_bits = 10;  // the version 1 default: the v1_ files stay as first written
   FormatOptions none = zstd, lz4 = zstd;
   none.compression = Compression::kNone;
   lz4.compression = Compression::kLz4;

@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -178,6 +179,17 @@ struct Case {
   FormatContainer container;
 };
 
+// Defaults, or overrides for experiments: VGEO_FORMAT_POSITION_BITS, VGEO_FORMAT_NORMAL_BITS,
+// VGEO_FORMAT_UV_STEP_LOG2, VGEO_FORMAT_VERSION.
+FormatOptions bench_options() {
+  FormatOptions o;
+  if (const char* e = std::getenv("VGEO_FORMAT_POSITION_BITS")) o.position_bits = uint32_t(std::atoi(e));
+  if (const char* e = std::getenv("VGEO_FORMAT_NORMAL_BITS")) o.normal_bits = uint32_t(std::atoi(e));
+  if (const char* e = std::getenv("VGEO_FORMAT_UV_STEP_LOG2")) o.uv_step_log2 = std::atoi(e);
+  if (const char* e = std::getenv("VGEO_FORMAT_VERSION")) o.version = uint32_t(std::atoi(e));
+  return o;
+}
+
 const Case* get_case(const std::string& full_name) {
   const bool leaf = full_name.size() > 5 && full_name.substr(full_name.size() - 5) == "/leaf";
   const std::string name = leaf ? full_name.substr(0, full_name.size() - 5) : full_name;
@@ -236,7 +248,7 @@ const Case* get_case(const std::string& full_name) {
     std::filesystem::create_directories(source_dir() + "/build/format_bench_cache");
     write_dag_file(cache_path, slot->scene);
   }
-  FormatOptions o;
+  FormatOptions o = bench_options();
   slot->file = encode_format(slot->scene, o, &slot->report);
   slot->container = parse_container(slot->file.data(), slot->file.size(), name);
   return slot.get();
@@ -246,7 +258,7 @@ void BM_FormatSize(benchmark::State& state, const std::string& name) {
   const Case* c = get_case(name);
   if (!c) return state.SkipWithError(("missing data/cgal/meshes/" + name + ".off (tools/fetch-data)").c_str());
   MeshoptBaseline base;
-  for (auto _ : state) base = measure_meshopt_baseline(c->scene, c->file, FormatOptions{});
+  for (auto _ : state) base = measure_meshopt_baseline(c->scene, c->file, bench_options());
   const FormatReport& r = c->report;
   const double t = double(r.triangles);
   auto& k = state.counters;
@@ -265,7 +277,35 @@ void BM_FormatSize(benchmark::State& state, const std::string& name) {
   k["mem_uv_B/tri"] = r.memory.uvs / t;
   k["mem_topo_bits/tri"] = 8 * r.memory.topology / t;
   k["mem_hdr_B/tri"] = (r.memory.cluster_headers + r.memory.materials) / t;
+  k["disk_vref_B/tri"] = r.disk_compressed.vertex_refs / t;
+  k["copied_vtx_%"] = 100.0 * double(r.copied_vertices) / double(r.vertices);
+  k["meta_raw_B/tri"] = double(r.metadata_raw_bytes) / t;
   k["wide_idx_%"] = 100.0 * double(r.wide_index_clusters) / double(r.clusters);
+  // Quantization error (spec/format.md §2): position √3/2·step in units of the finest
+  // non-zero LOD error of the DAG, largest normal angle, UV half step.
+  const MeshQuantization& q = c->container.meshes[0].quantization;
+  const ClusterDag& dag = c->scene.meshes[0];
+  double finest = INFINITY;
+  for (const DagGroup& g : dag.groups)
+    if (g.parent_error > 0 && std::isfinite(g.parent_error)) finest = std::min(finest, double(g.parent_error));
+  const double step = std::ldexp(1.0, q.position_step_log2);
+  k["pos_step_log2"] = q.position_step_log2;
+  k["pos_err/finest_lod_err"] = 0.8660254 * step / finest;
+  double worst = 0;
+  for (size_t v = 0; v < dag.normals.size() / 3; ++v) {
+    const float* n = &dag.normals[3 * v];
+    uint32_t o[2];
+    float d[3];
+    octahedral_encode(n, q.normal_bits, o);
+    octahedral_decode(o, q.normal_bits, d);
+    const double l = std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
+    if (l == 0) continue;
+    const double cosang = std::clamp((double(n[0]) * d[0] + double(n[1]) * d[1] + double(n[2]) * d[2]) / l, -1.0, 1.0);
+    worst = std::max(worst, std::acos(cosang) * 180.0 / 3.14159265358979323846);
+  }
+  k["nrm_bits"] = q.normal_bits;
+  k["nrm_max_err_deg"] = worst;
+  k["uv_step_log2"] = q.uv_step_log2;
   k["verts/tri"] = double(r.vertices) / t;
   double slack = 0;
   for (const PageFill& p : r.pages) slack += p.slack_bytes;
