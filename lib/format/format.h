@@ -71,7 +71,9 @@ struct FormatOptions {
   std::optional<int32_t> position_step_log2;
   uint32_t position_bits = 16;
   // 9 bits: largest angular error 0.47° (spec/format.md §2, measured ≤ 0.466° on the CGAL meshes).
-  uint32_t normal_bits = 9;         // per octahedral component, 1..kMaxNormalBits
+  // Per octahedral component, 1..kMaxNormalBits. 9: largest angular error < 0.5°
+  // (spec/format.md §2; version 1's default was 10).
+  uint32_t normal_bits = 9;
   int32_t uv_step_log2 = -12;       // UV grid step (1/4096: ~1 texel of a 4K texture)
   Compression compression = Compression::kZstd;
   int zstd_level = 19;
