@@ -694,9 +694,9 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
   for (size_t i = 0; i < clusters.size(); ++i) {
     pred_store[i].assign(3 * kMaxClusterVertices, 0);
     has_store[i].assign(kMaxClusterVertices, 0);
-    bool has[kMaxClusterVertices];
+    bool has[kMaxClusterVertices];  // strip_predictors fills the first vertex_count entries
     strip_predictors(*clusters[i], reinterpret_cast<uint8_t(*)[3]>(pred_store[i].data()), has);
-    for (uint32_t v = 0; v < kMaxClusterVertices; ++v) has_store[i][v] = has[v] ? 1 : 0;
+    for (uint32_t v = 0; v < clusters[i]->vertex_count; ++v) has_store[i][v] = has[v] ? 1 : 0;
   }
   std::vector<uint32_t> z;
   for (uint32_t k = 0; k < channels; ++k) {
