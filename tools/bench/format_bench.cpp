@@ -285,12 +285,18 @@ void BM_FormatSize(benchmark::State& state, const std::string& name) {
   // non-zero LOD error of the DAG, largest normal angle, UV half step.
   const MeshQuantization& q = c->container.meshes[0].quantization;
   const ClusterDag& dag = c->scene.meshes[0];
-  double finest = INFINITY;
+  // Finest LOD errors: the parent_error of the leaf (level 0) groups, i.e. the error of the
+  // first simplification; smallest non-zero and median.
+  std::vector<double> leaf_errors;
   for (const DagGroup& g : dag.groups)
-    if (g.parent_error > 0 && std::isfinite(g.parent_error)) finest = std::min(finest, double(g.parent_error));
+    if (g.level == 0 && g.parent_error > 0 && std::isfinite(g.parent_error)) leaf_errors.push_back(g.parent_error);
+  std::sort(leaf_errors.begin(), leaf_errors.end());
+  const double finest = leaf_errors.empty() ? INFINITY : leaf_errors.front();
+  const double median = leaf_errors.empty() ? INFINITY : leaf_errors[leaf_errors.size() / 2];
   const double step = std::ldexp(1.0, q.position_step_log2);
   k["pos_step_log2"] = q.position_step_log2;
   k["pos_err/finest_lod_err"] = 0.8660254 * step / finest;
+  k["pos_err/median_leaf_err"] = 0.8660254 * step / median;
   double worst = 0;
   for (size_t v = 0; v < dag.normals.size() / 3; ++v) {
     const float* n = &dag.normals[3 * v];
