@@ -167,6 +167,20 @@ int32_t choose_position_step(const ClusterDag& dag, const FormatOptions& o) {
   while (e < kMaxStepLog2 && (std::ldexp(extent, -e) > std::ldexp(1.0, int(o.position_bits)) ||
                               std::ldexp(max_abs, -e) > double(kMaxQuantized - 1)))
     ++e;
+  if (!o.position_step_from_lod_error) return e;
+  // Refine while √3/2·step exceeds the median first-simplification error (level-0 groups):
+  // quantization then moves vertices less than the DAG's typical finest LOD error.
+  std::vector<float> leaf_errors;
+  for (const DagGroup& g : dag.groups)
+    if (g.level == 0 && g.parent_error > 0 && std::isfinite(g.parent_error)) leaf_errors.push_back(g.parent_error);
+  if (leaf_errors.empty()) return e;
+  std::nth_element(leaf_errors.begin(), leaf_errors.begin() + long(leaf_errors.size() / 2), leaf_errors.end());
+  const double median = leaf_errors[leaf_errors.size() / 2];
+  const uint32_t max_bits = std::max(o.position_bits, kMaxAutoPositionBits);
+  while (e > kMinStepLog2 && kQuantRadiusSlack * std::ldexp(1.0, e) > median &&
+         std::ldexp(extent, -(e - 1)) <= std::ldexp(1.0, int(max_bits)) &&
+         std::ldexp(max_abs, -(e - 1)) <= double(kMaxQuantized - 1))
+    --e;
   return e;
 }
 

@@ -60,6 +60,9 @@ inline constexpr uint32_t kMaxNameBytes = 4096;                 // material name
 // (Nanite's span of 32) when the canonical order allows, up to 8 bits (any span of a
 // 255-vertex cluster) otherwise; see spec/format.md §4.
 inline constexpr uint32_t kNaniteIndexOffsetBits = 5;
+// Finest automatic position grid: 2^20 steps over the extent (4 bits per axis beyond the
+// default 16) bounds what the LOD-error refinement of the grid may cost.
+inline constexpr uint32_t kMaxAutoPositionBits = 20;
 inline constexpr uint32_t kMaxIndexOffsetBits = 8;
 
 enum class Compression : uint32_t { kNone = 0, kZstd = 1, kLz4 = 2 };
@@ -67,9 +70,14 @@ enum class Compression : uint32_t { kNone = 0, kZstd = 1, kLz4 = 2 };
 struct FormatOptions {
   uint32_t page_size = kDefaultPageSize;  // power of two in [kMinPageSize, kMaxPageSize]
   // Position grid: step 2^position_step_log2 if set, else the smallest power of two with
-  // the mesh's largest axis extent ≤ 2^position_bits steps (and |q| ≤ kMaxQuantized).
+  // the mesh's largest axis extent ≤ 2^position_bits steps (and |q| ≤ kMaxQuantized),
+  // then, if position_step_from_lod_error, halved while the quantization displacement
+  // √3/2·step exceeds the median parent_error of the DAG's level-0 groups (the typical
+  // error of its first simplification), up to kMaxAutoPositionBits over the extent
+  // (spec/format.md §2).
   std::optional<int32_t> position_step_log2;
   uint32_t position_bits = 16;
+  bool position_step_from_lod_error = true;
   // 9 bits: largest angular error 0.47° (spec/format.md §2, measured ≤ 0.466° on the CGAL meshes).
   // Per octahedral component, 1..kMaxNormalBits. 9: largest angular error < 0.5°
   // (spec/format.md §2; version 1's default was 10).

@@ -143,6 +143,33 @@ TEST(FormatRoundTrip, VersionsDecodeIdenticallyAndV2CopiesSharedVertices) {
               transcode_page(c2, p, f2.data() + c2.pages[p].file_offset, c2.pages[p].stored_size, "v2"));
 }
 
+// Default position grid (spec/format.md §2): extent ≤ 2^16 steps, then refined until
+// √3/2·step ≤ the median parent_error of the level-0 groups, never beyond 2^20 steps.
+TEST(FormatRoundTrip, PositionGridFollowsMedianLeafErrorWithinCap) {
+  const ClusterDag base = test::make_two_level_dag(test::make_grid(24, 2.0f), test::make_grid(8, 2.0f));
+  auto step_log2 = [&](float leaf_error, bool refine) {
+    ClusterDag d = base;
+    for (DagGroup& g : d.groups)
+      if (g.level == 0) g.parent_error = leaf_error;
+    for (DagCluster& c : d.clusters)
+      if (c.level == 0) c.parent_error = leaf_error;
+      else if (c.generating_group != kNone) c.lod_error = leaf_error;
+    for (DagGroup& g : d.groups)
+      if (g.level > 0) g.parent_error = std::max(g.parent_error, leaf_error);
+    FormatOptions o;
+    o.zstd_level = 1;
+    o.position_step_from_lod_error = refine;
+    const std::vector<uint8_t> f = encode_format(test::scene_of({d}), o);
+    return parse_container(f.data(), f.size(), "<test>").meshes[0].quantization.position_step_log2;
+  };
+  const int32_t extent_rule = step_log2(1.0f, false);  // grid extent 2: step 2^-15
+  EXPECT_EQ(extent_rule, -15);
+  EXPECT_EQ(step_log2(1.0f, true), extent_rule);          // coarse errors: no refinement
+  const int32_t refined = step_log2(1e-5f, true);         // √3/2·2^-17 ≈ 6.6e-6 ≤ 1e-5 < √3/2·2^-16
+  EXPECT_EQ(refined, -17);
+  EXPECT_EQ(step_log2(1e-12f, true), extent_rule - 4);    // capped at 2^20 steps over the extent
+}
+
 RC_GTEST_PROP(FormatRoundTrip, RandomDagsRoundTripExactly, ()) {
   const uint32_t seed = *rc::gen::arbitrary<uint32_t>();
   const uint32_t clusters = *rc::gen::inRange(1, 12);
