@@ -60,8 +60,9 @@ inline void container_entry(const uint8_t* data, size_t size) {
   }
 }
 
-// Raw disk page (after decompression) → memory form; byte 0: mesh flags, byte 1: normal
-// bits, the rest is the page. An accepted page must yield a valid memory page.
+// Raw disk page (after decompression) → memory form; byte 0: mesh flags (bit 0 normals,
+// bit 1 UVs, bit 2 set: page format version 2, else 1), byte 1: normal bits, the rest is
+// the page. An accepted page must yield a valid memory page.
 inline void page_transcode_entry(const uint8_t* data, size_t size) {
   if (size < 2) return;
   const MeshQuantization q = quantization_from(data[0], data[1]);
@@ -76,7 +77,8 @@ inline void page_transcode_entry(const uint8_t* data, size_t size) {
     };
     if (declared > (1u << 16)) return;  // the page table bounds this in real files
     Sink sink(declared);
-    format_detail::parse_disk_page(page.data(), page.size(), q, declared, sink, "<fuzz>");
+    const uint32_t version = (data[0] & 4) ? 2 : 1;
+    format_detail::parse_disk_page(page.data(), page.size(), q, declared, sink, "<fuzz>", version);
     const std::vector<uint32_t> words = sink.b.finish();
     try {
       validate_memory_page(words.data(), words.size(), q, "<fuzz>");
@@ -163,6 +165,7 @@ inline void roundtrip_entry(const uint8_t* data, size_t size) {
   o.normal_bits = in.range(1, kMaxNormalBits);
   o.zstd_level = 1;
   o.page_size = kMinPageSize;
+  o.version = in.u8() & 1 ? kMinFormatVersion : kFormatVersion;
   if (in.u8() & 1) o.position_step_log2 = int32_t(in.range(0, 12)) - 8;
   std::vector<uint8_t> f;
   try {

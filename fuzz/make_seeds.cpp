@@ -1,6 +1,6 @@
 // Writes seed corpora for the format fuzz targets from small meshes:
 //   fuzz_make_seeds OUT_DIR  →  OUT_DIR/{container,page_transcode,memory_decode,roundtrip}/*
-// Files: whole encoded files (every compression, with/without normals and UVs), their raw
+// Files: whole encoded files (versions 1 and 2, every compression, with/without normals and UVs), their raw
 // disk pages and memory pages (prefixed with the two quantization bytes the page targets
 // read first), and a few byte strings for the round-trip target.
 #include <filesystem>
@@ -33,16 +33,20 @@ int main(int argc, char** argv) {
       if (!(attrs & 2)) m.uvs.clear();
       if ((attrs & 2) && m.uvs.empty()) continue;
       const BuiltScene s = test::scene_of({test::make_leaf_dag(m, 2)});
+      for (uint32_t version : {kMinFormatVersion, kFormatVersion})
       for (Compression c : {Compression::kNone, Compression::kZstd, Compression::kLz4}) {
         FormatOptions o;
         o.compression = c;
         o.page_size = kMinPageSize;
+        o.version = version;
         const std::vector<uint8_t> f = encode_format(s, o);
         write(out / "container" / ("file" + std::to_string(n++)), f);
         if (c != Compression::kNone) continue;
         const FormatContainer fc = parse_container(f.data(), f.size(), "seed");
         const MeshQuantization& q = fc.meshes[0].quantization;
-        const uint8_t flags = uint8_t((q.has_normals ? 1 : 0) | (q.has_uvs ? 2 : 0)), nbits = uint8_t(q.normal_bits - 1);
+        // Byte 0 bit 2: page format version 2 (fuzz/format_entries.h).
+        const uint8_t flags = uint8_t((q.has_normals ? 1 : 0) | (q.has_uvs ? 2 : 0) | (version >= 2 ? 4 : 0)),
+                      nbits = uint8_t(q.normal_bits - 1);
         for (uint32_t p = 0; p < fc.pages.size(); ++p) {
           const PageEntry& e = fc.pages[p];
           std::vector<uint8_t> raw = {flags, nbits};

@@ -167,6 +167,20 @@ int32_t choose_position_step(const ClusterDag& dag, const FormatOptions& o) {
   while (e < kMaxStepLog2 && (std::ldexp(extent, -e) > std::ldexp(1.0, int(o.position_bits)) ||
                               std::ldexp(max_abs, -e) > double(kMaxQuantized - 1)))
     ++e;
+  if (!o.position_step_from_lod_error) return e;
+  // Refine while √3/2·step exceeds the median first-simplification error (level-0 groups):
+  // quantization then moves vertices less than the DAG's typical finest LOD error.
+  std::vector<float> leaf_errors;
+  for (const DagGroup& g : dag.groups)
+    if (g.level == 0 && g.parent_error > 0 && std::isfinite(g.parent_error)) leaf_errors.push_back(g.parent_error);
+  if (leaf_errors.empty()) return e;
+  std::nth_element(leaf_errors.begin(), leaf_errors.begin() + long(leaf_errors.size() / 2), leaf_errors.end());
+  const double median = leaf_errors[leaf_errors.size() / 2];
+  const uint32_t max_bits = std::max(o.position_bits, kMaxAutoPositionBits);
+  while (e > kMinStepLog2 && kQuantRadiusSlack * std::ldexp(1.0, e) > median &&
+         std::ldexp(extent, -(e - 1)) <= std::ldexp(1.0, int(max_bits)) &&
+         std::ldexp(max_abs, -(e - 1)) <= double(kMaxQuantized - 1))
+    --e;
   return e;
 }
 
@@ -180,6 +194,21 @@ void check_options(const FormatOptions& o) {
     encode_fail("position step outside 2^-40..2^40");
   if (o.compression != Compression::kNone && o.compression != Compression::kZstd && o.compression != Compression::kLz4)
     encode_fail("unknown compression");
+  if (o.version < kMinFormatVersion || o.version > kFormatVersion) encode_fail("unsupported format version");
+}
+
+// Version 2 stores every array of fixed-size metadata records byte-transposed (byte j of
+// record i at j·n + i): equal and slowly varying fields line up for the compressor.
+void put_records(Writer& meta, const Writer& records, uint32_t record_size, uint32_t version) {
+  assert(records.b.size() % record_size == 0);
+  if (version < 2) {
+    meta.b.insert(meta.b.end(), records.b.begin(), records.b.end());
+    return;
+  }
+  const size_t n = records.b.size() / record_size, at = meta.b.size();
+  meta.b.resize(at + records.b.size());
+  for (size_t i = 0; i < n; ++i)
+    for (uint32_t j = 0; j < record_size; ++j) meta.b[at + j * n + i] = records.b[i * record_size + j];
 }
 
 void write_cluster(Writer& w, const DagCluster& c) {
@@ -314,10 +343,14 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
     for (float c : m.base_color) meta.f32(c);
   }
   meta.u32(uint32_t(scene.instances.size()));
-  for (const Instance& in : scene.instances) {
-    if (in.mesh >= scene.meshes.size()) encode_fail("instance refers to a missing mesh");
-    meta.u32(in.mesh);
-    for (float t : in.transform) meta.f32(t);
+  {
+    Writer recs;
+    for (const Instance& in : scene.instances) {
+      if (in.mesh >= scene.meshes.size()) encode_fail("instance refers to a missing mesh");
+      recs.u32(in.mesh);
+      for (float t : in.transform) recs.f32(t);
+    }
+    put_records(meta, recs, kInstanceBytes, o.version);
   }
   meta.u32(uint32_t(scene.meshes.size()));
 
@@ -392,9 +425,9 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
       p.mesh = mi;
       p.clusters = uint32_t(cur.size());
       DiskStreams streams;
-      const std::vector<uint8_t> raw = encode_disk_page(cur, q, report ? &streams : nullptr);
+      const std::vector<uint8_t> raw = encode_disk_page(cur, q, o.version, report ? &streams : nullptr);
       const std::vector<uint32_t> mem = encode_memory_page(cur, q);
-      assert(raw.size() == cur_raw && mem.size() * 4 == cur_mem);
+      assert((o.version == 1 ? raw.size() == cur_raw : raw.size() <= cur_raw) && mem.size() * 4 == cur_mem);
       p.raw = uint32_t(raw.size());
       p.memory = uint32_t(mem.size() * 4);
       p.stored = compress(raw, o.compression, o.zstd_level);
@@ -411,6 +444,8 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
         add(&rep.disk_raw.positions, &rep.disk_compressed.positions, streams.positions);
         add(&rep.disk_raw.normals, &rep.disk_compressed.normals, streams.normals);
         add(&rep.disk_raw.uvs, &rep.disk_compressed.uvs, streams.uvs);
+        add(&rep.disk_raw.vertex_refs, &rep.disk_compressed.vertex_refs, streams.vertex_refs);
+        rep.copied_vertices += streams.copies;
         for (const auto* c : cur) add_memory_sizes(*c, q, &rep.memory);
         rep.memory.cluster_headers += 4;
       }
@@ -420,7 +455,7 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
     };
     for (uint32_t c : slots) {
       const uint64_t m = 4ull * memory_cluster_words(canon[c], q.channel_count());
-      const uint64_t r = disk_cluster_bytes(canon[c], q.channel_count());
+      const uint64_t r = disk_cluster_bytes(canon[c], q.channel_count(), o.version);
       if (!cur.empty() && (cur_mem + m > o.page_size || cur_raw + r > max_raw)) flush();
       assert(cur_mem + m <= o.page_size && cur_raw + r <= max_raw);
       cur.push_back(&canon[c]);
@@ -455,41 +490,72 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
     meta.u32(uint32_t(dag.bvh_nodes.size()));
     meta.u32(first_page);
     meta.u32(uint32_t(pages.size()) - first_page);
-    for (const DagCluster& c : stored.clusters) write_cluster(meta, c);
-    for (const DagGroup& g : stored.groups) write_group(meta, g);
-    for (uint32_t id : dag.generated_clusters) meta.u32(id);
+    Writer recs;
+    for (const DagCluster& c : stored.clusters) write_cluster(recs, c);
+    put_records(meta, recs, kClusterBytes, o.version);
+    recs.b.clear();
+    for (const DagGroup& g : stored.groups) write_group(recs, g);
+    put_records(meta, recs, kGroupBytes, o.version);
+    recs.b.clear();
+    for (uint32_t id : dag.generated_clusters) recs.u32(id);
+    put_records(meta, recs, 4, o.version);
+    recs.b.clear();
     for (const BvhNode& n : stored.bvh_nodes) {
       if (n.child_count > kBvhMaxChildren) encode_fail("BVH node with more than 8 children");
-      write_node(meta, n);
+      write_node(recs, n);
     }
-    for (uint32_t c : slots) meta.u32(c);
+    put_records(meta, recs, kBvhNodeBytes, o.version);
+    recs.b.clear();
+    for (uint32_t c : slots) recs.u32(c);
+    put_records(meta, recs, 4, o.version);
   }
   meta.u32(uint32_t(pages.size()));
-  for (const PageOut& p : pages) {
-    meta.u32(p.mesh); meta.u32(uint32_t(p.stored.size())); meta.u32(p.raw); meta.u32(p.memory);
-    meta.u32(p.clusters); meta.u32(p.crc);
+  {
+    Writer recs;
+    for (const PageOut& p : pages) {
+      recs.u32(p.mesh); recs.u32(uint32_t(p.stored.size())); recs.u32(p.raw); recs.u32(p.memory);
+      recs.u32(p.clusters); recs.u32(p.crc);
+    }
+    put_records(meta, recs, kPageEntryBytes, o.version);
   }
+  // Version 2: the metadata is compressed with the file's codec unless that would exceed
+  // kMaxMetadataRatio (then it is stored as is, metadata_compression 0).
+  const uint64_t meta_raw_size = meta.b.size();
+  Compression meta_comp = Compression::kNone;
+  std::vector<uint8_t> meta_stored;
+  if (o.version >= 2 && o.compression != Compression::kNone) {
+    meta_stored = compress(meta.b, o.compression, o.zstd_level);
+    if (meta_stored.size() < meta.b.size() && meta_stored.size() * uint64_t(kMaxMetadataRatio) >= meta.b.size())
+      meta_comp = o.compression;
+  }
+  if (meta_comp == Compression::kNone) meta_stored = meta.b;
+  if (meta_stored.size() > UINT32_MAX || meta_raw_size > UINT32_MAX) encode_fail("metadata larger than 4 GiB");
 
   Writer file;
   file.b.insert(file.b.end(), kMagic, kMagic + 8);
-  file.u32(kFormatVersion);
+  file.u32(o.version);
   file.u32(kFileHeaderSize);
-  uint64_t total = kFileHeaderSize + meta.b.size();
+  uint64_t total = kFileHeaderSize + meta_stored.size();
   for (const PageOut& p : pages) total += p.stored.size();
   file.u64(total);
   file.u32(uint32_t(o.compression));
   file.u32(o.page_size);
   file.u32(uint32_t(pages.size()));
-  file.u32(uint32_t(meta.b.size()));
-  file.u32(crc32c(meta.b.data(), meta.b.size()));
+  file.u32(uint32_t(meta_stored.size()));
+  file.u32(crc32c(meta_stored.data(), meta_stored.size()));
+  if (o.version >= 2) {
+    file.u32(uint32_t(meta_raw_size));
+    file.u32(uint32_t(meta_comp));
+  }
   while (file.b.size() < kFileHeaderSize - 4) file.b.push_back(0);  // reserved, zero
   file.u32(crc32c(file.b.data(), kFileHeaderSize - 4));
-  file.b.insert(file.b.end(), meta.b.begin(), meta.b.end());
+  file.b.insert(file.b.end(), meta_stored.begin(), meta_stored.end());
   for (const PageOut& p : pages) file.b.insert(file.b.end(), p.stored.begin(), p.stored.end());
   assert(file.b.size() == total);
   if (report) {
     rep.file_bytes = total;
-    rep.metadata_bytes = meta.b.size();
+    rep.metadata_bytes = meta_stored.size();
+    rep.metadata_raw_bytes = meta_raw_size;
     for (const PageOut& p : pages) rep.pages_stored_bytes += p.stored.size();
     *report = std::move(rep);
   }
@@ -504,7 +570,9 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
   if (size < kFileHeaderSize) fail(kErrTruncated, where, "shorter than the 64-byte header");
   FormatContainer fc;
   fc.version = read_le32(data + 8);
-  if (fc.version != kFormatVersion) fail(kErrBadVersion, where, "version " + std::to_string(fc.version) + " (supported: 1)");
+  if (fc.version < kMinFormatVersion || fc.version > kFormatVersion)
+    fail(kErrBadVersion, where, "version " + std::to_string(fc.version) + " (supported: 1, 2)");
+  const uint32_t version = fc.version;
   if (kCheckChecksums && crc32c(data, kFileHeaderSize - 4) != read_le32(data + 60))
     fail(kErrChecksum, where, "header CRC-32C mismatch");
   if (read_le32(data + 12) != kFileHeaderSize) fail(kErrInconsistent, where, "header size is not 64");
@@ -518,15 +586,43 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
   const uint32_t page_count = read_le32(data + 32);
   fc.metadata_size = read_le32(data + 36);
   const uint32_t meta_crc = read_le32(data + 40);
-  for (uint32_t i = 44; i < 60; ++i)
+  // Version 2: metadata_raw_size (44) and metadata_compression (48); reserved from 52.
+  uint32_t meta_raw_size = fc.metadata_size, meta_comp = 0;
+  if (version >= 2) {
+    meta_raw_size = read_le32(data + 44);
+    meta_comp = read_le32(data + 48);
+  }
+  for (uint32_t i = version >= 2 ? 52 : 44; i < 60; ++i)
     if (data[i] != 0) fail(kErrUnsupported, where, "reserved header bytes are not zero");
+  if (meta_comp > uint32_t(Compression::kLz4)) fail(kErrUnsupported, where, "unknown metadata compression");
+  if (meta_comp == 0 && meta_raw_size != fc.metadata_size)
+    fail(kErrInconsistent, where, "uncompressed metadata with raw size != stored size");
+  // Caps the decompression buffer before allocating it.
+  if (uint64_t(meta_raw_size) > uint64_t(kMaxMetadataRatio) * fc.metadata_size)
+    fail(kErrOutOfRange, where, "metadata raw size beyond 32x its stored size");
   if (fc.file_size < kFileHeaderSize + uint64_t(fc.metadata_size))
     fail(kErrInconsistent, where, "declared file size smaller than header + metadata");
   if (size - kFileHeaderSize < fc.metadata_size) fail(kErrTruncated, where, "file ends inside the metadata");
   const uint8_t* m = data + kFileHeaderSize;
   if (kCheckChecksums && crc32c(m, fc.metadata_size) != meta_crc) fail(kErrChecksum, where, "metadata CRC-32C mismatch");
+  std::vector<uint8_t> meta_raw;
+  if (meta_comp != 0) {
+    meta_raw.resize(meta_raw_size);
+    decompress(m, fc.metadata_size, Compression(meta_comp), meta_raw.data(), meta_raw.size(), where + ": metadata");
+    m = meta_raw.data();
+  }
+  // Arrays of fixed-size records: version 2 stores them byte-transposed (put_records).
+  std::vector<uint8_t> scratch;
+  auto records = [&](Reader& from, uint64_t n, uint32_t record_size) {
+    const uint8_t* src = from.take(size_t(n) * record_size);  // n bounded by the caller
+    if (version < 2) return Reader{src, size_t(n) * record_size, 0, where};
+    scratch.resize(size_t(n) * record_size);
+    for (size_t i = 0; i < n; ++i)
+      for (uint32_t j = 0; j < record_size; ++j) scratch[i * record_size + j] = src[j * n + i];
+    return Reader{scratch.data(), scratch.size(), 0, where};
+  };
 
-  Reader r{m, fc.metadata_size, 0, where};
+  Reader r{m, meta_raw_size, 0, where};
   fc.materials.resize(r.count(kMaterialMinBytes, "material"));
   for (Material& mat : fc.materials) {
     const uint32_t len = r.u32();
@@ -536,9 +632,12 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
     for (float& c : mat.base_color) c = r.f32();
   }
   fc.instances.resize(r.count(kInstanceBytes, "instance"));
-  for (Instance& in : fc.instances) {
-    in.mesh = r.u32();
-    for (float& t : in.transform) t = r.f32();
+  {
+    Reader rr = records(r, fc.instances.size(), kInstanceBytes);
+    for (Instance& in : fc.instances) {
+      in.mesh = rr.u32();
+      for (float& t : in.transform) t = rr.f32();
+    }
   }
   fc.meshes.resize(r.count(kMeshHeaderBytes, "mesh"));
   uint32_t next_page = 0;
@@ -572,7 +671,9 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
     if (nc > 0 && mm.page_count == 0) fail(kErrInconsistent, where, "clusters but no pages");
     dag.clusters.resize(nc);
     uint32_t vsum = 0, tsum = 0;
+    Reader rc = records(r, nc, kClusterBytes);
     for (DagCluster& c : dag.clusters) {
+      Reader& r = rc;
       c.group = r.u32();
       c.generating_group = r.u32();
       c.level = r.u32();
@@ -594,7 +695,9 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
       tsum += c.triangle_count;
     }
     dag.groups.resize(ng);
+    Reader rg = records(r, ng, kGroupBytes);
     for (DagGroup& g : dag.groups) {
+      Reader& r = rg;
       g.first_cluster = r.u32();
       g.cluster_count = r.u32();
       g.first_generated = r.u32();
@@ -609,13 +712,16 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
       g.parent_error = r.error();
     }
     dag.generated_clusters.resize(nge);
+    Reader rge = records(r, nge, 4);
     for (uint32_t& id : dag.generated_clusters) {
-      id = r.u32();
+      id = rge.u32();
       if (id >= nc) fail(kErrOutOfRange, where, "generated cluster id out of range");
     }
     dag.bvh_nodes.resize(nb);
     std::vector<uint8_t> referenced(nb, 0);
+    Reader rb = records(r, nb, kBvhNodeBytes);
     for (BvhNode& n : dag.bvh_nodes) {
+      Reader& r = rb;
       n.bounds = r.sphere();
       n.lod_bounds = r.sphere();
       n.max_parent_error = r.error();
@@ -640,8 +746,9 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
     }
     mm.page_clusters.resize(nc);
     std::vector<uint8_t> seen(nc, 0);
+    Reader rp = records(r, nc, 4);
     for (uint32_t& c : mm.page_clusters) {
-      c = r.u32();
+      c = rp.u32();
       if (c >= nc || seen[c]) fail(kErrInconsistent, where, "page cluster list is not a permutation");
       seen[c] = 1;
     }
@@ -654,7 +761,9 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
   fc.pages.resize(page_count);
   uint64_t offset = kFileHeaderSize + uint64_t(fc.metadata_size);
   const uint32_t max_raw = max_raw_page_size(fc.page_size);
+  Reader pr = records(r, page_count, kPageEntryBytes);
   for (PageEntry& p : fc.pages) {
+    Reader& r = pr;
     p.mesh = r.u32();
     p.stored_size = r.u32();
     p.raw_size = r.u32();
@@ -738,7 +847,7 @@ std::vector<uint32_t> transcode_page(const FormatContainer& fc, uint32_t page, c
     }
   } sink(mm, e, at);
   // The memory form is built with a cap of the declared memory size (≤ page_size).
-  parse_disk_page(raw.data(), raw.size(), mm.quantization, e.cluster_count, sink, at);
+  parse_disk_page(raw.data(), raw.size(), mm.quantization, e.cluster_count, sink, at, fc.version);
   std::vector<uint32_t> words = sink.builder.finish();
   if (words.size() * 4 != e.memory_size) fail(kErrInconsistent, at, "memory form size differs from the page table");
   return words;

@@ -38,7 +38,12 @@ inline constexpr const char* kErrNonCanonical = "FORMAT_NON_CANONICAL";    // de
 inline constexpr const char* kErrEncode = "FORMAT_ENCODE";                 // encoder cannot represent the input
 
 // ---- limits (each justified in spec/format.md §Limits) ----
-inline constexpr uint32_t kFormatVersion = 1;
+inline constexpr uint32_t kFormatVersion = 2;     // written by default
+inline constexpr uint32_t kMinFormatVersion = 1;  // oldest version still decoded (and writable)
+// Version 2 metadata is compressed with the file's codec; a declared raw size above this
+// multiple of the stored size is rejected before allocating (measured metadata compresses
+// 2-4x; the encoder stores the metadata uncompressed rather than exceed the ratio).
+inline constexpr uint32_t kMaxMetadataRatio = 32;
 inline constexpr uint32_t kFileHeaderSize = 64;
 inline constexpr uint32_t kDefaultPageSize = 128u * 1024u;  // Nanite's page size
 inline constexpr uint32_t kMinPageSize = 16u * 1024u;       // > largest memory-form cluster (~6.2 KiB)
@@ -55,6 +60,9 @@ inline constexpr uint32_t kMaxNameBytes = 4096;                 // material name
 // (Nanite's span of 32) when the canonical order allows, up to 8 bits (any span of a
 // 255-vertex cluster) otherwise; see spec/format.md §4.
 inline constexpr uint32_t kNaniteIndexOffsetBits = 5;
+// Finest automatic position grid: 2^20 steps over the extent (4 bits per axis beyond the
+// default 16) bounds what the LOD-error refinement of the grid may cost.
+inline constexpr uint32_t kMaxAutoPositionBits = 20;
 inline constexpr uint32_t kMaxIndexOffsetBits = 8;
 
 enum class Compression : uint32_t { kNone = 0, kZstd = 1, kLz4 = 2 };
@@ -62,20 +70,29 @@ enum class Compression : uint32_t { kNone = 0, kZstd = 1, kLz4 = 2 };
 struct FormatOptions {
   uint32_t page_size = kDefaultPageSize;  // power of two in [kMinPageSize, kMaxPageSize]
   // Position grid: step 2^position_step_log2 if set, else the smallest power of two with
-  // the mesh's largest axis extent ≤ 2^position_bits steps (and |q| ≤ kMaxQuantized).
+  // the mesh's largest axis extent ≤ 2^position_bits steps (and |q| ≤ kMaxQuantized),
+  // then, if position_step_from_lod_error, halved while the quantization displacement
+  // √3/2·step exceeds the median parent_error of the DAG's level-0 groups (the typical
+  // error of its first simplification), up to kMaxAutoPositionBits over the extent
+  // (spec/format.md §2).
   std::optional<int32_t> position_step_log2;
   uint32_t position_bits = 16;
-  uint32_t normal_bits = 10;        // per octahedral component, 1..kMaxNormalBits
+  bool position_step_from_lod_error = true;
+  // 9 bits: largest angular error 0.47° (spec/format.md §2, measured ≤ 0.466° on the CGAL meshes).
+  // Per octahedral component, 1..kMaxNormalBits. 9: largest angular error < 0.5°
+  // (spec/format.md §2; version 1's default was 10).
+  uint32_t normal_bits = 9;
   int32_t uv_step_log2 = -12;       // UV grid step (1/4096: ~1 texel of a 4K texture)
   Compression compression = Compression::kZstd;
   int zstd_level = 19;
+  uint32_t version = kFormatVersion;  // kMinFormatVersion .. kFormatVersion
 };
 
 // Per-mesh quantization, stored in the metadata.
 struct MeshQuantization {
   int32_t position_step_log2 = 0;
   int32_t uv_step_log2 = -12;
-  uint32_t normal_bits = 10;
+  uint32_t normal_bits = 9;
   bool has_normals = false, has_uvs = false;
   uint32_t channel_count() const { return 3 + (has_normals ? 2 : 0) + (has_uvs ? 2 : 0); }
 };
@@ -117,7 +134,8 @@ struct FormatContainer {
 // ---- size report ----
 struct ComponentBytes {
   double positions = 0, normals = 0, uvs = 0, topology = 0, materials = 0, cluster_headers = 0;
-  double total() const { return positions + normals + uvs + topology + materials + cluster_headers; }
+  double vertex_refs = 0;  // version 2 disk form: copies of earlier vertices of the page
+  double total() const { return positions + normals + uvs + topology + materials + cluster_headers + vertex_refs; }
 };
 struct PageFill {
   uint32_t mesh = 0, clusters = 0, memory_bytes = 0, slack_bytes = 0, raw_bytes = 0, stored_bytes = 0;
@@ -126,6 +144,8 @@ struct FormatReport {
   uint64_t triangles = 0, vertices = 0, clusters = 0;
   uint64_t wide_index_clusters = 0;  // clusters whose index offsets need > 5 bits
   uint64_t file_bytes = 0, metadata_bytes = 0, header_bytes = kFileHeaderSize;
+  uint64_t metadata_raw_bytes = 0;   // before compression (version 2)
+  uint64_t copied_vertices = 0;      // version 2 disk form: vertices stored as copies
   ComponentBytes memory;           // memory-form bytes (bit fields rounded per stream)
   ComponentBytes disk_raw;         // disk form before compression
   ComponentBytes disk_compressed;  // each component's streams compressed on their own (estimate)

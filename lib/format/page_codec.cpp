@@ -7,6 +7,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <unordered_map>
 
 #include "vgeo/core/error.h"
 #include "vgeo/format/bitstream.h"
@@ -553,17 +554,50 @@ struct Reader {
 };
 }  // namespace
 
-uint32_t disk_cluster_bytes(const CanonicalCluster& c, uint32_t channel_count) {
+uint32_t disk_cluster_bytes(const CanonicalCluster& c, uint32_t channel_count, uint32_t version) {
   uint32_t b = 3 + 5 * channel_count + c.triangle_count + c.ref_count + 5 * c.run_count;
   for (uint32_t k = 0; k < channel_count; ++k) b += delta_bytes(c.bits[k]) * c.vertex_count;
+  // Version 2: one copy-mask bit per vertex (rounded up per cluster); a copy replaces at
+  // least kCopyRefBytes residual bytes by a kCopyRefBytes reference, never more.
+  if (version >= 2) b += (c.vertex_count + 7) / 8;
   return b;
 }
 
+void strip_predictors(const CanonicalCluster& c, uint8_t pred[][3], bool* has) {
+  std::fill(has, has + c.vertex_count, false);
+  for (uint32_t t = 1; t < c.triangle_count; ++t) {
+    const uint8_t ctl = c.ctl[t];
+    if ((ctl & kCtlReset) || (ctl & kCtlRef0)) continue;
+    const uint8_t* s = c.strip[t];
+    const uint8_t* p = c.strip[t - 1];
+    // The continuation shares edge (s0, s1) with the previous triangle; its third corner is
+    // the previous triangle's vertex opposite that edge.
+    const uint8_t d = s[2], opp = (ctl & kCtlSide) ? p[1] : p[0];
+    if (d >= c.vertex_count) continue;  // (the parser has already rejected this)
+    has[d] = true;
+    pred[d][0] = s[0], pred[d][1] = s[1], pred[d][2] = opp;
+  }
+}
+
+namespace {
+// Version 2 prediction of vertex v of channel k (spec/format.md §5.3): the parallelogram
+// when a strip continuation introduced v, else the previous vertex (the minimum for v = 0),
+// clamped to the channel's range so a residual fits the same byte planes as a delta.
+int64_t predict_v2(const int32_t* values, uint32_t v, int64_t lo, int64_t hi, const uint8_t pred[][3], const bool* has) {
+  int64_t p;
+  if (has[v]) p = int64_t(values[pred[v][0]]) + values[pred[v][1]] - values[pred[v][2]];
+  else p = v == 0 ? lo : values[v - 1];
+  return std::clamp(p, lo, hi);
+}
+int64_t channel_hi(const CanonicalCluster& c, uint32_t k) { return int64_t(c.min[k]) + (int64_t(1) << c.bits[k]) - 1; }
+}  // namespace
+
 std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>& clusters,
-                                      const MeshQuantization& q, DiskStreams* streams) {
+                                      const MeshQuantization& q, uint32_t version, DiskStreams* streams) {
+  assert(version == 1 || version == 2);
   const uint32_t channels = q.channel_count();
   std::vector<uint8_t> b;
-  put_u32(b, kDiskPageMagic);
+  put_u32(b, version >= 2 ? kDiskPageMagicV2 : kDiskPageMagic);
   put_u32(b, uint32_t(clusters.size()));
   for (const auto* c : clusters) b.push_back(uint8_t(c->vertex_count));
   for (const auto* c : clusters) b.push_back(uint8_t(c->triangle_count));
@@ -591,17 +625,98 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
   for (const auto* c : clusters)
     for (uint32_t r = 0; r < c->run_count; ++r) put_u32(b, c->run_material[r]);
   section(&DiskStreams::materials);
-  // Vertices: per channel, per cluster, byte planes of zigzag deltas along first-use order.
-  for (uint32_t k = 0; k < channels; ++k) {
-    for (const auto* c : clusters) {
-      const uint32_t nb = delta_bytes(c->bits[k]);
-      for (uint32_t plane = 0; plane < nb; ++plane) {
-        int32_t prev = c->min[k];
-        for (uint32_t v = 0; v < c->vertex_count; ++v) {
-          b.push_back(uint8_t(zigzag(c->values[k][v] - prev) >> (8 * plane)));
-          prev = c->values[k][v];
+  if (version == 1) {
+    // Vertices: per channel, per cluster, byte planes of zigzag deltas along first-use order.
+    for (uint32_t k = 0; k < channels; ++k) {
+      for (const auto* c : clusters) {
+        const uint32_t nb = delta_bytes(c->bits[k]);
+        for (uint32_t plane = 0; plane < nb; ++plane) {
+          int32_t prev = c->min[k];
+          for (uint32_t v = 0; v < c->vertex_count; ++v) {
+            b.push_back(uint8_t(zigzag(c->values[k][v] - prev) >> (8 * plane)));
+            prev = c->values[k][v];
+          }
         }
       }
+      section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs);
+    }
+    return b;
+  }
+  // Version 2 copies: a vertex equal in every channel to a vertex of an earlier cluster of
+  // the page (its first occurrence) is a reference to that page vertex.
+  uint64_t total_vertices = 0;
+  for (const auto* c : clusters) total_vertices += c->vertex_count;
+  std::vector<uint32_t> copy_of(total_vertices, UINT32_MAX);
+  {
+    struct Key {
+      int32_t v[kMaxChannels];
+      bool operator==(const Key& o) const { return std::memcmp(v, o.v, sizeof v) == 0; }
+    };
+    struct Hash {
+      size_t operator()(const Key& k) const {
+        uint64_t h = 1469598103934665603ull;
+        for (int32_t x : k.v) h = (h ^ uint32_t(x)) * 1099511628211ull;
+        return size_t(h);
+      }
+    };
+    std::unordered_map<Key, uint32_t, Hash> first;
+    uint32_t base = 0;
+    for (const auto* c : clusters) {
+      uint32_t residual_bytes = 0;
+      for (uint32_t k = 0; k < channels; ++k) residual_bytes += delta_bytes(c->bits[k]);
+      for (uint32_t v = 0; v < c->vertex_count; ++v) {
+        Key key{};
+        for (uint32_t k = 0; k < channels; ++k) key.v[k] = c->values[k][v];
+        auto [it, fresh] = first.emplace(key, base + v);
+        if (!fresh && it->second < base && residual_bytes >= kCopyRefBytes) copy_of[base + v] = it->second;
+      }
+      base += c->vertex_count;
+    }
+  }
+  std::vector<uint8_t> mask((total_vertices + 7) / 8, 0);
+  std::vector<uint32_t> copy_refs;
+  int64_t expected = 0;
+  for (uint64_t v = 0; v < total_vertices; ++v)
+    if (copy_of[v] != UINT32_MAX) {
+      mask[v / 8] |= uint8_t(1u << (v % 8));
+      copy_refs.push_back(zigzag(int32_t(int64_t(copy_of[v]) - expected)));
+      expected = int64_t(copy_of[v]) + 1;
+    }
+  if (streams) streams->copies += copy_refs.size();
+  b.insert(b.end(), mask.begin(), mask.end());
+  for (uint32_t plane = 0; plane < kCopyRefBytes; ++plane)
+    for (uint32_t z : copy_refs) b.push_back(uint8_t(z >> (8 * plane)));
+  section(&DiskStreams::vertex_refs);
+  // Residuals against the parallelogram / previous-vertex prediction, non-copies only.
+  std::vector<uint8_t (*)[3]> preds;
+  std::vector<std::vector<uint8_t>> pred_store(clusters.size());
+  std::vector<std::vector<uint8_t>> has_store(clusters.size());
+  for (size_t i = 0; i < clusters.size(); ++i) {
+    pred_store[i].assign(3 * kMaxClusterVertices, 0);
+    has_store[i].assign(kMaxClusterVertices, 0);
+    bool has[kMaxClusterVertices];  // strip_predictors fills the first vertex_count entries
+    strip_predictors(*clusters[i], reinterpret_cast<uint8_t(*)[3]>(pred_store[i].data()), has);
+    for (uint32_t v = 0; v < clusters[i]->vertex_count; ++v) has_store[i][v] = has[v] ? 1 : 0;
+  }
+  std::vector<uint32_t> z;
+  for (uint32_t k = 0; k < channels; ++k) {
+    uint32_t base = 0;
+    for (size_t i = 0; i < clusters.size(); ++i) {
+      const CanonicalCluster& c = *clusters[i];
+      const uint32_t nb = delta_bytes(c.bits[k]);
+      bool has[kMaxClusterVertices];
+      for (uint32_t v = 0; v < c.vertex_count; ++v) has[v] = has_store[i][v] != 0;
+      const auto* pred = reinterpret_cast<const uint8_t(*)[3]>(pred_store[i].data());
+      z.clear();
+      if (nb > 0)
+        for (uint32_t v = 0; v < c.vertex_count; ++v) {
+          if (copy_of[base + v] != UINT32_MAX) continue;
+          const int64_t p = predict_v2(c.values[k], v, c.min[k], channel_hi(c, k), pred, has);
+          z.push_back(zigzag(int32_t(int64_t(c.values[k][v]) - p)));
+        }
+      for (uint32_t plane = 0; plane < nb; ++plane)
+        for (uint32_t x : z) b.push_back(uint8_t(x >> (8 * plane)));
+      base += c.vertex_count;
     }
     section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs);
   }
@@ -609,9 +724,11 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
 }
 
 void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q,
-                     uint32_t expected_clusters, ClusterSink& sink, const std::string& where) {
+                     uint32_t expected_clusters, ClusterSink& sink, const std::string& where,
+                     uint32_t version) {
   Reader r{data, size, 0, where};
-  if (r.u32() != kDiskPageMagic) fail(kErrBadMagic, where, "disk page magic is not VDPG");
+  const uint32_t magic = version >= 2 ? kDiskPageMagicV2 : kDiskPageMagic;
+  if (r.u32() != magic) fail(kErrBadMagic, where, version >= 2 ? "disk page magic is not VDP2" : "disk page magic is not VDPG");
   const uint32_t n = r.u32();
   if (n != expected_clusters) fail(kErrInconsistent, where, "disk page cluster count differs from the page table");
   if (n == 0) fail(kErrOutOfRange, where, "disk page with no cluster");  // as validate_memory_page
@@ -623,6 +740,7 @@ void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q
     uint32_t vc, tc, runs, bits[kMaxChannels];
     int32_t min[kMaxChannels];
     size_t ctl, refs, run_start, run_material;  // section offsets of this cluster
+    uint32_t first_vertex = 0, copies = 0;       // version 2: page vertex index, copy count
   };
   std::vector<Head> hs(n);
   for (Head& h : hs) h.vc = r.u8();
@@ -661,14 +779,38 @@ void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q
     h.run_material = r.pos;
     r.take(4 * size_t(h.runs));
   }
+  // Version 2: copy mask (one bit per page vertex) and the copy references.
+  const uint8_t* mask = nullptr;
+  const uint8_t* copy_planes = nullptr;
+  uint64_t total_vertices = 0, copy_total = 0;
+  if (version >= 2) {
+    for (Head& h : hs) {
+      h.first_vertex = uint32_t(total_vertices);
+      total_vertices += h.vc;
+    }
+    const size_t mask_bytes = size_t((total_vertices + 7) / 8);
+    mask = r.take(mask_bytes);
+    if (total_vertices % 8 && (mask[mask_bytes - 1] >> (total_vertices % 8)) != 0)
+      fail(kErrOutOfRange, where, "copy mask padding bits set");
+    for (Head& h : hs) {
+      for (uint32_t v = h.first_vertex; v < h.first_vertex + h.vc; ++v) h.copies += (mask[v / 8] >> (v % 8)) & 1u;
+      copy_total += h.copies;
+    }
+    copy_planes = r.take(size_t(copy_total) * kCopyRefBytes);
+  }
   std::vector<size_t> planes(size_t(n) * channels);
   for (uint32_t k = 0; k < channels; ++k)
     for (uint32_t i = 0; i < n; ++i) {
       planes[size_t(i) * channels + k] = r.pos;
-      r.take(size_t(delta_bytes(hs[i].bits[k])) * hs[i].vc);
+      r.take(size_t(delta_bytes(hs[i].bits[k])) * (hs[i].vc - hs[i].copies));
     }
   if (r.pos != size) fail(kErrTrailingBytes, where, "disk page longer than its clusters");
 
+  // Version 2: values of the page's vertices so far (copy sources), channel-interleaved.
+  // Grows with the clusters parsed: ≤ 255 · channels · 4 bytes per declared cluster.
+  std::vector<int32_t> page_values;
+  uint64_t copy_used = 0;
+  int64_t copy_expected = 0;
   CanonicalCluster c;
   uint32_t ref_used = 0;
   for (uint32_t i = 0; i < n; ++i) {
@@ -722,16 +864,44 @@ void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q
         fail(kErrNonCanonical, where, "material ids of a cluster's runs not strictly increasing");
     }
     // Vertices.
+    bool is_copy[kMaxClusterVertices] = {};
+    if (version >= 2) {
+      for (uint32_t v = 0; v < c.vertex_count; ++v) {
+        const uint32_t pv = h.first_vertex + v;
+        if (!((mask[pv / 8] >> (pv % 8)) & 1u)) continue;
+        is_copy[v] = true;
+        uint32_t zz = 0;
+        for (uint32_t plane = 0; plane < kCopyRefBytes; ++plane)
+          zz |= uint32_t(copy_planes[size_t(plane) * copy_total + copy_used]) << (8 * plane);
+        ++copy_used;
+        const int64_t src = copy_expected + unzigzag(zz);
+        if (src < 0 || src >= int64_t(h.first_vertex))
+          fail(kErrOutOfRange, where, "vertex copy does not refer to an earlier cluster of the page");
+        copy_expected = src + 1;
+        for (uint32_t k = 0; k < channels; ++k) c.values[k][v] = page_values[size_t(src) * channels + k];
+      }
+    }
+    uint8_t pred[kMaxClusterVertices][3];
+    bool has[kMaxClusterVertices];
+    if (version >= 2) strip_predictors(c, pred, has);
     for (uint32_t k = 0; k < channels; ++k) {
       const uint32_t nb = delta_bytes(c.bits[k]);
       const uint8_t* pl = data + planes[size_t(i) * channels + k];
+      const uint32_t stored = c.vertex_count - h.copies;
       const int64_t lo = c.min[k], hi = lo + (int64_t(1) << c.bits[k]) - 1;
       const int64_t kind_hi = channel_is_normal(q, k) ? (1 << q.normal_bits) - 1 : kMaxQuantized;
       int64_t prev = lo, seen_lo = INT64_MAX, seen_hi = INT64_MIN;
-      for (uint32_t v = 0; v < c.vertex_count; ++v) {
-        uint32_t z = 0;
-        for (uint32_t plane = 0; plane < nb; ++plane) z |= uint32_t(pl[size_t(plane) * c.vertex_count + v]) << (8 * plane);
-        const int64_t value = prev + unzigzag(z);
+      for (uint32_t v = 0, s = 0; v < c.vertex_count; ++v) {
+        int64_t value;
+        if (is_copy[v]) {
+          value = c.values[k][v];
+        } else {
+          uint32_t z = 0;
+          for (uint32_t plane = 0; plane < nb; ++plane) z |= uint32_t(pl[size_t(plane) * stored + s]) << (8 * plane);
+          ++s;
+          const int64_t p = version >= 2 ? predict_v2(c.values[k], v, lo, hi, pred, has) : prev;
+          value = p + unzigzag(z);
+        }
         if (value < lo || value > hi || value > kind_hi) fail(kErrOutOfRange, where, "vertex value outside its cluster range");
         c.values[k][v] = int32_t(value);
         seen_lo = std::min(seen_lo, value);
@@ -741,6 +911,9 @@ void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q
       if (seen_lo != lo || bits_for_range(uint32_t(seen_hi - seen_lo)) != c.bits[k])
         fail(kErrNonCanonical, where, "channel minimum/bit width not the tightest");
     }
+    if (version >= 2)
+      for (uint32_t v = 0; v < c.vertex_count; ++v)
+        for (uint32_t k = 0; k < channels; ++k) page_values.push_back(c.values[k][v]);
     sink.cluster(i, c);
   }
   if (ref_used != ref_total) fail(kErrInconsistent, where, "declared references left unused");

@@ -13,7 +13,12 @@ namespace vgeo::format_detail {
 
 inline constexpr uint32_t kMaxChannels = 7;          // x y z, oct u v, uv u v
 inline constexpr uint32_t kDescriptorWords = 10;     // memory-form cluster descriptor
-inline constexpr uint32_t kDiskPageMagic = 0x47504456u;  // "VDPG" little-endian
+inline constexpr uint32_t kDiskPageMagic = 0x47504456u;    // "VDPG" little-endian (version 1)
+inline constexpr uint32_t kDiskPageMagicV2 = 0x32504456u;  // "VDP2" little-endian (version 2)
+// Version 2: a vertex equal (every channel) to a vertex of an earlier cluster of the same
+// page is stored as a copy when its residual bytes are at least this many (a copy costs
+// one 4-byte reference): the raw page then never grows, so the v1 size bound holds.
+inline constexpr uint32_t kCopyRefBytes = 4;
 // A raw disk page may exceed its memory form (zigzag deltas need one more bit than the
 // memory field, refs are whole bytes); pages close before reaching this bound.
 inline uint32_t max_raw_page_size(uint32_t page_size) { return 2 * page_size; }
@@ -72,10 +77,18 @@ struct DiskSections {  // raw byte counts per component (size report)
 };
 // Appends the raw disk form. Component byte ranges go to `sections` if given, and the
 // concatenated bytes of each component to `streams` (size report compression estimate).
-struct DiskStreams { std::vector<uint8_t> headers, topology, materials, positions, normals, uvs; };
+struct DiskStreams {
+  std::vector<uint8_t> headers, topology, materials, positions, normals, uvs, vertex_refs;
+  uint64_t copies = 0;
+};
 std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>& clusters,
-                                      const MeshQuantization& q, DiskStreams* streams = nullptr);
-uint32_t disk_cluster_bytes(const CanonicalCluster& c, uint32_t channel_count);
+                                      const MeshQuantization& q, uint32_t version,
+                                      DiskStreams* streams = nullptr);
+// Upper bound of a cluster's raw disk bytes (exact for version 1).
+uint32_t disk_cluster_bytes(const CanonicalCluster& c, uint32_t channel_count, uint32_t version);
+// Version 2 parallelogram predictor of every vertex a strip continuation introduced:
+// has[v] and pred[v] = (e1, e2, opposite) with value(v) ≈ e1 + e2 − opposite.
+void strip_predictors(const CanonicalCluster& c, uint8_t pred[][3], bool* has);
 
 // Parses a raw disk page with `expected_clusters` clusters, handing each cluster to
 // `sink` in page order (one scratch cluster: memory use does not grow with the cluster
@@ -87,7 +100,8 @@ class ClusterSink {
   ~ClusterSink() = default;
 };
 void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q,
-                     uint32_t expected_clusters, ClusterSink& sink, const std::string& where);
+                     uint32_t expected_clusters, ClusterSink& sink, const std::string& where,
+                     uint32_t version);
 
 // Channel kind limits.
 uint32_t channel_max_bits(const MeshQuantization& q, uint32_t channel);

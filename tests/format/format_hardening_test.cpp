@@ -7,6 +7,7 @@
 #include <cstring>
 #include <random>
 
+#include "format_file_edit.h"
 #include "format_test_util.h"
 #include "vgeo/format/crc32c.h"
 #include "vgeo/format/page_codec.h"
@@ -16,10 +17,12 @@ namespace {
 
 using test::error_code_of;
 
-std::vector<uint8_t> small_file(Compression c = Compression::kZstd, uint32_t rings = 6) {
+std::vector<uint8_t> small_file(Compression c = Compression::kZstd, uint32_t rings = 6,
+                                uint32_t version = kFormatVersion) {
   FormatOptions o;
   o.compression = c;
   o.zstd_level = 3;
+  o.version = version;
   return encode_format(test::scene_of({test::make_leaf_dag(test::make_sphere(rings, 2 * rings))}), o);
 }
 
@@ -27,18 +30,7 @@ uint32_t le32(const uint8_t* p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | 
 void put32(uint8_t* p, uint32_t v) { for (int k = 0; k < 4; ++k) p[k] = uint8_t(v >> (8 * k)); }
 
 // Recomputes every CRC (pages, metadata, header) after a deliberate edit.
-void fix_crcs(std::vector<uint8_t>& f) {
-  const uint32_t meta_size = le32(&f[36]), pages = le32(&f[32]);
-  uint8_t* table = &f[64 + meta_size - 24 * size_t(pages)];
-  size_t offset = 64 + meta_size;
-  for (uint32_t p = 0; p < pages; ++p) {
-    const uint32_t stored = le32(table + 24 * p + 4);
-    if (offset + stored <= f.size()) put32(table + 24 * p + 20, crc32c(&f[offset], stored));
-    offset += stored;
-  }
-  put32(&f[40], crc32c(&f[64], meta_size));
-  put32(&f[60], crc32c(&f[0], 60));
-}
+void fix_crcs(std::vector<uint8_t>& f) { test::fix_file_crcs(f); }
 
 std::string decode_code(const std::vector<uint8_t>& f) {
   return error_code_of([&] { decode_format(f.data(), f.size(), "<test>"); });
@@ -47,8 +39,9 @@ std::string decode_code(const std::vector<uint8_t>& f) {
 TEST(FormatHardening, ValidFileDecodes) { EXPECT_EQ(decode_code(small_file()), "OK"); }
 
 TEST(FormatHardening, EveryPrefixTruncationIsRejectedAsTruncated) {
+  for (uint32_t version : {kMinFormatVersion, kFormatVersion})
   for (Compression c : {Compression::kNone, Compression::kZstd, Compression::kLz4}) {
-    const std::vector<uint8_t> f = small_file(c);
+    const std::vector<uint8_t> f = small_file(c, 6, version);
     for (size_t n = 0; n < f.size(); ++n) {
       const std::vector<uint8_t> cut(f.begin(), f.begin() + long(n));
       ASSERT_EQ(decode_code(cut), kErrTruncated) << "prefix " << n << " of " << f.size();
@@ -57,8 +50,9 @@ TEST(FormatHardening, EveryPrefixTruncationIsRejectedAsTruncated) {
 }
 
 TEST(FormatHardening, OneByteExtensionIsRejectedAsTrailing) {
+  for (uint32_t version : {kMinFormatVersion, kFormatVersion})
   for (uint8_t extra : {0x00, 0xFF}) {
-    std::vector<uint8_t> f = small_file();
+    std::vector<uint8_t> f = small_file(Compression::kZstd, 6, version);
     f.push_back(extra);
     EXPECT_EQ(decode_code(f), kErrTrailingBytes);
   }
@@ -80,7 +74,8 @@ TEST(FormatHardening, PageTruncationAndExtensionRejected) {
 }
 
 TEST(FormatHardening, RawDiskPageTruncationAndExtensionRejected) {
-  const std::vector<uint8_t> f = small_file(Compression::kNone, 12);
+  for (uint32_t version : {kMinFormatVersion, kFormatVersion}) {
+  const std::vector<uint8_t> f = small_file(Compression::kNone, 12, version);
   const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
   const PageEntry& e = fc.pages[0];
   std::vector<uint8_t> raw(f.begin() + long(e.file_offset), f.begin() + long(e.file_offset + e.stored_size));
@@ -88,12 +83,13 @@ TEST(FormatHardening, RawDiskPageTruncationAndExtensionRejected) {
     void cluster(uint32_t, const format_detail::CanonicalCluster&) override {}
   } sink;
   const MeshQuantization& q = fc.meshes[0].quantization;
-  EXPECT_EQ(error_code_of([&] { format_detail::parse_disk_page(raw.data(), raw.size(), q, e.cluster_count, sink, "t"); }), "OK");
+  EXPECT_EQ(error_code_of([&] { format_detail::parse_disk_page(raw.data(), raw.size(), q, e.cluster_count, sink, "t", fc.version); }), "OK");
   for (size_t n = 0; n < raw.size(); ++n)
-    ASSERT_EQ(error_code_of([&] { format_detail::parse_disk_page(raw.data(), n, q, e.cluster_count, sink, "t"); }), kErrTruncated) << n;
+    ASSERT_EQ(error_code_of([&] { format_detail::parse_disk_page(raw.data(), n, q, e.cluster_count, sink, "t", fc.version); }), kErrTruncated) << n;
   raw.push_back(0);
-  EXPECT_EQ(error_code_of([&] { format_detail::parse_disk_page(raw.data(), raw.size(), q, e.cluster_count, sink, "t"); }),
+  EXPECT_EQ(error_code_of([&] { format_detail::parse_disk_page(raw.data(), raw.size(), q, e.cluster_count, sink, "t", fc.version); }),
             kErrTrailingBytes);
+  }
 }
 
 TEST(FormatHardening, MemoryPageTruncationAndExtensionRejected) {
@@ -148,19 +144,40 @@ TEST(FormatHardening, MalformedFieldsMapToStableCodes) {
     return decode_code(g);
   };
   EXPECT_EQ(edited([](auto& g) { g[0] = 'X'; }), kErrBadMagic);
-  EXPECT_EQ(edited([](auto& g) { put32(&g[8], 2); }), kErrBadVersion);
+  EXPECT_EQ(edited([](auto& g) { put32(&g[8], 3); }), kErrBadVersion);
+  EXPECT_EQ(edited([](auto& g) { put32(&g[8], 0); }), kErrBadVersion);
   EXPECT_EQ(edited([](auto& g) { put32(&g[24], 7); }), kErrUnsupported);          // compression
   EXPECT_EQ(edited([](auto& g) { put32(&g[28], 1000); }), kErrOutOfRange);        // page size
-  EXPECT_EQ(edited([](auto& g) { g[50] = 1; }), kErrUnsupported);                 // reserved
+  EXPECT_EQ(edited([](auto& g) { g[54] = 1; }), kErrUnsupported);                 // reserved
+  // Version 2 metadata fields (spec §1.1): codec, raw size cap, raw size.
+  EXPECT_EQ(edited([](auto& g) { put32(&g[48], 3); }), kErrUnsupported);
+  EXPECT_EQ(edited([](auto& g) { put32(&g[44], 32 * le32(&g[36]) + 1); }), kErrOutOfRange);
+  EXPECT_EQ(edited([](auto& g) { put32(&g[44], le32(&g[44]) + 1); }), kErrDecompress);
+  EXPECT_EQ(edited([](auto& g) { put32(&g[44], le32(&g[44]) - 1); }), kErrDecompress);
+  EXPECT_EQ(edited([](auto& g) { put32(&g[48], 0); }), kErrInconsistent);        // raw size != stored size
+  EXPECT_EQ(edited([](auto& g) { g[64] ^= 0xFF; }), kErrDecompress);              // metadata zstd frame
   EXPECT_EQ(edited([](auto& g) { put32(&g[16], le32(&g[16]) + 1); }), kErrInconsistent);  // file size
   // First page's zstd frame magic broken (CRC recomputed): the decompressor rejects it.
   const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
   const size_t page0 = fc.pages[0].file_offset;
   EXPECT_EQ(edited([&](auto& g) { g[page0] ^= 0xFF; }), kErrDecompress);
-  // Metadata: first material's name length made huge.
-  EXPECT_EQ(edited([](auto& g) { put32(&g[68], 5000); }), kErrOutOfRange);
-  // Material count bigger than the metadata can hold.
-  EXPECT_EQ(edited([](auto& g) { put32(&g[64], 0x7FFFFFFF); }), kErrTruncated);
+  // Metadata fields (uncompressed metadata, versions 1 and 2): first material's name length
+  // made huge; material count bigger than the metadata can hold.
+  for (uint32_t version : {kMinFormatVersion, kFormatVersion}) {
+    FormatOptions o;
+    o.compression = Compression::kNone;
+    o.version = version;
+    const std::vector<uint8_t> plain = encode_format(test::scene_of({test::make_leaf_dag(test::make_sphere(6, 12))}), o);
+    auto plain_edited = [&](auto edit) {
+      std::vector<uint8_t> g = plain;
+      edit(g);
+      fix_crcs(g);
+      return decode_code(g);
+    };
+    EXPECT_EQ(plain_edited([](auto&) {}), "OK") << version;
+    EXPECT_EQ(plain_edited([](auto& g) { put32(&g[68], 5000); }), kErrOutOfRange) << version;
+    EXPECT_EQ(plain_edited([](auto& g) { put32(&g[64], 0x7FFFFFFF); }), kErrTruncated) << version;
+  }
 }
 
 TEST(FormatHardening, MutatedPagesWithFixedChecksumsNeverCrash) {

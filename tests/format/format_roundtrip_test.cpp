@@ -121,6 +121,55 @@ TEST(FormatRoundTrip, TranscodeEqualsDirectMemoryForm) {
   }
 }
 
+// Version 2 (vertex copies, parallelogram prediction, compressed transposed metadata) and
+// version 1 encode the same scene to the same decoded scene and the same memory form, and
+// version 2 pages really use copies (clusters of one page share border vertices).
+TEST(FormatRoundTrip, VersionsDecodeIdenticallyAndV2CopiesSharedVertices) {
+  BuiltScene s = test::scene_of({test::make_leaf_dag(test::make_grid(24, 1.0f, true))});
+  FormatOptions o1, o2;
+  o1.version = kMinFormatVersion;
+  o2.version = kFormatVersion;
+  o1.zstd_level = o2.zstd_level = 3;
+  FormatReport r2;
+  const std::vector<uint8_t> f1 = encode_format(s, o1), f2 = encode_format(s, o2, &r2);
+  EXPECT_GT(r2.copied_vertices, 0u);
+  EXPECT_EQ(test::decoded_hash(decode_format(f1.data(), f1.size(), "v1")), test::decoded_hash(decode_format(f2.data(), f2.size(), "v2")));
+  const FormatContainer c1 = parse_container(f1.data(), f1.size(), "v1"), c2 = parse_container(f2.data(), f2.size(), "v2");
+  ASSERT_EQ(c1.pages.size(), c2.pages.size());
+  EXPECT_EQ(c1.version, kMinFormatVersion);
+  EXPECT_EQ(c2.version, kFormatVersion);
+  for (uint32_t p = 0; p < c1.pages.size(); ++p)
+    EXPECT_EQ(transcode_page(c1, p, f1.data() + c1.pages[p].file_offset, c1.pages[p].stored_size, "v1"),
+              transcode_page(c2, p, f2.data() + c2.pages[p].file_offset, c2.pages[p].stored_size, "v2"));
+}
+
+// Default position grid (spec/format.md §2): extent ≤ 2^16 steps, then refined until
+// √3/2·step ≤ the median parent_error of the level-0 groups, never beyond 2^20 steps.
+TEST(FormatRoundTrip, PositionGridFollowsMedianLeafErrorWithinCap) {
+  const ClusterDag base = test::make_two_level_dag(test::make_grid(24, 2.0f), test::make_grid(8, 2.0f));
+  auto step_log2 = [&](float leaf_error, bool refine) {
+    ClusterDag d = base;
+    for (DagGroup& g : d.groups)
+      if (g.level == 0) g.parent_error = leaf_error;
+    for (DagCluster& c : d.clusters)
+      if (c.level == 0) c.parent_error = leaf_error;
+      else if (c.generating_group != kNone) c.lod_error = leaf_error;
+    for (DagGroup& g : d.groups)
+      if (g.level > 0) g.parent_error = std::max(g.parent_error, leaf_error);
+    FormatOptions o;
+    o.zstd_level = 1;
+    o.position_step_from_lod_error = refine;
+    const std::vector<uint8_t> f = encode_format(test::scene_of({d}), o);
+    return parse_container(f.data(), f.size(), "<test>").meshes[0].quantization.position_step_log2;
+  };
+  const int32_t extent_rule = step_log2(1.0f, false);  // grid extent 2: step 2^-15
+  EXPECT_EQ(extent_rule, -15);
+  EXPECT_EQ(step_log2(1.0f, true), extent_rule);          // coarse errors: no refinement
+  const int32_t refined = step_log2(1e-5f, true);         // √3/2·2^-17 ≈ 6.6e-6 ≤ 1e-5 < √3/2·2^-16
+  EXPECT_EQ(refined, -17);
+  EXPECT_EQ(step_log2(1e-12f, true), extent_rule - 4);    // capped at 2^20 steps over the extent
+}
+
 RC_GTEST_PROP(FormatRoundTrip, RandomDagsRoundTripExactly, ()) {
   const uint32_t seed = *rc::gen::arbitrary<uint32_t>();
   const uint32_t clusters = *rc::gen::inRange(1, 12);
@@ -130,6 +179,7 @@ RC_GTEST_PROP(FormatRoundTrip, RandomDagsRoundTripExactly, ()) {
   o.normal_bits = *rc::gen::inRange(1, 17);
   o.compression = *rc::gen::element(Compression::kNone, Compression::kZstd, Compression::kLz4);
   o.zstd_level = 3;
+  o.version = *rc::gen::element(kMinFormatVersion, kFormatVersion);
   if (*rc::gen::arbitrary<bool>()) o.position_step_log2 = *rc::gen::inRange(-6, 3);
   std::vector<uint8_t> f;
   try {

@@ -14,6 +14,7 @@
 #include <iterator>
 #include <sstream>
 
+#include "format_file_edit.h"
 #include "format_test_util.h"
 #include "support/paths.h"
 #include "vgeo/format/crc32c.h"
@@ -29,26 +30,31 @@ struct Vector {
   std::string expected;  // "OK" (hash added when written) or an error code
 };
 
-uint32_t le32(const uint8_t* p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24; }
-void put32(uint8_t* p, uint32_t v) { for (int k = 0; k < 4; ++k) p[k] = uint8_t(v >> (8 * k)); }
+uint32_t le32(const uint8_t* p) { return test::file_le32(p); }
+void put32(uint8_t* p, uint32_t v) { test::file_put32(p, v); }
+void fix_crcs(std::vector<uint8_t>& f) { test::fix_file_crcs(f); }
 
-void fix_crcs(std::vector<uint8_t>& f) {
-  const uint32_t meta_size = le32(&f[36]), pages = le32(&f[32]);
-  uint8_t* table = &f[64 + meta_size - 24 * size_t(pages)];
-  size_t offset = 64 + meta_size;
-  for (uint32_t p = 0; p < pages; ++p) {
-    const uint32_t stored = le32(table + 24 * p + 4);
-    if (offset + stored <= f.size()) put32(table + 24 * p + 20, crc32c(&f[offset], stored));
-    offset += stored;
-  }
-  put32(&f[40], crc32c(&f[64], meta_size));
-  put32(&f[60], crc32c(&f[0], 60));
+// Offset of the version 2 copy mask in a raw (uncompressed) disk page (spec §5.2).
+size_t copy_mask_offset(const uint8_t* page, uint32_t channels, uint64_t* total_vertices) {
+  const uint32_t n = le32(page + 4);
+  size_t at = 8;
+  uint64_t tris = 0, runs = 0, verts = 0;
+  for (uint32_t i = 0; i < n; ++i) verts += page[at + i], tris += page[at + n + i], runs += page[at + 2 * n + i];
+  at += size_t(n) * (3 + 5 * channels) + tris;
+  at += 4 + le32(page + at);
+  *total_vertices = verts;
+  return at + 5 * runs;
 }
 
-std::vector<Vector> make_vectors() {
+// One set per format version: names of the version 1 set start with "v1_" (files of
+// version N keep decoding under N+1, spec §Versioning).
+std::vector<Vector> make_vectors(uint32_t version) {
   std::vector<Vector> v;
+  const std::string prefix = version == kFormatVersion ? "" : "v" + std::to_string(version) + "_";
   FormatOptions zstd;
   zstd.zstd_level = 9;
+  zstd.version = version;
+  if (version == 1) zstd.normal_bits = 10;  // the version 1 default: the v1_ files stay as first written
   FormatOptions none = zstd, lz4 = zstd;
   none.compression = Compression::kNone;
   lz4.compression = Compression::kLz4;
@@ -56,9 +62,9 @@ std::vector<Vector> make_vectors() {
 
   const BuiltScene sphere = test::scene_of({test::make_leaf_dag(test::make_sphere(6, 12))});
   const std::vector<uint8_t> sphere_zstd = encode_format(sphere, zstd);
-  v.push_back({"valid_sphere_zstd.vgp", sphere_zstd, "OK"});
-  v.push_back({"valid_grid_uv_lz4.vgp", encode_format(test::scene_of({test::make_leaf_dag(test::make_grid(10, 1.0f, true))}), lz4), "OK"});
-  v.push_back({"valid_two_level_none.vgp",
+  v.push_back({prefix + "valid_sphere_zstd.vgp", sphere_zstd, "OK"});
+  v.push_back({prefix + "valid_grid_uv_lz4.vgp", encode_format(test::scene_of({test::make_leaf_dag(test::make_grid(10, 1.0f, true))}), lz4), "OK"});
+  v.push_back({prefix + "valid_two_level_none.vgp",
                encode_format(test::scene_of({test::make_two_level_dag(test::make_grid(24, 2.0f), test::make_grid(8, 2.0f))}), none), "OK"});
   {
     // A cluster whose triangles span more than 32 indices (wide index offsets) and a mesh with
@@ -67,19 +73,19 @@ std::vector<Vector> make_vectors() {
     DagCluster& c = d.clusters[0];
     for (uint32_t t = 0; t + 1 < c.triangle_count; t += 2)
       std::swap(d.indices[3 * (c.triangle_offset + t)], d.indices[3 * (c.triangle_offset + c.triangle_count - 1 - t / 2) + 1]);
-    v.push_back({"valid_wide_index_two_meshes_zstd.vgp",
+    v.push_back({prefix + "valid_wide_index_two_meshes_zstd.vgp",
                  encode_format(test::scene_of({d, test::make_leaf_dag(test::make_grid(3))}), zstd), "OK"});
   }
   auto derived = [&](const std::string& name, const std::vector<uint8_t>& base, const std::string& code, auto edit, bool crc) {
     std::vector<uint8_t> f = base;
     edit(f);
     if (crc) fix_crcs(f);
-    v.push_back({name, f, code});
+    v.push_back({prefix + name, f, code});
   };
   const FormatContainer fc = parse_container(sphere_zstd.data(), sphere_zstd.size(), "gen");
   const size_t page0 = fc.pages[0].file_offset;
   derived("bad_magic.vgp", sphere_zstd, kErrBadMagic, [](auto& f) { f[3] = 'X'; }, false);
-  derived("bad_version.vgp", sphere_zstd, kErrBadVersion, [](auto& f) { put32(&f[8], 2); }, true);
+  derived("bad_version.vgp", sphere_zstd, kErrBadVersion, [](auto& f) { put32(&f[8], kFormatVersion + 1); }, true);
   derived("truncated.vgp", sphere_zstd, kErrTruncated, [](auto& f) { f.pop_back(); }, false);
   derived("trailing_byte.vgp", sphere_zstd, kErrTrailingBytes, [](auto& f) { f.push_back(0); }, false);
   derived("header_checksum.vgp", sphere_zstd, kErrChecksum, [](auto& f) { f[44] ^= 1; }, false);
@@ -88,15 +94,36 @@ std::vector<Vector> make_vectors() {
   derived("page_size_out_of_range.vgp", sphere_zstd, kErrOutOfRange, [](auto& f) { put32(&f[28], 3u << 14); }, true);
   derived("file_size_inconsistent.vgp", sphere_zstd, kErrInconsistent, [](auto& f) { put32(&f[16], le32(&f[16]) - 1); }, true);
   derived("zstd_frame_broken.vgp", sphere_zstd, kErrDecompress, [&](auto& f) { f[page0] ^= 0xFF; }, true);
-  derived("material_name_too_long.vgp", sphere_zstd, kErrOutOfRange, [](auto& f) { put32(&f[68], 4097); }, true);
-
   // Raw (uncompressed) page edits: offsets from spec §5.2 for the first page.
   const BuiltScene grid = test::scene_of({test::make_leaf_dag(test::make_grid(6))});
   const std::vector<uint8_t> grid_none = encode_format(grid, none);
+  // Metadata edit (plain metadata in version 1; in version 2 only without compression).
+  derived("material_name_too_long.vgp", version == 1 ? sphere_zstd : grid_none, kErrOutOfRange,
+          [](auto& f) { put32(&f[68], 4097); }, true);
+  if (version >= 2) {
+    derived("metadata_compression_unknown.vgp", sphere_zstd, kErrUnsupported, [](auto& f) { put32(&f[48], 3); }, true);
+    derived("metadata_raw_size_over_cap.vgp", sphere_zstd, kErrOutOfRange,
+            [](auto& f) { put32(&f[44], kMaxMetadataRatio * le32(&f[36]) + 1); }, true);
+    derived("metadata_raw_size_mismatch.vgp", sphere_zstd, kErrDecompress, [](auto& f) { put32(&f[44], le32(&f[44]) + 1); }, true);
+    // A page of several clusters with vertex copies (spec §5.2 version 2).
+    const std::vector<uint8_t> multi = encode_format(test::scene_of({test::make_leaf_dag(test::make_grid(24, 1.0f, true))}), none);
+    v.push_back({"valid_copies_none.vgp", multi, "OK"});
+    const FormatContainer mc = parse_container(multi.data(), multi.size(), "gen");
+    const size_t mp = mc.pages[0].file_offset;
+    uint64_t verts = 0;
+    const size_t mask = mp + copy_mask_offset(&multi[mp], mc.meshes[0].quantization.channel_count(), &verts);
+    if (verts % 8)
+      derived("copy_mask_padding.vgp", multi, kErrOutOfRange, [&](auto& f) { f[mask + verts / 8] |= 0x80; }, true);
+    uint64_t copies = 0;
+    for (uint64_t i = 0; i < verts; ++i) copies += (multi[mask + i / 8] >> (i % 8)) & 1;
+    if (copies > 0)  // plane 3 of the first copy reference: a source far beyond the page
+      derived("copy_source_out_of_range.vgp", multi, kErrOutOfRange,
+              [&](auto& f) { f[mask + (verts + 7) / 8 + 3 * copies] = 0x7F; }, true);
+  }
   const FormatContainer gc = parse_container(grid_none.data(), grid_none.size(), "gen");
   const size_t p = gc.pages[0].file_offset;
   const uint32_t n = gc.pages[0].cluster_count, C = gc.meshes[0].quantization.channel_count();
-  v.push_back({"valid_grid_none.vgp", grid_none, "OK"});
+  v.push_back({prefix + "valid_grid_none.vgp", grid_none, "OK"});
   derived("page_cluster_count_mismatch.vgp", grid_none, kErrInconsistent, [&](auto& f) { put32(&f[p + 4], n + 1); }, true);
   derived("page_bad_magic.vgp", grid_none, kErrBadMagic, [&](auto& f) { f[p] ^= 1; }, true);
   const size_t ctl = p + 8 + size_t(n) * (3 + 5 * C);
@@ -129,7 +156,8 @@ std::vector<uint8_t> read_file(const fs::path& p) {
 }
 
 TEST(FormatVectors, ManifestMatches) {
-  const std::vector<Vector> vectors = make_vectors();
+  std::vector<Vector> vectors = make_vectors(kMinFormatVersion);
+  for (Vector& x : make_vectors(kFormatVersion)) vectors.push_back(std::move(x));
   if (const char* u = std::getenv("VGEO_UPDATE_VECTORS"); u && std::string(u) == "1") {
     fs::create_directories(vector_dir());
     std::ofstream manifest(vector_dir() / "manifest.txt");
@@ -159,7 +187,9 @@ TEST(FormatVectors, ManifestMatches) {
 // Uncompressed files are pinned byte for byte; zstd/lz4 output may legitimately change with
 // the library version, so compressed files are compared by their decode outcome.
 TEST(FormatVectors, GeneratorReproducesStoredFiles) {
-  for (const Vector& v : make_vectors()) {
+  std::vector<Vector> all = make_vectors(kMinFormatVersion);
+  for (Vector& x : make_vectors(kFormatVersion)) all.push_back(std::move(x));
+  for (const Vector& v : all) {
     const std::vector<uint8_t> stored = read_file(vector_dir() / v.name);
     if (v.bytes.size() >= 28 && le32(&v.bytes[24]) == uint32_t(Compression::kNone))
       EXPECT_TRUE(stored == v.bytes) << v.name;

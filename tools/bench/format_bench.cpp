@@ -11,6 +11,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -21,6 +23,9 @@
 
 #include "vgeo/build/build.h"
 #include "vgeo/build/cluster_dag.h"
+#include "vgeo/build/dag_io.h"
+#include "vgeo/core/error.h"
+#include "vgeo/mesh/generate.h"
 #include "vgeo/format/format.h"
 #include "vgeo/format/format_measure.h"
 
@@ -174,14 +179,43 @@ struct Case {
   FormatContainer container;
 };
 
+// Defaults, or overrides for experiments: VGEO_FORMAT_POSITION_BITS, VGEO_FORMAT_NORMAL_BITS,
+// VGEO_FORMAT_UV_STEP_LOG2, VGEO_FORMAT_VERSION.
+FormatOptions bench_options() {
+  FormatOptions o;
+  if (const char* e = std::getenv("VGEO_FORMAT_POSITION_BITS")) o.position_bits = uint32_t(std::atoi(e));
+  if (const char* e = std::getenv("VGEO_FORMAT_NORMAL_BITS")) o.normal_bits = uint32_t(std::atoi(e));
+  if (const char* e = std::getenv("VGEO_FORMAT_UV_STEP_LOG2")) o.uv_step_log2 = std::atoi(e);
+  if (const char* e = std::getenv("VGEO_FORMAT_VERSION")) o.version = uint32_t(std::atoi(e));
+  return o;
+}
+
 const Case* get_case(const std::string& full_name) {
   const bool leaf = full_name.size() > 5 && full_name.substr(full_name.size() - 5) == "/leaf";
   const std::string name = leaf ? full_name.substr(0, full_name.size() - 5) : full_name;
   static std::map<std::string, std::unique_ptr<Case>> cache;
   auto& slot = cache[full_name];
   if (slot) return slot.get();
+  slot = std::make_unique<Case>();
+  // Built DAGs are cached next to the build (format changes do not rebuild them):
+  // build/format_bench_cache/<name>.vgeodag.
+  const std::string cache_path = source_dir() + "/build/format_bench_cache/" + name + (leaf ? "_leaf" : "") + ".vgeodag";
+  bool cached = false;
+  try {
+    slot->scene = read_dag_file(cache_path);
+    cached = !slot->scene.meshes.empty();
+  } catch (const VgeoError&) {
+  }
   Mesh m;
-  if (name == "sphere") {
+  if (cached) {
+  } else if (name == "gen10m") {
+    // 10M-triangle generated mesh (vgeo gen sphere --triangles 10000000 --seed 1).
+    GenerateOptions g;
+    g.shape = GenShape::kSphere;
+    g.target_triangles = 10'000'000;
+    g.threads = 2;
+    m = generate_mesh(g);
+  } else if (name == "sphere") {
     const uint32_t rings = 160, seg = 320;
     const double pi = 3.14159265358979323846;
     for (uint32_t r = 0; r <= rings; ++r)
@@ -197,19 +231,24 @@ const Case* get_case(const std::string& full_name) {
       }
   } else {
     m = load_off(source_dir() + "/data/cgal/meshes/" + name + ".off");
-    if (m.indices.empty()) return nullptr;
+    if (m.indices.empty()) return slot.reset(), nullptr;
   }
-  add_normals_and_uvs(m);
-  slot = std::make_unique<Case>();
-  if (leaf) {
-    slot->scene.meshes.push_back(leaf_dag(m));
-  } else {
-    BuildOptions bo;
-    bo.threads = 1;
-    slot->scene.meshes.push_back(build_dag(m, bo));
+  if (!cached) {
+    m.normals.clear();
+    m.uvs.clear();
+    add_normals_and_uvs(m);
+    if (leaf) {
+      slot->scene.meshes.push_back(leaf_dag(m));
+    } else {
+      BuildOptions bo;
+      bo.threads = name == "gen10m" ? 2 : 1;
+      slot->scene.meshes.push_back(build_dag(m, bo));
+    }
+    slot->scene.materials.resize(m.materials.empty() ? 1 : 2);  // gen: materials 0 and 1
+    std::filesystem::create_directories(source_dir() + "/build/format_bench_cache");
+    write_dag_file(cache_path, slot->scene);
   }
-  slot->scene.materials.push_back(Material{});
-  FormatOptions o;
+  FormatOptions o = bench_options();
   slot->file = encode_format(slot->scene, o, &slot->report);
   slot->container = parse_container(slot->file.data(), slot->file.size(), name);
   return slot.get();
@@ -219,7 +258,7 @@ void BM_FormatSize(benchmark::State& state, const std::string& name) {
   const Case* c = get_case(name);
   if (!c) return state.SkipWithError(("missing data/cgal/meshes/" + name + ".off (tools/fetch-data)").c_str());
   MeshoptBaseline base;
-  for (auto _ : state) base = measure_meshopt_baseline(c->scene, c->file, FormatOptions{});
+  for (auto _ : state) base = measure_meshopt_baseline(c->scene, c->file, bench_options());
   const FormatReport& r = c->report;
   const double t = double(r.triangles);
   auto& k = state.counters;
@@ -238,7 +277,41 @@ void BM_FormatSize(benchmark::State& state, const std::string& name) {
   k["mem_uv_B/tri"] = r.memory.uvs / t;
   k["mem_topo_bits/tri"] = 8 * r.memory.topology / t;
   k["mem_hdr_B/tri"] = (r.memory.cluster_headers + r.memory.materials) / t;
+  k["disk_vref_B/tri"] = r.disk_compressed.vertex_refs / t;
+  k["copied_vtx_%"] = 100.0 * double(r.copied_vertices) / double(r.vertices);
+  k["meta_raw_B/tri"] = double(r.metadata_raw_bytes) / t;
   k["wide_idx_%"] = 100.0 * double(r.wide_index_clusters) / double(r.clusters);
+  // Quantization error (spec/format.md §2): position √3/2·step in units of the finest
+  // non-zero LOD error of the DAG, largest normal angle, UV half step.
+  const MeshQuantization& q = c->container.meshes[0].quantization;
+  const ClusterDag& dag = c->scene.meshes[0];
+  // Finest LOD errors: the parent_error of the leaf (level 0) groups, i.e. the error of the
+  // first simplification; smallest non-zero and median.
+  std::vector<double> leaf_errors;
+  for (const DagGroup& g : dag.groups)
+    if (g.level == 0 && g.parent_error > 0 && std::isfinite(g.parent_error)) leaf_errors.push_back(g.parent_error);
+  std::sort(leaf_errors.begin(), leaf_errors.end());
+  const double finest = leaf_errors.empty() ? INFINITY : leaf_errors.front();
+  const double median = leaf_errors.empty() ? INFINITY : leaf_errors[leaf_errors.size() / 2];
+  const double step = std::ldexp(1.0, q.position_step_log2);
+  k["pos_step_log2"] = q.position_step_log2;
+  k["pos_err/finest_lod_err"] = 0.8660254 * step / finest;
+  k["pos_err/median_leaf_err"] = 0.8660254 * step / median;
+  double worst = 0;
+  for (size_t v = 0; v < dag.normals.size() / 3; ++v) {
+    const float* n = &dag.normals[3 * v];
+    uint32_t o[2];
+    float d[3];
+    octahedral_encode(n, q.normal_bits, o);
+    octahedral_decode(o, q.normal_bits, d);
+    const double l = std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
+    if (l == 0) continue;
+    const double cosang = std::clamp((double(n[0]) * d[0] + double(n[1]) * d[1] + double(n[2]) * d[2]) / l, -1.0, 1.0);
+    worst = std::max(worst, std::acos(cosang) * 180.0 / 3.14159265358979323846);
+  }
+  k["nrm_bits"] = q.normal_bits;
+  k["nrm_max_err_deg"] = worst;
+  k["uv_step_log2"] = q.uv_step_log2;
   k["verts/tri"] = double(r.vertices) / t;
   double slack = 0;
   for (const PageFill& p : r.pages) slack += p.slack_bytes;
@@ -282,7 +355,7 @@ void BM_FormatDecodeClusters(benchmark::State& state, const std::string& name) {
   state.SetItemsProcessed(int64_t(state.iterations() * c->report.triangles));
 }
 
-const char* const kMeshes[] = {"armadillo", "refined_elephant", "fandisk_large", "sphere", "armadillo/leaf"};
+const char* const kMeshes[] = {"bunny00", "armadillo", "refined_elephant", "fandisk_large", "sphere", "gen10m", "armadillo/leaf"};
 const int kRegistered = [] {
   for (const char* m : kMeshes) {
     benchmark::RegisterBenchmark((std::string("BM_FormatSize/") + m).c_str(), BM_FormatSize, std::string(m))
