@@ -107,22 +107,27 @@ void TriangleDistanceTree::build(uint32_t index, uint32_t first, uint32_t last, 
   const size_t n = order_.size();
   nd.lo = {inf, inf, inf};
   nd.hi = {-inf, -inf, -inf};
-  DVec3 clo = nd.lo, chi = nd.hi;
-  for (uint32_t i = first; i < last; ++i) {
-    uint32_t t = order_[i];
-    const DVec3& lo = tri_box[2 * size_t(t)];
-    const DVec3& hi = tri_box[2 * size_t(t) + 1];
-    nd.lo = {std::min(nd.lo.x, lo.x), std::min(nd.lo.y, lo.y), std::min(nd.lo.z, lo.z)};
-    nd.hi = {std::max(nd.hi.x, hi.x), std::max(nd.hi.y, hi.y), std::max(nd.hi.z, hi.z)};
-    const DVec3 c{centroids[t], centroids[n + t], centroids[2 * n + t]};
-    clo = {std::min(clo.x, c.x), std::min(clo.y, c.y), std::min(clo.z, c.z)};
-    chi = {std::max(chi.x, c.x), std::max(chi.y, c.y), std::max(chi.z, c.z)};
-  }
   if (last - first <= kLeafSize) {
+    for (uint32_t i = first; i < last; ++i) {
+      uint32_t t = order_[i];
+      const DVec3& lo = tri_box[2 * size_t(t)];
+      const DVec3& hi = tri_box[2 * size_t(t) + 1];
+      nd.lo = {std::min(nd.lo.x, lo.x), std::min(nd.lo.y, lo.y), std::min(nd.lo.z, lo.z)};
+      nd.hi = {std::max(nd.hi.x, hi.x), std::max(nd.hi.y, hi.y), std::max(nd.hi.z, hi.z)};
+    }
     nd.first = first;
     nd.count = last - first;
     nodes_[index] = nd;
     return;
+  }
+  // Inner node: only the centroid extent is needed to pick the axis; the node's box is the
+  // union of its children's (min/max are exact, so it equals the box over its triangles).
+  DVec3 clo = nd.lo, chi = nd.hi;
+  for (uint32_t i = first; i < last; ++i) {
+    uint32_t t = order_[i];
+    const DVec3 c{centroids[t], centroids[n + t], centroids[2 * n + t]};
+    clo = {std::min(clo.x, c.x), std::min(clo.y, c.y), std::min(clo.z, c.z)};
+    chi = {std::max(chi.x, c.x), std::max(chi.y, c.y), std::max(chi.z, c.z)};
   }
   DVec3 ext = sub(chi, clo);
   int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
@@ -134,12 +139,16 @@ void TriangleDistanceTree::build(uint32_t index, uint32_t first, uint32_t last, 
     return ka < kb || (ka == kb && a < b);
   });
   uint32_t child = uint32_t(nodes_.size());
-  nd.first = child;
-  nd.count = 0;
-  nodes_[index] = nd;
   nodes_.resize(nodes_.size() + 2);
   build(child, first, mid, tri_box, centroids);
   build(child + 1, mid, last, tri_box, centroids);
+  const Node& l = nodes_[child];
+  const Node& r = nodes_[child + 1];
+  nd.lo = {std::min(l.lo.x, r.lo.x), std::min(l.lo.y, r.lo.y), std::min(l.lo.z, r.lo.z)};
+  nd.hi = {std::max(l.hi.x, r.hi.x), std::max(l.hi.y, r.hi.y), std::max(l.hi.z, r.hi.z)};
+  nd.first = child;
+  nd.count = 0;
+  nodes_[index] = nd;
 }
 
 double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) const {
