@@ -38,17 +38,18 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
   if (n == 0 || simplified.triangle_count() == 0) return 0.0;
   const float* pos = mesh.positions.data();
   auto vertex = [&](uint32_t v) { return DVec3{pos[3 * size_t(v)], pos[3 * size_t(v) + 1], pos[3 * size_t(v) + 2]}; };
-  std::vector<DVec3> corners(3 * n);
-  for (size_t i = 0; i < corners.size(); ++i) corners[i] = vertex(input.corners[i]);
-  // Per input triangle its bounding box: a point farther than the running maximum from the
-  // box is farther from the triangle, so the exact distance is not needed to reject it.
+  // Per input triangle its bounding box (a point farther than the running maximum from the
+  // box is farther from the triangle, so the exact distance is not needed to reject it) and
+  // its prepared form (edge vectors and normal once, not once per point).
   std::vector<DVec3> box(2 * n);
+  std::vector<PreparedTriangle> prepared(n);
   for (size_t t = 0; t < n; ++t) {
-    const DVec3* c = &corners[3 * t];
+    const DVec3 c[3] = {vertex(input.corners[3 * t]), vertex(input.corners[3 * t + 1]), vertex(input.corners[3 * t + 2])};
     box[2 * t] = {std::min({c[0].x, c[1].x, c[2].x}), std::min({c[0].y, c[1].y, c[2].y}),
                   std::min({c[0].z, c[1].z, c[2].z})};
     box[2 * t + 1] = {std::max({c[0].x, c[1].x, c[2].x}), std::max({c[0].y, c[1].y, c[2].y}),
                       std::max({c[0].z, c[1].z, c[2].z})};
+    prepared[t] = prepare_triangle(c[0], c[1], c[2]);
   }
   // Input triangles incident to each input vertex (ascending triangle order per vertex):
   // vertex ids → dense local ids by open addressing (load ≤ 1/2), then a counting sort.
@@ -84,8 +85,7 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
                  dz = std::max({lo.z - p.z, 0.0, p.z - hi.z});
     d = dx * dx + dy * dy + dz * dz;
     if (d > threshold) return false;
-    const DVec3* c = &corners[3 * size_t(t)];
-    return point_triangle_within_squared(p, c[0], c[1], c[2], threshold, &d);
+    return prepared_triangle_within_squared(p, prepared[t], threshold, &d);
   };
   TriangleDistanceTree tree;  // built on the first point that needs an exact search
   bool tree_built = false;
@@ -114,7 +114,9 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
       }
     // No candidate is within the running maximum: the exact minimum over all triangles.
     if (!tree_built) {
-      tree = TriangleDistanceTree(corners);
+      std::vector<DVec3> corners(3 * n);
+      for (size_t i = 0; i < n; ++i) corners[3 * i] = prepared[i].a, corners[3 * i + 1] = prepared[i].b, corners[3 * i + 2] = prepared[i].c;
+      tree = TriangleDistanceTree(std::move(corners));
       tree_built = true;
     }
     uint32_t h = nearest;

@@ -7,58 +7,17 @@
 namespace vgeo {
 namespace {
 
-DVec3 sub(DVec3 a, DVec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-double dot(DVec3 a, DVec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-DVec3 cross(DVec3 a, DVec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-
-double point_segment_d2(DVec3 p, DVec3 a, DVec3 b) {
-  DVec3 ab = sub(b, a), ap = sub(p, a);
-  double len2 = dot(ab, ab);
-  double t = len2 > 0 ? std::clamp(dot(ap, ab) / len2, 0.0, 1.0) : 0.0;
-  DVec3 q{a.x + ab.x * t - p.x, a.y + ab.y * t - p.y, a.z + ab.z * t - p.z};
-  return dot(q, q);
-}
-
 // Triangles per tree leaf: a few exact tests beat a deeper tree.
 constexpr uint32_t kLeafSize = 4;
 
 }  // namespace
 
 double point_triangle_distance_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c) {
-  DVec3 n = cross(sub(b, a), sub(c, a));
-  double nn = dot(n, n);
-  if (nn > 0) {
-    DVec3 ap = sub(p, a), bp = sub(p, b), cp = sub(p, c);
-    if (dot(cross(sub(b, a), ap), n) >= 0 && dot(cross(sub(c, b), bp), n) >= 0 &&
-        dot(cross(sub(a, c), cp), n) >= 0) {
-      double h = dot(n, ap);
-      return h * h / nn;
-    }
-  }
-  return std::min({point_segment_d2(p, a, b), point_segment_d2(p, b, c), point_segment_d2(p, c, a)});
+  return prepared_triangle_distance_squared(p, prepare_triangle(a, b, c));
 }
 
 bool point_triangle_within_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c, double threshold, double* d2) {
-  // The steps of point_triangle_distance_squared, in the same order and precision.
-  DVec3 n = cross(sub(b, a), sub(c, a));
-  double nn = dot(n, n);
-  if (nn > 0) {
-    DVec3 ap = sub(p, a), bp = sub(p, b), cp = sub(p, c);
-    if (dot(cross(sub(b, a), ap), n) >= 0 && dot(cross(sub(c, b), bp), n) >= 0 &&
-        dot(cross(sub(a, c), cp), n) >= 0) {
-      double h = dot(n, ap);
-      *d2 = h * h / nn;
-      return *d2 <= threshold;
-    }
-  }
-  // min of the three segment distances ≤ threshold iff one of them is.
-  double d = point_segment_d2(p, a, b);
-  if (d <= threshold) return *d2 = d, true;
-  d = std::min(d, point_segment_d2(p, b, c));
-  if (d <= threshold) return *d2 = d, true;
-  d = std::min(d, point_segment_d2(p, c, a));
-  *d2 = d;
-  return d <= threshold;
+  return prepared_triangle_within_squared(p, prepare_triangle(a, b, c), threshold, d2);
 }
 
 TriangleDistanceTree::TriangleDistanceTree(std::vector<DVec3> corners) : corners_(std::move(corners)) {
@@ -129,7 +88,7 @@ void TriangleDistanceTree::build(uint32_t index, uint32_t first, uint32_t last, 
     clo = {std::min(clo.x, c.x), std::min(clo.y, c.y), std::min(clo.z, c.z)};
     chi = {std::max(chi.x, c.x), std::max(chi.y, c.y), std::max(chi.z, c.z)};
   }
-  DVec3 ext = sub(chi, clo);
+  DVec3 ext = surface_distance_detail::sub(chi, clo);
   int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
   const double* key = centroids + size_t(axis) * n;
   uint32_t mid = first + (last - first) / 2;
