@@ -108,26 +108,35 @@ Sphere enclose_spheres(const Sphere* spheres, size_t count) {
 
 void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
                          uint64_t* all_edges, std::vector<uint64_t>* open_keys) {
-  std::vector<uint64_t> keys;
-  keys.reserve(cluster.corners.size());
-  for (size_t t = 0; t < cluster.triangle_count(); ++t)
+  // Uses per distinct welded edge in an open addressing table (load ≤ 1/2) instead of a
+  // sort of all keys: only the open keys (a minority) are sorted.
+  const size_t n = cluster.triangle_count();
+  size_t slots = 16;
+  int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
+  while (slots < 6 * n) slots <<= 1, --shift;
+  constexpr uint64_t kEmpty = ~uint64_t(0);  // no edge key (a < b) equals it
+  std::vector<uint64_t> table(slots, kEmpty);
+  std::vector<uint32_t> uses(slots, 0);
+  uint64_t all = 0;
+  for (size_t t = 0; t < n; ++t)
     for (int k = 0; k < 3; ++k) {
       uint32_t a = welded.weld[cluster.corners[3 * t + k]];
       uint32_t b = welded.weld[cluster.corners[3 * t + (k + 1) % 3]];
-      if (a != b) keys.push_back(edge_key(a, b));
+      if (a == b) continue;
+      const uint64_t key = edge_key(a, b);
+      size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+      while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
+      if (table[h] == kEmpty) table[h] = key, ++all;
+      ++uses[h];
     }
-  std::sort(keys.begin(), keys.end());
-  uint64_t open = 0, all = 0;
-  for (size_t i = 0; i < keys.size();) {
-    size_t j = i;
-    while (j < keys.size() && keys[j] == keys[i]) ++j;
-    ++all;
-    if (j - i == 1) {
+  uint64_t open = 0;
+  const size_t first_open = open_keys ? open_keys->size() : 0;
+  for (size_t h = 0; h < slots; ++h)
+    if (uses[h] == 1) {
       ++open;
-      if (open_keys) open_keys->push_back(keys[i]);
+      if (open_keys) open_keys->push_back(table[h]);
     }
-    i = j;
-  }
+  if (open_keys) std::sort(open_keys->begin() + ptrdiff_t(first_open), open_keys->end());
   *open_edges = open;
   *all_edges = all;
 }

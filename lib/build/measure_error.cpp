@@ -21,6 +21,9 @@ namespace vgeo::build_detail {
 
 namespace {
 
+// Empty slot of the vertex hash (not a valid vertex id: meshes have < 2^32 - 1 vertices).
+constexpr uint32_t kNoVertex = ~uint32_t(0);
+
 float round_up_to_float(double d) {
   float e = float(d);
   if (double(e) < d) e = std::nextafter(e, std::numeric_limits<float>::infinity());
@@ -35,22 +38,44 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
   if (n == 0 || simplified.triangle_count() == 0) return 0.0;
   const float* pos = mesh.positions.data();
   auto vertex = [&](uint32_t v) { return DVec3{pos[3 * size_t(v)], pos[3 * size_t(v) + 1], pos[3 * size_t(v) + 2]}; };
-  std::vector<DVec3> corners(3 * n);
-  for (size_t i = 0; i < corners.size(); ++i) corners[i] = vertex(input.corners[i]);
-  // Per input triangle its bounding box: a point farther than the running maximum from the
-  // box is farther from the triangle, so the exact distance is not needed to reject it.
+  // Per input triangle its bounding box (a point farther than the running maximum from the
+  // box is farther from the triangle, so the exact distance is not needed to reject it) and
+  // its prepared form (edge vectors and normal once, not once per point).
   std::vector<DVec3> box(2 * n);
+  std::vector<PreparedTriangle> prepared(n);
   for (size_t t = 0; t < n; ++t) {
-    const DVec3* c = &corners[3 * t];
+    const DVec3 c[3] = {vertex(input.corners[3 * t]), vertex(input.corners[3 * t + 1]), vertex(input.corners[3 * t + 2])};
     box[2 * t] = {std::min({c[0].x, c[1].x, c[2].x}), std::min({c[0].y, c[1].y, c[2].y}),
                   std::min({c[0].z, c[1].z, c[2].z})};
     box[2 * t + 1] = {std::max({c[0].x, c[1].x, c[2].x}), std::max({c[0].y, c[1].y, c[2].y}),
                       std::max({c[0].z, c[1].z, c[2].z})};
+    prepared[t] = prepare_triangle(c[0], c[1], c[2]);
   }
-  // Input triangles incident to each input vertex id: vertex << 32 | triangle, sorted.
-  std::vector<uint64_t> incident(3 * n);
-  for (size_t i = 0; i < 3 * n; ++i) incident[i] = (uint64_t(input.corners[i]) << 32) | uint64_t(i / 3);
-  std::sort(incident.begin(), incident.end());
+  // Input triangles incident to each input vertex (ascending triangle order per vertex):
+  // vertex ids → dense local ids by open addressing (load ≤ 1/2), then a counting sort.
+  size_t vertex_slots = 16;
+  int vertex_shift = 28;  // hash = top log2(vertex_slots) bits of a 32-bit multiplicative hash
+  while (vertex_slots < 6 * n) vertex_slots <<= 1, --vertex_shift;
+  std::vector<uint32_t> slot_vertex(vertex_slots, kNoVertex), slot_local(vertex_slots);
+  auto slot_of = [&](uint32_t v) {
+    size_t h = size_t(uint32_t(v * 0x9E3779B1u) >> vertex_shift);
+    while (slot_vertex[h] != kNoVertex && slot_vertex[h] != v) h = (h + 1) & (vertex_slots - 1);
+    return h;
+  };
+  std::vector<uint32_t> local_of_corner(3 * n);
+  uint32_t local_count = 0;
+  for (size_t i = 0; i < 3 * n; ++i) {
+    const size_t h = slot_of(input.corners[i]);
+    if (slot_vertex[h] == kNoVertex) slot_vertex[h] = input.corners[i], slot_local[h] = local_count++;
+    local_of_corner[i] = slot_local[h];
+  }
+  std::vector<uint32_t> ring_first(size_t(local_count) + 1, 0), ring(3 * n);
+  for (uint32_t l : local_of_corner) ++ring_first[l + 1];
+  for (uint32_t l = 0; l < local_count; ++l) ring_first[l + 1] += ring_first[l];
+  {
+    std::vector<uint32_t> fill(ring_first.begin(), ring_first.end() - 1);
+    for (size_t i = 0; i < 3 * n; ++i) ring[fill[local_of_corner[i]]++] = uint32_t(i / 3);
+  }
 
   // True iff triangle t is within `threshold` of p; `d` gets its squared distance or, when
   // the box alone rejects it, the box's (a lower bound, only used to pick a search hint).
@@ -60,17 +85,16 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
                  dz = std::max({lo.z - p.z, 0.0, p.z - hi.z});
     d = dx * dx + dy * dy + dz * dz;
     if (d > threshold) return false;
-    const DVec3* c = &corners[3 * size_t(t)];
-    return point_triangle_within_squared(p, c[0], c[1], c[2], threshold, &d);
+    return prepared_triangle_within_squared(p, prepared[t], threshold, &d);
   };
   TriangleDistanceTree tree;  // built on the first point that needs an exact search
   bool tree_built = false;
   double best2 = 0.0;
   uint32_t hint = 0;
   // Candidate rings: input triangles incident to each corner of the simplified triangle
-  // (ranges of `incident`; the triangle is the low 32 bits).
-  const uint64_t* ring_begin[3] = {};
-  const uint64_t* ring_end[3] = {};
+  // (ranges of `ring`).
+  const uint32_t* ring_begin[3] = {};
+  const uint32_t* ring_end[3] = {};
 
   // `first_ring`: the corner nearest to p (its ring is tried first).
   auto visit = [&](DVec3 p, int first_ring) {
@@ -79,8 +103,8 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
     if (within(p, hint, threshold, d)) return;
     uint32_t nearest = hint;
     for (int r = 0; r < 3; ++r)
-      for (const uint64_t* it = ring_begin[(first_ring + r) % 3]; it != ring_end[(first_ring + r) % 3]; ++it) {
-        const uint32_t t = uint32_t(*it);
+      for (const uint32_t* it = ring_begin[(first_ring + r) % 3]; it != ring_end[(first_ring + r) % 3]; ++it) {
+        const uint32_t t = *it;
         double dt;
         if (within(p, t, threshold, dt)) {
           hint = t;
@@ -90,7 +114,9 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
       }
     // No candidate is within the running maximum: the exact minimum over all triangles.
     if (!tree_built) {
-      tree = TriangleDistanceTree(corners);
+      std::vector<DVec3> corners(3 * n);
+      for (size_t i = 0; i < n; ++i) corners[3 * i] = prepared[i].a, corners[3 * i + 1] = prepared[i].b, corners[3 * i + 2] = prepared[i].c;
+      tree = TriangleDistanceTree(std::move(corners));
       tree_built = true;
     }
     uint32_t h = nearest;
@@ -119,13 +145,11 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
   for (size_t t = 0; t < simplified.triangle_count(); ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
     for (int j = 0; j < 3; ++j) {
-      const uint64_t* lo =
-          incident.data() + (std::lower_bound(incident.begin(), incident.end(), uint64_t(tri[j]) << 32) - incident.begin());
-      const uint64_t* end = incident.data() + incident.size();
-      const uint64_t* hi = lo;
-      while (hi != end && (*hi >> 32) == tri[j]) ++hi;
-      ring_begin[j] = lo;
-      ring_end[j] = hi;
+      // A corner that is not an input vertex (cannot happen with either backend) has no ring.
+      const size_t h = slot_of(tri[j]);
+      const uint32_t l = slot_vertex[h] == kNoVertex ? 0 : slot_local[h];
+      ring_begin[j] = ring.data() + (slot_vertex[h] == kNoVertex ? 0 : ring_first[l]);
+      ring_end[j] = ring.data() + (slot_vertex[h] == kNoVertex ? 0 : ring_first[l + 1]);
     }
     DVec3 a = vertex(tri[0]), b = vertex(tri[1]), c = vertex(tri[2]);
     // Corner points are skipped: a simplified corner is an input vertex (both backends only

@@ -7,58 +7,17 @@
 namespace vgeo {
 namespace {
 
-DVec3 sub(DVec3 a, DVec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-double dot(DVec3 a, DVec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-DVec3 cross(DVec3 a, DVec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-
-double point_segment_d2(DVec3 p, DVec3 a, DVec3 b) {
-  DVec3 ab = sub(b, a), ap = sub(p, a);
-  double len2 = dot(ab, ab);
-  double t = len2 > 0 ? std::clamp(dot(ap, ab) / len2, 0.0, 1.0) : 0.0;
-  DVec3 q{a.x + ab.x * t - p.x, a.y + ab.y * t - p.y, a.z + ab.z * t - p.z};
-  return dot(q, q);
-}
-
 // Triangles per tree leaf: a few exact tests beat a deeper tree.
 constexpr uint32_t kLeafSize = 4;
 
 }  // namespace
 
 double point_triangle_distance_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c) {
-  DVec3 n = cross(sub(b, a), sub(c, a));
-  double nn = dot(n, n);
-  if (nn > 0) {
-    DVec3 ap = sub(p, a), bp = sub(p, b), cp = sub(p, c);
-    if (dot(cross(sub(b, a), ap), n) >= 0 && dot(cross(sub(c, b), bp), n) >= 0 &&
-        dot(cross(sub(a, c), cp), n) >= 0) {
-      double h = dot(n, ap);
-      return h * h / nn;
-    }
-  }
-  return std::min({point_segment_d2(p, a, b), point_segment_d2(p, b, c), point_segment_d2(p, c, a)});
+  return prepared_triangle_distance_squared(p, prepare_triangle(a, b, c));
 }
 
 bool point_triangle_within_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c, double threshold, double* d2) {
-  // The steps of point_triangle_distance_squared, in the same order and precision.
-  DVec3 n = cross(sub(b, a), sub(c, a));
-  double nn = dot(n, n);
-  if (nn > 0) {
-    DVec3 ap = sub(p, a), bp = sub(p, b), cp = sub(p, c);
-    if (dot(cross(sub(b, a), ap), n) >= 0 && dot(cross(sub(c, b), bp), n) >= 0 &&
-        dot(cross(sub(a, c), cp), n) >= 0) {
-      double h = dot(n, ap);
-      *d2 = h * h / nn;
-      return *d2 <= threshold;
-    }
-  }
-  // min of the three segment distances ≤ threshold iff one of them is.
-  double d = point_segment_d2(p, a, b);
-  if (d <= threshold) return *d2 = d, true;
-  d = std::min(d, point_segment_d2(p, b, c));
-  if (d <= threshold) return *d2 = d, true;
-  d = std::min(d, point_segment_d2(p, c, a));
-  *d2 = d;
-  return d <= threshold;
+  return prepared_triangle_within_squared(p, prepare_triangle(a, b, c), threshold, d2);
 }
 
 TriangleDistanceTree::TriangleDistanceTree(std::vector<DVec3> corners) : corners_(std::move(corners)) {
@@ -107,24 +66,29 @@ void TriangleDistanceTree::build(uint32_t index, uint32_t first, uint32_t last, 
   const size_t n = order_.size();
   nd.lo = {inf, inf, inf};
   nd.hi = {-inf, -inf, -inf};
-  DVec3 clo = nd.lo, chi = nd.hi;
-  for (uint32_t i = first; i < last; ++i) {
-    uint32_t t = order_[i];
-    const DVec3& lo = tri_box[2 * size_t(t)];
-    const DVec3& hi = tri_box[2 * size_t(t) + 1];
-    nd.lo = {std::min(nd.lo.x, lo.x), std::min(nd.lo.y, lo.y), std::min(nd.lo.z, lo.z)};
-    nd.hi = {std::max(nd.hi.x, hi.x), std::max(nd.hi.y, hi.y), std::max(nd.hi.z, hi.z)};
-    const DVec3 c{centroids[t], centroids[n + t], centroids[2 * n + t]};
-    clo = {std::min(clo.x, c.x), std::min(clo.y, c.y), std::min(clo.z, c.z)};
-    chi = {std::max(chi.x, c.x), std::max(chi.y, c.y), std::max(chi.z, c.z)};
-  }
   if (last - first <= kLeafSize) {
+    for (uint32_t i = first; i < last; ++i) {
+      uint32_t t = order_[i];
+      const DVec3& lo = tri_box[2 * size_t(t)];
+      const DVec3& hi = tri_box[2 * size_t(t) + 1];
+      nd.lo = {std::min(nd.lo.x, lo.x), std::min(nd.lo.y, lo.y), std::min(nd.lo.z, lo.z)};
+      nd.hi = {std::max(nd.hi.x, hi.x), std::max(nd.hi.y, hi.y), std::max(nd.hi.z, hi.z)};
+    }
     nd.first = first;
     nd.count = last - first;
     nodes_[index] = nd;
     return;
   }
-  DVec3 ext = sub(chi, clo);
+  // Inner node: only the centroid extent is needed to pick the axis; the node's box is the
+  // union of its children's (min/max are exact, so it equals the box over its triangles).
+  DVec3 clo = nd.lo, chi = nd.hi;
+  for (uint32_t i = first; i < last; ++i) {
+    uint32_t t = order_[i];
+    const DVec3 c{centroids[t], centroids[n + t], centroids[2 * n + t]};
+    clo = {std::min(clo.x, c.x), std::min(clo.y, c.y), std::min(clo.z, c.z)};
+    chi = {std::max(chi.x, c.x), std::max(chi.y, c.y), std::max(chi.z, c.z)};
+  }
+  DVec3 ext = surface_distance_detail::sub(chi, clo);
   int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
   const double* key = centroids + size_t(axis) * n;
   uint32_t mid = first + (last - first) / 2;
@@ -134,12 +98,16 @@ void TriangleDistanceTree::build(uint32_t index, uint32_t first, uint32_t last, 
     return ka < kb || (ka == kb && a < b);
   });
   uint32_t child = uint32_t(nodes_.size());
-  nd.first = child;
-  nd.count = 0;
-  nodes_[index] = nd;
   nodes_.resize(nodes_.size() + 2);
   build(child, first, mid, tri_box, centroids);
   build(child + 1, mid, last, tri_box, centroids);
+  const Node& l = nodes_[child];
+  const Node& r = nodes_[child + 1];
+  nd.lo = {std::min(l.lo.x, r.lo.x), std::min(l.lo.y, r.lo.y), std::min(l.lo.z, r.lo.z)};
+  nd.hi = {std::max(l.hi.x, r.hi.x), std::max(l.hi.y, r.hi.y), std::max(l.hi.z, r.hi.z)};
+  nd.first = child;
+  nd.count = 0;
+  nodes_[index] = nd;
 }
 
 double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) const {

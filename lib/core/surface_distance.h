@@ -28,6 +28,9 @@ struct DVec3 {
 // Exact-in-double squared distance from p to triangle abc (degenerate triangles: nearest edge).
 double point_triangle_distance_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c);
 
+// Both are prepared_triangle_*(p, prepare_triangle(a, b, c)) (surface_distance_impl.h): callers
+// testing many points against one triangle prepare it once, with bit-identical results.
+
 // Same decision as `point_triangle_distance_squared(p, a, b, c) <= threshold`, bit-exactly,
 // but stops at the first edge within `threshold` when p projects outside the triangle.
 // `*d2` gets the exact squared distance when all of it was computed, else a value ≤ threshold.

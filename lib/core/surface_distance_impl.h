@@ -7,6 +7,76 @@
 
 namespace vgeo {
 
+// The parts of point_triangle_distance_squared that depend only on the triangle, computed
+// once by callers that test many points against the same triangle. Every value is the one
+// the per-call code computes (same operations, same order), so results are bit-identical.
+struct PreparedTriangle {
+  DVec3 a, b, c;
+  DVec3 ab, bc, ca;            // b - a, c - b, a - c (segment directions)
+  DVec3 n;                     // cross(b - a, c - a)
+  double nn;                   // dot(n, n)
+  double ab2, bc2, ca2;        // squared edge lengths
+};
+
+namespace surface_distance_detail {
+inline DVec3 sub(DVec3 a, DVec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline double dot(DVec3 a, DVec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline DVec3 cross(DVec3 a, DVec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+// Squared distance from p to segment a + t·ab, t ∈ [0, 1] (len2 = dot(ab, ab)).
+inline double point_segment_d2(DVec3 p, DVec3 a, DVec3 ab, double len2) {
+  DVec3 ap = sub(p, a);
+  double t = len2 > 0 ? std::clamp(dot(ap, ab) / len2, 0.0, 1.0) : 0.0;
+  DVec3 q{a.x + ab.x * t - p.x, a.y + ab.y * t - p.y, a.z + ab.z * t - p.z};
+  return dot(q, q);
+}
+}  // namespace surface_distance_detail
+
+inline PreparedTriangle prepare_triangle(DVec3 a, DVec3 b, DVec3 c) {
+  using namespace surface_distance_detail;
+  PreparedTriangle t;
+  t.a = a, t.b = b, t.c = c;
+  t.ab = sub(b, a), t.bc = sub(c, b), t.ca = sub(a, c);
+  t.n = cross(t.ab, sub(c, a));
+  t.nn = dot(t.n, t.n);
+  t.ab2 = dot(t.ab, t.ab), t.bc2 = dot(t.bc, t.bc), t.ca2 = dot(t.ca, t.ca);
+  return t;
+}
+
+// point_triangle_within_squared on a prepared triangle (the one implementation of both
+// point_triangle_* functions).
+inline bool prepared_triangle_within_squared(DVec3 p, const PreparedTriangle& t, double threshold, double* d2) {
+  using namespace surface_distance_detail;
+  if (t.nn > 0) {
+    DVec3 ap = sub(p, t.a), bp = sub(p, t.b), cp = sub(p, t.c);
+    if (dot(cross(t.ab, ap), t.n) >= 0 && dot(cross(t.bc, bp), t.n) >= 0 && dot(cross(t.ca, cp), t.n) >= 0) {
+      double h = dot(t.n, ap);
+      *d2 = h * h / t.nn;
+      return *d2 <= threshold;
+    }
+  }
+  // min of the three segment distances ≤ threshold iff one of them is.
+  double d = point_segment_d2(p, t.a, t.ab, t.ab2);
+  if (d <= threshold) return *d2 = d, true;
+  d = std::min(d, point_segment_d2(p, t.b, t.bc, t.bc2));
+  if (d <= threshold) return *d2 = d, true;
+  d = std::min(d, point_segment_d2(p, t.c, t.ca, t.ca2));
+  *d2 = d;
+  return d <= threshold;
+}
+
+inline double prepared_triangle_distance_squared(DVec3 p, const PreparedTriangle& t) {
+  using namespace surface_distance_detail;
+  if (t.nn > 0) {
+    DVec3 ap = sub(p, t.a), bp = sub(p, t.b), cp = sub(p, t.c);
+    if (dot(cross(t.ab, ap), t.n) >= 0 && dot(cross(t.bc, bp), t.n) >= 0 && dot(cross(t.ca, cp), t.n) >= 0) {
+      double h = dot(t.n, ap);
+      return h * h / t.nn;
+    }
+  }
+  return std::min({point_segment_d2(p, t.a, t.ab, t.ab2), point_segment_d2(p, t.b, t.bc, t.bc2),
+                   point_segment_d2(p, t.c, t.ca, t.ca2)});
+}
+
 template <class Visit>
 void for_each_lattice_point(const float* positions, const uint32_t* indices, size_t triangle_count,
                             uint32_t subdivisions, Visit&& visit) {
