@@ -222,6 +222,21 @@ struct BvhBuilder {
   }
 };
 
+// Calls fn(key, owned_by_several) once per distinct key of sorted (key, owner) pairs.
+template <class Fn>
+void for_each_key_of_sorted_pairs(const std::vector<std::pair<uint64_t, uint32_t>>& sorted, Fn&& fn) {
+  for (size_t i = 0; i < sorted.size();) {
+    size_t j = i;
+    bool shared = false;
+    while (j < sorted.size() && sorted[j].first == sorted[i].first) {
+      shared |= sorted[j].second != sorted[i].second;
+      ++j;
+    }
+    fn(sorted[i].first, shared);
+    i = j;
+  }
+}
+
 }  // namespace
 
 ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report) {
@@ -388,16 +403,9 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
       for (size_t i = 0; i < active.size(); ++i)
         for (uint64_t e : per_cluster[i]) candidates.push_back({e, block_of[i]});
       std::sort(candidates.begin(), candidates.end());
-      for (size_t i = 0; i < candidates.size();) {
-        size_t j = i;
-        bool shared = false;
-        while (j < candidates.size() && candidates[j].first == candidates[i].first) {
-          shared |= candidates[j].second != candidates[i].second;
-          ++j;
-        }
-        if (shared) cross_edges.push_back(candidates[i].first);
-        i = j;
-      }
+      for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
+        if (shared) cross_edges.push_back(e);
+      });
     }
     const double seconds_cross = now_seconds() - t0;
 
@@ -446,19 +454,11 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
           }
         }
       std::sort(candidates.begin(), candidates.end());
-      for (size_t i = 0; i < candidates.size();) {
-        size_t j = i;
-        bool shared = false;
-        while (j < candidates.size() && candidates[j].first == candidates[i].first) {
-          shared |= candidates[j].second != candidates[i].second;
-          ++j;
-        }
-        const uint64_t e = candidates[i].first;
+      for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
         if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), e) ||
             std::binary_search(cross_edges.begin(), cross_edges.end(), e))
           blk.shared_edges.push_back(e);
-        i = j;
-      }
+      });
       blk.results.resize(blk.groups.size());
       blk.seconds_locks = now_seconds() - tl;
     };
