@@ -16,6 +16,7 @@
 #include "vgeo/core/error.h"
 #include "vgeo/format/format.h"
 #include "vgeo/verify/verify.h"
+#include "support/run_command.h"  // CliResult, run_command
 
 namespace vgeo::test {
 
@@ -150,24 +151,6 @@ inline AcceptanceRun run_acceptance(const std::string& name, const Mesh& mesh, c
   } catch (const std::exception& e) {
     r.error = e.what();
   }
-  return r;
-}
-
-// ---- CLI runner ----
-struct CliResult {
-  int exit_code = -1;
-  std::string output;
-};
-
-inline CliResult run_command(const std::string& command) {
-  CliResult r;
-  FILE* p = popen((command + " 2>&1").c_str(), "r");
-  if (p == nullptr) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-  int status = pclose(p);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
 }
 

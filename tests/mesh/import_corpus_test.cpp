@@ -18,6 +18,7 @@
 #include <sys/wait.h>
 
 #include "support/paths.h"
+#include "support/run_command.h"
 #include "vgeo/mesh/import.h"
 
 namespace fs = std::filesystem;
@@ -96,24 +97,8 @@ size_t total_triangles(const vgeo::Scene& s) {
   return n;
 }
 
-// ---- CLI runner ----
-struct CliResult {
-  int exit_code = -1;
-  std::string output;
-};
-
-CliResult run_cli(const std::string& args) {
-  CliResult r;
-  std::string cmd = "'" + vgeo::test::cli_path() + "' " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (p == nullptr) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-  int status = pclose(p);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using vgeo::test::CliResult;
+using vgeo::test::run_cli;
 
 }  // namespace
 
