@@ -14,6 +14,7 @@
 #include <filesystem>
 
 #include "vgeo/core/error.h"
+#include "vgeo/mesh/export.h"
 
 namespace vgeo {
 
@@ -32,9 +33,14 @@ constexpr size_t kMeshHeaderBytes = 4 + 4 + 6 * 4 + 6 * 4;
 constexpr size_t kMaterialMinBytes = 4 + 4 * 4;
 constexpr size_t kInstanceBytes = 4 + 16 * 4;
 
+// Little-endian field writer. Without a sink everything stays in `bytes`; with one,
+// `bytes` is handed over whenever it passes kFlushBytes and large 32-bit arrays go to the
+// sink straight from the caller's memory (no copy of a multi-GB file in memory).
 class Writer {
  public:
+  static constexpr size_t kFlushBytes = size_t(1) << 20;  // same order as the file buffer
   std::vector<uint8_t> bytes;
+  ByteSink* sink = nullptr;
   void u8(uint8_t v) { bytes.push_back(v); }
   void u32(uint32_t v) {
     for (int i = 0; i < 4; ++i) bytes.push_back(uint8_t(v >> (8 * i)));
@@ -44,19 +50,28 @@ class Writer {
     std::memcpy(&v, &f, 4);
     u32(v);
   }
+  void raw(const void* data, size_t size) {
+    if (sink && size >= kFlushBytes) {
+      flush();
+      sink->write(data, size);
+      return;
+    }
+    const auto* p = static_cast<const uint8_t*>(data);
+    bytes.insert(bytes.end(), p, p + size);
+    maybe_flush();
+  }
   // Arrays of 32-bit values: one copy on little-endian hosts (the file is little-endian).
   template <class T>
   void array32(const T* values, size_t count) {
     static_assert(sizeof(T) == 4);
     if constexpr (std::endian::native == std::endian::little) {
-      size_t at = bytes.size();
-      bytes.resize(at + 4 * count);
-      if (count) std::memcpy(bytes.data() + at, values, 4 * count);
+      raw(values, 4 * count);
     } else {
       for (size_t i = 0; i < count; ++i) {
         uint32_t v;
         std::memcpy(&v, &values[i], 4);
         u32(v);
+        maybe_flush();
       }
     }
   }
@@ -65,6 +80,14 @@ class Writer {
     f32(s.center.y);
     f32(s.center.z);
     f32(s.radius);
+  }
+  void maybe_flush() {
+    if (sink && bytes.size() >= kFlushBytes) flush();
+  }
+  void flush() {
+    if (!sink) return;  // in-memory encoding: everything stays in `bytes`
+    if (!bytes.empty()) sink->write(bytes.data(), bytes.size());
+    bytes.clear();
   }
 };
 
@@ -139,6 +162,7 @@ void encode_mesh(Writer& w, const ClusterDag& d) {
     w.sphere(c.parent_bounds);
     w.f32(c.lod_error);
     w.f32(c.parent_error);
+    w.maybe_flush();
   }
   for (const DagGroup& g : d.groups) {
     for (uint32_t v : {g.first_cluster, g.cluster_count, g.first_generated, g.generated_count, g.level, g.flags})
@@ -146,6 +170,7 @@ void encode_mesh(Writer& w, const ClusterDag& d) {
     w.sphere(g.bounds);
     w.sphere(g.parent_bounds);
     w.f32(g.parent_error);
+    w.maybe_flush();
   }
   w.array32(d.generated_clusters.data(), d.generated_clusters.size());
   for (const BvhNode& n : d.bvh_nodes) {
@@ -155,11 +180,12 @@ void encode_mesh(Writer& w, const ClusterDag& d) {
     w.u32(n.child_count);
     w.u32(n.group_mask);
     for (uint32_t c : n.children) w.u32(c);
+    w.maybe_flush();
   }
   w.array32(d.positions.data(), 3 * vcount);
   if (normals) w.array32(d.normals.data(), 3 * vcount);
   if (uvs) w.array32(d.uvs.data(), 2 * vcount);
-  w.bytes.insert(w.bytes.end(), d.indices.begin(), d.indices.begin() + 3 * tcount);
+  w.raw(d.indices.data(), 3 * tcount);
   w.array32(d.triangle_materials.data(), tcount);
 }
 
@@ -282,6 +308,31 @@ ClusterDag decode_mesh(Reader& r, const std::string& where, uint32_t material_co
 
 }  // namespace
 
+namespace {
+
+// The whole file through `w` (its own bytes, or its sink).
+void encode_scene(Writer& w, const BuiltScene& scene) {
+  w.raw(kMagic, 8);
+  w.u32(kVersion);
+  w.u32(uint32_t(scene.meshes.size()));
+  w.u32(uint32_t(scene.materials.size()));
+  w.u32(uint32_t(scene.instances.size()));
+  for (const Material& m : scene.materials) {
+    w.u32(uint32_t(m.name.size()));
+    w.raw(m.name.data(), m.name.size());
+    for (float c : m.base_color) w.f32(c);
+  }
+  for (const Instance& i : scene.instances) {
+    w.u32(i.mesh);
+    for (float f : i.transform) w.f32(f);
+    w.maybe_flush();
+  }
+  for (const ClusterDag& d : scene.meshes) encode_mesh(w, d);
+  w.flush();
+}
+
+}  // namespace
+
 std::vector<uint8_t> encode_dag_file(const BuiltScene& scene) {
   Writer w;
   {
@@ -289,27 +340,21 @@ std::vector<uint8_t> encode_dag_file(const BuiltScene& scene) {
     size_t size = 8 + 4 * 4 + scene.instances.size() * kInstanceBytes;
     for (const Material& m : scene.materials) size += kMaterialMinBytes + m.name.size();
     for (const ClusterDag& d : scene.meshes)
-      size += kMeshHeaderBytes + 88 * d.clusters.size() + 60 * d.groups.size() + 4 * d.generated_clusters.size() +
-              76 * d.bvh_nodes.size() + 4 * (d.positions.size() + d.normals.size() + d.uvs.size()) +
-              d.indices.size() + 4 * d.triangle_materials.size();
+      size += kMeshHeaderBytes + kClusterBytes * d.clusters.size() + kGroupBytes * d.groups.size() +
+              4 * d.generated_clusters.size() + kBvhNodeBytes * d.bvh_nodes.size() +
+              4 * (d.positions.size() + d.normals.size() + d.uvs.size()) + d.indices.size() +
+              4 * d.triangle_materials.size();
     w.bytes.reserve(size);
   }
-  w.bytes.insert(w.bytes.end(), kMagic, kMagic + 8);
-  w.u32(kVersion);
-  w.u32(uint32_t(scene.meshes.size()));
-  w.u32(uint32_t(scene.materials.size()));
-  w.u32(uint32_t(scene.instances.size()));
-  for (const Material& m : scene.materials) {
-    w.u32(uint32_t(m.name.size()));
-    w.bytes.insert(w.bytes.end(), m.name.begin(), m.name.end());
-    for (float c : m.base_color) w.f32(c);
-  }
-  for (const Instance& i : scene.instances) {
-    w.u32(i.mesh);
-    for (float f : i.transform) w.f32(f);
-  }
-  for (const ClusterDag& d : scene.meshes) encode_mesh(w, d);
+  encode_scene(w, scene);
   return std::move(w.bytes);
+}
+
+void write_dag_to(ByteSink& sink, const BuiltScene& scene) {
+  Writer w;
+  w.sink = &sink;
+  w.bytes.reserve(Writer::kFlushBytes + 4096);
+  encode_scene(w, scene);
 }
 
 BuiltScene decode_dag_file(const uint8_t* data, size_t size, const std::string& where) {
@@ -350,24 +395,7 @@ BuiltScene decode_dag_file(const uint8_t* data, size_t size, const std::string& 
 }
 
 void write_dag_file(const std::string& path, const BuiltScene& scene) {
-  std::vector<uint8_t> bytes = encode_dag_file(scene);
-  // Atomic: write a temporary next to the target, then rename over it.
-  std::string tmp = path + ".tmp." + std::to_string(getpid());
-  FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) fail("DAGFILE_IO", path, std::string("cannot create: ") + std::strerror(errno), kExitIo);
-  bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
-  ok = (std::fflush(f) == 0) && ok;
-  ok = (std::fclose(f) == 0) && ok;
-  if (!ok) {
-    std::remove(tmp.c_str());
-    fail("DAGFILE_IO", path, "write failed", kExitIo);
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::remove(tmp.c_str());
-    fail("DAGFILE_IO", path, "cannot rename the temporary file: " + ec.message(), kExitIo);
-  }
+  write_file_atomic(path, [&](ByteSink& sink) { write_dag_to(sink, scene); }, "DAGFILE_IO");
 }
 
 BuiltScene read_dag_file(const std::string& path) {

@@ -11,11 +11,16 @@
 
 namespace vgeo {
 
+struct ByteSink;
+
 std::vector<uint8_t> encode_dag_file(const BuiltScene& scene);
 // Throws VgeoError (codes DAGFILE_*) on malformed input; never over-allocates.
 BuiltScene decode_dag_file(const uint8_t* data, size_t size, const std::string& where);
 
-void write_dag_file(const std::string& path, const BuiltScene& scene);   // throws VgeoError
+// Streams the same bytes as encode_dag_file into `sink` (no whole-file copy in memory).
+void write_dag_to(ByteSink& sink, const BuiltScene& scene);
+// Atomic (temporary file renamed into place); throws VgeoError DAGFILE_IO on I/O failure.
+void write_dag_file(const std::string& path, const BuiltScene& scene);
 BuiltScene read_dag_file(const std::string& path);                       // throws VgeoError
 
 }  // namespace vgeo

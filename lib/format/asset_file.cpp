@@ -50,8 +50,11 @@ BuiltScene read_asset_file(const std::string& path) {
 
 void write_asset_file(const std::string& path, const BuiltScene& scene, AssetFileKind kind,
                       const FormatOptions& options, FormatReport* report) {
-  std::vector<uint8_t> bytes =
-      kind == AssetFileKind::kDagFile ? encode_dag_file(scene) : encode_format(scene, options, report);
+  if (kind == AssetFileKind::kDagFile) {
+    write_dag_file(path, scene);  // streamed: no in-memory copy of a multi-GB DAG
+    return;
+  }
+  std::vector<uint8_t> bytes = encode_format(scene, options, report);
   write_file_atomic(path, bytes.data(), bytes.size());
 }
 

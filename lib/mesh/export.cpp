@@ -37,12 +37,7 @@ constexpr size_t kTextFlush = size_t(1) << 20;
 
 // ---------------------------------------------------------------- sinks
 
-struct Sink {
-  virtual ~Sink() = default;
-  virtual void write(const void* data, size_t size) = 0;
-};
-
-struct MemorySink final : Sink {
+struct MemorySink final : ByteSink {
   std::vector<uint8_t> bytes;
   void write(const void* data, size_t size) override {
     const auto* p = static_cast<const uint8_t*>(data);
@@ -51,9 +46,9 @@ struct MemorySink final : Sink {
 };
 
 // Temp file next to `path`, renamed over it by commit(); removed if never committed.
-class AtomicFile final : public Sink {
+class AtomicFile final : public ByteSink {
  public:
-  explicit AtomicFile(const std::string& path) : path_(path), temp_(path + ".tmp-XXXXXX") {
+  AtomicFile(const std::string& path, const char* io_code) : path_(path), temp_(path + ".tmp-XXXXXX"), io_code_(io_code) {
     int fd = mkstemp(temp_.data());
     if (fd < 0) io_fail("cannot create temporary file " + temp_);
     // mkstemp creates 0600; give the result the usual permissions of a new file.
@@ -86,9 +81,10 @@ class AtomicFile final : public Sink {
 
  private:
   [[noreturn]] void io_fail(const std::string& what) {
-    fail("EXPORT_IO", path_, what + ": " + std::strerror(errno), kExitIo);
+    fail(io_code_, path_, what + ": " + std::strerror(errno), kExitIo);
   }
   std::string path_, temp_;
+  const char* io_code_;
   std::FILE* file_ = nullptr;
   bool committed_ = false;
 };
@@ -96,7 +92,7 @@ class AtomicFile final : public Sink {
 // Buffered text formatting with locale-independent shortest round-trip floats.
 class TextWriter {
  public:
-  explicit TextWriter(Sink& sink) : sink_(sink) { buf_.reserve(kTextFlush + 256); }
+  explicit TextWriter(ByteSink& sink) : sink_(sink) { buf_.reserve(kTextFlush + 256); }
   ~TextWriter() = default;
   TextWriter& str(std::string_view s) {
     buf_.append(s);
@@ -129,7 +125,7 @@ class TextWriter {
   void maybe_flush() {
     if (buf_.size() >= kTextFlush) flush();
   }
-  Sink& sink_;
+  ByteSink& sink_;
   std::string buf_;
 };
 
@@ -185,7 +181,7 @@ MaterialGroups group_by_material(const Mesh& m) {
   return g;
 }
 
-void write_grouped_indices(Sink& sink, const Mesh& m, const MaterialGroups& g) {
+void write_grouped_indices(ByteSink& sink, const Mesh& m, const MaterialGroups& g) {
   if (g.order.empty()) {
     sink.write(m.indices.data(), m.indices.size() * sizeof(uint32_t));
     return;
@@ -220,7 +216,7 @@ std::vector<Instance> effective_instances(const Scene& scene, const std::string&
   return scene.instances;
 }
 
-void encode_glb_to(const Scene& scene, Sink& sink, const std::string& where) {
+void encode_glb_to(const Scene& scene, ByteSink& sink, const std::string& where) {
   using nlohmann::json;
   const size_t material_count = std::max<size_t>(1, scene.materials.size());
   if (scene.meshes.empty()) fail("EXPORT_EMPTY_MESH", where, "scene has no meshes");
@@ -316,7 +312,7 @@ void encode_glb_to(const Scene& scene, Sink& sink, const std::string& where) {
   }
 }
 
-void obj_to(const Mesh& m, const std::vector<Material>& materials, Sink& sink, const std::string& where) {
+void obj_to(const Mesh& m, const std::vector<Material>& materials, ByteSink& sink, const std::string& where) {
   check_mesh(m, materials.size(), where);
   TextWriter w(sink);
   w.str("# vgeo\n");
@@ -352,7 +348,7 @@ void obj_to(const Mesh& m, const std::vector<Material>& materials, Sink& sink, c
   w.flush();
 }
 
-void ply_to(const Mesh& m, Sink& sink, const std::string& where) {
+void ply_to(const Mesh& m, ByteSink& sink, const std::string& where) {
   check_mesh(m, 0, where);
   const bool nrm = !m.normals.empty(), uv = !m.uvs.empty(), mat = !m.materials.empty();
   std::string header = "ply\nformat binary_little_endian 1.0\ncomment vgeo\nelement vertex " +
@@ -384,7 +380,7 @@ void ply_to(const Mesh& m, Sink& sink, const std::string& where) {
   sink.write(buf.data(), buf.size());
 }
 
-void off_to(const Mesh& m, Sink& sink, const std::string& where) {
+void off_to(const Mesh& m, ByteSink& sink, const std::string& where) {
   check_mesh(m, 0, where);
   TextWriter w(sink);
   w.str("OFF\n").u(m.vertex_count()).ch(' ').u(m.triangle_count()).str(" 0\n");
@@ -397,9 +393,7 @@ void off_to(const Mesh& m, Sink& sink, const std::string& where) {
 
 template <class Encode>
 void write_atomic(const std::string& path, Encode&& encode) {
-  AtomicFile file(path);
-  encode(static_cast<Sink&>(file));
-  file.commit();
+  write_file_atomic(path, std::function<void(ByteSink&)>(std::forward<Encode>(encode)), "EXPORT_IO");
 }
 
 }  // namespace
@@ -434,17 +428,17 @@ std::vector<uint8_t> encode_glb(const Scene& scene) {
 
 void write_glb(const Scene& scene, const std::string& path) {
   // A rejected scene throws before the rename: the temp file is removed, `path` untouched.
-  write_atomic(path, [&](Sink& s) { encode_glb_to(scene, s, path); });
+  write_atomic(path, [&](ByteSink& s) { encode_glb_to(scene, s, path); });
 }
 
 void write_obj(const Mesh& mesh, const std::string& path, const std::vector<Material>& materials) {
-  write_atomic(path, [&](Sink& s) { obj_to(mesh, materials, s, path); });
+  write_atomic(path, [&](ByteSink& s) { obj_to(mesh, materials, s, path); });
 }
 void write_ply(const Mesh& mesh, const std::string& path) {
-  write_atomic(path, [&](Sink& s) { ply_to(mesh, s, path); });
+  write_atomic(path, [&](ByteSink& s) { ply_to(mesh, s, path); });
 }
 void write_off(const Mesh& mesh, const std::string& path) {
-  write_atomic(path, [&](Sink& s) { off_to(mesh, s, path); });
+  write_atomic(path, [&](ByteSink& s) { off_to(mesh, s, path); });
 }
 
 Mesh bake_scene(const Scene& scene) {
@@ -512,7 +506,13 @@ void write_scene_file(const Scene& scene, const std::string& path) {
 }
 
 void write_file_atomic(const std::string& path, const void* bytes, size_t size) {
-  write_atomic(path, [&](Sink& s) { s.write(bytes, size); });
+  write_atomic(path, [&](ByteSink& s) { s.write(bytes, size); });
+}
+
+void write_file_atomic(const std::string& path, const std::function<void(ByteSink&)>& encode, const char* io_code) {
+  AtomicFile file(path, io_code);
+  encode(file);
+  file.commit();
 }
 
 }  // namespace vgeo

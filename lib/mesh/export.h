@@ -18,6 +18,7 @@
 //    an unknown extension is EXPORT_UNKNOWN_FORMAT (kExitUsage).
 #include <cstdint>
 #include <optional>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -60,5 +61,15 @@ void write_scene_file(const Scene& scene, const std::string& path);
 
 // Atomic whole-file write of `bytes` to `path` (same temp+rename rules as above).
 void write_file_atomic(const std::string& path, const void* bytes, size_t size);
+
+// Destination of the streaming writers: a file being written, or memory.
+struct ByteSink {
+  virtual ~ByteSink() = default;
+  virtual void write(const void* data, size_t size) = 0;
+};
+// Atomic whole-file write streamed by `encode` (no copy of the whole file in memory); I/O
+// failures are VgeoErrors with code `io_code` (kExitIo) and leave any previous file as it was.
+void write_file_atomic(const std::string& path, const std::function<void(ByteSink&)>& encode,
+                       const char* io_code = "EXPORT_IO");
 
 }  // namespace vgeo

@@ -139,5 +139,43 @@ TEST(DagFile, WriteReadFile) {
   std::filesystem::remove_all(dir);
 }
 
+// The streaming writer hands arrays of ≥ 1 MiB to the file directly and flushes its field
+// buffer every 1 MiB: the file must still be byte-identical to the in-memory encoding, and
+// a failed write must leave the previous file and no temporary behind.
+TEST(DagFile, StreamedFileEqualsTheEncodingAcrossFlushes) {
+  BuiltScene s = small_scene();
+  ClusterDag& big = s.meshes[1];
+  // Pad the vertex arrays past several flushes (the encoder does not validate).
+  const size_t extra = 400000;
+  for (size_t i = 0; i < 3 * extra; ++i) big.positions.push_back(float(i) * 0.5f);
+  if (!big.normals.empty()) big.normals.resize(big.positions.size(), 0.0f);
+  if (!big.uvs.empty()) big.uvs.resize(2 * (big.positions.size() / 3), 0.0f);
+  big.clusters.resize(big.clusters.size() + 20000, big.clusters.back());  // > 1 MiB of records
+  std::filesystem::path dir = std::filesystem::temp_directory_path() / ("vgeo_dag_stream_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "big.vgeodag").string();
+  write_dag_file(path, s);
+  std::vector<uint8_t> expected = encode_dag_file(s);
+  std::vector<uint8_t> got(std::filesystem::file_size(path));
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  ASSERT_NE(f, nullptr);
+  ASSERT_EQ(std::fread(got.data(), 1, got.size(), f), got.size());
+  std::fclose(f);
+  EXPECT_GT(expected.size(), size_t(5) << 20);
+  EXPECT_TRUE(got == expected);
+  // Writing into a directory that does not exist fails with DAGFILE_IO and creates nothing.
+  try {
+    write_dag_file((dir / "no" / "such.vgeodag").string(), s);
+    FAIL();
+  } catch (const VgeoError& e) {
+    EXPECT_EQ(e.error().code, "DAGFILE_IO");
+    EXPECT_EQ(e.error().exit_code, kExitIo);
+  }
+  size_t entries = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) entries += entry.path() != path;
+  EXPECT_EQ(entries, 0u);
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace vgeo::test
