@@ -30,6 +30,98 @@ float round_up_to_float(double d) {
   return e;
 }
 
+// Uniform grid over triangle boxes (cells of the mean largest box extent, at most
+// kGridCellsPerTriangle cells per triangle in total): for_each_near lists every triangle whose
+// box may lie within r of a point (a triangle in several cells is listed once per cell).
+class TriangleGrid {
+ public:
+  // Total cells ≤ this × triangles: a group is a surface patch, so most cells hold a few
+  // triangles and memory stays linear in the group.
+  static constexpr double kGridCellsPerTriangle = 4.0;
+  // Above this many cells a query is not worth it: the caller's exact scan is as cheap.
+  static constexpr size_t kMaxQueryCells = 64;
+
+  TriangleGrid() = default;
+  TriangleGrid(const DVec3* box, uint32_t n) {
+    const double inf = std::numeric_limits<double>::infinity();
+    DVec3 lo{inf, inf, inf}, hi{-inf, -inf, -inf};
+    double mean_extent = 0;
+    for (uint32_t t = 0; t < n; ++t) {
+      const DVec3 a = box[2 * size_t(t)], b = box[2 * size_t(t) + 1];
+      lo = {std::min(lo.x, a.x), std::min(lo.y, a.y), std::min(lo.z, a.z)};
+      hi = {std::max(hi.x, b.x), std::max(hi.y, b.y), std::max(hi.z, b.z)};
+      mean_extent += std::max({b.x - a.x, b.y - a.y, b.z - a.z});
+    }
+    mean_extent /= std::max<uint32_t>(n, 1);
+    const double extent[3] = {hi.x - lo.x, hi.y - lo.y, hi.z - lo.z};
+    double cell = mean_extent;
+    const double cap = kGridCellsPerTriangle * std::max<uint32_t>(n, 1);
+    for (;;) {
+      double cells = 1;
+      for (int k = 0; k < 3; ++k) {
+        dims_[k] = cell > 0 && std::isfinite(extent[k] / cell) ? size_t(std::min(extent[k] / cell, cap)) + 1 : 1;
+        cells *= double(dims_[k]);
+      }
+      if (cells <= cap) break;
+      cell = cell > 0 ? cell * std::cbrt(cells / cap) * 1.01 : 1.0;
+    }
+    origin_ = lo;
+    inv_cell_ = cell > 0 ? 1.0 / cell : 0.0;
+    const size_t cells = dims_[0] * dims_[1] * dims_[2];
+    first_.assign(cells + 1, 0);
+    auto range = [&](const DVec3& a, const DVec3& b, size_t r[3][2]) {
+      const double alo[3] = {a.x, a.y, a.z}, ahi[3] = {b.x, b.y, b.z};
+      for (int k = 0; k < 3; ++k) r[k][0] = coord(alo[k], k), r[k][1] = coord(ahi[k], k);
+    };
+    auto each_cell = [&](const DVec3& a, const DVec3& b, auto&& fn) {
+      size_t r[3][2];
+      range(a, b, r);
+      for (size_t z = r[2][0]; z <= r[2][1]; ++z)
+        for (size_t y = r[1][0]; y <= r[1][1]; ++y)
+          for (size_t x = r[0][0]; x <= r[0][1]; ++x) fn((z * dims_[1] + y) * dims_[0] + x);
+    };
+    for (uint32_t t = 0; t < n; ++t) each_cell(box[2 * size_t(t)], box[2 * size_t(t) + 1], [&](size_t c) { ++first_[c + 1]; });
+    for (size_t c = 0; c < cells; ++c) first_[c + 1] += first_[c];
+    items_.resize(first_[cells]);
+    std::vector<uint32_t> fill(first_.begin(), first_.end() - 1);
+    for (uint32_t t = 0; t < n; ++t)
+      each_cell(box[2 * size_t(t)], box[2 * size_t(t) + 1], [&](size_t c) { items_[fill[c]++] = t; });
+  }
+
+  // Calls fn(t) for the triangles of the cells overlapping the box of radius r around p
+  // until fn returns false. Lists nothing when that box spans more than kMaxQueryCells.
+  template <class Fn>
+  void for_each_near(DVec3 p, double r, Fn&& fn) const {
+    const double plo[3] = {p.x - r, p.y - r, p.z - r}, phi[3] = {p.x + r, p.y + r, p.z + r};
+    size_t lo[3], hi[3], count = 1;
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = coord(plo[k], k), hi[k] = coord(phi[k], k);
+      count *= hi[k] - lo[k] + 1;
+    }
+    if (count > kMaxQueryCells) return;
+    for (size_t z = lo[2]; z <= hi[2]; ++z)
+      for (size_t y = lo[1]; y <= hi[1]; ++y)
+        for (size_t x = lo[0]; x <= hi[0]; ++x) {
+          const size_t c = (z * dims_[1] + y) * dims_[0] + x;
+          for (uint32_t i = first_[c]; i < first_[c + 1]; ++i)
+            if (!fn(items_[i])) return;
+        }
+  }
+
+ private:
+  // Monotonic in v, clamped to the grid (NaN → cell 0; only finite input reaches here).
+  size_t coord(double v, int axis) const {
+    const double o = axis == 0 ? origin_.x : axis == 1 ? origin_.y : origin_.z;
+    const double f = (v - o) * inv_cell_;
+    if (!(f > 0)) return 0;
+    return size_t(std::min(f, double(dims_[axis] - 1)));
+  }
+  DVec3 origin_;
+  double inv_cell_ = 0;
+  size_t dims_[3] = {1, 1, 1};
+  std::vector<uint32_t> first_, items_;
+};
+
 // Max over the lattice points of `simplified` of the squared distance to `input`'s
 // triangles, or any value ≤ floor_d2 when that maximum is ≤ floor_d2.
 double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
@@ -78,7 +170,7 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
   }
 
   // True iff triangle t is within `threshold` of p; `d` gets its squared distance or, when
-  // the box alone rejects it, the box's (a lower bound, only used to pick a search hint).
+  // the box alone rejects it, the box's (a lower bound).
   auto within = [&](DVec3 p, uint32_t t, double threshold, double& d) {
     const DVec3 lo = box[2 * size_t(t)], hi = box[2 * size_t(t) + 1];
     const double dx = std::max({lo.x - p.x, 0.0, p.x - hi.x}), dy = std::max({lo.y - p.y, 0.0, p.y - hi.y}),
@@ -87,8 +179,22 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
     if (d > threshold) return false;
     return prepared_triangle_within_squared(p, prepared[t], threshold, &d);
   };
-  TriangleDistanceTree tree;  // built on the first point that needs an exact search
-  bool tree_built = false;
+  // Exact minimum over every input triangle (box-rejected against the best so far), for
+  // the few points that no candidate covers; `nearest` gets its argmin.
+  auto exact_min = [&](DVec3 p, uint32_t& nearest) {
+    double best = std::numeric_limits<double>::infinity();
+    for (uint32_t t = 0; t < n; ++t) {
+      const DVec3 lo = box[2 * size_t(t)], hi = box[2 * size_t(t) + 1];
+      const double dx = std::max({lo.x - p.x, 0.0, p.x - hi.x}), dy = std::max({lo.y - p.y, 0.0, p.y - hi.y}),
+                   dz = std::max({lo.z - p.z, 0.0, p.z - hi.z});
+      if (dx * dx + dy * dy + dz * dz >= best) continue;
+      const double d = prepared_triangle_distance_squared(p, prepared[t]);
+      if (d < best) best = d, nearest = t;
+    }
+    return best;
+  };
+  TriangleGrid grid;  // built on the first point the corner rings do not cover
+  bool grid_built = false;
   double best2 = 0.0;
   uint32_t hint = 0;
   // Candidate rings: input triangles incident to each corner of the simplified triangle
@@ -99,29 +205,27 @@ double max_lattice_d2_above(const Mesh& mesh, const TriangleSet& input, const Tr
   // `first_ring`: the corner nearest to p (its ring is tried first).
   auto visit = [&](DVec3 p, int first_ring) {
     const double threshold = std::max(best2, floor_d2);
-    double d;
+    double d;  // `within` reports a distance or a lower bound; only the verdict is used here
     if (within(p, hint, threshold, d)) return;
-    uint32_t nearest = hint;
     for (int r = 0; r < 3; ++r)
-      for (const uint32_t* it = ring_begin[(first_ring + r) % 3]; it != ring_end[(first_ring + r) % 3]; ++it) {
-        const uint32_t t = *it;
-        double dt;
-        if (within(p, t, threshold, dt)) {
-          hint = t;
+      for (const uint32_t* it = ring_begin[(first_ring + r) % 3]; it != ring_end[(first_ring + r) % 3]; ++it)
+        if (within(p, *it, threshold, d)) {
+          hint = *it;
           return;
         }
-        if (dt < d) d = dt, nearest = t;
-      }
-    // No candidate is within the running maximum: the exact minimum over all triangles.
-    if (!tree_built) {
-      std::vector<DVec3> corners(3 * n);
-      for (size_t i = 0; i < n; ++i) corners[3 * i] = prepared[i].a, corners[3 * i + 1] = prepared[i].b, corners[3 * i + 2] = prepared[i].c;
-      tree = TriangleDistanceTree(std::move(corners));
-      tree_built = true;
+    if (!grid_built) {
+      grid = TriangleGrid(box.data(), n);
+      grid_built = true;
     }
-    uint32_t h = nearest;
-    double exact = tree.nearest_distance_squared(p, &h);
-    hint = h;
+    bool covered = false;
+    grid.for_each_near(p, std::sqrt(threshold), [&](uint32_t t) {
+      covered = within(p, t, threshold, d);
+      if (covered) hint = t;
+      return !covered;
+    });
+    if (covered) return;
+    // No triangle within the running maximum: p raises it to its exact minimum.
+    const double exact = exact_min(p, hint);
     if (exact > best2) best2 = exact;
   };
 
