@@ -281,12 +281,21 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
 
 bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
                              const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
-  // Welded edges and vertices of `after` in one open addressing set (load ≤ 1/2): edges
-  // as edge_key(a, b) (a < b), vertices as (v << 32 | v), which no edge key equals.
-  const size_t n = after.triangle_count();
+  // Locked welded vertices and edges (both ends locked) of `after` in one open addressing
+  // set (load ≤ 1/2): edges as edge_key(a, b) (a < b), vertices as (v << 32 | v), which no
+  // edge key equals. Only locked ones are ever looked up, and they lie on the group border
+  // (a minority), so nothing else is inserted.
+  std::vector<uint64_t> keys;
+  for (size_t i = 0; i < 3 * after.triangle_count(); ++i) {
+    uint32_t a = welded.weld[after.corners[i]];
+    if (!locked[a]) continue;
+    uint32_t b = welded.weld[after.corners[i - i % 3 + (i + 1) % 3]];
+    keys.push_back((uint64_t(a) << 32) | a);
+    if (a != b && locked[b]) keys.push_back(edge_key(a, b));
+  }
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
-  while (slots < 12 * n) slots <<= 1, --shift;
+  while (slots < 2 * keys.size()) slots <<= 1, --shift;
   constexpr uint64_t kEmpty = ~uint64_t(0);
   std::vector<uint64_t> table(slots, kEmpty);
   auto slot = [&](uint64_t key) {
@@ -294,20 +303,16 @@ bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before
     while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
     return h;
   };
-  for (size_t i = 0; i < n; ++i)
-    for (int k = 0; k < 3; ++k) {
-      uint32_t a = welded.weld[after.corners[3 * i + k]], b = welded.weld[after.corners[3 * i + (k + 1) % 3]];
-      table[slot((uint64_t(a) << 32) | a)] = (uint64_t(a) << 32) | a;
-      if (a != b) table[slot(edge_key(a, b))] = edge_key(a, b);
-    }
+  for (uint64_t key : keys) table[slot(key)] = key;
   auto present = [&](uint64_t key) { return table[slot(key)] == key; };
   for (size_t i = 0; i < before.triangle_count(); ++i)
     for (int k = 0; k < 3; ++k) {
-      uint32_t a = welded.weld[before.corners[3 * i + k]], b = welded.weld[before.corners[3 * i + (k + 1) % 3]];
+      uint32_t a = welded.weld[before.corners[3 * i + k]];
       if (!locked[a]) continue;
       // Every locked vertex of `before` is used by `after`.
       if (!present((uint64_t(a) << 32) | a)) return false;
       // Every shared edge of `before` (both ends locked) is an edge of `after`.
+      uint32_t b = welded.weld[before.corners[3 * i + (k + 1) % 3]];
       if (a == b || !locked[b]) continue;
       uint64_t key = edge_key(a, b);
       if (std::binary_search(shared_edges.begin(), shared_edges.end(), key) && !present(key)) return false;
