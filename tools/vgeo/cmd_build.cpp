@@ -1,6 +1,7 @@
 // `vgeo build INPUT -o OUT [--simplifier meshopt|openmesh] [--threads N] [--page-size SIZE]
 // [--report R.json]`: builds the cluster DAG of every mesh of INPUT and writes the page format
 // (spec/format.md), or a VGEODAG1 file (spec/dag.md) when OUT ends in .vgeodag.
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -89,25 +90,36 @@ void add_build_command(CLI::App& app, Context& ctx) {
   cmd->callback([args, &ctx] {
     FormatOptions format_options;
     if (!args->page_size.empty()) format_options.page_size = parse_page_size(args->page_size);  // before the build
+    using clock = std::chrono::steady_clock;
+    auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
+    const clock::time_point t_import = clock::now();
     Scene scene = load_input(args->input);
+    const double seconds_import = seconds_since(t_import);
     BuildOptions options;
     options.simplifier = args->simplifier == "openmesh" ? Simplifier::kOpenMesh : Simplifier::kMeshopt;
     options.threads = args->threads;
     options.progress = progress_wanted();
     std::vector<BuildReport> reports;
+    const clock::time_point t_build = clock::now();
     BuiltScene built = build_scene(scene, options, &reports);
+    const double seconds_build = seconds_since(t_build);
     AssetFileKind kind = asset_file_kind_for_path(args->output);
     FormatReport format_report;
+    const clock::time_point t_write = clock::now();
     write_asset_file(args->output, built, kind, format_options, &format_report);
+    const double seconds_write = seconds_since(t_write);
     if (kind == AssetFileKind::kPages)
       std::printf("wrote %s: page format, %zu pages\n", args->output.c_str(), format_report.pages.size());
     for (size_t i = 0; i < reports.size(); ++i)
       std::fputs(build_report_summary(scene.meshes[i].name.empty() ? std::to_string(i) : scene.meshes[i].name, reports[i])
                      .c_str(),
                  stdout);
+    // End to end: the per-mesh times above are the DAG builds alone.
+    std::printf("import %.2fs, build %.2fs, write %.2fs\n", seconds_import, seconds_build, seconds_write);
     if (!args->report.empty()) {
       nlohmann::json j;
       j["input"] = args->input;
+      j["seconds"] = {{"import", seconds_import}, {"build", seconds_build}, {"write", seconds_write}};
       j["output"] = args->output;
       j["simplifier"] = args->simplifier;
       j["meshes"] = nlohmann::json::array();
