@@ -40,6 +40,9 @@ class TriangleGrid {
   static constexpr double kGridCellsPerTriangle = 4.0;
   // Above this many cells a query is not worth it: the caller's exact scan is as cheap.
   static constexpr size_t kMaxQueryCells = 64;
+  // Grid entries per triangle above which the grid is not built (see the constructor); a
+  // surface patch has 1–4 (boxes of about the cell size).
+  static constexpr size_t kMaxItemsPerTriangle = 16;
 
   TriangleGrid() = default;
   TriangleGrid(const DVec3* box, uint32_t n) {
@@ -80,6 +83,19 @@ class TriangleGrid {
         for (size_t y = r[1][0]; y <= r[1][1]; ++y)
           for (size_t x = r[0][0]; x <= r[0][1]; ++x) fn((z * dims_[1] + y) * dims_[0] + x);
     };
+    // A few huge triangles among tiny ones could each span most cells (items up to ~n^(5/3)):
+    // above kMaxItemsPerTriangle × n entries the grid stays empty and every uncovered point
+    // takes the exact scan instead (same result, bounded memory).
+    size_t items = 0;
+    for (uint32_t t = 0; t < n; ++t) {
+      size_t r[3][2];
+      range(box[2 * size_t(t)], box[2 * size_t(t) + 1], r);
+      items += (r[0][1] - r[0][0] + 1) * (r[1][1] - r[1][0] + 1) * (r[2][1] - r[2][0] + 1);
+    }
+    if (items > kMaxItemsPerTriangle * size_t(n)) {
+      first_.assign(cells + 1, 0);
+      return;
+    }
     for (uint32_t t = 0; t < n; ++t) each_cell(box[2 * size_t(t)], box[2 * size_t(t) + 1], [&](size_t c) { ++first_[c + 1]; });
     for (size_t c = 0; c < cells; ++c) first_[c + 1] += first_[c];
     items_.resize(first_[cells]);

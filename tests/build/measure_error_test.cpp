@@ -68,5 +68,41 @@ RC_GTEST_PROP(MeasureError, BitIdenticalToReferenceLattice, ()) {
             bits(std::max(estimate, reference)));
 }
 
+// Many tiny input triangles and a few that span the whole group: the search's grid would need
+// far more than 16 entries per triangle, so it is not built and uncovered points take the
+// exact scan. The value must still be the reference's, bit for bit.
+TEST(MeasureError, HugeAmongTinyTrianglesStillBitIdentical) {
+  Mesh mesh;
+  TriangleSet input, simplified;
+  auto vertex = [&](float x, float y, float z) {
+    mesh.positions.insert(mesh.positions.end(), {x, y, z});
+    return uint32_t(mesh.vertex_count() - 1);
+  };
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) {  // 1600 tiny triangles on a wavy sheet
+      const float x = float(i), y = float(j), z = 0.3f * float((i * 7 + j * 3) % 5);
+      input.corners.insert(input.corners.end(), {vertex(x, y, z), vertex(x + 0.01f, y, z), vertex(x, y + 0.01f, z)});
+      input.materials.push_back(0);
+    }
+  for (int k = 0; k < 60; ++k) {  // 60 huge ones across the sheet, at several heights
+    const float z = 0.05f * float(k % 11);
+    input.corners.insert(input.corners.end(), {vertex(-1, -1, z), vertex(45, -1, z + 0.5f), vertex(-1, 45, z + 1.0f)});
+    input.materials.push_back(0);
+  }
+  // Simplified triangles over input vertices, far apart (interior points off the surface).
+  const size_t tiny_vertices = 3 * 1600;
+  for (uint32_t t = 0; t < 200; ++t) {
+    const uint32_t a = (t * 97) % tiny_vertices, b = (t * 389 + 11) % tiny_vertices, c = (t * 1013 + 5) % tiny_vertices;
+    simplified.corners.insert(simplified.corners.end(), {a, b, c});
+    simplified.materials.push_back(0);
+  }
+  const float reference = reference_error(mesh, input, simplified);
+  EXPECT_GT(reference, 0.0f);
+  EXPECT_EQ(bits(build_detail::measured_simplification_error(mesh, input, simplified)), bits(reference));
+  for (float estimate : {0.0f, reference * 0.5f, reference, reference * 2.0f})
+    EXPECT_EQ(bits(build_detail::simplification_error(mesh, input, simplified, estimate)),
+              bits(std::max(estimate, reference)));
+}
+
 }  // namespace
 }  // namespace vgeo::test
