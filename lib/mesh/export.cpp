@@ -391,11 +391,6 @@ void off_to(const Mesh& m, ByteSink& sink, const std::string& where) {
   w.flush();
 }
 
-template <class Encode>
-void write_atomic(const std::string& path, Encode&& encode) {
-  write_file_atomic(path, std::function<void(ByteSink&)>(std::forward<Encode>(encode)), "EXPORT_IO");
-}
-
 }  // namespace
 
 std::optional<MeshFormat> mesh_format_from_path(std::string_view path) {
@@ -428,17 +423,17 @@ std::vector<uint8_t> encode_glb(const Scene& scene) {
 
 void write_glb(const Scene& scene, const std::string& path) {
   // A rejected scene throws before the rename: the temp file is removed, `path` untouched.
-  write_atomic(path, [&](ByteSink& s) { encode_glb_to(scene, s, path); });
+  write_file_atomic(path, [&](ByteSink& s) { encode_glb_to(scene, s, path); });
 }
 
 void write_obj(const Mesh& mesh, const std::string& path, const std::vector<Material>& materials) {
-  write_atomic(path, [&](ByteSink& s) { obj_to(mesh, materials, s, path); });
+  write_file_atomic(path, [&](ByteSink& s) { obj_to(mesh, materials, s, path); });
 }
 void write_ply(const Mesh& mesh, const std::string& path) {
-  write_atomic(path, [&](ByteSink& s) { ply_to(mesh, s, path); });
+  write_file_atomic(path, [&](ByteSink& s) { ply_to(mesh, s, path); });
 }
 void write_off(const Mesh& mesh, const std::string& path) {
-  write_atomic(path, [&](ByteSink& s) { off_to(mesh, s, path); });
+  write_file_atomic(path, [&](ByteSink& s) { off_to(mesh, s, path); });
 }
 
 Mesh bake_scene(const Scene& scene) {
@@ -506,7 +501,7 @@ void write_scene_file(const Scene& scene, const std::string& path) {
 }
 
 void write_file_atomic(const std::string& path, const void* bytes, size_t size) {
-  write_atomic(path, [&](ByteSink& s) { s.write(bytes, size); });
+  write_file_atomic(path, [&](ByteSink& s) { s.write(bytes, size); });
 }
 
 void write_file_atomic(const std::string& path, const std::function<void(ByteSink&)>& encode, const char* io_code) {
