@@ -1,4 +1,4 @@
-// libFuzzer target for the glTF importer (built only when lib/mesh/import.h exists).
+// libFuzzer target for the glTF importer (built only when lib/vgeo/mesh/import.h exists).
 #include <string>
 
 #include "vgeo/core/error.h"

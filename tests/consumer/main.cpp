@@ -1,7 +1,7 @@
 // A tiny project using an installed vgeo through find_package(vgeo).
 #include <cstdio>
 
-#include "vgeo/build/cluster_dag.h"
+#include "vgeo/dag/cluster_dag.h"
 #include "vgeo/core/lod.h"
 #include "vgeo/mesh/mesh.h"
 

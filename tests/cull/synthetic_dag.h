@@ -12,7 +12,7 @@
 #include <random>
 #include <vector>
 
-#include "vgeo/build/cluster_dag.h"
+#include "vgeo/dag/cluster_dag.h"
 
 namespace vgeo::test {
 

@@ -9,7 +9,7 @@
 
 #include "support/paths.h"
 #include "support/shapes.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/format/asset_file.h"
 #include "vgeo/verify/verify.h"
 

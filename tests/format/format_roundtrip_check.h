@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "vgeo/build/cluster_dag.h"
+#include "vgeo/dag/cluster_dag.h"
 #include "vgeo/format/format.h"
 
 namespace vgeo {

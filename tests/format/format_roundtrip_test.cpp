@@ -12,7 +12,7 @@
 #include <random>
 
 #include "format_roundtrip_check.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "format_test_util.h"
 #include "vgeo/format/crc32c.h"
 #include "vgeo/format/page_codec.h"

@@ -3,7 +3,7 @@
 // from meshopt_buildMeshlets over tests/support shapes, groups of consecutive clusters,
 // a BVH8 over the groups; optionally a second level built from a coarser copy of the
 // shape so that groups generate clusters (structure only: the format does not check
-// simplification semantics, lib/verify does).
+// simplification semantics, lib/vgeo/verify does).
 #include <meshoptimizer.h>
 
 #include <algorithm>
@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "support/shapes.h"
-#include "vgeo/build/cluster_dag.h"
+#include "vgeo/dag/cluster_dag.h"
 #include "vgeo/core/hash.h"
 #include "vgeo/format/format.h"
 

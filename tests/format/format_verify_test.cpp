@@ -1,4 +1,4 @@
-// Property: a decoded DAG passes every lib/verify check (default options) whenever the
+// Property: a decoded DAG passes every lib/vgeo/verify check (default options) whenever the
 // source DAG did — the stored bounds and errors carry the quantization slack of
 // spec/format.md §2.1, so quantized vertices stay inside the stored spheres and the
 // quantized surfaces stay within the stored LOD errors on verify's sampling lattice.
@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "format_test_util.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/format/format.h"
 #include "vgeo/mesh/generate.h"
 #include "vgeo/verify/verify.h"

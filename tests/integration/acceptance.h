@@ -12,7 +12,7 @@
 #include <sys/wait.h>
 #include <vector>
 
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/core/error.h"
 #include "vgeo/format/format.h"
 #include "vgeo/verify/verify.h"

@@ -1,4 +1,4 @@
-// Acceptance over generated meshes (lib/mesh/generate.h) at ~50k triangles: closed sphere,
+// Acceptance over generated meshes (lib/vgeo/mesh/generate.h) at ~50k triangles: closed sphere,
 // terrain with holes (open border + inner borders), disjoint islands, thin double walls, torus
 // (genus 1); several seeds; both simplifiers. Each DAG passes every invariant, and so does
 // the DAG decoded from the page format (quantized positions stay crack-free and valid).

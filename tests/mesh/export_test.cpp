@@ -1,4 +1,4 @@
-// Mesh writers (lib/mesh/export.h): GLB read back by tinygltf, OBJ/PLY/OFF read back by
+// Mesh writers (lib/vgeo/mesh/export.h): GLB read back by tinygltf, OBJ/PLY/OFF read back by
 // OpenMesh (independent parsers), byte determinism, atomic writes, stable error codes.
 #include "vgeo/mesh/export.h"
 

@@ -1,4 +1,4 @@
-// Loop subdivision (lib/mesh/subdivide.h): counts, closedness, attribute carrying, and
+// Loop subdivision (lib/vgeo/mesh/subdivide.h): counts, closedness, attribute carrying, and
 // stable rejection of non-manifold input.
 #include "vgeo/mesh/subdivide.h"
 

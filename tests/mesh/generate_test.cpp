@@ -1,4 +1,4 @@
-// Properties of the procedural generators (lib/mesh/generate.h).
+// Properties of the procedural generators (lib/vgeo/mesh/generate.h).
 #include "vgeo/mesh/generate.h"
 
 #include <gtest/gtest.h>

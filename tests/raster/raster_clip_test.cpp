@@ -1,6 +1,6 @@
 // Properties: near-plane clipping, guard band, back-face culling, invalid input.
 //  * Conformance: on every unambiguous pixel (centre ≥ unambiguous_margin() from the
-//    outline of the exactly clipped and projected polygon, lib/raster/raster_model.h:
+//    outline of the exactly clipped and projected polygon, lib/vgeo/raster/raster_model.h:
 //    double, no guard band, no fixed point), coverage equals the exact model, and the
 //    depth matches the exact affine depth within the snapping tolerance (spec/raster.md).
 //  * Written depths are always in (0, 1], finite, never −0; a triangle behind the camera

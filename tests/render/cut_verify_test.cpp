@@ -1,4 +1,4 @@
-// The runtime's per-frame LOD cut passes lib/verify's cut checker (every leaf covered
+// The runtime's per-frame LOD cut passes lib/vgeo/verify's cut checker (every leaf covered
 // exactly once, crack-free) on real DAGs from build_dag, over random cameras.
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>

@@ -1,12 +1,12 @@
 #pragma once
 // Small render scenes for pipeline tests (meshes from tests/support/shapes.h and
-// lib/mesh/generate.h, DAGs from build_dag).
+// lib/vgeo/mesh/generate.h, DAGs from build_dag).
 #include <cmath>
 #include <cstring>
 #include <vector>
 
 #include "support/shapes.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/mesh/generate.h"
 #include "vgeo/render/frame.h"
 

@@ -9,8 +9,8 @@
 
 #include "support/paths.h"
 #include "support/shapes.h"
-#include "vgeo/build/build.h"
-#include "vgeo/build/dag_io.h"
+#include "vgeo/dag/build.h"
+#include "vgeo/dag/dag_io.h"
 #include "vgeo/core/error.h"
 #include "vgeo/render/run.h"
 #include "vgeo/render/scene_file.h"

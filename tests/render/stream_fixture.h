@@ -8,7 +8,7 @@
 #include <string>
 
 #include "support/shapes.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/format/asset_file.h"
 #include "vgeo/format/format.h"
 #include "vgeo/render/run.h"

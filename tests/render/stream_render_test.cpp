@@ -1,5 +1,5 @@
 // Streaming through the real renderer (spec/stream.md §Renderer): every frame's resident cut
-// passes lib/verify's cut check (coverage + cracks), drawn clusters are a subset of it and
+// passes lib/vgeo/verify's cut check (coverage + cracks), drawn clusters are a subset of it and
 // their geometry is exactly the page file's, the pool stays within budget, the cut converges
 // after the camera stops, faults never produce an invalid cut, and without need there is no
 // streaming at all (bit-identical output).

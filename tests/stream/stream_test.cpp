@@ -9,7 +9,7 @@
 #include <set>
 
 #include "support/shapes.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/core/error.h"
 #include "vgeo/format/format.h"
 #include "vgeo/stream/stream.h"

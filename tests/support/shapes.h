@@ -1,5 +1,5 @@
 #pragma once
-// Tiny deterministic meshes for unit tests (the full generator is lib/mesh/generate.h).
+// Tiny deterministic meshes for unit tests (the full generator is lib/vgeo/mesh/generate.h).
 #include <cmath>
 #include <cstdint>
 

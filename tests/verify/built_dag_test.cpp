@@ -12,8 +12,8 @@
 
 #include "support/paths.h"
 #include "support/shapes.h"
-#include "vgeo/build/build.h"
-#include "vgeo/build/dag_io.h"
+#include "vgeo/dag/build.h"
+#include "vgeo/dag/dag_io.h"
 #include "verify/hand_dag.h"
 #include <nlohmann/json.hpp>
 #include <cstdlib>
@@ -159,7 +159,7 @@ RC_GTEST_PROP(VerifyBuilt, OpenMeshDagErrorWithinStoredBound, ()) {
 
 // ---- the CGAL corpus (a few small meshes; the full corpus is `vgeo verify` in tools/test) ----
 
-// Minimal OFF reader (polygons fanned), independent of lib/mesh: returns false on bad input.
+// Minimal OFF reader (polygons fanned), independent of lib/vgeo/mesh: returns false on bad input.
 bool read_off(const std::filesystem::path& path, Mesh* mesh) {
   std::ifstream f(path);
   std::stringstream clean;

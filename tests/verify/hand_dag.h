@@ -14,7 +14,7 @@
 #include <cmath>
 #include <vector>
 
-#include "vgeo/build/cluster_dag.h"
+#include "vgeo/dag/cluster_dag.h"
 
 namespace vgeo::test {
 

@@ -1,11 +1,11 @@
-// spec/invariants.md §LOD: the projected-error test of lib/core/lod.h is monotonic for
+// spec/invariants.md §LOD: the projected-error test of lib/vgeo/core/lod.h is monotonic for
 // nested spheres and finite for every eye, including eyes inside the spheres.
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
 #include <cmath>
 
-#include "vgeo/build/cluster_dag.h"
+#include "vgeo/dag/cluster_dag.h"
 #include "vgeo/core/lod.h"
 
 namespace vgeo {

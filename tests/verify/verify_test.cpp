@@ -1,4 +1,4 @@
-// lib/verify on hand-built DAGs: the valid DAG passes every check, and each deliberate
+// lib/vgeo/verify on hand-built DAGs: the valid DAG passes every check, and each deliberate
 // corruption is caught with its stable code (spec/invariants.md).
 #include <gtest/gtest.h>
 

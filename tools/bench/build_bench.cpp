@@ -1,10 +1,10 @@
-// Builder throughput: DAG build of a dense UV sphere (made here; the generator is lib/mesh's).
+// Builder throughput: DAG build of a dense UV sphere (made here; the generator is lib/vgeo/mesh's).
 // Run: vgeo_microbench --benchmark_filter=BuildSphere  (10M triangles needs ~2-3 GB RAM).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 
 namespace {
 

@@ -8,8 +8,8 @@
 #include <filesystem>
 #include <string>
 
-#include "vgeo/build/build_internal.h"
-#include "vgeo/build/cluster_dag.h"
+#include "vgeo/dag/build_internal.h"
+#include "vgeo/dag/cluster_dag.h"
 #include "vgeo/mesh/import.h"
 
 namespace {

@@ -1,4 +1,4 @@
-// Culling and frame-pipeline micro-benchmarks (lib/cull, lib/render).
+// Culling and frame-pipeline micro-benchmarks (lib/vgeo/cull, lib/vgeo/render).
 //   BM_CullTraversal/K/threads   persistent-thread LOD + cluster culling of K instances
 //   BM_HzbBuild/threads          HZB of a 1280x720 visibility buffer
 //   BM_DefaultSceneFrame/threads the embedded default scene at 1280x720, whole frame
@@ -12,7 +12,7 @@
 #include <map>
 #include <memory>
 
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/cull/cull.h"
 #include "vgeo/mesh/generate.h"
 #include "vgeo/render/frame.h"
@@ -102,7 +102,7 @@ void BM_DefaultSceneFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_DefaultSceneFrame)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
-// Generated sphere radius 1 (at most +12% displacement, lib/mesh/generate.cpp): 2.4 leaves
+// Generated sphere radius 1 (at most +12% displacement, lib/vgeo/mesh/generate.cpp): 2.4 leaves
 // small gaps between neighbours.
 constexpr double kScalingSpacing = 2.4;
 

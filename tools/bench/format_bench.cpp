@@ -21,9 +21,9 @@
 #include <string>
 #include <unordered_map>
 
-#include "vgeo/build/build.h"
-#include "vgeo/build/cluster_dag.h"
-#include "vgeo/build/dag_io.h"
+#include "vgeo/dag/build.h"
+#include "vgeo/dag/cluster_dag.h"
+#include "vgeo/dag/dag_io.h"
 #include "vgeo/core/error.h"
 #include "vgeo/mesh/generate.h"
 #include "vgeo/format/format.h"

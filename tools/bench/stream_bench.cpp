@@ -10,7 +10,7 @@
 #include <fstream>
 #include <thread>
 
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/format/format.h"
 #include "vgeo/stream/stream.h"
 

@@ -1,12 +1,12 @@
 // Suite "lod": the accuracy/time curve of the LOD threshold tau. For each tau: triangles and
 // clusters drawn, time per pass, and image error against a full-detail render of the same view,
-// all by lib/render's frame pipeline (render_frame).
+// all by lib/vgeo/render's frame pipeline (render_frame).
 #include <cmath>
 
 #include "bench_render.h"
 #include "bench_shapes.h"
 #include "bench_suites.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/core/progress.h"
 #include "vgeo/cull/cull.h"
 
@@ -50,7 +50,7 @@ void run_lod_suite(const BenchConfig& cfg, SuiteReport& out) {
   const int reps = cfg.repetitions(7);
   ThreadPool pool(cfg.threads);
   out.summary =
-      "One frame = lib/render's render_frame (instance cull + persistent-thread hierarchical LOD/frustum "
+      "One frame = lib/vgeo/render's render_frame (instance cull + persistent-thread hierarchical LOD/frustum "
       "cluster cull, software raster on the auto path, deferred lit shading), occlusion off (one object; "
       "occlusion has its own suite). Each tau and the full-detail reference (tau = 0: the zero-error cut) are "
       "rendered interleaved, " + std::to_string(reps) + " repetitions, " + std::to_string(pool.size()) +
@@ -148,7 +148,7 @@ void run_lod_suite(const BenchConfig& cfg, SuiteReport& out) {
       std::string taus;
       for (const auto& s : bvh_mismatch) taus += " " + s;
       out.notes.push_back(std::string("FINDING: ") + view.name + ": render_frame's hierarchical cull "
-                          "drew a different cluster set than lib/cull's select_flat (flat LOD + frustum test of every "
+                          "drew a different cluster set than lib/vgeo/cull's select_flat (flat LOD + frustum test of every "
                           "cluster) at tau =" + taus + ".");
     }
     tri_series.push_back(ts);

@@ -1,9 +1,9 @@
 #pragma once
-// The LOD cut as the runtime makes it (lib/core/lod.h), evaluated over all clusters of a
+// The LOD cut as the runtime makes it (lib/vgeo/core/lod.h), evaluated over all clusters of a
 // DAG for one camera: what a frame would draw at threshold tau, without culling.
 #include <cstdint>
 
-#include "vgeo/build/cluster_dag.h"
+#include "vgeo/dag/cluster_dag.h"
 #include "vgeo/core/lod.h"
 
 namespace vgeo::bench {

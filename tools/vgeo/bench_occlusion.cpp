@@ -1,4 +1,4 @@
-// Suite "occlusion": two-pass HZB occlusion culling (lib/render) off / at the coarse
+// Suite "occlusion": two-pass HZB occlusion culling (lib/vgeo/render) off / at the coarse
 // ≤2x2 mip / at Nanite's ≤4x4 mip / at the finest mip: clusters culled, the time the
 // occlusion passes cost and the frame time they save, measured side by side in steady
 // state (each variant keeps its own previous-frame HZB).
@@ -6,7 +6,7 @@
 
 #include "bench_shapes.h"
 #include "bench_suites.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/core/progress.h"
 #include "vgeo/cull/view.h"
 #include "vgeo/render/frame.h"
@@ -60,7 +60,7 @@ void run_occlusion_suite(const BenchConfig& cfg, SuiteReport& out) {
                        " triangles, seed 9), spacing " + fmt(kSpacing) + ", camera at eye level with the rows, " +
                        std::to_string(cam.width) + "x" + std::to_string(cam.height) + ", tau = 1 px");
   out.summary =
-      "lib/render's frame pipeline (two-pass HZB occlusion with previous-frame history, then shading) in steady "
+      "lib/vgeo/render's frame pipeline (two-pass HZB occlusion with previous-frame history, then shading) in steady "
       "state: each variant keeps its own history and is warmed up by one frame, then the variants are rendered "
       "interleaved, " + std::to_string(reps) + " repetitions, " + std::to_string(pool.size()) + " threads. "
       "'occluded' sums clusters_occluded over the passes; 'occlusion passes' is the wall time of the passes that "

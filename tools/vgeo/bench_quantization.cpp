@@ -5,7 +5,7 @@
 
 #include "bench_shapes.h"
 #include "bench_suites.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/core/progress.h"
 #include "vgeo/format/format.h"
 

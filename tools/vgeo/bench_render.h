@@ -1,6 +1,6 @@
 #pragma once
-// What the lod/scaling/stability suites need around lib/render's frame pipeline
-// (lib/render/frame.h render_frame) that lib/render does not provide: placement and camera
+// What the lod/scaling/stability suites need around lib/vgeo/render's frame pipeline
+// (lib/vgeo/render/frame.h render_frame) that lib/vgeo/render does not provide: placement and camera
 // shorthands, and the image-difference metric between two frames of the same view.
 #include <cstdint>
 #include <initializer_list>

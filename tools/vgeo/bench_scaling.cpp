@@ -8,7 +8,7 @@
 #include "bench_render.h"
 #include "bench_shapes.h"
 #include "bench_suites.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/core/progress.h"
 
 namespace vgeo::bench {
@@ -65,7 +65,7 @@ void run_scaling_suite(const BenchConfig& cfg, SuiteReport& out) {
   out.inputs.push_back("instances on a " + fmt(kGridSpacing) + "-radius-spaced grid receding from the camera, " +
                        std::to_string(cam.width) + "x" + std::to_string(cam.height) + ", tau = " + fmt(kTau) + " px");
   out.summary =
-      "Frames by lib/render's render_frame with its default settings (instance + hierarchical cluster culling "
+      "Frames by lib/vgeo/render's render_frame with its default settings (instance + hierarchical cluster culling "
       "with two-pass HZB occlusion, raster, lit shading; " + std::to_string(pool.size()) +
       " threads) in steady state: each configuration keeps its own previous-frame history and is warmed up by one "
       "frame; then " + std::to_string(reps) + " interleaved repetitions per configuration, CPU time (all threads) "

@@ -1,5 +1,5 @@
 #pragma once
-// Benchmark meshes: lib/mesh/generate.h shapes (deterministic for a seed, no data files),
+// Benchmark meshes: lib/vgeo/mesh/generate.h shapes (deterministic for a seed, no data files),
 // plus the hard inputs of the stability suite (slivers, degenerate triangles).
 #include <algorithm>
 #include <cstdint>

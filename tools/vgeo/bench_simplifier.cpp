@@ -5,7 +5,7 @@
 #include "bench_lodcut.h"
 #include "bench_shapes.h"
 #include "bench_suites.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/core/progress.h"
 #include "vgeo/verify/verify.h"
 
@@ -40,16 +40,16 @@ void run_simplifier_suite(const BenchConfig& cfg, SuiteReport& out) {
   out.summary =
       "Both backends build the DAG of the same mesh (BuildOptions::simplifier), interleaved, " + std::to_string(reps) +
       " repetitions each; wall time and process CPU time (all threads) are both reported, the ratio is of CPU "
-      "time (robust to other processes on a shared machine). The LOD cut is the runtime's test (lib/core/lod.h lod_selects) over all clusters for one "
+      "time (robust to other processes on a shared machine). The LOD cut is the runtime's test (lib/vgeo/core/lod.h lod_selects) over all clusters for one "
       "camera (" + fmt(kCameraDistanceRadii) + " bounding radii away on the diagonal, 1080 px tall, 60° fov), "
       "without culling: equal tau means equal promised screen-space error, so fewer triangles at equal tau means "
-      "a better simplifier (if the stored errors are honest; see lib/verify's error-bound check).";
+      "a better simplifier (if the stored errors are honest; see lib/vgeo/verify's error-bound check).";
 
   Table build_t{"Build time (median [min, max]) and DAG shape", {"mesh", "triangles", "backend", "build wall time",
                                                                  "build CPU time", "CPU time / meshopt", "levels", "clusters",
                                                                  "stored tris", "root tris"}, {}};
   Table cut_t{"Triangles drawn at equal tau (fixed camera)", {"mesh", "backend"}, {}};
-  Table err_t{"Stored error honesty: measured / stored lod_error per non-leaf cluster (lib/verify error_bound check)",
+  Table err_t{"Stored error honesty: measured / stored lod_error per non-leaf cluster (lib/vgeo/verify error_bound check)",
               {"mesh", "backend", "clusters checked", "median", "p95", "max", "ERROR_* violations"}, {}};
   for (float tau : kTaus) cut_t.columns.push_back("tau=" + fmt(tau));
   nlohmann::json jrows = nlohmann::json::array();

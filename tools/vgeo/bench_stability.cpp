@@ -6,7 +6,7 @@
 #include "bench_render.h"
 #include "bench_shapes.h"
 #include "bench_suites.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/progress.h"
 
@@ -115,7 +115,7 @@ void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
                          build_status[i] + (build_status[i] == "ok" ? ", " + std::to_string(dags[i].level_count) + " levels" : ""));
   }
   out.summary =
-      "Each case renders at tau = " + fmt(kTau) + " px and at full detail (tau = 0) with lib/render's render_frame "
+      "Each case renders at tau = " + fmt(kTau) + " px and at full detail (tau = 0) with lib/vgeo/render's render_frame "
       "(occlusion off: one object), " +
       std::to_string(reps) + " interleaved repetitions, " + std::to_string(w) + "x" + std::to_string(h) +
       ". Accuracy metrics as in the lod suite, against the case's own full-detail frame; cases that are the baseline "

@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "vgeo/build/build.h"
-#include "vgeo/build/dag_io.h"
+#include "vgeo/dag/build.h"
+#include "vgeo/dag/dag_io.h"
 #include "vgeo/format/asset_file.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/progress.h"

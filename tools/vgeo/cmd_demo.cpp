@@ -1,7 +1,7 @@
 // `vgeo demo`: the README's main job on the embedded default asset, no files needed.
 //   1. generate the default asset (a seeded, displaced closed sphere) and validate it;
 //   2. build its cluster DAG and print the per-level report;
-//   3. check the DAG against every invariant (lib/verify) and print the verdict;
+//   3. check the DAG against every invariant (lib/vgeo/verify) and print the verdict;
 //   4. render the embedded default scene (the same kind of asset, instanced, on a ground)
 //      through the CPU reference pipeline, write the PNG and print the pass table.
 // Exit 0 only when every invariant holds and the frame rendered.
@@ -12,7 +12,7 @@
 #include <string>
 
 #include "commands.h"
-#include "vgeo/build/build.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/progress.h"
 #include "vgeo/mesh/generate.h"

@@ -1,9 +1,9 @@
 // `vgeo gen SHAPE --triangles N --seed S -o out.glb|.obj|.ply|.off [--islands K]
 //   [--subdivide K] [--threads T]`  or  `vgeo gen --input FILE [--subdivide K] -o out`:
-// writes a deterministic procedural mesh (lib/mesh/generate.h), optionally densified by
-// Loop subdivision (lib/mesh/subdivide.h). Same arguments -> byte-identical file.
+// writes a deterministic procedural mesh (lib/vgeo/mesh/generate.h), optionally densified by
+// Loop subdivision (lib/vgeo/mesh/subdivide.h). Same arguments -> byte-identical file.
 //
-// --input goes through import_scene (lib/mesh/import.h: glTF + OBJ/PLY/OFF/STL, validated,
+// --input goes through import_scene (lib/vgeo/mesh/import.h: glTF + OBJ/PLY/OFF/STL, validated,
 // welded) when that header is present; until it is merged, through the OpenMesh stopgap
 // read_mesh_openmesh (OBJ/PLY/OFF/STL, positions + triangles only).
 #if __has_include("vgeo/mesh/import.h")

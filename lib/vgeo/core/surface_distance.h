@@ -1,0 +1,74 @@
+#pragma once
+// One-sided surface distance, shared by the builder (which stores a simplification's
+// error) and lib/vgeo/verify (which checks the stored error): one implementation, so the
+// checker's sample points are a subset of the builder's (spec/invariants.md §ERROR_BOUND).
+//
+// Sampling: on every triangle, the barycentric lattice with `subdivisions` steps per edge:
+// corners, points on edges, interior points. A lattice with s steps contains the lattice
+// with d steps whenever d divides s (the barycentric coordinates i/d = (i·s/d)/s round to
+// the same double), so a builder sampling with a multiple of the checker's subdivision
+// measures at every point the checker measures.
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace vgeo {
+
+// Lattice steps per triangle edge used by the builder to measure a simplification's error
+// and by lib/vgeo/verify's ERROR_BOUND by default: the same lattice, so the stored error covers
+// every point the checker samples at level 1 exactly, and by the triangle inequality
+// (stored = max(member errors) + own) at every level above. 3 steps = 10 points per
+// triangle, shared points once: ~4.5 distance queries per triangle.
+inline constexpr uint32_t kErrorLatticeSubdivisions = 3;
+
+struct DVec3 {
+  double x = 0, y = 0, z = 0;
+};
+
+// Exact-in-double squared distance from p to triangle abc (degenerate triangles: nearest edge).
+double point_triangle_distance_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c);
+
+// Both are prepared_triangle_*(p, prepare_triangle(a, b, c)) (surface_distance_impl.h): callers
+// testing many points against one triangle prepare it once, with bit-identical results.
+
+// Same decision as `point_triangle_distance_squared(p, a, b, c) <= threshold`, bit-exactly,
+// but stops at the first edge within `threshold` when p projects outside the triangle.
+// `*d2` gets the exact squared distance when all of it was computed, else a value ≤ threshold.
+bool point_triangle_within_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c, double threshold, double* d2);
+
+// Nearest-triangle queries against a fixed triangle soup (median-split AABB tree, double).
+class TriangleDistanceTree {
+ public:
+  TriangleDistanceTree() = default;
+  explicit TriangleDistanceTree(std::vector<DVec3> corners);  // 3 per triangle
+  bool empty() const { return nodes_.empty(); }
+  // Squared distance to the nearest triangle; `hint` (in/out) is a triangle to start from
+  // (pass ~0u initially); +inf when empty.
+  double nearest_distance_squared(DVec3 p, uint32_t* hint) const;
+
+ private:
+  struct Node {
+    DVec3 lo, hi;
+    uint32_t first = 0, count = 0;  // leaf: order_[first, +count); inner: children first, first+1
+  };
+  void build(uint32_t index, uint32_t first, uint32_t last, const DVec3* tri_box, const double* centroids);
+  double triangle_d2(DVec3 p, uint32_t t) const;
+  std::vector<DVec3> corners_;
+  std::vector<uint32_t> order_;
+  std::vector<Node> nodes_;
+};
+
+// Calls visit(point) once for every lattice point of the triangles (corner points once per
+// distinct referenced vertex, edge points once per distinct edge, interior points per
+// triangle). `positions` has 3 floats per vertex; `indices` 3 per triangle.
+template <class Visit>
+void for_each_lattice_point(const float* positions, const uint32_t* indices, size_t triangle_count,
+                            uint32_t subdivisions, Visit&& visit);
+
+// max over the lattice points of `from` of the distance to `to` (0 if `from` is empty).
+double sampled_one_sided_distance(const float* positions, const uint32_t* from_indices, size_t from_triangles,
+                                  const TriangleDistanceTree& to, uint32_t subdivisions);
+
+}  // namespace vgeo
+
+#include "vgeo/core/surface_distance_impl.h"

@@ -1,0 +1,849 @@
+// The DAG builder driver: cluster → (group → simplify → split) per level → BVH → layout.
+// Normative description: spec/dag.md.
+#include "vgeo/dag/build.h"
+
+#include <sys/mman.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cassert>
+#include <chrono>
+#include <condition_variable>
+#include <exception>
+#include <initializer_list>
+#include <cmath>
+#include <cstring>
+
+#include "vgeo/dag/build_internal.h"
+#include "vgeo/core/error.h"
+#include "vgeo/core/progress.h"
+#include "vgeo/core/thread_pool.h"
+
+namespace vgeo {
+
+using namespace build_detail;
+
+namespace {
+
+double now_seconds() {
+  using namespace std::chrono;
+  return duration<double>(steady_clock::now().time_since_epoch()).count();
+}
+
+struct WorkCluster {
+  TriangleSet triangles;
+  uint32_t level = 0;
+  uint32_t group = kNone;             // work group index
+  uint32_t generating_group = kNone;  // work group index
+  Sphere bounds, lod_bounds;
+  float lod_error = 0.0f;
+};
+
+struct WorkGroup {
+  std::vector<uint32_t> members;    // work cluster indices
+  std::vector<uint32_t> generated;  // work cluster indices
+  uint32_t level = 0;
+  bool terminal = false;
+  Sphere bounds, parent_bounds;
+  float parent_error = 0.0f;
+};
+
+void validate_mesh(const Mesh& mesh) {
+  const std::string where = mesh.name.empty() ? "<mesh>" : mesh.name;
+  if (mesh.positions.size() % 3 != 0 || mesh.indices.size() % 3 != 0)
+    fail("BUILD_BAD_MESH", where, "position or index array length is not a multiple of 3");
+  if (mesh.triangle_count() == 0) fail("BUILD_EMPTY_MESH", where, "the mesh has no triangles");
+  // Offsets in the DAG are 32-bit and the DAG stores about twice the input.
+  if (mesh.triangle_count() > (size_t(1) << 30) || mesh.vertex_count() >= kNone)
+    fail("BUILD_MESH_TOO_LARGE", where, "more than 2^30 triangles or 2^32-1 vertices");
+  if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
+    fail("BUILD_BAD_MESH", where, "normals are not one per vertex");
+  if (!mesh.uvs.empty() && mesh.uvs.size() != 2 * mesh.vertex_count())
+    fail("BUILD_BAD_MESH", where, "uvs are not one per vertex");
+  if (!mesh.materials.empty() && mesh.materials.size() != mesh.triangle_count())
+    fail("BUILD_BAD_MESH", where, "materials are not one per triangle");
+  for (float p : mesh.positions)
+    if (!std::isfinite(p)) fail("BUILD_NONFINITE_POSITION", where, "a vertex position is NaN or infinite");
+  size_t vcount = mesh.vertex_count();
+  for (uint32_t i : mesh.indices)
+    if (i >= vcount)
+      fail("BUILD_INDEX_OUT_OF_RANGE", where,
+           "index " + std::to_string(i) + " >= vertex count " + std::to_string(vcount));
+}
+
+Sphere cluster_sphere(const Mesh& mesh, const TriangleSet& t) {
+  return sphere_of_points(mesh, t.corners.data(), t.corners.size());
+}
+
+// Leaf clustering input, cut into chunks of about kLeafChunkTriangles (see build_dag).
+// Triangles per parallel_for task in the per-triangle passes (fixed, so results combined
+// in task order do not depend on the thread count).
+constexpr size_t kTrianglesPerTask = size_t(1) << 16;
+
+// AABB of the vertices referenced by triangles (fixed blocks combined in order).
+Aabb indexed_bounds(const Mesh& mesh, ThreadPool& pool) {
+  const size_t n = mesh.triangle_count(), tasks = (n + kTrianglesPerTask - 1) / kTrianglesPerTask;
+  std::vector<Aabb> part(tasks);
+  pool.parallel_for(tasks, [&](size_t k) {
+    size_t end = std::min(n, (k + 1) * kTrianglesPerTask);
+    for (size_t i = 3 * k * kTrianglesPerTask; i < 3 * end; ++i) part[k].extend(mesh.position(mesh.indices[i]));
+  });
+  Aabb box;
+  for (const Aabb& b : part) box.extend(b);
+  return box;
+}
+
+std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPool& pool) {
+  size_t n = mesh.triangle_count();
+  std::vector<TriangleSet> chunks;
+  if (n <= kLeafChunkTriangles) {
+    TriangleSet all;
+    all.corners = mesh.indices;
+    all.materials.resize(n);
+    for (size_t t = 0; t < n; ++t) all.materials[t] = mesh.material(t);
+    chunks.push_back(std::move(all));
+    return chunks;
+  }
+  constexpr uint32_t kCells = 16;  // per axis: 4096 cells, ≥ 2 chunks' worth each on 10M+
+  auto cell_of = [&](size_t t) {
+    uint32_t q[3];
+    for (int k = 0; k < 3; ++k) {
+      double c = (double(mesh.position(mesh.indices[3 * t])[k]) + mesh.position(mesh.indices[3 * t + 1])[k] +
+                  mesh.position(mesh.indices[3 * t + 2])[k]) / 3.0;
+      double extent = double(box.max[k]) - box.min[k];
+      double f = extent > 0 ? (c - box.min[k]) / extent : 0.0;
+      q[k] = uint32_t(std::clamp(f * kCells, 0.0, double(kCells - 1)));
+    }
+    uint32_t code = 0;
+    for (int b = 3; b >= 0; --b)
+      for (int k = 0; k < 3; ++k) code = (code << 1) | ((q[k] >> b) & 1);
+    return code;
+  };
+  std::vector<uint16_t> cell(n);
+  std::vector<size_t> count(kCells * kCells * kCells + 1, 0);
+  pool.parallel_for((n + kTrianglesPerTask - 1) / kTrianglesPerTask, [&](size_t k) {
+    for (size_t t = k * kTrianglesPerTask; t < std::min(n, (k + 1) * kTrianglesPerTask); ++t)
+      cell[t] = uint16_t(cell_of(t));
+  });
+  for (size_t t = 0; t < n; ++t) ++count[cell[t] + 1];
+  for (size_t c = 0; c + 1 < count.size(); ++c) count[c + 1] += count[c];
+  std::vector<uint32_t> order(n);
+  {
+    std::vector<size_t> fill(count.begin(), count.end() - 1);
+    for (size_t t = 0; t < n; ++t) order[fill[cell[t]]++] = uint32_t(t);
+  }
+  // Chunk = consecutive cells until it reaches kLeafChunkTriangles: ranges of `order`.
+  std::vector<std::pair<size_t, size_t>> ranges;
+  size_t begin = 0;
+  for (size_t c = 0; c + 1 < count.size(); ++c)
+    if (count[c + 1] - begin >= kLeafChunkTriangles) {
+      ranges.push_back({begin, count[c + 1]});
+      begin = count[c + 1];
+    }
+  if (begin < n) ranges.push_back({begin, n});
+  chunks.resize(ranges.size());
+  pool.parallel_for(ranges.size(), [&](size_t k) {
+    TriangleSet& chunk = chunks[k];
+    chunk.corners.reserve(3 * (ranges[k].second - ranges[k].first));
+    chunk.materials.reserve(ranges[k].second - ranges[k].first);
+    for (size_t i = ranges[k].first; i < ranges[k].second; ++i) {
+      uint32_t t = order[i];
+      chunk.corners.insert(chunk.corners.end(), &mesh.indices[3 * size_t(t)], &mesh.indices[3 * size_t(t)] + 3);
+      chunk.materials.push_back(mesh.material(t));
+    }
+  });
+  return chunks;
+}
+
+// Faults in the pages of fresh allocations in equal chunks on every pool thread
+// (MADV_POPULATE_WRITE, Linux ≥ 5.14). On a virtual machine a first touch costs several µs
+// per 4 KiB page, so spreading it evenly beats one task per array; where the advice is not
+// supported this does nothing and the first writes fault as before.
+void prefault_parallel(std::initializer_list<std::pair<void*, size_t>> ranges, ThreadPool& pool) {
+#ifdef MADV_POPULATE_WRITE
+  constexpr size_t kChunk = size_t(8) << 20;  // 8 MiB: a few hundred tasks for a 10M-triangle DAG
+  const size_t page = size_t(sysconf(_SC_PAGESIZE));
+  std::vector<std::pair<uintptr_t, size_t>> chunks;
+  for (auto [data, bytes] : ranges) {
+    if (!data || bytes < kChunk) continue;  // small arrays: not worth a system call
+    uintptr_t begin = (reinterpret_cast<uintptr_t>(data) + page - 1) & ~uintptr_t(page - 1);
+    uintptr_t end = (reinterpret_cast<uintptr_t>(data) + bytes) & ~uintptr_t(page - 1);
+    for (uintptr_t at = begin; at < end; at += kChunk) chunks.push_back({at, std::min<size_t>(kChunk, end - at)});
+  }
+  pool.parallel_for(chunks.size(), [&](size_t i) {
+    (void)madvise(reinterpret_cast<void*>(chunks[i].first), chunks[i].second, MADV_POPULATE_WRITE);
+  });
+#else
+  (void)ranges;
+  (void)pool;
+#endif
+}
+
+// ---- BVH8 over groups: top-down, split at the median of the largest centre extent ----
+struct BvhBuilder {
+  const std::vector<DagGroup>& groups;
+  std::vector<BvhNode>& nodes;
+
+  void split(std::vector<uint32_t>& items, size_t begin, size_t end, int depth,
+             std::vector<std::pair<size_t, size_t>>& buckets) {
+    if (depth == 0 || end - begin <= 1) {
+      buckets.push_back({begin, end});
+      return;
+    }
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (size_t i = begin; i < end; ++i)
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], double(groups[items[i]].bounds.center[k]));
+        hi[k] = std::max(hi[k], double(groups[items[i]].bounds.center[k]));
+      }
+    int axis = 0;
+    for (int k = 1; k < 3; ++k)
+      if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;
+    std::sort(items.begin() + begin, items.begin() + end, [&](uint32_t a, uint32_t b) {
+      float ca = groups[a].bounds.center[axis], cb = groups[b].bounds.center[axis];
+      return ca != cb ? ca < cb : a < b;
+    });
+    size_t mid = begin + (end - begin) / 2;
+    split(items, begin, mid, depth - 1, buckets);
+    split(items, mid, end, depth - 1, buckets);
+  }
+
+  uint32_t build(std::vector<uint32_t>& items, size_t begin, size_t end) {
+    uint32_t index = uint32_t(nodes.size());
+    nodes.emplace_back();
+    BvhNode node;
+    std::vector<Sphere> bounds, lod_bounds;
+    float max_error = 0.0f;
+    auto add_group = [&](uint32_t g) {
+      node.group_mask |= 1u << node.child_count;
+      node.children[node.child_count++] = g;
+      bounds.push_back(groups[g].bounds);
+      lod_bounds.push_back(groups[g].parent_bounds);
+      max_error = std::max(max_error, groups[g].parent_error);
+    };
+    if (end - begin <= kBvhMaxChildren) {
+      for (size_t i = begin; i < end; ++i) add_group(items[i]);
+    } else {
+      std::vector<std::pair<size_t, size_t>> buckets;
+      split(items, begin, end, 3, buckets);  // 2^3 = kBvhMaxChildren buckets
+      for (auto [b, e] : buckets) {
+        if (b == e) continue;
+        if (e - b == 1) {
+          add_group(items[b]);
+          continue;
+        }
+        uint32_t child = build(items, b, e);
+        node.children[node.child_count++] = child;
+        bounds.push_back(nodes[child].bounds);
+        lod_bounds.push_back(nodes[child].lod_bounds);
+        max_error = std::max(max_error, nodes[child].max_parent_error);
+      }
+    }
+    node.bounds = enclose_spheres(bounds.data(), bounds.size());
+    node.lod_bounds = enclose_spheres(lod_bounds.data(), lod_bounds.size());
+    node.max_parent_error = max_error;
+    nodes[index] = node;
+    return index;
+  }
+};
+
+// Calls fn(key, owned_by_several) once per distinct key of sorted (key, owner) pairs.
+template <class Fn>
+void for_each_key_of_sorted_pairs(const std::vector<std::pair<uint64_t, uint32_t>>& sorted, Fn&& fn) {
+  for (size_t i = 0; i < sorted.size();) {
+    size_t j = i;
+    bool shared = false;
+    while (j < sorted.size() && sorted[j].first == sorted[i].first) {
+      shared |= sorted[j].second != sorted[i].second;
+      ++j;
+    }
+    fn(sorted[i].first, shared);
+    i = j;
+  }
+}
+
+}  // namespace
+
+ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report) {
+  return build_dag_internal(mesh, options, InternalBuildOptions{}, report);
+}
+
+ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions& options,
+                                            const InternalBuildOptions& internal, BuildReport* report) {
+  double t_start = now_seconds();
+  validate_mesh(mesh);
+  BuildReport rep;
+  rep.input_triangles = mesh.triangle_count();
+  ThreadPool pool(options.threads);
+  WeldedMesh welded = weld_positions(mesh);
+  const size_t vertex_count = mesh.vertex_count();
+  // Only vertices referenced by triangles count (leaf chunking, ClusterDag::bounds).
+  const Aabb mesh_box = indexed_bounds(mesh, pool);
+  rep.seconds_prepare = now_seconds() - t_start;
+  // Per-task scratch arrays (vertex_count entries, kept all-kNone between uses) come from
+  // a small locked free list: parallel_for does not tell a task which worker runs it.
+  std::mutex scratch_mutex;
+  std::vector<std::vector<uint32_t>> scratch_pool;
+  auto take_scratch = [&]() {
+    std::lock_guard<std::mutex> lock(scratch_mutex);
+    if (scratch_pool.empty()) return std::vector<uint32_t>(vertex_count, kNone);
+    std::vector<uint32_t> s = std::move(scratch_pool.back());
+    scratch_pool.pop_back();
+    return s;
+  };
+  auto give_scratch = [&](std::vector<uint32_t>&& s) {
+    std::lock_guard<std::mutex> lock(scratch_mutex);
+    scratch_pool.push_back(std::move(s));
+  };
+  Progress progress("build", mesh.triangle_count(), options.progress);
+
+  // ---- leaves ----
+  std::vector<WorkCluster> clusters;
+  std::vector<WorkGroup> groups;
+  {
+    double t0 = now_seconds();
+    // Large meshes are cut into spatially coherent chunks (cells of a 16^3 grid in Morton
+    // order, consecutive cells merged up to kLeafChunkTriangles) clustered in parallel.
+    // The chunking depends only on the mesh, so the output does not depend on threads.
+    std::vector<TriangleSet> chunks = leaf_chunks(mesh, mesh_box, pool);
+    std::vector<std::vector<TriangleSet>> chunk_leaves(chunks.size());
+    pool.parallel_for(chunks.size(), [&](size_t i) {
+      std::vector<uint32_t> s = take_scratch();
+      chunk_leaves[i] = split_into_clusters(welded, chunks[i], s, internal.leaf_split);
+      give_scratch(std::move(s));
+      chunks[i] = TriangleSet();
+    });
+    std::vector<TriangleSet> leaves;
+    for (auto& cl : chunk_leaves)
+      for (TriangleSet& t : cl) leaves.push_back(std::move(t));
+    chunk_leaves.clear();
+    clusters.resize(leaves.size());
+    pool.parallel_for(leaves.size(), [&](size_t i) {
+      WorkCluster& c = clusters[i];
+      c.triangles = std::move(leaves[i]);
+      c.bounds = cluster_sphere(mesh, c.triangles);
+      c.lod_bounds = c.bounds;
+    });
+    rep.seconds_cluster = now_seconds() - t0;
+  }
+
+  // Welded vertices of retired (terminal) clusters: locked for every later level, since
+  // those clusters stay drawable next to anything coarser (spec/dag.md §Locks).
+  std::vector<uint8_t> retired(vertex_count, 0);
+  std::vector<uint64_t> retired_edges;  // sorted welded edge keys of retired clusters
+  std::vector<uint32_t> owner(vertex_count, kNone);
+  std::vector<uint8_t> locked(vertex_count, 0);
+
+  std::vector<uint32_t> active(clusters.size());
+  for (size_t i = 0; i < active.size(); ++i) active[i] = uint32_t(i);
+  size_t processed = 0;
+  for (uint32_t level = 0; !active.empty(); ++level) {
+    BuildLevelReport lr;
+    lr.level = level;
+    std::vector<std::vector<uint64_t>> open_keys;  // per active cluster, for grouping
+    lr.clusters = active.size();
+    double te = now_seconds();
+    {
+      std::vector<uint64_t> open(active.size()), all(active.size());
+      open_keys.assign(active.size(), {});
+      pool.parallel_for(active.size(), [&](size_t i) {
+        count_cluster_edges(welded, clusters[active[i]].triangles, &open[i], &all[i], &open_keys[i]);
+      });
+      uint64_t so = 0, sa = 0;
+      for (size_t i = 0; i < active.size(); ++i) {
+        so += open[i];
+        sa += all[i];
+        lr.triangles += clusters[active[i]].triangles.triangle_count();
+      }
+      lr.boundary_edge_fraction = sa ? double(so) / double(sa) : 0.0;
+      lr.average_fill = double(lr.triangles) / double(active.size()) / kMaxClusterTriangles;
+    }
+    rep.seconds_edges += now_seconds() - te;
+
+    // ---- group, locks, simplify: one pipelined parallel region per level ----
+    // The active clusters are cut into spatial blocks (block_clusters); each block is
+    // grouped by its own METIS call (serialised, GKlib's RNG is global), then its locks
+    // and shared edges are computed, then its groups are simplified. While one thread
+    // runs METIS on a block, the others simplify the groups of blocks already grouped.
+    // Groups never span blocks, so a vertex used by two blocks is used by two groups and
+    // is locked up front (cross-block locks); every other vertex belongs to one block.
+    bool last_level = level + 1 >= kMaxLevels;
+    const bool simplify_allowed = !(active.size() == 1 || last_level);
+    struct GroupResult {
+      bool terminal = true;
+      float error = 0.0f;
+      std::vector<TriangleSet> clusters;
+      double seconds_simplify = 0, seconds_split = 0, seconds_error = 0;
+    };
+    struct Block {
+      std::vector<uint32_t> items;                 // indices into `active`, ascending
+      std::vector<std::vector<uint32_t>> groups;   // members as cluster indices
+      std::vector<uint64_t> shared_edges;          // sorted welded edge keys
+      std::vector<GroupResult> results;
+      double seconds_group = 0, seconds_locks = 0;
+    };
+    std::vector<Block> blocks;
+    const double t0 = now_seconds();
+    if (!simplify_allowed) {
+      blocks.resize(1);
+      if (active.size() > 1) blocks[0].groups = {active};
+      else blocks[0].groups = {{active[0]}};
+      blocks[0].results.resize(blocks[0].groups.size());
+    } else {
+      std::vector<Vec3> centres(active.size());
+      for (size_t i = 0; i < active.size(); ++i) centres[i] = clusters[active[i]].bounds.center;
+      std::vector<std::vector<uint32_t>> items = spatial_blocks(centres, internal.group_block_clusters);
+      blocks.resize(items.size());
+      for (size_t b = 0; b < items.size(); ++b) blocks[b].items = std::move(items[b]);
+    }
+    const size_t block_count = blocks.size();
+    assert(block_count < (size_t(1) << 16));
+    // Cross-block locks and edges (only with several blocks): the first block to claim a
+    // vertex owns it, any other locks it, so `locked` does not depend on the order.
+    std::vector<uint64_t> cross_edges;  // sorted welded edges used by clusters of two blocks
+    if (block_count > 1) {
+      std::vector<uint32_t> block_of(active.size());
+      for (size_t b = 0; b < block_count; ++b)
+        for (uint32_t i : blocks[b].items) block_of[i] = uint32_t(b);
+      pool.parallel_for(active.size(), [&](size_t i) {
+        for (uint32_t v : clusters[active[i]].triangles.corners) {
+          uint32_t w = welded.weld[v], expected = kNone;
+          if (!std::atomic_ref<uint32_t>(owner[w]).compare_exchange_strong(expected, block_of[i],
+                                                                            std::memory_order_relaxed) &&
+              expected != block_of[i])
+            std::atomic_ref<uint8_t>(locked[w]).store(1, std::memory_order_relaxed);
+        }
+      });
+      std::vector<std::vector<uint64_t>> per_cluster(active.size());
+      pool.parallel_for(active.size(), [&](size_t i) {
+        const TriangleSet& t = clusters[active[i]].triangles;
+        for (uint32_t v : t.corners) std::atomic_ref<uint32_t>(owner[welded.weld[v]]).store(kNone, std::memory_order_relaxed);
+        for (size_t k = 0; k < t.corners.size(); ++k) {
+          uint32_t a = welded.weld[t.corners[k]], b = welded.weld[t.corners[k - k % 3 + (k + 1) % 3]];
+          if (a != b && locked[a] && locked[b]) per_cluster[i].push_back(edge_key(a, b));
+        }
+      });
+      // (edge, block) pairs; an edge used by two blocks is shared.
+      std::vector<std::pair<uint64_t, uint32_t>> candidates;
+      for (size_t i = 0; i < active.size(); ++i)
+        for (uint64_t e : per_cluster[i]) candidates.push_back({e, block_of[i]});
+      std::sort(candidates.begin(), candidates.end());
+      for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
+        if (shared) cross_edges.push_back(e);
+      });
+    }
+    const double seconds_cross = now_seconds() - t0;
+
+    // Block task: METIS grouping, then locks and shared edges of the block's vertices
+    // (its own vertices only: cross-block ones are locked already, so no race).
+    auto run_block = [&](size_t b) {
+      Block& blk = blocks[b];
+      double tb = now_seconds();
+      {
+        const size_t n = blk.items.size();
+        std::vector<const TriangleSet*> sets(n);
+        std::vector<Sphere> bounds(n);
+        std::vector<std::vector<uint64_t>> keys(n);
+        for (size_t i = 0; i < n; ++i) {
+          sets[i] = &clusters[active[blk.items[i]]].triangles;
+          bounds[i] = clusters[active[blk.items[i]]].bounds;
+          keys[i] = std::move(open_keys[blk.items[i]]);
+        }
+        blk.groups = group_clusters(sets, keys, bounds, internal.group_target_clusters);
+        for (auto& g : blk.groups)
+          for (uint32_t& m : g) m = active[blk.items[m]];
+      }
+      double tl = now_seconds();
+      blk.seconds_group = tl - tb;
+      // Locks: welded vertices used by two groups of this level, or by a retired cluster.
+      for (size_t g = 0; g < blk.groups.size(); ++g) {
+        const uint32_t tag = uint32_t(b << 16 | g);
+        for (uint32_t m : blk.groups[g])
+          for (uint32_t v : clusters[m].triangles.corners) {
+            uint32_t w = welded.weld[v];
+            if (locked[w]) continue;
+            if (retired[w] || (owner[w] != kNone && owner[w] != tag)) locked[w] = 1;
+            else owner[w] = tag;
+          }
+      }
+      // Shared edges: welded edges with both ends locked used by two groups of this level,
+      // by two blocks, or by a retired cluster (only those must survive; few: they lie on
+      // group borders).
+      std::vector<std::pair<uint64_t, uint32_t>> candidates;
+      for (size_t g = 0; g < blk.groups.size(); ++g)
+        for (uint32_t m : blk.groups[g]) {
+          const TriangleSet& t = clusters[m].triangles;
+          for (size_t k = 0; k < t.corners.size(); ++k) {
+            uint32_t a = welded.weld[t.corners[k]], c = welded.weld[t.corners[k - k % 3 + (k + 1) % 3]];
+            if (a != c && locked[a] && locked[c]) candidates.push_back({edge_key(a, c), uint32_t(g)});
+          }
+        }
+      std::sort(candidates.begin(), candidates.end());
+      for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
+        if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), e) ||
+            std::binary_search(cross_edges.begin(), cross_edges.end(), e))
+          blk.shared_edges.push_back(e);
+      });
+      blk.results.resize(blk.groups.size());
+      blk.seconds_locks = now_seconds() - tl;
+    };
+    // Group task: simplify, check the border, split, measure the error.
+    auto run_group = [&](size_t b, size_t g) {
+      const Block& blk = blocks[b];
+      GroupResult& r = blocks[b].results[g];
+      double ts = now_seconds();
+      TriangleSet merged;
+      for (uint32_t m : blk.groups[g]) {
+        const TriangleSet& t = clusters[m].triangles;
+        merged.corners.insert(merged.corners.end(), t.corners.begin(), t.corners.end());
+        merged.materials.insert(merged.materials.end(), t.materials.begin(), t.materials.end());
+      }
+      SimplifyResult s = simplify_group(welded, merged, locked, options.simplifier);
+      size_t before = merged.triangle_count(), after = s.triangles.triangle_count();
+      bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
+      bool sealed = enough && locked_border_preserved(welded, merged, s.triangles, locked, blk.shared_edges);
+      double tm = now_seconds();
+      r.seconds_simplify = tm - ts;
+      if (!sealed) return;
+      std::vector<uint32_t> sc = take_scratch();
+      r.clusters = split_into_clusters(welded, s.triangles, sc, internal.group_split);
+      give_scratch(std::move(sc));
+      r.seconds_split = now_seconds() - tm;
+      r.terminal = false;
+      const double tv = now_seconds();
+      // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the backends'
+      // estimates (meshopt's quadric, OpenMesh's removed-vertex distance) can be below the
+      // distance from the simplified surface back to its input, so measure that too.
+      r.error = simplification_error(*welded.mesh, merged, s.triangles, s.error);
+      r.seconds_error = now_seconds() - tv;
+    };
+    const double tr = now_seconds();
+    if (simplify_allowed) {
+      // Scheduler: a block task whenever no block task runs (METIS is the serial path),
+      // otherwise a ready group task, otherwise the next block (or wait for one to finish).
+      std::mutex queue_mutex;
+      std::condition_variable queue_changed;
+      std::vector<std::pair<uint32_t, uint32_t>> ready;  // (block, group), taken from the back
+      size_t next_block = 0, blocks_done = 0, blocks_running = 0;
+      std::exception_ptr first_error;
+      pool.run_on_all([&](unsigned) {
+        std::unique_lock<std::mutex> lock(queue_mutex);
+        for (;;) {
+          bool take_block = next_block < block_count && (blocks_running == 0 || ready.empty());
+          if (take_block) {
+            size_t b = next_block++;
+            ++blocks_running;
+            lock.unlock();
+            try {
+              run_block(b);
+            } catch (...) {
+              std::lock_guard<std::mutex> guard(queue_mutex);
+              if (!first_error) first_error = std::current_exception();
+              blocks[b].results.assign(blocks[b].groups.size(), GroupResult());
+            }
+            lock.lock();
+            --blocks_running;
+            ++blocks_done;
+            for (size_t g = blocks[b].groups.size(); g-- > 0;) ready.push_back({uint32_t(b), uint32_t(g)});
+            queue_changed.notify_all();
+            continue;
+          }
+          if (!ready.empty()) {
+            auto [b, g] = ready.back();
+            ready.pop_back();
+            lock.unlock();
+            try {
+              run_group(b, g);
+            } catch (...) {
+              std::lock_guard<std::mutex> guard(queue_mutex);
+              if (!first_error) first_error = std::current_exception();
+            }
+            lock.lock();
+            continue;
+          }
+          if (blocks_done == block_count) return;
+          queue_changed.wait(lock);
+        }
+      });
+      if (first_error) std::rethrow_exception(first_error);
+    }
+    std::vector<GroupResult> results;
+    std::vector<std::vector<uint32_t>> level_groups;
+    {
+      // The region's wall time, divided between its parts by their summed task times.
+      double wall = now_seconds() - tr, group = 0, locks = 0, simplify = 0, split = 0, error = 0;
+      for (Block& blk : blocks) {
+        group += blk.seconds_group;
+        locks += blk.seconds_locks;
+        for (GroupResult& r : blk.results) {
+          simplify += r.seconds_simplify;
+          split += r.seconds_split;
+          error += r.seconds_error;
+          results.push_back(std::move(r));
+        }
+        for (auto& g : blk.groups) level_groups.push_back(std::move(g));
+      }
+      double sum = group + locks + simplify + split + error;
+      rep.seconds_locks += seconds_cross;
+      if (sum > 0) {
+        rep.seconds_group += wall * group / sum;
+        rep.seconds_locks += wall * locks / sum;
+        rep.seconds_simplify += wall * simplify / sum;
+        rep.seconds_split += wall * split / sum;
+        rep.seconds_error += wall * error / sum;
+      } else {
+        rep.seconds_group += wall;
+      }
+    }
+    const double tc = now_seconds();
+    uint32_t first_group = uint32_t(groups.size());
+    for (auto& members : level_groups) {
+      WorkGroup g;
+      g.members = std::move(members);
+      g.level = level;
+      uint32_t gi = uint32_t(groups.size());
+      std::vector<Sphere> b, lb;
+      float max_child = 0.0f;
+      for (uint32_t m : g.members) {
+        clusters[m].group = gi;
+        b.push_back(clusters[m].bounds);
+        lb.push_back(clusters[m].lod_bounds);
+        max_child = std::max(max_child, clusters[m].lod_error);
+      }
+      g.bounds = enclose_spheres(b.data(), b.size());
+      g.parent_bounds = enclose_spheres(lb.data(), lb.size());
+      g.parent_error = max_child;
+      groups.push_back(std::move(g));
+    }
+    uint32_t group_count = uint32_t(groups.size()) - first_group;
+    lr.groups = group_count;
+
+    // ---- combine in group order ----
+    std::vector<uint32_t> next;
+    std::vector<uint64_t> new_retired_edges;
+    for (uint32_t i = 0; i < group_count; ++i) {
+      GroupResult& r = results[i];
+      uint32_t gi = first_group + i;
+      if (r.terminal) {
+        groups[gi].terminal = true;
+        groups[gi].parent_error = kTerminalError;
+        ++lr.stuck_groups;
+        for (uint32_t m : groups[gi].members) {
+          const TriangleSet& t = clusters[m].triangles;
+          for (uint32_t v : t.corners) retired[welded.weld[v]] = 1;
+          for (size_t k = 0; k < t.corners.size(); ++k) {
+            uint32_t a = welded.weld[t.corners[k]], b = welded.weld[t.corners[k - k % 3 + (k + 1) % 3]];
+            if (a != b) new_retired_edges.push_back(edge_key(a, b));
+          }
+        }
+        continue;
+      }
+      // parent_error = max(member lod_error) + own error; float addition of a
+      // non-negative term never goes below the max, so monotonicity holds exactly.
+      float own = std::isfinite(r.error) && r.error > 0 ? r.error : 0.0f;
+      groups[gi].parent_error = groups[gi].parent_error + own;
+      for (TriangleSet& t : r.clusters) {
+        WorkCluster c;
+        c.triangles = std::move(t);
+        c.level = level + 1;
+        c.generating_group = gi;
+        c.lod_bounds = groups[gi].parent_bounds;
+        c.lod_error = groups[gi].parent_error;
+        groups[gi].generated.push_back(uint32_t(clusters.size()));
+        next.push_back(uint32_t(clusters.size()));
+        clusters.push_back(std::move(c));
+      }
+    }
+    if (active.size() == 1 || last_level) lr.stuck_groups = 0;  // roots by construction, not stuck
+    pool.parallel_for(next.size(), [&](size_t i) {
+      WorkCluster& c = clusters[next[i]];
+      c.bounds = cluster_sphere(mesh, c.triangles);
+    });
+    // Reset per-level lock state (only the touched entries; the same values from any task).
+    pool.parallel_for(active.size(), [&](size_t i) {
+      for (uint32_t v : clusters[active[i]].triangles.corners) {
+        uint32_t w = welded.weld[v];
+        std::atomic_ref<uint32_t>(owner[w]).store(kNone, std::memory_order_relaxed);
+        std::atomic_ref<uint8_t>(locked[w]).store(0, std::memory_order_relaxed);
+      }
+    });
+    if (!new_retired_edges.empty()) {
+      retired_edges.insert(retired_edges.end(), new_retired_edges.begin(), new_retired_edges.end());
+      std::sort(retired_edges.begin(), retired_edges.end());
+      retired_edges.erase(std::unique(retired_edges.begin(), retired_edges.end()), retired_edges.end());
+    }
+    rep.seconds_combine += now_seconds() - tc;
+    processed += lr.triangles;
+    progress.set(std::min<size_t>(processed, mesh.triangle_count()));
+    rep.levels.push_back(lr);
+    active = std::move(next);
+  }
+
+  // ---- layout: groups in creation order (sorted by level), clusters sorted by group ----
+  double th = now_seconds();
+  ClusterDag dag;
+  std::vector<uint32_t> new_index(clusters.size(), kNone);
+  {
+    uint32_t next = 0;
+    for (const WorkGroup& g : groups)
+      for (uint32_t m : g.members) new_index[m] = next++;
+    assert(next == clusters.size());
+  }
+  dag.groups.resize(groups.size());
+  dag.clusters.resize(clusters.size());
+  for (size_t gi = 0; gi < groups.size(); ++gi) {
+    const WorkGroup& w = groups[gi];
+    DagGroup& g = dag.groups[gi];
+    g.first_cluster = new_index[w.members.front()];
+    g.cluster_count = uint32_t(w.members.size());
+    g.first_generated = uint32_t(dag.generated_clusters.size());
+    g.generated_count = uint32_t(w.generated.size());
+    for (uint32_t c : w.generated) dag.generated_clusters.push_back(new_index[c]);
+    g.level = w.level;
+    g.flags = w.terminal ? kGroupTerminal : 0u;
+    g.bounds = w.bounds;
+    g.parent_bounds = w.parent_bounds;
+    g.parent_error = w.parent_error;
+    dag.level_count = std::max(dag.level_count, w.level + 1);
+  }
+  // Vertex/triangle offsets need a prefix sum over the final order.
+  std::vector<uint32_t> order(clusters.size());
+  for (size_t i = 0; i < clusters.size(); ++i) order[new_index[i]] = uint32_t(i);
+  std::vector<std::vector<uint32_t>> cluster_vertices(clusters.size());
+  // Per cluster: distinct original vertices in order of first use, and local corners.
+  std::vector<std::vector<uint8_t>> cluster_local(clusters.size());
+  pool.parallel_for(clusters.size(), [&](size_t i) {
+    const TriangleSet& t = clusters[order[i]].triangles;
+    std::vector<uint32_t>& verts = cluster_vertices[i];
+    std::vector<uint8_t>& local = cluster_local[i];
+    local.resize(t.corners.size());
+    // Open addressing over ≤ 384 corners: 1024 slots keep probes short.
+    constexpr size_t kSlots = 1024;
+    uint32_t key[kSlots], val[kSlots];
+    std::fill(key, key + kSlots, kNone);
+    for (size_t k = 0; k < t.corners.size(); ++k) {
+      uint32_t v = t.corners[k];
+      size_t h = (v * 0x9E3779B1u) >> 22;
+      while (key[h] != kNone && key[h] != v) h = (h + 1) & (kSlots - 1);
+      if (key[h] == kNone) {
+        key[h] = v;
+        val[h] = uint32_t(verts.size());
+        verts.push_back(v);
+      }
+      local[k] = uint8_t(val[h]);
+    }
+  });
+  size_t total_vertices = 0, total_triangles = 0;
+  for (size_t i = 0; i < clusters.size(); ++i) {
+    total_vertices += cluster_vertices[i].size();
+    total_triangles += clusters[order[i]].triangles.triangle_count();
+  }
+  if (total_vertices >= kNone || total_triangles >= kNone)
+    fail("BUILD_MESH_TOO_LARGE", mesh.name, "the DAG would exceed 2^32 vertices or triangles");
+  // The big arrays are fresh memory: their first touch (page faults, zeroing) is most of
+  // the layout's cost. They are reserved, their pages faulted in by equal chunks on every
+  // thread (prefault_parallel), and only then sized (the zero fill then runs on mapped pages).
+  dag.positions.reserve(3 * total_vertices);
+  if (!mesh.normals.empty()) dag.normals.reserve(3 * total_vertices);
+  if (!mesh.uvs.empty()) dag.uvs.reserve(2 * total_vertices);
+  dag.indices.reserve(3 * total_triangles);
+  dag.triangle_materials.reserve(total_triangles);
+  prefault_parallel({{dag.positions.data(), 4 * dag.positions.capacity()},
+                     {dag.normals.data(), 4 * dag.normals.capacity()},
+                     {dag.uvs.data(), 4 * dag.uvs.capacity()},
+                     {dag.indices.data(), dag.indices.capacity()},
+                     {dag.triangle_materials.data(), 4 * dag.triangle_materials.capacity()}},
+                    pool);
+  pool.parallel_for(5, [&](size_t k) {
+    switch (k) {
+      case 0: dag.positions.resize(3 * total_vertices); break;
+      case 1: if (!mesh.normals.empty()) dag.normals.resize(3 * total_vertices); break;
+      case 2: if (!mesh.uvs.empty()) dag.uvs.resize(2 * total_vertices); break;
+      case 3: dag.indices.resize(3 * total_triangles); break;
+      default: dag.triangle_materials.resize(total_triangles); break;
+    }
+  });
+  {
+    uint32_t vo = 0, to = 0;
+    for (size_t i = 0; i < clusters.size(); ++i) {
+      const WorkCluster& w = clusters[order[i]];
+      DagCluster& c = dag.clusters[i];
+      c.vertex_offset = vo;
+      c.vertex_count = uint32_t(cluster_vertices[i].size());
+      c.triangle_offset = to;
+      c.triangle_count = uint32_t(w.triangles.triangle_count());
+      c.material_offset = to;
+      c.group = w.group;
+      c.generating_group = w.generating_group;
+      c.level = w.level;
+      c.bounds = w.bounds;
+      c.lod_bounds = w.lod_bounds;
+      c.lod_error = w.lod_error;
+      c.parent_bounds = groups[w.group].parent_bounds;
+      c.parent_error = groups[w.group].parent_error;
+      assert(c.triangle_count >= 1 && c.triangle_count <= kMaxClusterTriangles);
+      assert(c.vertex_count <= kMaxClusterVertices);
+      vo += c.vertex_count;
+      to += c.triangle_count;
+    }
+  }
+  pool.parallel_for(clusters.size(), [&](size_t i) {
+    const WorkCluster& w = clusters[order[i]];
+    const DagCluster& c = dag.clusters[i];
+    const std::vector<uint32_t>& verts = cluster_vertices[i];
+    for (size_t k = 0; k < verts.size(); ++k) {
+      size_t dst = c.vertex_offset + k, src = verts[k];
+      std::memcpy(&dag.positions[3 * dst], &mesh.positions[3 * src], 12);
+      if (!dag.normals.empty()) std::memcpy(&dag.normals[3 * dst], &mesh.normals[3 * src], 12);
+      if (!dag.uvs.empty()) std::memcpy(&dag.uvs[2 * dst], &mesh.uvs[2 * src], 8);
+    }
+    std::memcpy(&dag.indices[3 * size_t(c.triangle_offset)], cluster_local[i].data(), 3 * size_t(c.triangle_count));
+    for (size_t t = 0; t < c.triangle_count; ++t) dag.triangle_materials[c.triangle_offset + t] = w.triangles.materials[t];
+  });
+  {
+    // Only vertices referenced by triangles count as leaf positions.
+    dag.bounds = mesh_box;
+  }
+
+  rep.seconds_layout = now_seconds() - th;
+  th = now_seconds();
+
+  // ---- culling hierarchy ----
+  if (!dag.groups.empty()) {
+    std::vector<uint32_t> items(dag.groups.size());
+    for (size_t i = 0; i < items.size(); ++i) items[i] = uint32_t(i);
+    BvhBuilder bvh{dag.groups, dag.bvh_nodes};
+    bvh.build(items, 0, items.size());
+  }
+  rep.seconds_hierarchy = now_seconds() - th;
+
+  rep.stored_triangles = dag.triangle_count();
+  for (const DagGroup& g : dag.groups)
+    if (g.flags & kGroupTerminal) {
+      rep.root_clusters += g.cluster_count;
+      for (uint32_t c = g.first_cluster; c < g.first_cluster + g.cluster_count; ++c)
+        rep.root_triangles += dag.clusters[c].triangle_count;
+    }
+  rep.seconds_total = now_seconds() - t_start;
+  struct rusage usage {};
+  if (getrusage(RUSAGE_SELF, &usage) == 0) rep.peak_memory_bytes = uint64_t(usage.ru_maxrss) * 1024;
+  if (report) *report = std::move(rep);
+  return dag;
+}
+
+BuiltScene build_scene(const Scene& scene, const BuildOptions& options, std::vector<BuildReport>* reports) {
+  BuiltScene out;
+  out.materials = scene.materials;
+  out.instances = scene.instances;
+  if (reports) reports->clear();
+  for (const Mesh& m : scene.meshes) {
+    BuildReport r;
+    out.meshes.push_back(build_dag(m, options, &r));
+    if (reports) reports->push_back(std::move(r));
+  }
+  return out;
+}
+
+}  // namespace vgeo

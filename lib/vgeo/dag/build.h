@@ -1,0 +1,54 @@
+#pragma once
+// Offline build of the cluster DAG (Nanite: cluster → group → simplify with locked group
+// borders → split, level by level). Normative output description: spec/dag.md.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "vgeo/dag/cluster_dag.h"
+#include "vgeo/mesh/mesh.h"
+
+namespace vgeo {
+
+enum class Simplifier : uint8_t { kMeshopt = 0, kOpenMesh = 1 };
+
+struct BuildOptions {
+  Simplifier simplifier = Simplifier::kMeshopt;
+  unsigned threads = 0;     // 0 = machine's hardware concurrency; output is identical for any value
+  bool progress = false;    // progress on stderr (the CLI enables it on a terminal)
+};
+
+struct BuildLevelReport {
+  uint32_t level = 0;
+  uint64_t clusters = 0, triangles = 0, groups = 0, stuck_groups = 0;
+  double average_fill = 0;            // mean triangles per cluster / kMaxClusterTriangles
+  double boundary_edge_fraction = 0;  // cluster-boundary edges / all edges at this level
+};
+
+struct BuildReport {
+  std::vector<BuildLevelReport> levels;
+  uint64_t input_triangles = 0, stored_triangles = 0, root_clusters = 0, root_triangles = 0;
+  // Wall-clock seconds per stage; they add up to seconds_total (the parallel simplify
+  // region's wall time is divided between simplify/error/split by their summed task times).
+  double seconds_cluster = 0, seconds_group = 0, seconds_simplify = 0, seconds_split = 0,
+         seconds_hierarchy = 0, seconds_total = 0;
+  double seconds_prepare = 0;  // validation + position welding
+  double seconds_edges = 0;    // per-level cluster edge counts (report + grouping input)
+  double seconds_locks = 0;    // per-level locked vertices and shared edges
+  double seconds_error = 0;    // measured simplification error (part of the simplify region)
+  double seconds_combine = 0;  // per-level results in group order, bounds, lock reset
+  double seconds_layout = 0;   // final cluster/vertex arrays
+  uint64_t peak_memory_bytes = 0;  // process peak RSS after the build
+};
+
+// Human summary of a build report: one header line, a per-level table, times and memory.
+std::string build_report_summary(const std::string& mesh_name, const BuildReport& report);
+
+// Builds the DAG of one mesh. Throws VgeoError on input it cannot build (e.g. empty mesh).
+ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report = nullptr);
+
+// Builds every mesh of a scene (materials and instances carried over).
+BuiltScene build_scene(const Scene& scene, const BuildOptions& options,
+                       std::vector<BuildReport>* reports = nullptr);
+
+}  // namespace vgeo

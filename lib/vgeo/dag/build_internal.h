@@ -1,0 +1,137 @@
+#pragma once
+// Internal pieces of the DAG builder (lib/vgeo/dag), shared by its .cpp files and its tests.
+// Not a public API: names and signatures may change with the builder.
+#include <cstdint>
+#include <mutex>
+#include <vector>
+
+#include "vgeo/dag/build.h"
+#include "vgeo/core/math.h"
+#include "vgeo/mesh/mesh.h"
+
+namespace vgeo::build_detail {
+
+// ---- tuning constants (spec/dag.md §Build explains each choice) ----
+
+// A group is simplified to half its triangles (Nanite: "simplify to 50%"), so that the
+// DAG stores about twice the input and each level halves the cluster count.
+inline constexpr double kSimplifyTargetRatio = 0.5;
+// A group whose simplification removes fewer than 15% of its triangles is terminal: it
+// would otherwise spend levels on almost nothing (lessons item 5: > ~85% left = stuck).
+inline constexpr double kMinReduction = 0.15;
+// Mean clusters per group asked from METIS. 8 leaves ~4 parents per group (Nanite's common
+// case) and keeps groups small enough that locked borders alternate between levels.
+inline constexpr uint32_t kGroupTargetClusters = 8;
+// Weak spatial edges for islands: each cluster is linked to its nearest kSpatialNeighbors
+// clusters among kSpatialWindow neighbours on each side in Morton order, with weight 1
+// (a shared triangle edge weighs 1 too, and real neighbours share ~10-30 edges), so
+// they only decide where the mesh graph gives no preference (lessons item 6).
+inline constexpr uint32_t kSpatialNeighbors = 2;
+inline constexpr uint32_t kSpatialWindow = 8;
+inline constexpr int kSpatialEdgeWeight = 1;
+// Levels with more active clusters than this are grouped in spatial blocks of at most this
+// many clusters, one METIS call each, so the (serialised) METIS calls overlap the
+// simplification of blocks already grouped. 4096 clusters = 512 groups per block: block
+// borders are a few percent of the group borders (they are group borders at that level).
+inline constexpr size_t kGroupBlockClusters = 4096;
+// Fixed METIS seed: METIS is randomised; a fixed seed makes the grouping reproducible.
+inline constexpr int kMetisSeed = 42;
+// No mesh needs more: each level at least halves the non-terminal clusters or retires
+// them, so 64 levels cover 2^64 clusters. Remaining clusters become terminal.
+inline constexpr uint32_t kMaxLevels = 64;
+// Meshes above this many triangles are leaf-clustered in spatial chunks of about this
+// size, in parallel: chunk borders add ~1% cluster-border edges at 128k triangles/chunk.
+inline constexpr size_t kLeafChunkTriangles = size_t(1) << 17;
+// meshopt target error (relative to the sub-mesh extent): 1 = "no error bound", the
+// triangle count target drives the simplification and the error is measured.
+inline constexpr float kMeshoptTargetError = 1.0f;
+
+// ---- the welded input ----
+struct WeldedMesh {
+  const Mesh* mesh = nullptr;
+  // weld[v] = smallest vertex index whose position has the same bits as v's. Adjacency,
+  // borders and locks are computed on welded ids, so attribute seams do not cut the graph.
+  std::vector<uint32_t> weld;
+};
+WeldedMesh weld_positions(const Mesh& mesh);
+
+// A set of triangles referencing original vertex ids (corners) with one material each.
+struct TriangleSet {
+  std::vector<uint32_t> corners;    // 3 per triangle, original vertex ids
+  std::vector<uint32_t> materials;  // 1 per triangle
+  size_t triangle_count() const { return materials.size(); }
+};
+
+// Splits triangles into clusters of ≤ kMaxClusterTriangles triangles and
+// ≤ kMaxClusterVertices original vertices. Deterministic. `scratch` must have
+// weld.size() entries, all kNone, and is returned in that state.
+enum class SplitMethod : uint8_t { kMeshopt = 0, kMetis = 1 };
+std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const TriangleSet& tris,
+                                             std::vector<uint32_t>& scratch,
+                                             SplitMethod method = SplitMethod::kMeshopt);
+
+// Clusters → groups: returns, per group, its member indices into `clusters` (ascending).
+// Deterministic (fixed METIS seed, single call).
+// `open_edges[i]`: sorted welded edge keys used once inside cluster i (count_cluster_edges).
+std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const TriangleSet*>& clusters,
+                                                  const std::vector<std::vector<uint64_t>>& open_edges,
+                                                  const std::vector<Sphere>& bounds,
+                                                  uint32_t target_clusters = kGroupTargetClusters);
+
+// Splits items (by their centres) into spatially compact blocks of at most max_items:
+// recursive median split along the largest extent, ties by index. Each block's indices are
+// ascending; blocks are in split order (lower half first). Deterministic.
+std::vector<std::vector<uint32_t>> spatial_blocks(const std::vector<Vec3>& centres, size_t max_items);
+
+// Knobs for measuring alternatives (benchmarks, tests); build_dag uses the defaults.
+struct InternalBuildOptions {
+  SplitMethod leaf_split = SplitMethod::kMeshopt;
+  SplitMethod group_split = SplitMethod::kMeshopt;
+  uint32_t group_target_clusters = kGroupTargetClusters;
+  size_t group_block_clusters = kGroupBlockClusters;  // tests force small blocks
+};
+ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, const InternalBuildOptions& internal,
+                              BuildReport* report);
+
+// Simplification of one group's triangles with locked vertices (by welded id).
+struct SimplifyResult {
+  TriangleSet triangles;   // references original vertex ids only (no new positions)
+  float error = 0.0f;      // absolute (object units), this simplification only
+};
+// The simplification's own error as stored: the sampled one-sided distance from the
+// simplified triangles to the group's input triangles on the shared error lattice
+// (lib/vgeo/core/surface_distance.h), rounded up to float.
+float measured_simplification_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified);
+// max(estimate, measured_simplification_error(...)), bit-identical, but the lattice search
+// stops early for points that cannot raise the maximum (lib/vgeo/dag/measure_error.cpp).
+float simplification_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
+                           float estimate);
+
+SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
+                              const std::vector<uint8_t>& locked, Simplifier simplifier);
+
+// True when every locked welded vertex of `before` is used by `after` and every welded edge
+// of `before` listed in `shared_edges` (sorted edge keys of edges also used outside the
+// group) is an edge of `after`.
+bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before,
+                             const TriangleSet& after, const std::vector<uint8_t>& locked,
+                             const std::vector<uint64_t>& shared_edges);
+
+// Spheres, computed in double and rounded outward so containment survives float rounding.
+Sphere sphere_of_points(const Mesh& mesh, const uint32_t* vertices, size_t count);
+Sphere enclose_spheres(const Sphere* spheres, size_t count);
+
+// Per-cluster count of welded edges used by exactly one triangle of the cluster, and of
+// all distinct welded edges (for BuildLevelReport::boundary_edge_fraction).
+void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
+                         uint64_t* all_edges, std::vector<uint64_t>* open_keys = nullptr);
+
+// Every METIS call holds this lock: GKlib's random state is process-global, so concurrent
+// calls would make results depend on timing (and would race).
+std::mutex& metis_mutex();
+
+inline uint64_t edge_key(uint32_t a, uint32_t b) {
+  return a < b ? (uint64_t(a) << 32) | b : (uint64_t(b) << 32) | a;
+}
+
+}  // namespace vgeo::build_detail

@@ -1,0 +1,373 @@
+// Welding, splitting triangle sets into clusters, bounding spheres (spec/dag.md §Build).
+#include <meshoptimizer.h>
+#include <metis.h>
+
+#include <algorithm>
+#include <cassert>
+#include <cstring>
+#include <mutex>
+
+#include "vgeo/dag/build_internal.h"
+#include "vgeo/dag/cluster_dag.h"
+
+namespace vgeo::build_detail {
+
+namespace {
+
+uint64_t hash_position(const float* p) {
+  uint32_t b[3];
+  std::memcpy(b, p, sizeof(b));
+  uint64_t h = 0x9E3779B97F4A7C15ull;
+  for (uint32_t x : b) {
+    h ^= x;
+    h *= 0xFF51AFD7ED558CCDull;
+    h ^= h >> 29;
+  }
+  return h;
+}
+
+}  // namespace
+
+WeldedMesh weld_positions(const Mesh& mesh) {
+  WeldedMesh w;
+  w.mesh = &mesh;
+  size_t n = mesh.vertex_count();
+  w.weld.resize(n);
+  // Open addressing, table at least twice the vertex count: expected O(1) probes.
+  size_t cap = 16;
+  while (cap < 2 * n) cap <<= 1;
+  std::vector<uint32_t> table(cap, kNone);
+  const float* pos = mesh.positions.data();
+  for (size_t v = 0; v < n; ++v) {
+    size_t slot = hash_position(pos + 3 * v) & (cap - 1);
+    for (;;) {
+      uint32_t e = table[slot];
+      if (e == kNone) {
+        table[slot] = uint32_t(v);
+        w.weld[v] = uint32_t(v);
+        break;
+      }
+      if (std::memcmp(pos + 3 * e, pos + 3 * v, 12) == 0) {
+        w.weld[v] = e;
+        break;
+      }
+      slot = (slot + 1) & (cap - 1);
+    }
+  }
+  return w;
+}
+
+Sphere sphere_of_points(const Mesh& mesh, const uint32_t* vertices, size_t count) {
+  Sphere s;
+  if (count == 0) return s;
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+  for (size_t i = 0; i < count; ++i) {
+    Vec3 p = mesh.position(vertices[i]);
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], double(p[k]));
+      hi[k] = std::max(hi[k], double(p[k]));
+    }
+  }
+  s.center = {float(0.5 * (lo[0] + hi[0])), float(0.5 * (lo[1] + hi[1])), float(0.5 * (lo[2] + hi[2]))};
+  double r = 0;
+  for (size_t i = 0; i < count; ++i) r = std::max(r, distance_d(s.center, mesh.position(vertices[i])));
+  s.radius = float(r * (1.0 + kSphereRelativeSlack)) + std::numeric_limits<float>::min();
+  return s;
+}
+
+Sphere enclose_spheres(const Sphere* spheres, size_t count) {
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+  bool any = false;
+  for (size_t i = 0; i < count; ++i) {
+    const Sphere& s = spheres[i];
+    if (s.radius < 0) continue;
+    any = true;
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], double(s.center[k]) - s.radius);
+      hi[k] = std::max(hi[k], double(s.center[k]) + s.radius);
+    }
+  }
+  Sphere out;
+  if (!any) return out;
+  out.center = {float(0.5 * (lo[0] + hi[0])), float(0.5 * (lo[1] + hi[1])), float(0.5 * (lo[2] + hi[2]))};
+  double r = 0;
+  for (size_t i = 0; i < count; ++i)
+    if (spheres[i].radius >= 0) r = std::max(r, distance_d(out.center, spheres[i].center) + spheres[i].radius);
+  out.radius = float(r * (1.0 + kSphereRelativeSlack)) + std::numeric_limits<float>::min();
+  // A single sphere (or identical ones) is returned as is: siblings keep bit-identical values.
+  bool all_same = true;
+  const Sphere* first = nullptr;
+  for (size_t i = 0; i < count && all_same; ++i) {
+    if (spheres[i].radius < 0) continue;
+    if (!first) first = &spheres[i];
+    else all_same = std::memcmp(first, &spheres[i], sizeof(Sphere)) == 0;
+  }
+  if (all_same && first) return *first;
+  return out;
+}
+
+void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
+                         uint64_t* all_edges, std::vector<uint64_t>* open_keys) {
+  // Uses per distinct welded edge in an open addressing table (load ≤ 1/2) instead of a
+  // sort of all keys: only the open keys (a minority) are sorted.
+  const size_t n = cluster.triangle_count();
+  size_t slots = 16;
+  int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
+  while (slots < 6 * n) slots <<= 1, --shift;
+  constexpr uint64_t kEmpty = ~uint64_t(0);  // no edge key (a < b) equals it
+  std::vector<uint64_t> table(slots, kEmpty);
+  std::vector<uint32_t> uses(slots, 0);
+  uint64_t all = 0;
+  for (size_t t = 0; t < n; ++t)
+    for (int k = 0; k < 3; ++k) {
+      uint32_t a = welded.weld[cluster.corners[3 * t + k]];
+      uint32_t b = welded.weld[cluster.corners[3 * t + (k + 1) % 3]];
+      if (a == b) continue;
+      const uint64_t key = edge_key(a, b);
+      size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+      while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
+      if (table[h] == kEmpty) table[h] = key, ++all;
+      ++uses[h];
+    }
+  uint64_t open = 0;
+  const size_t first_open = open_keys ? open_keys->size() : 0;
+  for (size_t h = 0; h < slots; ++h)
+    if (uses[h] == 1) {
+      ++open;
+      if (open_keys) open_keys->push_back(table[h]);
+    }
+  if (open_keys) std::sort(open_keys->begin() + ptrdiff_t(first_open), open_keys->end());
+  *open_edges = open;
+  *all_edges = all;
+}
+
+namespace {
+
+// Compacts the welded ids of `tris` into local ids [0, n) in order of first use.
+// Returns the welded ids per local id; `local_corner` gets 3 local ids per triangle.
+std::vector<uint32_t> compact_welded(const WeldedMesh& welded, const TriangleSet& tris,
+                                     std::vector<uint32_t>& scratch, std::vector<uint32_t>& local_corner) {
+  std::vector<uint32_t> welded_of_local;
+  local_corner.resize(tris.corners.size());
+  for (size_t i = 0; i < tris.corners.size(); ++i) {
+    uint32_t w = welded.weld[tris.corners[i]];
+    if (scratch[w] == kNone) {
+      scratch[w] = uint32_t(welded_of_local.size());
+      welded_of_local.push_back(w);
+    }
+    local_corner[i] = scratch[w];
+  }
+  for (uint32_t w : welded_of_local) scratch[w] = kNone;
+  return welded_of_local;
+}
+
+// Appends the clusters holding triangles `ids` (indices into tris), bisecting in order
+// until the original-vertex limit holds (attribute seams can push a welded cluster of
+// ≤ 255 positions over 255 vertices).
+void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<uint32_t>& scratch,
+                  std::vector<TriangleSet>& out) {
+  uint32_t unique = 0;
+  std::vector<uint32_t> touched;
+  for (size_t i = 0; i < count; ++i)
+    for (int k = 0; k < 3; ++k) {
+      uint32_t v = tris.corners[3 * ids[i] + k];
+      if (scratch[v] == kNone) {
+        scratch[v] = 0;
+        touched.push_back(v);
+        ++unique;
+      }
+    }
+  for (uint32_t v : touched) scratch[v] = kNone;
+  if (count > kMaxClusterTriangles || unique > kMaxClusterVertices) {
+    assert(count > 1);
+    size_t half = count / 2;
+    emit_cluster(tris, ids, half, scratch, out);
+    emit_cluster(tris, ids + half, count - half, scratch, out);
+    return;
+  }
+  TriangleSet c;
+  c.corners.reserve(3 * count);
+  c.materials.reserve(count);
+  for (size_t i = 0; i < count; ++i) {
+    c.corners.insert(c.corners.end(), &tris.corners[3 * ids[i]], &tris.corners[3 * ids[i]] + 3);
+    c.materials.push_back(tris.materials[ids[i]]);
+  }
+  out.push_back(std::move(c));
+}
+
+std::vector<TriangleSet> split_meshopt(const WeldedMesh& welded, const TriangleSet& tris,
+                                       std::vector<uint32_t>& scratch) {
+  const Mesh& mesh = *welded.mesh;
+  size_t tri_count = tris.triangle_count();
+  std::vector<uint32_t> local;
+  std::vector<uint32_t> welded_of_local = compact_welded(welded, tris, scratch, local);
+  size_t vcount = welded_of_local.size();
+  std::vector<float> positions(3 * vcount);
+  for (size_t i = 0; i < vcount; ++i)
+    std::memcpy(&positions[3 * i], &mesh.positions[3 * size_t(welded_of_local[i])], 12);
+
+  size_t max_meshlets = meshopt_buildMeshletsBound(local.size(), kMaxClusterVertices, kMaxClusterTriangles);
+  std::vector<meshopt_Meshlet> meshlets(max_meshlets);
+  std::vector<unsigned int> meshlet_vertices(max_meshlets * kMaxClusterVertices);
+  std::vector<unsigned char> meshlet_triangles(max_meshlets * kMaxClusterTriangles * 3);
+  size_t meshlet_count = meshopt_buildMeshlets(meshlets.data(), meshlet_vertices.data(), meshlet_triangles.data(),
+                                               local.data(), local.size(), positions.data(), vcount,
+                                               sizeof(float) * 3, kMaxClusterVertices, kMaxClusterTriangles, 0.0f);
+
+  // Map meshlet triangles back to input triangles: meshopt keeps each triangle's corner
+  // order, so find an unused input triangle with the same local corners via the first
+  // corner's triangle list.
+  std::vector<uint32_t> first(vcount + 1, 0), list(3 * tri_count);
+  for (size_t i = 0; i < local.size(); ++i) ++first[local[i] + 1];
+  for (size_t v = 0; v < vcount; ++v) first[v + 1] += first[v];
+  {
+    std::vector<uint32_t> fill(first.begin(), first.end() - 1);
+    for (size_t i = 0; i < local.size(); ++i) list[fill[local[i]]++] = uint32_t(i / 3);
+  }
+  std::vector<uint8_t> used(tri_count, 0);
+  std::vector<TriangleSet> out;
+  std::vector<uint32_t> ids;
+  size_t assigned = 0;
+  for (size_t m = 0; m < meshlet_count; ++m) {
+    const meshopt_Meshlet& ml = meshlets[m];
+    ids.clear();
+    for (size_t t = 0; t < ml.triangle_count; ++t) {
+      const unsigned char* lt = &meshlet_triangles[ml.triangle_offset + 3 * t];
+      uint32_t a = meshlet_vertices[ml.vertex_offset + lt[0]];
+      uint32_t b = meshlet_vertices[ml.vertex_offset + lt[1]];
+      uint32_t c = meshlet_vertices[ml.vertex_offset + lt[2]];
+      uint32_t found = kNone;
+      for (uint32_t j = first[a]; j < first[a + 1]; ++j) {
+        uint32_t tri = list[j];
+        if (used[tri]) continue;
+        const uint32_t* lc = &local[3 * size_t(tri)];
+        if (lc[0] == a && lc[1] == b && lc[2] == c) {
+          found = tri;
+          break;
+        }
+      }
+      if (found == kNone) continue;  // cannot happen; the sweep below keeps every triangle
+      used[found] = 1;
+      ids.push_back(found);
+    }
+    assigned += ids.size();
+    if (!ids.empty()) emit_cluster(tris, ids.data(), ids.size(), scratch, out);
+  }
+  if (assigned != tri_count) {
+    // Defensive: any triangle meshopt did not report (it reports all) still gets a cluster.
+    ids.clear();
+    for (size_t t = 0; t < tri_count; ++t)
+      if (!used[t]) ids.push_back(uint32_t(t));
+    for (size_t i = 0; i < ids.size(); i += kMaxClusterTriangles)
+      emit_cluster(tris, ids.data() + i, std::min<size_t>(kMaxClusterTriangles, ids.size() - i), scratch, out);
+  }
+  return out;
+}
+
+// Largest non-manifold fan linked as a clique in the dual graph (4 triangles = 6 links).
+constexpr size_t kMaxFanClique = 4;
+
+
+// Recursive bisection of the triangle dual graph (edges = shared welded edges) with METIS,
+// weights proportional to the cluster counts on each side, so partitions come out close
+// to full (Nanite: "graph partitioning with a strict upper bound, small slack").
+void bisect_metis(const TriangleSet& tris, const std::vector<uint32_t>& local, std::vector<uint32_t>& ids,
+                  std::vector<uint32_t>& scratch, std::vector<TriangleSet>& out) {
+  size_t n = ids.size();
+  if (n <= kMaxClusterTriangles) {
+    emit_cluster(tris, ids.data(), n, scratch, out);
+    return;
+  }
+  // Dual graph of this subset.
+  std::vector<std::pair<uint64_t, uint32_t>> edges;
+  edges.reserve(3 * n);
+  for (size_t i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) {
+      uint32_t a = local[3 * size_t(ids[i]) + k], b = local[3 * size_t(ids[i]) + (k + 1) % 3];
+      if (a != b) edges.push_back({edge_key(a, b), uint32_t(i)});
+    }
+  std::sort(edges.begin(), edges.end());
+  std::vector<std::pair<uint32_t, uint32_t>> pairs;
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+    // Non-manifold fans: link consecutive triangles only, so a fan of k triangles costs
+    // O(k) graph edges, not O(k^2).
+    bool fan = j - i > kMaxFanClique;
+    for (size_t x = i; x < j; ++x)
+      for (size_t y = x + 1; y < (fan ? std::min(j, x + 2) : j); ++y)
+        if (edges[x].second != edges[y].second) {
+          pairs.push_back({edges[x].second, edges[y].second});
+          pairs.push_back({edges[y].second, edges[x].second});
+        }
+    i = j;
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  std::vector<idx_t> xadj(n + 1, 0), adjncy;
+  adjncy.reserve(pairs.size());
+  for (auto& p : pairs) {
+    ++xadj[p.first + 1];
+    adjncy.push_back(idx_t(p.second));
+  }
+  for (size_t i = 0; i < n; ++i) xadj[i + 1] += xadj[i];
+  size_t clusters = (n + kMaxClusterTriangles - 1) / kMaxClusterTriangles;
+  size_t left_clusters = clusters / 2;
+  real_t tpwgts[2] = {real_t(double(left_clusters) / clusters), real_t(double(clusters - left_clusters) / clusters)};
+  std::vector<idx_t> part(n, 0);
+  idx_t nvtxs = idx_t(n), ncon = 1, nparts = 2, objval = 0;
+  idx_t options[METIS_NOPTIONS];
+  METIS_SetDefaultOptions(options);
+  options[METIS_OPTION_SEED] = kMetisSeed;
+  options[METIS_OPTION_NUMBERING] = 0;
+  int rc;
+  {
+    std::lock_guard<std::mutex> lock(metis_mutex());
+    rc = METIS_PartGraphRecursive(&nvtxs, &ncon, xadj.data(), adjncy.data(), nullptr, nullptr, nullptr, &nparts,
+                                  tpwgts, nullptr, options, &objval, part.data());
+  }
+  std::vector<uint32_t> left, right;
+  if (rc == METIS_OK) {
+    for (size_t i = 0; i < n; ++i) (part[i] == 0 ? left : right).push_back(ids[i]);
+  }
+  // Slack: METIS may overshoot the target; cap the left side at its cluster budget and
+  // fall back to an order split if it produced an empty side.
+  size_t left_cap = left_clusters * kMaxClusterTriangles;
+  if (left.empty() || right.empty()) {
+    left.assign(ids.begin(), ids.begin() + std::min(n / 2, left_cap));
+    right.assign(ids.begin() + left.size(), ids.end());
+  } else if (left.size() > left_cap) {
+    right.insert(right.end(), left.begin() + left_cap, left.end());
+    left.resize(left_cap);
+  }
+  ids.clear();
+  ids.shrink_to_fit();
+  bisect_metis(tris, local, left, scratch, out);
+  bisect_metis(tris, local, right, scratch, out);
+}
+
+std::vector<TriangleSet> split_metis(const WeldedMesh& welded, const TriangleSet& tris,
+                                     std::vector<uint32_t>& scratch) {
+  std::vector<uint32_t> local;
+  compact_welded(welded, tris, scratch, local);
+  std::vector<uint32_t> ids(tris.triangle_count());
+  for (size_t i = 0; i < ids.size(); ++i) ids[i] = uint32_t(i);
+  std::vector<TriangleSet> out;
+  bisect_metis(tris, local, ids, scratch, out);
+  return out;
+}
+
+}  // namespace
+
+std::mutex& metis_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const TriangleSet& tris,
+                                             std::vector<uint32_t>& scratch, SplitMethod method) {
+  if (tris.triangle_count() == 0) return {};
+  return method == SplitMethod::kMetis ? split_metis(welded, tris, scratch) : split_meshopt(welded, tris, scratch);
+}
+
+}  // namespace vgeo::build_detail

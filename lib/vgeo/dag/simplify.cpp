@@ -1,0 +1,323 @@
+// Simplification of one group with its outer border locked (spec/dag.md §Simplify).
+// Both backends only delete vertices (halfedge collapses / index rewrites), so every output
+// corner is an original vertex with its original bits: locked borders stay bit-identical.
+#include <meshoptimizer.h>
+
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <OpenMesh/Tools/Decimater/DecimaterT.hh>
+#include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
+#include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <cstring>
+#include <unordered_map>
+
+#include "vgeo/dag/build_internal.h"
+#include "vgeo/dag/cluster_dag.h"
+
+namespace vgeo::build_detail {
+
+namespace {
+
+size_t target_triangles(size_t n) { return std::max<size_t>(1, size_t(double(n) * kSimplifyTargetRatio)); }
+
+// ---------------------------------------------------------------- meshopt backend
+// Sub-mesh vertices are (original vertex, material) pairs: attribute and material
+// discontinuities become meshopt "seams" (same position, other index), which it keeps
+// consistent without locking. LockBorder locks the sub-mesh's topological border: the
+// group border, and also the original mesh's open edges (0.18 has no per-vertex locks;
+// spec/dag.md §Limitations).
+SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group) {
+  const Mesh& mesh = *welded.mesh;
+  size_t n = group.triangle_count();
+  // Sub-mesh vertex = rank of its (vertex << 32 | material) key among the distinct keys
+  // (sorted, so the sub-mesh does not depend on corner order). Distinct keys via an open
+  // addressing table (load ≤ 1/2); slot_of[i] remembers each corner's slot.
+  size_t slots = 16;
+  int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
+  while (slots < 6 * n) slots <<= 1, --shift;
+  constexpr uint64_t kEmpty = ~uint64_t(0);  // vertex ids < 2^32 - 1, so never a key
+  std::vector<uint64_t> slot_key(slots, kEmpty);
+  std::vector<uint32_t> slot_of(3 * n);
+  std::vector<uint64_t> unique_keys;
+  std::vector<std::pair<uint64_t, uint32_t>> unique_slots;  // (key, slot)
+  unique_slots.reserve(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) {
+    const uint64_t key = (uint64_t(group.corners[i]) << 32) | group.materials[i / 3];
+    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+    while (slot_key[h] != kEmpty && slot_key[h] != key) h = (h + 1) & (slots - 1);
+    if (slot_key[h] == kEmpty) {
+      slot_key[h] = key;
+      unique_slots.push_back({key, uint32_t(h)});
+    }
+    slot_of[i] = uint32_t(h);
+  }
+  std::sort(unique_slots.begin(), unique_slots.end());
+  std::vector<uint32_t> rank_of_slot(slots);
+  unique_keys.resize(unique_slots.size());
+  for (size_t r = 0; r < unique_slots.size(); ++r) {
+    unique_keys[r] = unique_slots[r].first;
+    rank_of_slot[unique_slots[r].second] = uint32_t(r);
+  }
+  std::vector<unsigned int> indices(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) indices[i] = rank_of_slot[slot_of[i]];
+  std::vector<float> positions(3 * unique_keys.size());
+  for (size_t v = 0; v < unique_keys.size(); ++v)
+    std::memcpy(&positions[3 * v], &mesh.positions[3 * size_t(unique_keys[v] >> 32)], 12);
+
+  std::vector<unsigned int> out(indices.size());
+  float relative_error = 0.0f;
+  size_t out_count = meshopt_simplify(out.data(), indices.data(), indices.size(), positions.data(),
+                                      unique_keys.size(), sizeof(float) * 3, 3 * target_triangles(n),
+                                      kMeshoptTargetError, meshopt_SimplifyLockBorder, &relative_error);
+  SimplifyResult r;
+  r.error = relative_error * meshopt_simplifyScale(positions.data(), unique_keys.size(), sizeof(float) * 3);
+  r.triangles.corners.resize(out_count);
+  r.triangles.materials.resize(out_count / 3);
+  for (size_t i = 0; i < out_count; ++i) r.triangles.corners[i] = uint32_t(unique_keys[out[i]] >> 32);
+  for (size_t t = 0; t < out_count / 3; ++t) r.triangles.materials[t] = uint32_t(unique_keys[out[3 * t]]);
+  return r;
+}
+
+// ---------------------------------------------------------------- OpenMesh backend
+struct OmTraits : public OpenMesh::DefaultTraits {
+  typedef OpenMesh::Vec3d Point;  // double: quadrics far from the origin lose precision in float
+  typedef OpenMesh::Vec3d Normal;
+  VertexAttributes(OpenMesh::Attributes::Status);
+  FaceAttributes(OpenMesh::Attributes::Status | OpenMesh::Attributes::Normal);
+  EdgeAttributes(OpenMesh::Attributes::Status);
+};
+using OmMesh = OpenMesh::TriMesh_ArrayKernelT<OmTraits>;
+
+// ModQuadricT that records every collapse (v0 removed into v1), to measure the error.
+template <class MeshT>
+class ModQuadricRecordT : public OpenMesh::Decimater::ModQuadricT<MeshT> {
+ public:
+  typedef ModQuadricRecordT<MeshT> Self;
+  typedef OpenMesh::Decimater::ModHandleT<Self> Handle;
+  typedef typename OpenMesh::Decimater::ModQuadricT<MeshT>::CollapseInfo CollapseInfo;
+  explicit ModQuadricRecordT(MeshT& mesh) : OpenMesh::Decimater::ModQuadricT<MeshT>(mesh) {}
+  void preprocess_collapse(const CollapseInfo& ci) override {
+    collapses.push_back({ci.v0.idx(), ci.v1.idx()});
+    OpenMesh::Decimater::ModQuadricT<MeshT>::preprocess_collapse(ci);
+  }
+  std::vector<std::pair<int, int>> collapses;
+};
+
+double point_triangle_distance(const OpenMesh::Vec3d& p, const OpenMesh::Vec3d& a, const OpenMesh::Vec3d& b,
+                               const OpenMesh::Vec3d& c) {
+  // Ericson, Real-Time Collision Detection 5.1.5 (closest point on triangle), in double.
+  using V = OpenMesh::Vec3d;
+  V ab = b - a, ac = c - a, ap = p - a;
+  double d1 = ab | ap, d2 = ac | ap;
+  if (d1 <= 0 && d2 <= 0) return (p - a).norm();
+  V bp = p - b;
+  double d3 = ab | bp, d4 = ac | bp;
+  if (d3 >= 0 && d4 <= d3) return (p - b).norm();
+  double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (p - (a + ab * (d1 / (d1 - d3)))).norm();
+  V cp = p - c;
+  double d5 = ab | cp, d6 = ac | cp;
+  if (d6 >= 0 && d5 <= d6) return (p - c).norm();
+  double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (p - (a + ac * (d2 / (d2 - d6)))).norm();
+  double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return (p - (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))))).norm();
+  double denom = va + vb + vc;
+  if (!(std::abs(denom) > 0)) return std::min({(p - a).norm(), (p - b).norm(), (p - c).norm()});
+  double v = vb / denom, w = vc / denom;
+  return (p - (a + ab * v + ac * w)).norm();
+}
+
+// One OpenMesh vertex per welded position of the group; material is a face property, so
+// material borders move but never open. Faces OpenMesh cannot add (complex edges,
+// non-manifold vertices) pass through unchanged and lock their vertices. Error: the
+// largest distance from a removed vertex to the group's output triangles (one-sided
+// Hausdorff distance at the input vertices), in object units.
+SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& group,
+                                 const std::vector<uint8_t>& locked) {
+  const Mesh& mesh = *welded.mesh;
+  size_t n = group.triangle_count();
+  // Welded ids of the group, compacted in order of first use.
+  std::unordered_map<uint32_t, int> om_of_welded;
+  std::vector<uint32_t> welded_of_om;
+  om_of_welded.reserve(2 * n);
+  std::vector<int> om_corner(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) {
+    uint32_t w = welded.weld[group.corners[i]];
+    auto it = om_of_welded.emplace(w, int(welded_of_om.size()));
+    if (it.second) welded_of_om.push_back(w);
+    om_corner[i] = it.first->second;
+  }
+  // Local origin (group AABB centre): quadric plane offsets stay small far from the origin.
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+  for (uint32_t w : welded_of_om)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], double(mesh.positions[3 * size_t(w) + k]));
+      hi[k] = std::max(hi[k], double(mesh.positions[3 * size_t(w) + k]));
+    }
+  OpenMesh::Vec3d origin(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2]));
+
+  OmMesh om;
+  om.reserve(welded_of_om.size(), 3 * n, n);
+  std::vector<OmMesh::VertexHandle> vh(welded_of_om.size());
+  for (size_t v = 0; v < welded_of_om.size(); ++v) {
+    const float* p = &mesh.positions[3 * size_t(welded_of_om[v])];
+    vh[v] = om.add_vertex(OpenMesh::Vec3d(p[0], p[1], p[2]) - origin);
+    if (locked[welded_of_om[v]]) om.status(vh[v]).set_locked(true);
+  }
+  OpenMesh::FPropHandleT<uint32_t> face_material;
+  om.add_property(face_material);
+  std::vector<uint32_t> passthrough;  // triangle indices kept as they are
+  // OpenMesh refuses faces on complex edges / non-manifold vertices (and says so on its
+  // error stream): those pass through unchanged.
+  for (size_t t = 0; t < n; ++t) {
+    int a = om_corner[3 * t], b = om_corner[3 * t + 1], c = om_corner[3 * t + 2];
+    if (a == b || b == c || a == c) continue;  // welded-degenerate: zero area, dropped
+    OmMesh::FaceHandle fh = om.add_face(vh[a], vh[b], vh[c]);
+    if (!fh.is_valid()) {
+      passthrough.push_back(uint32_t(t));
+      continue;
+    }
+    om.property(face_material, fh) = group.materials[t];
+  }
+  for (uint32_t t : passthrough)
+    for (int k = 0; k < 3; ++k) om.status(vh[om_corner[3 * t + k]]).set_locked(true);
+
+  size_t target = target_triangles(n);
+  size_t om_target = target > passthrough.size() ? target - passthrough.size() : 0;
+  om.update_face_normals();
+  OpenMesh::Decimater::DecimaterT<OmMesh> decimater(om);
+  ModQuadricRecordT<OmMesh>::Handle quadric;
+  OpenMesh::Decimater::ModNormalFlippingT<OmMesh>::Handle normal_flipping;
+  decimater.add(quadric);
+  decimater.add(normal_flipping);
+  decimater.module(quadric).unset_max_err();
+  decimater.initialize();
+  decimater.decimate_to_faces(0, std::max<size_t>(1, om_target));
+
+  // Original vertex for each (welded id, material): the first use in the group, so
+  // surviving corners keep the attributes they had on that side of the material border.
+  std::unordered_map<uint64_t, uint32_t> original_of;
+  original_of.reserve(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) {
+    uint32_t w = welded.weld[group.corners[i]];
+    original_of.emplace((uint64_t(w) << 32) | group.materials[i / 3], group.corners[i]);
+    original_of.emplace((uint64_t(w) << 32) | 0xFFFFFFFFu, group.corners[i]);
+  }
+  auto original = [&](uint32_t w, uint32_t material) {
+    auto it = original_of.find((uint64_t(w) << 32) | material);
+    if (it == original_of.end()) it = original_of.find((uint64_t(w) << 32) | 0xFFFFFFFFu);
+    return it->second;
+  };
+
+  SimplifyResult r;
+  for (auto fh : om.faces()) {
+    if (om.status(fh).deleted()) continue;
+    uint32_t material = om.property(face_material, fh);
+    int corner_om[3], k = 0;
+    for (auto fv : om.fv_range(fh)) corner_om[k++] = fv.idx();
+    for (k = 0; k < 3; ++k) {
+      r.triangles.corners.push_back(original(welded_of_om[corner_om[k]], material));
+    }
+    r.triangles.materials.push_back(material);
+  }
+  for (uint32_t t : passthrough) {
+    r.triangles.corners.insert(r.triangles.corners.end(), &group.corners[3 * t], &group.corners[3 * t] + 3);
+    r.triangles.materials.push_back(group.materials[t]);
+  }
+
+  // Error: distance from every removed vertex to the output surface (all output
+  // triangles of the group, pruned by their bounding boxes), the one-sided Hausdorff
+  // distance at the input vertices.
+  std::vector<uint8_t> alive(welded_of_om.size(), 1);
+  for (auto [v0, v1] : decimater.module(quadric).collapses) alive[size_t(v0)] = 0;
+  struct Tri {
+    OpenMesh::Vec3d a, b, c, lo, hi;
+  };
+  std::vector<Tri> out_tris(r.triangles.triangle_count());
+  for (size_t f = 0; f < out_tris.size(); ++f) {
+    OpenMesh::Vec3d p[3];
+    for (int k = 0; k < 3; ++k) {
+      const float* q = &mesh.positions[3 * size_t(r.triangles.corners[3 * f + k])];
+      p[k] = OpenMesh::Vec3d(q[0], q[1], q[2]) - origin;
+    }
+    Tri& t = out_tris[f];
+    t.a = p[0], t.b = p[1], t.c = p[2];
+    t.lo = t.hi = p[0];
+    for (int k = 1; k < 3; ++k) t.lo.minimize(p[k]), t.hi.maximize(p[k]);
+  }
+  double error = 0;
+  for (size_t v = 0; v < alive.size(); ++v) {
+    if (alive[v]) continue;
+    const float* q = &mesh.positions[3 * size_t(welded_of_om[v])];
+    OpenMesh::Vec3d p = OpenMesh::Vec3d(q[0], q[1], q[2]) - origin;
+    double best = std::numeric_limits<double>::infinity();
+    for (const Tri& t : out_tris) {
+      double dx = std::max({t.lo[0] - p[0], 0.0, p[0] - t.hi[0]});
+      double dy = std::max({t.lo[1] - p[1], 0.0, p[1] - t.hi[1]});
+      double dz = std::max({t.lo[2] - p[2], 0.0, p[2] - t.hi[2]});
+      if (dx * dx + dy * dy + dz * dz >= best * best) continue;
+      best = std::min(best, point_triangle_distance(p, t.a, t.b, t.c));
+    }
+    if (std::isfinite(best)) error = std::max(error, best);
+  }
+  // Rounded up so the float error is never below the measured double.
+  float e = float(error);
+  if (double(e) < error) e = std::nextafter(e, std::numeric_limits<float>::infinity());
+  r.error = e;
+  return r;
+}
+
+}  // namespace
+
+SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
+                              const std::vector<uint8_t>& locked, Simplifier simplifier) {
+  if (simplifier == Simplifier::kOpenMesh) return simplify_openmesh(welded, group, locked);
+  return simplify_meshopt(welded, group);
+}
+
+bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
+                             const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
+  // Locked welded vertices and edges (both ends locked) of `after` in one open addressing
+  // set (load ≤ 1/2): edges as edge_key(a, b) (a < b), vertices as (v << 32 | v), which no
+  // edge key equals. Only locked ones are ever looked up, and they lie on the group border
+  // (a minority), so nothing else is inserted.
+  std::vector<uint64_t> keys;
+  for (size_t i = 0; i < 3 * after.triangle_count(); ++i) {
+    uint32_t a = welded.weld[after.corners[i]];
+    if (!locked[a]) continue;
+    uint32_t b = welded.weld[after.corners[i - i % 3 + (i + 1) % 3]];
+    keys.push_back((uint64_t(a) << 32) | a);
+    if (a != b && locked[b]) keys.push_back(edge_key(a, b));
+  }
+  size_t slots = 16;
+  int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
+  while (slots < 2 * keys.size()) slots <<= 1, --shift;
+  constexpr uint64_t kEmpty = ~uint64_t(0);
+  std::vector<uint64_t> table(slots, kEmpty);
+  auto slot = [&](uint64_t key) {
+    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+    while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
+    return h;
+  };
+  for (uint64_t key : keys) table[slot(key)] = key;
+  auto present = [&](uint64_t key) { return table[slot(key)] == key; };
+  for (size_t i = 0; i < before.triangle_count(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      uint32_t a = welded.weld[before.corners[3 * i + k]];
+      if (!locked[a]) continue;
+      // Every locked vertex of `before` is used by `after`.
+      if (!present((uint64_t(a) << 32) | a)) return false;
+      // Every shared edge of `before` (both ends locked) is an edge of `after`.
+      uint32_t b = welded.weld[before.corners[3 * i + (k + 1) % 3]];
+      if (a == b || !locked[b]) continue;
+      uint64_t key = edge_key(a, b);
+      if (std::binary_search(shared_edges.begin(), shared_edges.end(), key) && !present(key)) return false;
+    }
+  return true;
+}
+
+}  // namespace vgeo::build_detail

@@ -1,0 +1,27 @@
+#pragma once
+// Built-asset files of either container, chosen by magic on read and by extension on write:
+//   "VGEOPAGE" — the compressed page format (spec/format.md): what `vgeo build` writes by default;
+//   "VGEODAG1" — the simple uncompressed DAG file (spec/dag.md): lossless float positions, the
+//                interchange format for other implementations' DAGs (`.vgeodag`).
+// `vgeo verify`, `vgeo render` (scene meshes with "dag") and the scene cache read both.
+#include <string>
+
+#include "vgeo/dag/cluster_dag.h"
+#include "vgeo/format/format.h"
+
+namespace vgeo {
+
+enum class AssetFileKind : uint8_t { kPages = 0, kDagFile = 1 };
+
+// `.vgeodag` → kDagFile; anything else → kPages.
+AssetFileKind asset_file_kind_for_path(const std::string& path);
+
+// Throws VgeoError: ASSET_FILE_IO (exit 4), ASSET_FILE_UNKNOWN (neither magic, exit 3), or the
+// decoder's FORMAT_* / DAGFILE_* code.
+BuiltScene read_asset_file(const std::string& path);
+
+// Written atomically (temporary file + rename): an existing file is never left half-written.
+void write_asset_file(const std::string& path, const BuiltScene& scene, AssetFileKind kind,
+                      const FormatOptions& options = {}, FormatReport* report = nullptr);
+
+}  // namespace vgeo

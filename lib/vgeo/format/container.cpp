@@ -1,0 +1,895 @@
+// File container: header, metadata (materials, instances, per-mesh DAG metadata, page
+// table), page placement, compression and checksums (spec/format.md §Container).
+#include <zstd.h>
+#include <lz4.h>
+#include <lz4hc.h>
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <numeric>
+
+#include "vgeo/core/error.h"
+#include "vgeo/format/bitstream.h"
+#include "vgeo/format/crc32c.h"
+#include "vgeo/format/format.h"
+#include "vgeo/format/page_codec.h"
+
+namespace vgeo {
+
+using namespace format_detail;
+
+namespace {
+
+constexpr char kMagic[8] = {'V', 'G', 'E', 'O', 'P', 'A', 'G', 'E'};
+// Record sizes in the metadata (bytes); used to bound counts before allocating.
+constexpr uint32_t kMaterialMinBytes = 20, kInstanceBytes = 68, kMeshHeaderBytes = 68,
+                   kClusterBytes = 76, kGroupBytes = 60, kBvhNodeBytes = 76, kPageEntryBytes = 24;
+constexpr uint32_t kMeshFlagNormals = 1u, kMeshFlagUvs = 2u;
+
+#ifdef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION
+constexpr bool kCheckChecksums = false;  // let fuzzers reach the parsers behind the CRCs
+#else
+constexpr bool kCheckChecksums = true;
+#endif
+
+[[noreturn]] void encode_fail(const std::string& what) { fail(kErrEncode, "<encoder>", what); }
+
+// ---- little-endian byte writer / checked reader ----
+struct Writer {
+  std::vector<uint8_t> b;
+  void u32(uint32_t v) { for (int k = 0; k < 4; ++k) b.push_back(uint8_t(v >> (8 * k))); }
+  void i32(int32_t v) { u32(uint32_t(v)); }
+  void u64(uint64_t v) { u32(uint32_t(v)); u32(uint32_t(v >> 32)); }
+  void f32(float v) { uint32_t u; std::memcpy(&u, &v, 4); u32(u); }
+  void sphere(const Sphere& s) { f32(s.center.x); f32(s.center.y); f32(s.center.z); f32(s.radius); }
+};
+
+struct Reader {
+  const uint8_t* p;
+  size_t size, pos;
+  const std::string& where;
+  const uint8_t* take(size_t n) {
+    if (n > size - pos) fail(kErrTruncated, where, "metadata ends inside a field");
+    const uint8_t* r = p + pos;
+    pos += n;
+    return r;
+  }
+  uint32_t u32() {
+    const uint8_t* b = take(4);
+    return uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24;
+  }
+  int32_t i32() { return int32_t(u32()); }
+  float f32() { const uint32_t u = u32(); float f; std::memcpy(&f, &u, 4); return f; }
+  // Counts are bounded by the bytes left: each element takes ≥ min_bytes.
+  uint32_t count(uint32_t min_bytes, const char* what) {
+    const uint32_t n = u32();
+    if (uint64_t(n) * min_bytes > size - pos)
+      fail(kErrTruncated, where, std::string(what) + " count exceeds the remaining metadata");
+    return n;
+  }
+  Sphere sphere() {
+    Sphere s;
+    s.center.x = f32(), s.center.y = f32(), s.center.z = f32(), s.radius = f32();
+    if (!std::isfinite(s.center.x) || !std::isfinite(s.center.y) || !std::isfinite(s.center.z) ||
+        !std::isfinite(s.radius))
+      fail(kErrOutOfRange, where, "non-finite bounding sphere");
+    return s;
+  }
+  float error() {
+    const float e = f32();
+    if (!(e >= 0.0f)) fail(kErrOutOfRange, where, "LOD error negative or NaN");
+    return e;
+  }
+};
+
+uint32_t read_le32(const uint8_t* b) {
+  return uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24;
+}
+uint64_t read_le64(const uint8_t* b) { return read_le32(b) | uint64_t(read_le32(b + 4)) << 32; }
+
+bool is_pow2(uint32_t v) { return v && !(v & (v - 1)); }
+
+// ---- compression ----
+std::vector<uint8_t> compress(const std::vector<uint8_t>& raw, Compression c, int level) {
+  std::vector<uint8_t> out;
+  if (c == Compression::kNone) return raw;
+  if (c == Compression::kZstd) {
+    out.resize(ZSTD_compressBound(raw.size()));
+    const size_t n = ZSTD_compress(out.data(), out.size(), raw.data(), raw.size(), level);
+    if (ZSTD_isError(n)) encode_fail(std::string("zstd: ") + ZSTD_getErrorName(n));
+    out.resize(n);
+  } else {
+    out.resize(size_t(LZ4_compressBound(int(raw.size()))));
+    const int n = LZ4_compress_HC(reinterpret_cast<const char*>(raw.data()), reinterpret_cast<char*>(out.data()),
+                                  int(raw.size()), int(out.size()), LZ4HC_CLEVEL_MAX);
+    if (n <= 0) encode_fail("lz4 compression failed");
+    out.resize(size_t(n));
+  }
+  return out;
+}
+
+void decompress(const uint8_t* src, size_t src_size, Compression c, uint8_t* dst, size_t raw_size,
+                const std::string& where) {
+  if (c == Compression::kNone) {
+    if (src_size != raw_size) fail(kErrInconsistent, where, "uncompressed page size differs from its raw size");
+    std::memcpy(dst, src, raw_size);
+    return;
+  }
+  if (c == Compression::kZstd) {
+    const unsigned long long content = ZSTD_getFrameContentSize(src, src_size);
+    if (content == ZSTD_CONTENTSIZE_ERROR || content == ZSTD_CONTENTSIZE_UNKNOWN)
+      fail(kErrDecompress, where, "zstd frame header invalid or without content size");
+    if (content != raw_size) fail(kErrDecompress, where, "zstd content size differs from the page table");
+    const size_t frame = ZSTD_findFrameCompressedSize(src, src_size);
+    if (ZSTD_isError(frame)) fail(kErrDecompress, where, std::string("zstd: ") + ZSTD_getErrorName(frame));
+    if (frame != src_size) fail(kErrTrailingBytes, where, "bytes after the zstd frame");
+    // Output capacity is exactly the declared raw size: zstd cannot write beyond it.
+    const size_t n = ZSTD_decompress(dst, raw_size, src, src_size);
+    if (ZSTD_isError(n)) fail(kErrDecompress, where, std::string("zstd: ") + ZSTD_getErrorName(n));
+    if (n != raw_size) fail(kErrDecompress, where, "zstd output shorter than declared");
+    return;
+  }
+  const int n = LZ4_decompress_safe(reinterpret_cast<const char*>(src), reinterpret_cast<char*>(dst),
+                                    int(src_size), int(raw_size));
+  if (n < 0) fail(kErrDecompress, where, "lz4 block invalid");
+  if (size_t(n) != raw_size) fail(kErrDecompress, where, "lz4 output shorter than declared");
+}
+
+uint32_t morton3(uint32_t x, uint32_t y, uint32_t z) {
+  auto spread = [](uint32_t v) {
+    v &= 0x3FFu;
+    v = (v | (v << 16)) & 0x030000FFu;
+    v = (v | (v << 8)) & 0x0300F00Fu;
+    v = (v | (v << 4)) & 0x030C30C3u;
+    v = (v | (v << 2)) & 0x09249249u;
+    return v;
+  };
+  return spread(x) | (spread(y) << 1) | (spread(z) << 2);
+}
+
+int32_t choose_position_step(const ClusterDag& dag, const FormatOptions& o) {
+  if (o.position_step_log2) return *o.position_step_log2;
+  double max_abs = 0, extent = 0;
+  Aabb box;
+  for (size_t v = 0; v < dag.vertex_count(); ++v) {
+    const Vec3 p = dag.position(v);
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) encode_fail("non-finite position");
+    box.extend(p);
+    max_abs = std::max({max_abs, std::fabs(double(p.x)), std::fabs(double(p.y)), std::fabs(double(p.z))});
+  }
+  if (!box.empty())
+    extent = std::max({double(box.max.x) - box.min.x, double(box.max.y) - box.min.y, double(box.max.z) - box.min.z});
+  // Smallest power-of-two step with extent ≤ 2^bits steps and |coordinate| ≤ 2^24 - 1 steps.
+  int32_t e = kMinStepLog2;
+  while (e < kMaxStepLog2 && (std::ldexp(extent, -e) > std::ldexp(1.0, int(o.position_bits)) ||
+                              std::ldexp(max_abs, -e) > double(kMaxQuantized - 1)))
+    ++e;
+  if (!o.position_step_from_lod_error) return e;
+  // Refine while √3/2·step exceeds the median first-simplification error (level-0 groups):
+  // quantization then moves vertices less than the DAG's typical finest LOD error.
+  std::vector<float> leaf_errors;
+  for (const DagGroup& g : dag.groups)
+    if (g.level == 0 && g.parent_error > 0 && std::isfinite(g.parent_error)) leaf_errors.push_back(g.parent_error);
+  if (leaf_errors.empty()) return e;
+  std::nth_element(leaf_errors.begin(), leaf_errors.begin() + long(leaf_errors.size() / 2), leaf_errors.end());
+  const double median = leaf_errors[leaf_errors.size() / 2];
+  const uint32_t max_bits = std::max(o.position_bits, kMaxAutoPositionBits);
+  while (e > kMinStepLog2 && kQuantRadiusSlack * std::ldexp(1.0, e) > median &&
+         std::ldexp(extent, -(e - 1)) <= std::ldexp(1.0, int(max_bits)) &&
+         std::ldexp(max_abs, -(e - 1)) <= double(kMaxQuantized - 1))
+    --e;
+  return e;
+}
+
+void check_options(const FormatOptions& o) {
+  if (!is_pow2(o.page_size) || o.page_size < kMinPageSize || o.page_size > kMaxPageSize)
+    encode_fail("page size must be a power of two in [16 KiB, 16 MiB]");
+  if (o.normal_bits < 1 || o.normal_bits > kMaxNormalBits) encode_fail("normal bits outside 1..16");
+  if (o.position_bits < 1 || o.position_bits > 24) encode_fail("position bits outside 1..24");
+  if (o.uv_step_log2 < kMinStepLog2 || o.uv_step_log2 > kMaxStepLog2) encode_fail("uv step outside 2^-40..2^40");
+  if (o.position_step_log2 && (*o.position_step_log2 < kMinStepLog2 || *o.position_step_log2 > kMaxStepLog2))
+    encode_fail("position step outside 2^-40..2^40");
+  if (o.compression != Compression::kNone && o.compression != Compression::kZstd && o.compression != Compression::kLz4)
+    encode_fail("unknown compression");
+  if (o.version < kMinFormatVersion || o.version > kFormatVersion) encode_fail("unsupported format version");
+}
+
+// Version 2 stores every array of fixed-size metadata records byte-transposed (byte j of
+// record i at j·n + i): equal and slowly varying fields line up for the compressor.
+void put_records(Writer& meta, const Writer& records, uint32_t record_size, uint32_t version) {
+  assert(records.b.size() % record_size == 0);
+  if (version < 2) {
+    meta.b.insert(meta.b.end(), records.b.begin(), records.b.end());
+    return;
+  }
+  const size_t n = records.b.size() / record_size, at = meta.b.size();
+  meta.b.resize(at + records.b.size());
+  for (size_t i = 0; i < n; ++i)
+    for (uint32_t j = 0; j < record_size; ++j) meta.b[at + j * n + i] = records.b[i * record_size + j];
+}
+
+void write_cluster(Writer& w, const DagCluster& c) {
+  w.u32(c.group); w.u32(c.generating_group); w.u32(c.level); w.u32(c.vertex_count); w.u32(c.triangle_count);
+  w.sphere(c.bounds); w.sphere(c.lod_bounds); w.sphere(c.parent_bounds);
+  w.f32(c.lod_error); w.f32(c.parent_error);
+}
+void write_group(Writer& w, const DagGroup& g) {
+  w.u32(g.first_cluster); w.u32(g.cluster_count); w.u32(g.first_generated); w.u32(g.generated_count);
+  w.u32(g.level); w.u32(g.flags); w.sphere(g.bounds); w.sphere(g.parent_bounds); w.f32(g.parent_error);
+}
+void write_node(Writer& w, const BvhNode& n) {
+  w.sphere(n.bounds); w.sphere(n.lod_bounds); w.f32(n.max_parent_error);
+  w.u32(n.child_count); w.u32(n.group_mask);
+  for (uint32_t k = 0; k < kBvhMaxChildren; ++k) w.u32(n.children[k]);
+}
+
+void add_memory_sizes(const CanonicalCluster& c, const MeshQuantization& q, ComponentBytes* m) {
+  const uint32_t ob = index_offset_bits(c);
+  auto channel_bytes = [&](uint32_t k0, uint32_t k1) {
+    double b = 0;
+    for (uint32_t k = k0; k < k1; ++k) b += c.bits[k];
+    return b * c.vertex_count / 8.0;
+  };
+  m->positions += channel_bytes(0, 3);
+  if (q.has_normals) m->normals += channel_bytes(3, 5);
+  if (q.has_uvs) m->uvs += q.has_normals ? channel_bytes(5, 7) : channel_bytes(3, 5);
+  const uint32_t tb = bits_for_range(c.vertex_count - 1) + 2 * ob;
+  m->topology += double(c.triangle_count) * tb / 8.0;
+  m->materials += 4.0 * c.run_count;
+  m->cluster_headers += 4.0 * kDescriptorWords;
+}
+
+}  // namespace
+
+namespace {
+// Smallest float ≥ x / largest float ≤ x (x finite double; may give ±inf on overflow).
+float float_up(double x) {
+  float f = float(x);
+  if (double(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
+}
+float float_down(double x) {
+  float f = float(x);
+  if (double(f) > x) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+  return f;
+}
+}  // namespace
+
+void inflate_metadata_for_quantization(ClusterDag* dag, int32_t step_log2) {
+  const double step = std::ldexp(1.0, step_log2);
+  auto radius = [&](Sphere& s) {
+    if (s.radius < 0) return;  // negative radius: "no bounds" marker (lib/vgeo/verify), kept
+    s.radius = float_up(double(s.radius) + kQuantRadiusSlack * step);
+    if (!std::isfinite(s.radius)) encode_fail("bounding sphere radius overflows after quantization slack");
+  };
+  auto error = [&](float& e) {
+    if (std::isinf(e)) return;  // terminal: never refined
+    e = float_up(double(e) + kQuantErrorSlack * step);
+    if (!std::isfinite(e)) encode_fail("LOD error overflows after quantization slack");
+  };
+  for (DagCluster& c : dag->clusters) {
+    radius(c.bounds);
+    radius(c.lod_bounds);
+    radius(c.parent_bounds);
+    if (c.generating_group != kNone) error(c.lod_error);  // a leaf's lod_error is exact (0)
+    error(c.parent_error);
+  }
+  for (DagGroup& g : dag->groups) {
+    radius(g.bounds);
+    radius(g.parent_bounds);
+    error(g.parent_error);
+  }
+  for (BvhNode& n : dag->bvh_nodes) {
+    radius(n.bounds);
+    radius(n.lod_bounds);
+    error(n.max_parent_error);
+  }
+  Aabb& b = dag->bounds;
+  if (!b.empty())
+    for (int k = 0; k < 3; ++k) {
+      // Rounding to the grid is monotone: a coordinate inside [min, max] quantizes inside
+      // [floor(min / step), ceil(max / step)] steps.
+      b.min[k] = float_down(std::ldexp(std::floor(std::ldexp(double(b.min[k]), -step_log2)), step_log2));
+      b.max[k] = float_up(std::ldexp(std::ceil(std::ldexp(double(b.max[k]), -step_log2)), step_log2));
+      if (!std::isfinite(b.min[k]) || !std::isfinite(b.max[k])) encode_fail("mesh bounds overflow on the grid");
+    }
+}
+
+float dequantize_position(int32_t q, int32_t step_log2) { return float(std::ldexp(double(q), step_log2)); }
+
+void octahedral_encode(const float n[3], uint32_t bits, uint32_t out[2]) {
+  float x = n[0], y = n[1], z = n[2];
+  float s = std::fabs(x) + std::fabs(y) + std::fabs(z);
+  if (!std::isfinite(s) || s == 0.0f) x = 0, y = 0, z = 1, s = 1;  // undefined normal: +Z
+  x /= s, y /= s, z /= s;
+  if (z < 0) {
+    const float ox = (1 - std::fabs(y)) * (x >= 0 ? 1.0f : -1.0f);
+    const float oy = (1 - std::fabs(x)) * (y >= 0 ? 1.0f : -1.0f);
+    x = ox, y = oy;
+  }
+  const float scale = float((1u << bits) - 1);
+  for (int k = 0; k < 2; ++k) {
+    const float u = std::clamp((k == 0 ? x : y) * 0.5f + 0.5f, 0.0f, 1.0f);
+    out[k] = uint32_t(std::lround(u * scale));
+  }
+}
+
+void octahedral_decode(const uint32_t q[2], uint32_t bits, float n[3]) {
+  const float scale = float((1u << bits) - 1);
+  float x = float(q[0]) / scale * 2 - 1, y = float(q[1]) / scale * 2 - 1;
+  const float z = 1 - std::fabs(x) - std::fabs(y);
+  if (z < 0) {
+    const float ox = (1 - std::fabs(y)) * (x >= 0 ? 1.0f : -1.0f);
+    const float oy = (1 - std::fabs(x)) * (y >= 0 ? 1.0f : -1.0f);
+    x = ox, y = oy;
+  }
+  const float len = std::sqrt(x * x + y * y + z * z);
+  n[0] = x / len, n[1] = y / len, n[2] = z / len;
+}
+
+// ================================================================ encoder
+
+std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions& o, FormatReport* report) {
+  check_options(o);
+  Writer meta;
+  meta.u32(uint32_t(scene.materials.size()));
+  for (const Material& m : scene.materials) {
+    if (m.name.size() > kMaxNameBytes) encode_fail("material name longer than 4096 bytes");
+    meta.u32(uint32_t(m.name.size()));
+    meta.b.insert(meta.b.end(), m.name.begin(), m.name.end());
+    for (float c : m.base_color) meta.f32(c);
+  }
+  meta.u32(uint32_t(scene.instances.size()));
+  {
+    Writer recs;
+    for (const Instance& in : scene.instances) {
+      if (in.mesh >= scene.meshes.size()) encode_fail("instance refers to a missing mesh");
+      recs.u32(in.mesh);
+      for (float t : in.transform) recs.f32(t);
+    }
+    put_records(meta, recs, kInstanceBytes, o.version);
+  }
+  meta.u32(uint32_t(scene.meshes.size()));
+
+  struct PageOut { uint32_t mesh, clusters, raw, memory, crc; std::vector<uint8_t> stored; };
+  std::vector<PageOut> pages;
+  FormatReport rep;
+  std::vector<CanonicalCluster> canon;
+  for (uint32_t mi = 0; mi < scene.meshes.size(); ++mi) {
+    const ClusterDag& dag = scene.meshes[mi];
+    MeshQuantization q;
+    q.has_normals = !dag.normals.empty();
+    q.has_uvs = !dag.uvs.empty();
+    if (dag.positions.size() % 3 || (q.has_normals && dag.normals.size() != dag.positions.size()) ||
+        (q.has_uvs && dag.uvs.size() / 2 != dag.vertex_count()) || dag.uvs.size() % 2 || dag.indices.size() % 3)
+      encode_fail("attribute array sizes disagree");
+    q.position_step_log2 = choose_position_step(dag, o);
+    q.normal_bits = o.normal_bits;
+    q.uv_step_log2 = o.uv_step_log2;
+    const uint32_t nc = uint32_t(dag.clusters.size()), ng = uint32_t(dag.groups.size());
+    // Structural checks the decoder would otherwise reject.
+    for (const DagCluster& c : dag.clusters)
+      if (c.group >= ng || (c.generating_group != kNone && c.generating_group >= ng))
+        encode_fail("cluster refers to a missing group");
+    for (const DagGroup& g : dag.groups)
+      if (uint64_t(g.first_cluster) + g.cluster_count > nc ||
+          uint64_t(g.first_generated) + g.generated_count > dag.generated_clusters.size() || (g.flags & ~uint32_t(kGroupTerminal)))
+        encode_fail("group ranges outside the DAG");
+    for (uint32_t id : dag.generated_clusters)
+      if (id >= nc) encode_fail("generated cluster id outside the DAG");
+
+    canon.assign(nc, CanonicalCluster{});
+    for (uint32_t c = 0; c < nc; ++c) canonicalize_cluster(dag, c, q, &canon[c]);
+
+    // Placement: coarsest level first (root page = top of the DAG), then spatial order of
+    // the groups (Morton code of the bounds centre), clusters of a group consecutively.
+    std::vector<uint32_t> group_order(ng);
+    std::iota(group_order.begin(), group_order.end(), 0u);
+    std::vector<uint32_t> key(ng, 0);
+    const Aabb& box = dag.bounds;
+    for (uint32_t g = 0; g < ng; ++g) {
+      uint32_t cell[3] = {0, 0, 0};
+      for (int k = 0; k < 3; ++k) {
+        const double lo = box.empty() ? 0 : box.min[k], hi = box.empty() ? 1 : box.max[k];
+        const double t = hi > lo ? (double(dag.groups[g].bounds.center[k]) - lo) / (hi - lo) : 0.0;
+        cell[k] = uint32_t(std::clamp(t, 0.0, 1.0) * 1023.0);
+      }
+      key[g] = morton3(cell[0], cell[1], cell[2]);
+    }
+    std::stable_sort(group_order.begin(), group_order.end(), [&](uint32_t a, uint32_t b) {
+      if (dag.groups[a].level != dag.groups[b].level) return dag.groups[a].level > dag.groups[b].level;
+      return key[a] < key[b];
+    });
+    std::vector<uint32_t> slots;
+    std::vector<uint8_t> placed(nc, 0);
+    for (uint32_t g : group_order)
+      for (uint32_t c = dag.groups[g].first_cluster; c < dag.groups[g].first_cluster + dag.groups[g].cluster_count; ++c) {
+        if (placed[c]) encode_fail("cluster is a member of two groups");
+        if (dag.clusters[c].group != g) encode_fail("cluster's group disagrees with the group's member range");
+        placed[c] = 1;
+        slots.push_back(c);
+      }
+    if (slots.size() != nc) encode_fail("cluster not a member of any group");
+
+    const uint32_t first_page = uint32_t(pages.size());
+    const uint32_t max_raw = max_raw_page_size(o.page_size);
+    std::vector<const CanonicalCluster*> cur;
+    constexpr uint64_t kPageHeadMem = 4, kPageHeadRaw = 12;  // cluster count; magic, count, ref total
+    uint64_t cur_mem = kPageHeadMem, cur_raw = kPageHeadRaw;
+    auto flush = [&] {
+      if (cur.empty()) return;
+      PageOut p;
+      p.mesh = mi;
+      p.clusters = uint32_t(cur.size());
+      DiskStreams streams;
+      const std::vector<uint8_t> raw = encode_disk_page(cur, q, o.version, report ? &streams : nullptr);
+      const std::vector<uint32_t> mem = encode_memory_page(cur, q);
+      assert((o.version == 1 ? raw.size() == cur_raw : raw.size() <= cur_raw) && mem.size() * 4 == cur_mem);
+      p.raw = uint32_t(raw.size());
+      p.memory = uint32_t(mem.size() * 4);
+      p.stored = compress(raw, o.compression, o.zstd_level);
+      p.crc = crc32c(p.stored.data(), p.stored.size());
+      if (report) {
+        rep.pages.push_back({mi, p.clusters, p.memory, o.page_size - p.memory, p.raw, uint32_t(p.stored.size())});
+        auto add = [&](double* raw_total, double* comp_total, const std::vector<uint8_t>& s) {
+          *raw_total += double(s.size());
+          if (!s.empty()) *comp_total += double(compress(s, o.compression, o.zstd_level).size());
+        };
+        add(&rep.disk_raw.cluster_headers, &rep.disk_compressed.cluster_headers, streams.headers);
+        add(&rep.disk_raw.topology, &rep.disk_compressed.topology, streams.topology);
+        add(&rep.disk_raw.materials, &rep.disk_compressed.materials, streams.materials);
+        add(&rep.disk_raw.positions, &rep.disk_compressed.positions, streams.positions);
+        add(&rep.disk_raw.normals, &rep.disk_compressed.normals, streams.normals);
+        add(&rep.disk_raw.uvs, &rep.disk_compressed.uvs, streams.uvs);
+        add(&rep.disk_raw.vertex_refs, &rep.disk_compressed.vertex_refs, streams.vertex_refs);
+        rep.copied_vertices += streams.copies;
+        for (const auto* c : cur) add_memory_sizes(*c, q, &rep.memory);
+        rep.memory.cluster_headers += 4;
+      }
+      pages.push_back(std::move(p));
+      cur.clear();
+      cur_mem = kPageHeadMem, cur_raw = kPageHeadRaw;
+    };
+    for (uint32_t c : slots) {
+      const uint64_t m = 4ull * memory_cluster_words(canon[c], q.channel_count());
+      const uint64_t r = disk_cluster_bytes(canon[c], q.channel_count(), o.version);
+      if (!cur.empty() && (cur_mem + m > o.page_size || cur_raw + r > max_raw)) flush();
+      assert(cur_mem + m <= o.page_size && cur_raw + r <= max_raw);
+      cur.push_back(&canon[c]);
+      cur_mem += m;
+      cur_raw += r;
+      if (report) {
+        rep.clusters += 1;
+        rep.triangles += canon[c].triangle_count;
+        rep.vertices += canon[c].vertex_count;
+        rep.wide_index_clusters += index_offset_bits(canon[c]) > kNaniteIndexOffsetBits ? 1 : 0;
+      }
+    }
+    flush();
+
+    meta.u32((q.has_normals ? kMeshFlagNormals : 0) | (q.has_uvs ? kMeshFlagUvs : 0));
+    meta.i32(q.position_step_log2);
+    meta.i32(q.uv_step_log2);
+    meta.u32(q.normal_bits);
+    // Stored metadata covers the quantized geometry (spec/format.md §2.1).
+    ClusterDag stored;
+    stored.bounds = dag.bounds;
+    stored.clusters = dag.clusters;
+    stored.groups = dag.groups;
+    stored.bvh_nodes = dag.bvh_nodes;
+    inflate_metadata_for_quantization(&stored, q.position_step_log2);
+    meta.u32(dag.level_count);
+    for (int k = 0; k < 3; ++k) meta.f32(stored.bounds.min[k]);
+    for (int k = 0; k < 3; ++k) meta.f32(stored.bounds.max[k]);
+    meta.u32(nc);
+    meta.u32(ng);
+    meta.u32(uint32_t(dag.generated_clusters.size()));
+    meta.u32(uint32_t(dag.bvh_nodes.size()));
+    meta.u32(first_page);
+    meta.u32(uint32_t(pages.size()) - first_page);
+    Writer recs;
+    for (const DagCluster& c : stored.clusters) write_cluster(recs, c);
+    put_records(meta, recs, kClusterBytes, o.version);
+    recs.b.clear();
+    for (const DagGroup& g : stored.groups) write_group(recs, g);
+    put_records(meta, recs, kGroupBytes, o.version);
+    recs.b.clear();
+    for (uint32_t id : dag.generated_clusters) recs.u32(id);
+    put_records(meta, recs, 4, o.version);
+    recs.b.clear();
+    for (const BvhNode& n : stored.bvh_nodes) {
+      if (n.child_count > kBvhMaxChildren) encode_fail("BVH node with more than 8 children");
+      write_node(recs, n);
+    }
+    put_records(meta, recs, kBvhNodeBytes, o.version);
+    recs.b.clear();
+    for (uint32_t c : slots) recs.u32(c);
+    put_records(meta, recs, 4, o.version);
+  }
+  meta.u32(uint32_t(pages.size()));
+  {
+    Writer recs;
+    for (const PageOut& p : pages) {
+      recs.u32(p.mesh); recs.u32(uint32_t(p.stored.size())); recs.u32(p.raw); recs.u32(p.memory);
+      recs.u32(p.clusters); recs.u32(p.crc);
+    }
+    put_records(meta, recs, kPageEntryBytes, o.version);
+  }
+  // Version 2: the metadata is compressed with the file's codec unless that would exceed
+  // kMaxMetadataRatio (then it is stored as is, metadata_compression 0).
+  const uint64_t meta_raw_size = meta.b.size();
+  Compression meta_comp = Compression::kNone;
+  std::vector<uint8_t> meta_stored;
+  if (o.version >= 2 && o.compression != Compression::kNone) {
+    meta_stored = compress(meta.b, o.compression, o.zstd_level);
+    if (meta_stored.size() < meta.b.size() && meta_stored.size() * uint64_t(kMaxMetadataRatio) >= meta.b.size())
+      meta_comp = o.compression;
+  }
+  if (meta_comp == Compression::kNone) meta_stored = meta.b;
+  if (meta_stored.size() > UINT32_MAX || meta_raw_size > UINT32_MAX) encode_fail("metadata larger than 4 GiB");
+
+  Writer file;
+  file.b.insert(file.b.end(), kMagic, kMagic + 8);
+  file.u32(o.version);
+  file.u32(kFileHeaderSize);
+  uint64_t total = kFileHeaderSize + meta_stored.size();
+  for (const PageOut& p : pages) total += p.stored.size();
+  file.u64(total);
+  file.u32(uint32_t(o.compression));
+  file.u32(o.page_size);
+  file.u32(uint32_t(pages.size()));
+  file.u32(uint32_t(meta_stored.size()));
+  file.u32(crc32c(meta_stored.data(), meta_stored.size()));
+  if (o.version >= 2) {
+    file.u32(uint32_t(meta_raw_size));
+    file.u32(uint32_t(meta_comp));
+  }
+  while (file.b.size() < kFileHeaderSize - 4) file.b.push_back(0);  // reserved, zero
+  file.u32(crc32c(file.b.data(), kFileHeaderSize - 4));
+  file.b.insert(file.b.end(), meta_stored.begin(), meta_stored.end());
+  for (const PageOut& p : pages) file.b.insert(file.b.end(), p.stored.begin(), p.stored.end());
+  assert(file.b.size() == total);
+  if (report) {
+    rep.file_bytes = total;
+    rep.metadata_bytes = meta_stored.size();
+    rep.metadata_raw_bytes = meta_raw_size;
+    for (const PageOut& p : pages) rep.pages_stored_bytes += p.stored.size();
+    *report = std::move(rep);
+  }
+  return std::move(file.b);
+}
+
+// ================================================================ decoder
+
+FormatContainer parse_container(const uint8_t* data, size_t size, const std::string& where) {
+  if (size < 8) fail(kErrTruncated, where, "shorter than the file magic");
+  if (std::memcmp(data, kMagic, 8) != 0) fail(kErrBadMagic, where, "not a vgeo page file (magic VGEOPAGE)");
+  if (size < kFileHeaderSize) fail(kErrTruncated, where, "shorter than the 64-byte header");
+  FormatContainer fc;
+  fc.version = read_le32(data + 8);
+  if (fc.version < kMinFormatVersion || fc.version > kFormatVersion)
+    fail(kErrBadVersion, where, "version " + std::to_string(fc.version) + " (supported: 1, 2)");
+  const uint32_t version = fc.version;
+  if (kCheckChecksums && crc32c(data, kFileHeaderSize - 4) != read_le32(data + 60))
+    fail(kErrChecksum, where, "header CRC-32C mismatch");
+  if (read_le32(data + 12) != kFileHeaderSize) fail(kErrInconsistent, where, "header size is not 64");
+  fc.file_size = read_le64(data + 16);
+  const uint32_t comp = read_le32(data + 24);
+  if (comp > uint32_t(Compression::kLz4)) fail(kErrUnsupported, where, "unknown compression " + std::to_string(comp));
+  fc.compression = Compression(comp);
+  fc.page_size = read_le32(data + 28);
+  if (!is_pow2(fc.page_size) || fc.page_size < kMinPageSize || fc.page_size > kMaxPageSize)
+    fail(kErrOutOfRange, where, "page size not a power of two in [16 KiB, 16 MiB]");
+  const uint32_t page_count = read_le32(data + 32);
+  fc.metadata_size = read_le32(data + 36);
+  const uint32_t meta_crc = read_le32(data + 40);
+  // Version 2: metadata_raw_size (44) and metadata_compression (48); reserved from 52.
+  uint32_t meta_raw_size = fc.metadata_size, meta_comp = 0;
+  if (version >= 2) {
+    meta_raw_size = read_le32(data + 44);
+    meta_comp = read_le32(data + 48);
+  }
+  for (uint32_t i = version >= 2 ? 52 : 44; i < 60; ++i)
+    if (data[i] != 0) fail(kErrUnsupported, where, "reserved header bytes are not zero");
+  if (meta_comp > uint32_t(Compression::kLz4)) fail(kErrUnsupported, where, "unknown metadata compression");
+  if (meta_comp == 0 && meta_raw_size != fc.metadata_size)
+    fail(kErrInconsistent, where, "uncompressed metadata with raw size != stored size");
+  // Caps the decompression buffer before allocating it.
+  if (uint64_t(meta_raw_size) > uint64_t(kMaxMetadataRatio) * fc.metadata_size)
+    fail(kErrOutOfRange, where, "metadata raw size beyond 32x its stored size");
+  if (fc.file_size < kFileHeaderSize + uint64_t(fc.metadata_size))
+    fail(kErrInconsistent, where, "declared file size smaller than header + metadata");
+  if (size - kFileHeaderSize < fc.metadata_size) fail(kErrTruncated, where, "file ends inside the metadata");
+  const uint8_t* m = data + kFileHeaderSize;
+  if (kCheckChecksums && crc32c(m, fc.metadata_size) != meta_crc) fail(kErrChecksum, where, "metadata CRC-32C mismatch");
+  std::vector<uint8_t> meta_raw;
+  if (meta_comp != 0) {
+    meta_raw.resize(meta_raw_size);
+    decompress(m, fc.metadata_size, Compression(meta_comp), meta_raw.data(), meta_raw.size(), where + ": metadata");
+    m = meta_raw.data();
+  }
+  // Arrays of fixed-size records: version 2 stores them byte-transposed (put_records).
+  std::vector<uint8_t> scratch;
+  auto records = [&](Reader& from, uint64_t n, uint32_t record_size) {
+    const uint8_t* src = from.take(size_t(n) * record_size);  // n bounded by the caller
+    if (version < 2) return Reader{src, size_t(n) * record_size, 0, where};
+    scratch.resize(size_t(n) * record_size);
+    for (size_t i = 0; i < n; ++i)
+      for (uint32_t j = 0; j < record_size; ++j) scratch[i * record_size + j] = src[j * n + i];
+    return Reader{scratch.data(), scratch.size(), 0, where};
+  };
+
+  Reader r{m, meta_raw_size, 0, where};
+  fc.materials.resize(r.count(kMaterialMinBytes, "material"));
+  for (Material& mat : fc.materials) {
+    const uint32_t len = r.u32();
+    if (len > kMaxNameBytes) fail(kErrOutOfRange, where, "material name longer than 4096 bytes");
+    const uint8_t* s = r.take(len);
+    mat.name.assign(reinterpret_cast<const char*>(s), len);
+    for (float& c : mat.base_color) c = r.f32();
+  }
+  fc.instances.resize(r.count(kInstanceBytes, "instance"));
+  {
+    Reader rr = records(r, fc.instances.size(), kInstanceBytes);
+    for (Instance& in : fc.instances) {
+      in.mesh = rr.u32();
+      for (float& t : in.transform) t = rr.f32();
+    }
+  }
+  fc.meshes.resize(r.count(kMeshHeaderBytes, "mesh"));
+  uint32_t next_page = 0;
+  for (MeshMetadata& mm : fc.meshes) {
+    const uint32_t flags = r.u32();
+    if (flags & ~(kMeshFlagNormals | kMeshFlagUvs)) fail(kErrUnsupported, where, "unknown mesh flags");
+    MeshQuantization& q = mm.quantization;
+    q.has_normals = flags & kMeshFlagNormals;
+    q.has_uvs = flags & kMeshFlagUvs;
+    q.position_step_log2 = r.i32();
+    q.uv_step_log2 = r.i32();
+    q.normal_bits = r.u32();
+    if (q.position_step_log2 < kMinStepLog2 || q.position_step_log2 > kMaxStepLog2 ||
+        q.uv_step_log2 < kMinStepLog2 || q.uv_step_log2 > kMaxStepLog2 || q.normal_bits < 1 ||
+        q.normal_bits > kMaxNormalBits)
+      fail(kErrOutOfRange, where, "quantization parameters out of range");
+    ClusterDag& dag = mm.dag;
+    dag.level_count = r.u32();
+    for (int k = 0; k < 3; ++k) dag.bounds.min[k] = r.f32();
+    for (int k = 0; k < 3; ++k) dag.bounds.max[k] = r.f32();
+    const uint32_t nc = r.u32(), ng = r.u32(), nge = r.u32(), nb = r.u32();
+    mm.first_page = r.u32();
+    mm.page_count = r.u32();
+    if (mm.first_page != next_page || mm.page_count > page_count - std::min(page_count, next_page))
+      fail(kErrInconsistent, where, "mesh page ranges do not tile the page table");
+    next_page += mm.page_count;
+    // Bound every count by the bytes left before allocating.
+    const uint64_t need = uint64_t(nc) * (kClusterBytes + 4) + uint64_t(ng) * kGroupBytes + uint64_t(nge) * 4 +
+                          uint64_t(nb) * kBvhNodeBytes;
+    if (need > r.size - r.pos) fail(kErrTruncated, where, "mesh record counts exceed the remaining metadata");
+    if (nc > 0 && mm.page_count == 0) fail(kErrInconsistent, where, "clusters but no pages");
+    dag.clusters.resize(nc);
+    uint32_t vsum = 0, tsum = 0;
+    Reader rc = records(r, nc, kClusterBytes);
+    for (DagCluster& c : dag.clusters) {
+      Reader& r = rc;
+      c.group = r.u32();
+      c.generating_group = r.u32();
+      c.level = r.u32();
+      c.vertex_count = r.u32();
+      c.triangle_count = r.u32();
+      if (c.group >= ng || (c.generating_group != kNone && c.generating_group >= ng))
+        fail(kErrOutOfRange, where, "cluster group index out of range");
+      if (c.vertex_count == 0 || c.vertex_count > kMaxClusterVertices || c.triangle_count == 0 ||
+          c.triangle_count > kMaxClusterTriangles)
+        fail(kErrOutOfRange, where, "cluster vertex/triangle count out of range");
+      c.bounds = r.sphere();
+      c.lod_bounds = r.sphere();
+      c.parent_bounds = r.sphere();
+      c.lod_error = r.error();
+      c.parent_error = r.error();
+      c.vertex_offset = vsum;
+      c.triangle_offset = c.material_offset = tsum;
+      vsum += c.vertex_count;  // ≤ 255 · 2^32 / 80: counts bounded by metadata size, no wrap
+      tsum += c.triangle_count;
+    }
+    dag.groups.resize(ng);
+    Reader rg = records(r, ng, kGroupBytes);
+    for (DagGroup& g : dag.groups) {
+      Reader& r = rg;
+      g.first_cluster = r.u32();
+      g.cluster_count = r.u32();
+      g.first_generated = r.u32();
+      g.generated_count = r.u32();
+      g.level = r.u32();
+      g.flags = r.u32();
+      if (uint64_t(g.first_cluster) + g.cluster_count > nc || uint64_t(g.first_generated) + g.generated_count > nge)
+        fail(kErrOutOfRange, where, "group member/generated range out of range");
+      if (g.flags & ~uint32_t(kGroupTerminal)) fail(kErrUnsupported, where, "unknown group flags");
+      g.bounds = r.sphere();
+      g.parent_bounds = r.sphere();
+      g.parent_error = r.error();
+    }
+    dag.generated_clusters.resize(nge);
+    Reader rge = records(r, nge, 4);
+    for (uint32_t& id : dag.generated_clusters) {
+      id = rge.u32();
+      if (id >= nc) fail(kErrOutOfRange, where, "generated cluster id out of range");
+    }
+    dag.bvh_nodes.resize(nb);
+    std::vector<uint8_t> referenced(nb, 0);
+    Reader rb = records(r, nb, kBvhNodeBytes);
+    for (BvhNode& n : dag.bvh_nodes) {
+      Reader& r = rb;
+      n.bounds = r.sphere();
+      n.lod_bounds = r.sphere();
+      n.max_parent_error = r.error();
+      n.child_count = r.u32();
+      n.group_mask = r.u32();
+      if (n.child_count > kBvhMaxChildren || (n.group_mask >> n.child_count) != 0)
+        fail(kErrOutOfRange, where, "BVH node child count/mask out of range");
+      for (uint32_t k = 0; k < kBvhMaxChildren; ++k) {
+        const uint32_t ch = r.u32();
+        n.children[k] = ch;
+        if (k >= n.child_count) {
+          if (ch != kNone) fail(kErrOutOfRange, where, "BVH child slot beyond child count is not empty");
+        } else if (n.group_mask & (1u << k)) {
+          if (ch >= ng) fail(kErrOutOfRange, where, "BVH group child out of range");
+        } else {
+          // Each node has at most one parent and the root none: traversal from the root
+          // is a tree (no cycles), whatever else the file says.
+          if (ch >= nb || ch == 0 || referenced[ch]) fail(kErrInconsistent, where, "BVH node child is not a tree edge");
+          referenced[ch] = 1;
+        }
+      }
+    }
+    mm.page_clusters.resize(nc);
+    std::vector<uint8_t> seen(nc, 0);
+    Reader rp = records(r, nc, 4);
+    for (uint32_t& c : mm.page_clusters) {
+      c = rp.u32();
+      if (c >= nc || seen[c]) fail(kErrInconsistent, where, "page cluster list is not a permutation");
+      seen[c] = 1;
+    }
+  }
+  if (next_page != page_count) fail(kErrInconsistent, where, "meshes do not cover every page");
+  for (const Instance& in : fc.instances)
+    if (in.mesh >= fc.meshes.size()) fail(kErrOutOfRange, where, "instance mesh index out of range");
+  if (r.u32() != page_count) fail(kErrInconsistent, where, "page table count differs from the header");
+  if (uint64_t(page_count) * kPageEntryBytes > r.size - r.pos) fail(kErrTruncated, where, "page table exceeds the metadata");
+  fc.pages.resize(page_count);
+  uint64_t offset = kFileHeaderSize + uint64_t(fc.metadata_size);
+  const uint32_t max_raw = max_raw_page_size(fc.page_size);
+  Reader pr = records(r, page_count, kPageEntryBytes);
+  for (PageEntry& p : fc.pages) {
+    Reader& r = pr;
+    p.mesh = r.u32();
+    p.stored_size = r.u32();
+    p.raw_size = r.u32();
+    p.memory_size = r.u32();
+    p.cluster_count = r.u32();
+    p.crc = r.u32();
+    if (p.mesh >= fc.meshes.size() || p.stored_size == 0 || p.raw_size < 8 || p.raw_size > max_raw ||
+        p.memory_size > fc.page_size || p.memory_size % 4 || p.cluster_count == 0 ||
+        uint64_t(p.cluster_count) * (4 * kDescriptorWords) + 4 > p.memory_size)
+      fail(kErrOutOfRange, where, "page table entry out of range");
+    if (fc.compression == Compression::kNone && p.stored_size != p.raw_size)
+      fail(kErrInconsistent, where, "uncompressed page with stored size != raw size");
+    p.file_offset = offset;
+    offset += p.stored_size;
+  }
+  if (r.pos != r.size) fail(kErrTrailingBytes, where, "bytes after the page table in the metadata");
+  if (offset != fc.file_size) fail(kErrInconsistent, where, "page sizes do not add up to the declared file size");
+  // Per mesh: pages belong to it, their cluster counts tile page_clusters, groups' parts
+  // occupy consecutive slots (hence consecutive pages).
+  for (uint32_t mi = 0; mi < fc.meshes.size(); ++mi) {
+    MeshMetadata& mm = fc.meshes[mi];
+    const uint32_t nc = uint32_t(mm.dag.clusters.size());
+    uint64_t slot = 0;
+    mm.cluster_page.assign(nc, 0);
+    std::vector<uint32_t> cluster_slot(nc, 0);
+    for (uint32_t p = mm.first_page; p < mm.first_page + mm.page_count; ++p) {
+      PageEntry& e = fc.pages[p];
+      if (e.mesh != mi) fail(kErrInconsistent, where, "page table mesh differs from the mesh's page range");
+      if (slot + e.cluster_count > nc) fail(kErrInconsistent, where, "page cluster counts exceed the mesh's clusters");
+      e.first_cluster_slot = uint32_t(slot);
+      for (uint32_t k = 0; k < e.cluster_count; ++k) {
+        const uint32_t c = mm.page_clusters[slot + k];
+        mm.cluster_page[c] = p;
+        cluster_slot[c] = uint32_t(slot + k);
+      }
+      slot += e.cluster_count;
+    }
+    if (slot != nc) fail(kErrInconsistent, where, "page cluster counts do not cover the mesh's clusters");
+    const uint32_t ng = uint32_t(mm.dag.groups.size());
+    mm.group_first_page.assign(ng, kNone);
+    mm.group_page_count.assign(ng, 0);
+    for (uint32_t g = 0; g < ng; ++g) {
+      const DagGroup& gr = mm.dag.groups[g];
+      if (gr.cluster_count == 0) continue;
+      uint32_t lo = UINT32_MAX, hi = 0;
+      for (uint32_t c = gr.first_cluster; c < gr.first_cluster + gr.cluster_count; ++c) {
+        lo = std::min(lo, cluster_slot[c]);
+        hi = std::max(hi, cluster_slot[c]);
+      }
+      if (hi - lo + 1 != gr.cluster_count) fail(kErrInconsistent, where, "group parts are not consecutive in page order");
+      mm.group_first_page[g] = mm.cluster_page[mm.page_clusters[lo]];
+      mm.group_page_count[g] = mm.cluster_page[mm.page_clusters[hi]] - mm.group_first_page[g] + 1;
+    }
+  }
+  return fc;
+}
+
+std::vector<uint32_t> transcode_page(const FormatContainer& fc, uint32_t page, const uint8_t* stored,
+                                     size_t stored_size, const std::string& where) {
+  if (page >= fc.pages.size()) fail(kErrOutOfRange, where, "page index beyond the page table");
+  const PageEntry& e = fc.pages[page];
+  const std::string at = where + ": page " + std::to_string(page);
+  if (stored_size < e.stored_size) fail(kErrTruncated, at, "page shorter than its page-table size");
+  if (stored_size > e.stored_size) fail(kErrTrailingBytes, at, "page longer than its page-table size");
+  if (kCheckChecksums && crc32c(stored, stored_size) != e.crc) fail(kErrChecksum, at, "page CRC-32C mismatch");
+  std::vector<uint8_t> raw(e.raw_size);  // ≤ 2 · page_size (checked by parse_container)
+  decompress(stored, stored_size, fc.compression, raw.data(), raw.size(), at);
+  const MeshMetadata& mm = fc.meshes[e.mesh];
+  struct Sink final : ClusterSink {
+    const MeshMetadata& mm;
+    const PageEntry& e;
+    const std::string& at;
+    MemoryPageBuilder builder;
+    Sink(const MeshMetadata& m, const PageEntry& pe, const std::string& a)
+        : mm(m), e(pe), at(a), builder(pe.cluster_count, pe.memory_size / 4, a) {}
+    void cluster(uint32_t k, const CanonicalCluster& c) override {
+      const DagCluster& meta = mm.dag.clusters[mm.page_clusters[e.first_cluster_slot + k]];
+      if (c.vertex_count != meta.vertex_count || c.triangle_count != meta.triangle_count)
+        fail(kErrInconsistent, at, "cluster counts differ from the metadata");
+      builder.add(c);
+    }
+  } sink(mm, e, at);
+  // The memory form is built with a cap of the declared memory size (≤ page_size).
+  parse_disk_page(raw.data(), raw.size(), mm.quantization, e.cluster_count, sink, at, fc.version);
+  std::vector<uint32_t> words = sink.builder.finish();
+  if (words.size() * 4 != e.memory_size) fail(kErrInconsistent, at, "memory form size differs from the page table");
+  return words;
+}
+
+BuiltScene decode_format(const uint8_t* data, size_t size, const std::string& where) {
+  FormatContainer fc = parse_container(data, size, where);
+  if (size < fc.file_size) fail(kErrTruncated, where, "file shorter than its declared size");
+  if (size > fc.file_size) fail(kErrTrailingBytes, where, "bytes after the last page");
+  BuiltScene scene;
+  scene.materials = std::move(fc.materials);
+  scene.instances = std::move(fc.instances);
+  scene.meshes.resize(fc.meshes.size());
+  DecodedCluster dc;
+  for (uint32_t mi = 0; mi < fc.meshes.size(); ++mi) {
+    MeshMetadata& mm = fc.meshes[mi];
+    ClusterDag& dag = scene.meshes[mi];
+    dag = mm.dag;  // (copy: transcode_page still reads the container metadata)
+    const MeshQuantization& q = mm.quantization;
+    uint64_t vc = 0, tc = 0;
+    for (const DagCluster& c : dag.clusters) vc += c.vertex_count, tc += c.triangle_count;
+    dag.positions.resize(vc * 3);
+    dag.normals.resize(q.has_normals ? vc * 3 : 0);
+    dag.uvs.resize(q.has_uvs ? vc * 2 : 0);
+    dag.indices.resize(tc * 3);
+    dag.triangle_materials.resize(tc);
+    for (uint32_t p = mm.first_page; p < mm.first_page + mm.page_count; ++p) {
+      const PageEntry& e = fc.pages[p];
+      const std::vector<uint32_t> words = transcode_page(fc, p, data + e.file_offset, e.stored_size, where);
+      for (uint32_t k = 0; k < e.cluster_count; ++k) {
+        decode_cluster(words.data(), k, q, &dc);
+        const DagCluster& c = dag.clusters[mm.page_clusters[e.first_cluster_slot + k]];
+        std::copy(dc.positions.begin(), dc.positions.end(), dag.positions.begin() + 3 * size_t(c.vertex_offset));
+        // (Attribute arrays may be empty: never offset an iterator of an empty vector.)
+        if (q.has_normals) std::copy(dc.normals.begin(), dc.normals.end(), dag.normals.begin() + 3 * size_t(c.vertex_offset));
+        if (q.has_uvs) std::copy(dc.uvs.begin(), dc.uvs.end(), dag.uvs.begin() + 2 * size_t(c.vertex_offset));
+        std::copy(dc.indices.begin(), dc.indices.end(), dag.indices.begin() + 3 * size_t(c.triangle_offset));
+        std::copy(dc.materials.begin(), dc.materials.end(), dag.triangle_materials.begin() + c.triangle_offset);
+      }
+    }
+  }
+  return scene;
+}
+
+}  // namespace vgeo

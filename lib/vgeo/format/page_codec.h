@@ -1,0 +1,110 @@
+#pragma once
+// Internal to lib/vgeo/format: the canonical cluster shared by the memory-form and disk-form
+// codecs. Both forms are produced from (and the disk form parses back into) this one
+// representation, which is what makes transcoding exact by construction.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "vgeo/dag/cluster_dag.h"
+#include "vgeo/format/format.h"
+
+namespace vgeo::format_detail {
+
+inline constexpr uint32_t kMaxChannels = 7;          // x y z, oct u v, uv u v
+inline constexpr uint32_t kDescriptorWords = 10;     // memory-form cluster descriptor
+inline constexpr uint32_t kDiskPageMagic = 0x47504456u;    // "VDPG" little-endian (version 1)
+inline constexpr uint32_t kDiskPageMagicV2 = 0x32504456u;  // "VDP2" little-endian (version 2)
+// Version 2: a vertex equal (every channel) to a vertex of an earlier cluster of the same
+// page is stored as a copy when its residual bytes are at least this many (a copy costs
+// one 4-byte reference): the raw page then never grows, so the v1 size bound holds.
+inline constexpr uint32_t kCopyRefBytes = 4;
+// A raw disk page may exceed its memory form (zigzag deltas need one more bit than the
+// memory field, refs are whole bytes); pages close before reaching this bound.
+inline uint32_t max_raw_page_size(uint32_t page_size) { return 2 * page_size; }
+
+// Strip control byte (spec/format.md §Topology code).
+inline constexpr uint8_t kCtlReset = 1u << 0;
+inline constexpr uint8_t kCtlSide = 1u << 1;   // 0: (c, b, d) across edge b-c; 1: (a, c, d) across c-a
+inline constexpr uint8_t kCtlRef0 = 1u << 2;   // corner is an explicit reference (not a new vertex)
+
+struct CanonicalCluster {
+  uint32_t vertex_count = 0, triangle_count = 0;
+  int32_t values[kMaxChannels][kMaxClusterVertices] = {};  // quantized, canonical vertex order
+  int32_t min[kMaxChannels] = {};
+  uint32_t bits[kMaxChannels] = {};
+  uint8_t strip[kMaxClusterTriangles][3] = {};   // triangles in strip order and strip rotation
+  uint8_t ctl[kMaxClusterTriangles] = {};
+  uint8_t refs[3 * kMaxClusterTriangles] = {};
+  uint32_t ref_count = 0;
+  uint32_t run_count = 0;
+  uint8_t run_start[kMaxClusterTriangles] = {};
+  uint32_t run_material[kMaxClusterTriangles] = {};
+};
+
+// Quantizes cluster `c` of `dag` and puts it in canonical order (material-sorted
+// generalized strips, vertices by first use). Throws FORMAT_ENCODE on unrepresentable input.
+void canonicalize_cluster(const ClusterDag& dag, uint32_t c, const MeshQuantization& q,
+                          CanonicalCluster* out);
+// Fills min/bits from values (the encoder side; the disk parser checks them instead).
+void compute_channel_ranges(CanonicalCluster* c, uint32_t channel_count);
+
+// Memory-form triangle of a strip triangle: rotated so the smallest index comes first.
+void min_first(const uint8_t in[3], uint8_t out[3]);
+// Bits per index offset in the memory form: the fewest that hold the cluster's largest
+// triangle span (max(i1 - i0, i2 - i0) after min_first); 0..8.
+uint32_t index_offset_bits(const CanonicalCluster& c);
+
+uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t channel_count);
+// Appends clusters one at a time to a memory-form page of `cluster_count` clusters; fails
+// with FORMAT_INCONSISTENT (at `where`) as soon as the page would exceed `max_words`.
+class MemoryPageBuilder {
+ public:
+  MemoryPageBuilder(uint32_t cluster_count, uint64_t max_words, const std::string& where);
+  void add(const CanonicalCluster& c);
+  std::vector<uint32_t> finish();  // asserts every cluster was added
+ private:
+  std::vector<uint32_t> w_;
+  uint32_t n_, next_ = 0;
+  uint64_t max_words_;
+  const std::string& where_;
+};
+std::vector<uint32_t> encode_memory_page(const std::vector<const CanonicalCluster*>& clusters,
+                                         const MeshQuantization& q);
+
+struct DiskSections {  // raw byte counts per component (size report)
+  uint64_t headers = 0, topology = 0, materials = 0, positions = 0, normals = 0, uvs = 0;
+};
+// Appends the raw disk form. Component byte ranges go to `sections` if given, and the
+// concatenated bytes of each component to `streams` (size report compression estimate).
+struct DiskStreams {
+  std::vector<uint8_t> headers, topology, materials, positions, normals, uvs, vertex_refs;
+  uint64_t copies = 0;
+};
+std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>& clusters,
+                                      const MeshQuantization& q, uint32_t version,
+                                      DiskStreams* streams = nullptr);
+// Upper bound of a cluster's raw disk bytes (exact for version 1).
+uint32_t disk_cluster_bytes(const CanonicalCluster& c, uint32_t channel_count, uint32_t version);
+// Version 2 parallelogram predictor of every vertex a strip continuation introduced:
+// has[v] and pred[v] = (e1, e2, opposite) with value(v) ≈ e1 + e2 − opposite.
+void strip_predictors(const CanonicalCluster& c, uint8_t pred[][3], bool* has);
+
+// Parses a raw disk page with `expected_clusters` clusters, handing each cluster to
+// `sink` in page order (one scratch cluster: memory use does not grow with the cluster
+// count). Throws FORMAT_* on any defect and requires every byte to be consumed.
+class ClusterSink {
+ public:
+  virtual void cluster(uint32_t index, const CanonicalCluster& c) = 0;
+ protected:
+  ~ClusterSink() = default;
+};
+void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q,
+                     uint32_t expected_clusters, ClusterSink& sink, const std::string& where,
+                     uint32_t version);
+
+// Channel kind limits.
+uint32_t channel_max_bits(const MeshQuantization& q, uint32_t channel);
+bool channel_is_normal(const MeshQuantization& q, uint32_t channel);
+
+}  // namespace vgeo::format_detail

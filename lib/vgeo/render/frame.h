@@ -1,0 +1,102 @@
+#pragma once
+// The CPU reference frame pipeline (spec/scene.md §Frame pipeline), assembled per frame
+// from what the scene calls for:
+//   pass 1: instance cull (frustum, then previous-frame HZB with previous transforms)
+//           → hierarchical LOD + cluster cull (persistent threads) → raster
+//   pass 2: only when pass 1 occluded something: build HZB from pass-1 depth, retest what
+//           pass 1 occluded against it, raster the newly visible
+//   hzb_next: HZB of the complete frame for the next frame (only when a next frame exists)
+//   shade: deferred shading of the visibility buffer
+// A pass that does not run is absent from FrameStats::passes and costs nothing; the reason
+// is listed in FrameStats::skipped.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "vgeo/dag/cluster_dag.h"
+#include "vgeo/core/thread_pool.h"
+#include "vgeo/cull/cull.h"
+#include "vgeo/raster/raster.h"
+#include "vgeo/raster/visbuffer.h"
+#include "vgeo/render/streaming.h"
+#include "vgeo/shade/shade.h"
+
+namespace vgeo {
+
+struct RenderScene {
+  std::vector<ClusterDag> meshes;
+  std::vector<Material> materials;
+  std::vector<CullInstance> instances;
+  // Set by analyze_render_scene: one instance of a convex mesh cannot occlude itself
+  // except by back faces (already culled), so occlusion passes would be pure cost.
+  bool single_convex_object = false;
+};
+void analyze_render_scene(RenderScene* scene);
+
+struct RenderSettings {
+  float threshold_px = 1.0f;  // τ
+  bool occlusion = true;
+  HzbMipPolicy hzb_policy = HzbMipPolicy::k4x4;
+  RasterPath raster_path = RasterPath::kAuto;
+  ShadeView view = ShadeView::kLit;
+  bool shade = true;          // false: stop after the visibility buffer (tests)
+};
+
+struct PassStats {
+  std::string name;
+  double ms = 0;
+  uint64_t instances_in = 0, instances_out = 0, nodes_visited = 0, groups_visited = 0,
+           cluster_candidates = 0, clusters_occluded = 0, clusters_drawn = 0, triangles_drawn = 0,
+           pixels_written = 0;
+};
+
+struct FrameStats {
+  std::vector<PassStats> passes;                                  // only passes that ran
+  std::vector<std::pair<std::string, std::string>> skipped;       // (pass, reason)
+  uint64_t instances = 0, clusters_drawn = 0, triangles_drawn = 0, pixels_covered = 0, pixels = 0;
+  double total_ms = 0;
+  bool streamed = false;        // the frame ran with streaming (pass "stream")
+  StreamFrameStats stream;      // when streamed
+  const PassStats* find(const std::string& name) const {
+    for (const PassStats& p : passes)
+      if (p.name == name) return &p;
+    return nullptr;
+  }
+};
+
+// What a frame leaves for the next one (two-pass occlusion's "previous frame").
+struct FrameHistory {
+  bool valid = false;
+  Hzb hzb;
+  ViewParams view;
+  std::vector<InstanceView> instance_views;
+};
+
+struct Frame {
+  ViewParams view;
+  std::vector<InstanceView> instance_views;
+  VisBuffer vis;
+  std::vector<VisibleCluster> visible;  // visible-cluster index → (instance, cluster)
+  uint32_t pass1_visible = 0;           // visible[0, pass1_visible) were drawn by pass 1
+  std::vector<uint32_t> overdraw;       // per pixel, only for ShadeView::kOverdraw
+  Image image;
+  FrameStats stats;
+};
+
+// Renders one frame. `streaming` null: every mesh fully in memory (the path without
+// streaming, unchanged). Otherwise the traversal applies its usable masks, drawn clusters'
+// geometry comes from resident pages and the traversal's requests go to its streamer
+// (spec/stream.md §Renderer). `history` may be null (no occlusion history at all); otherwise pass 1
+// tests against it when valid, and when `has_next_frame` it is replaced by this frame's
+// (pass hzb_next). Throws VgeoError RENDER_TOO_MANY_VISIBLE_CLUSTERS when the
+// visibility-buffer id space overflows.
+void render_frame(const RenderScene& scene, const Camera& camera, const RenderSettings& settings,
+                  ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame = true,
+                  FrameStreaming* streaming = nullptr);
+
+// Human-readable per-pass table and JSON (object) of one frame's statistics.
+std::string frame_stats_table(const FrameStats& stats);
+std::string frame_stats_json(const FrameStats& stats);
+std::string stream_frame_stats_json(const StreamFrameStats& stats);
+
+}  // namespace vgeo

@@ -1,0 +1,270 @@
+// Builder properties on small synthetic meshes (spec/dag.md).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "dag_checks.h"
+#include "support/shapes.h"
+#include "vgeo/dag/build.h"
+#include "vgeo/dag/build_internal.h"
+#include "vgeo/dag/dag_io.h"
+#include "vgeo/core/error.h"
+
+namespace vgeo::test {
+namespace {
+
+ClusterDag build(const Mesh& m, Simplifier s = Simplifier::kMeshopt, unsigned threads = 2,
+                 BuildReport* report = nullptr) {
+  BuildOptions o;
+  o.simplifier = s;
+  o.threads = threads;
+  return build_dag(m, o, report);
+}
+
+void expect_all(const Mesh& m, Simplifier s, bool same_use_count = true) {
+  BuildReport r;
+  ClusterDag d = build(m, s, 2, &r);
+  expect_dag_properties(d, m.triangle_count());
+  expect_borders_preserved(d, same_use_count);
+  EXPECT_EQ(r.input_triangles, m.triangle_count());
+  EXPECT_EQ(r.stored_triangles, d.triangle_count());
+}
+
+class BothSimplifiers : public ::testing::TestWithParam<Simplifier> {};
+
+TEST_P(BothSimplifiers, SphereDagProperties) { expect_all(make_sphere(40, 64), GetParam()); }
+TEST_P(BothSimplifiers, GridDagProperties) { expect_all(make_grid(48), GetParam()); }
+TEST_P(BothSimplifiers, GridWithHoleDagProperties) { expect_all(make_grid(48, 1.0f, true), GetParam()); }
+
+TEST_P(BothSimplifiers, ManyIslandsDagProperties) {
+  Mesh m;
+  for (int i = 0; i < 60; ++i) {
+    Mesh s = make_sphere(6, 8, 0.1f, Vec3{float(i % 8), float(i / 8), 0.0f});
+    uint32_t base = uint32_t(m.vertex_count());
+    m.positions.insert(m.positions.end(), s.positions.begin(), s.positions.end());
+    for (uint32_t idx : s.indices) m.indices.push_back(base + idx);
+  }
+  expect_all(m, GetParam());
+}
+
+TEST_P(BothSimplifiers, HugeOffsetDagProperties) {
+  expect_all(make_sphere(24, 48, 1000.0f, Vec3{1e6f, -1e6f, 1e6f}), GetParam());
+}
+
+TEST_P(BothSimplifiers, HugeOffsetCoincidentVertices) {
+  // Radius 1 at 1e6: float spacing there is 1/16, so many vertices share position bits
+  // and the welded surface is full of degenerate and non-manifold triangles.
+  Mesh m = make_sphere(24, 48, 1.0f, Vec3{1e6f, -1e6f, 1e6f});
+  ClusterDag d = build(m, GetParam());
+  expect_dag_properties(d, m.triangle_count());
+  expect_borders_preserved(d, /*same_use_count=*/false);
+}
+TEST_P(BothSimplifiers, TinyScaleDagProperties) { expect_all(make_sphere(24, 48, 1e-4f), GetParam()); }
+
+TEST_P(BothSimplifiers, DuplicatedAndDegenerateVertices) {
+  Mesh m = make_grid(24);
+  // Duplicate every vertex once (same position, unused copy), re-point half the triangles
+  // to the copies (seams everywhere), and add degenerate triangles.
+  size_t n = m.vertex_count();
+  m.positions.insert(m.positions.end(), m.positions.begin(), m.positions.end());
+  m.normals.insert(m.normals.end(), m.normals.begin(), m.normals.end());
+  m.uvs.insert(m.uvs.end(), m.uvs.begin(), m.uvs.end());
+  for (size_t t = 0; t < m.triangle_count(); t += 2)
+    for (int k = 0; k < 3; ++k) m.indices[3 * t + k] += uint32_t(n);
+  m.indices.insert(m.indices.end(), {0, 0, 1, 5, 5, 5, 7, 8, uint32_t(n + 7)});
+  expect_all(m, GetParam());
+}
+
+TEST_P(BothSimplifiers, NonManifoldEdges) {
+  // Three fins sharing one edge, plus a sphere touching nothing.
+  Mesh m = make_grid(16);
+  Mesh fin = make_grid(16);
+  // Rotate the fin 90° about the X axis: it shares the y=0 row edge with the grid.
+  for (size_t v = 0; v < fin.vertex_count(); ++v) {
+    float y = fin.positions[3 * v + 1];
+    fin.positions[3 * v + 1] = 0.0f;
+    fin.positions[3 * v + 2] = y;
+  }
+  for (int copy = 0; copy < 2; ++copy) {
+    uint32_t base = uint32_t(m.vertex_count());
+    m.positions.insert(m.positions.end(), fin.positions.begin(), fin.positions.end());
+    m.normals.insert(m.normals.end(), fin.normals.begin(), fin.normals.end());
+    m.uvs.insert(m.uvs.end(), fin.uvs.begin(), fin.uvs.end());
+    for (uint32_t idx : fin.indices) m.indices.push_back(base + idx);
+  }
+  expect_all(m, GetParam());
+}
+
+TEST_P(BothSimplifiers, MaterialsStayPerTriangle) {
+  Mesh m = make_sphere(24, 48);
+  m.materials.resize(m.triangle_count());
+  for (size_t t = 0; t < m.triangle_count(); ++t) m.materials[t] = (m.positions[3 * m.indices[3 * t] + 2] > 0) ? 1 : 0;
+  ClusterDag d = build(m, GetParam());
+  expect_dag_properties(d, m.triangle_count());
+  expect_borders_preserved(d);
+  size_t leaf_mat1 = 0, input_mat1 = 0;
+  for (uint32_t x : m.materials) input_mat1 += x;
+  for (const DagCluster& c : d.clusters)
+    if (c.level == 0)
+      for (uint32_t t = 0; t < c.triangle_count; ++t) leaf_mat1 += d.triangle_materials[c.triangle_offset + t];
+  EXPECT_EQ(leaf_mat1, input_mat1);
+  for (uint32_t x : d.triangle_materials) EXPECT_LE(x, 1u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Build, BothSimplifiers, ::testing::Values(Simplifier::kMeshopt, Simplifier::kOpenMesh),
+                         [](const auto& info) { return info.param == Simplifier::kMeshopt ? "meshopt" : "openmesh"; });
+
+TEST(Build, SphereReducesAndStoresAtMostTwiceInput) {
+  // ~50k triangles, closed manifold.
+  Mesh m = make_sphere(160, 160);
+  BuildReport r;
+  ClusterDag d = build(m, Simplifier::kMeshopt, 2, &r);
+  ASSERT_GE(r.levels.size(), 3u);
+  std::vector<double> reductions;
+  for (size_t l = 0; l + 1 < r.levels.size(); ++l)
+    reductions.push_back(1.0 - double(r.levels[l + 1].triangles) / double(r.levels[l].triangles));
+  std::sort(reductions.begin(), reductions.end());
+  EXPECT_GE(reductions[reductions.size() / 2], 0.40) << "median level reduction";
+  EXPECT_LE(double(d.triangle_count()), 2.2 * double(m.triangle_count())) << "DAG stores <= 2.2x input";
+}
+
+TEST(Build, IdenticalBytesForAnyThreadCount) {
+  for (Simplifier s : {Simplifier::kMeshopt, Simplifier::kOpenMesh}) {
+    Mesh m = make_sphere(48, 64);
+    BuiltScene a, b;
+    a.meshes.push_back(build(m, s, 1));
+    b.meshes.push_back(build(m, s, 3));
+    EXPECT_EQ(encode_dag_file(a), encode_dag_file(b));
+  }
+}
+
+TEST(Build, RejectsEmptyAndInvalidMeshes) {
+  Mesh empty;
+  EXPECT_THROW(build(empty), VgeoError);
+  Mesh bad = make_grid(2);
+  bad.indices.push_back(1000);
+  bad.indices.push_back(0);
+  bad.indices.push_back(1);
+  try {
+    build(bad);
+    FAIL();
+  } catch (const VgeoError& e) {
+    EXPECT_EQ(e.error().code, "BUILD_INDEX_OUT_OF_RANGE");
+  }
+  Mesh nan = make_grid(2);
+  nan.positions[0] = std::nanf("");
+  try {
+    build(nan);
+    FAIL();
+  } catch (const VgeoError& e) {
+    EXPECT_EQ(e.error().code, "BUILD_NONFINITE_POSITION");
+  }
+}
+
+TEST(Build, SingleTriangle) {
+  Mesh m;
+  m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  m.indices = {0, 1, 2};
+  ClusterDag d = build(m);
+  expect_dag_properties(d, 1);
+  EXPECT_EQ(d.clusters.size(), 1u);
+  EXPECT_EQ(d.groups.size(), 1u);
+  EXPECT_TRUE(d.groups[0].flags & kGroupTerminal);
+}
+
+}  // namespace
+}  // namespace vgeo::test
+
+// ---- property test: random triangle soups on a small integer lattice, so coincident,
+// duplicated, degenerate and non-manifold configurations are common ----
+#include <rapidcheck/gtest.h>
+
+namespace vgeo::test {
+namespace {
+
+Mesh random_soup(const std::vector<int>& coords, const std::vector<int>& tris) {
+  Mesh m;
+  for (int c : coords) m.positions.push_back(float(c % 7) * 0.5f);
+  while (m.positions.size() % 3) m.positions.pop_back();
+  uint32_t n = uint32_t(m.vertex_count());
+  if (n == 0) return m;
+  for (int t : tris) m.indices.push_back(uint32_t(t) % n);
+  while (m.indices.size() % 3) m.indices.pop_back();
+  return m;
+}
+
+RC_GTEST_PROP(BuildProperty, RandomSoupsKeepDagProperties, ()) {
+  auto coords = *rc::gen::container<std::vector<int>>(*rc::gen::inRange(9, 300), rc::gen::inRange(0, 1000));
+  auto tris = *rc::gen::container<std::vector<int>>(*rc::gen::inRange(3, 1500), rc::gen::inRange(0, 100000));
+  Mesh m = random_soup(coords, tris);
+  RC_PRE(m.triangle_count() > 0);
+  Simplifier s = *rc::gen::element(Simplifier::kMeshopt, Simplifier::kOpenMesh);
+  BuildOptions o;
+  o.simplifier = s;
+  o.threads = 2;
+  ClusterDag d = build_dag(m, o);
+  expect_dag_properties(d, m.triangle_count());
+  expect_borders_preserved(d, /*same_use_count=*/false);
+  RC_ASSERT(!::testing::Test::HasFailure());
+}
+
+}  // namespace
+}  // namespace vgeo::test
+
+namespace vgeo::test {
+namespace {
+
+TEST(Build, ChunkedLeafClusteringKeepsPropertiesAndDeterminism) {
+  // > kLeafChunkTriangles (131072): leaves are clustered in parallel spatial chunks.
+  Mesh m = make_sphere(275, 275);
+  ASSERT_GT(m.triangle_count(), size_t(1) << 17);
+  BuiltScene a, b;
+  a.meshes.push_back(build(m, Simplifier::kMeshopt, 1));
+  b.meshes.push_back(build(m, Simplifier::kMeshopt, 3));
+  expect_dag_properties(a.meshes[0], m.triangle_count());
+  EXPECT_EQ(encode_dag_file(a), encode_dag_file(b));
+}
+
+TEST(Build, SpatialBlocksPartitionTheItems) {
+  // Every item in exactly one block, blocks within the limit, each block ascending.
+  std::vector<Vec3> centres;
+  for (int i = 0; i < 1000; ++i) centres.push_back({float(i % 7), float((i * 13) % 11), i % 3 == 0 ? 0.0f : 1.0f});
+  for (size_t limit : {size_t(1), size_t(5), size_t(64), size_t(999), size_t(5000)}) {
+    auto blocks = build_detail::spatial_blocks(centres, limit);
+    std::vector<int> seen(centres.size(), 0);
+    for (const auto& b : blocks) {
+      EXPECT_LE(b.size(), limit);
+      EXPECT_FALSE(b.empty());
+      EXPECT_TRUE(std::is_sorted(b.begin(), b.end()));
+      for (uint32_t i : b) ++seen[i];
+    }
+    for (int c : seen) EXPECT_EQ(c, 1);
+  }
+}
+
+TEST(Build, BlockedGroupingKeepsPropertiesAndDeterminism) {
+  // Tiny blocks (16 clusters) force the pipelined per-block grouping with cross-block
+  // locks on every level above one block: borders must stay sealed and the bytes must
+  // not depend on the thread count.
+  build_detail::InternalBuildOptions internal;
+  internal.group_block_clusters = 16;
+  for (Simplifier s : {Simplifier::kMeshopt, Simplifier::kOpenMesh}) {
+    Mesh m = make_sphere(48, 64);
+    BuildOptions o;
+    o.simplifier = s;
+    BuiltScene a, b;
+    o.threads = 1;
+    a.meshes.push_back(build_detail::build_dag_internal(m, o, internal, nullptr));
+    o.threads = 3;
+    BuildReport r;
+    b.meshes.push_back(build_detail::build_dag_internal(m, o, internal, &r));
+    expect_dag_properties(a.meshes[0], m.triangle_count());
+    expect_borders_preserved(a.meshes[0]);
+    EXPECT_EQ(encode_dag_file(a), encode_dag_file(b));
+    ASSERT_GT(r.levels.size(), 2u);
+    EXPECT_GT(r.levels[0].clusters, 2 * internal.group_block_clusters) << "several blocks at level 0";
+  }
+}
+
+}  // namespace
+}  // namespace vgeo::test
