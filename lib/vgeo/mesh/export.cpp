@@ -3,10 +3,6 @@
 // the mesh arrays (no second in-memory copy of a multi-GB file).
 #include "vgeo/mesh/export.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <bit>
 #include <cerrno>
@@ -30,64 +26,8 @@ constexpr uint32_t kChunkBin = 0x004E4942;      // "BIN\0"
 constexpr int kComponentFloat = 5126, kComponentUint = 5125;
 constexpr int kTargetArrayBuffer = 34962, kTargetElementArrayBuffer = 34963;
 constexpr int kModeTriangles = 4;
-// File write buffer: large sequential writes without a copy of the whole file.
-constexpr size_t kWriteBuffer = size_t(1) << 20;
 // Text formats are formatted into this many bytes before each write.
 constexpr size_t kTextFlush = size_t(1) << 20;
-
-// ---------------------------------------------------------------- sinks
-
-struct MemorySink final : ByteSink {
-  std::vector<uint8_t> bytes;
-  void write(const void* data, size_t size) override {
-    const auto* p = static_cast<const uint8_t*>(data);
-    bytes.insert(bytes.end(), p, p + size);
-  }
-};
-
-// Temp file next to `path`, renamed over it by commit(); removed if never committed.
-class AtomicFile final : public ByteSink {
- public:
-  AtomicFile(const std::string& path, const char* io_code) : path_(path), temp_(path + ".tmp-XXXXXX"), io_code_(io_code) {
-    int fd = mkstemp(temp_.data());
-    if (fd < 0) io_fail("cannot create temporary file " + temp_);
-    // mkstemp creates 0600; give the result the usual permissions of a new file.
-    fchmod(fd, 0644);
-    file_ = fdopen(fd, "wb");
-    if (!file_) {
-      ::close(fd);
-      ::unlink(temp_.c_str());
-      io_fail("cannot open temporary file");
-    }
-    std::setvbuf(file_, nullptr, _IOFBF, kWriteBuffer);
-  }
-  ~AtomicFile() override {
-    if (file_) std::fclose(file_);
-    if (!committed_) ::unlink(temp_.c_str());
-  }
-  AtomicFile(const AtomicFile&) = delete;
-  AtomicFile& operator=(const AtomicFile&) = delete;
-
-  void write(const void* data, size_t size) override {
-    if (size && std::fwrite(data, 1, size, file_) != size) io_fail("write failed");
-  }
-  void commit() {
-    int rc = std::fclose(file_);
-    file_ = nullptr;
-    if (rc != 0) io_fail("write failed");
-    if (std::rename(temp_.c_str(), path_.c_str()) != 0) io_fail("cannot rename temporary file into place");
-    committed_ = true;
-  }
-
- private:
-  [[noreturn]] void io_fail(const std::string& what) {
-    fail(io_code_, path_, what + ": " + std::strerror(errno), kExitIo);
-  }
-  std::string path_, temp_;
-  const char* io_code_;
-  std::FILE* file_ = nullptr;
-  bool committed_ = false;
-};
 
 // Buffered text formatting with locale-independent shortest round-trip floats.
 class TextWriter {
@@ -498,16 +438,6 @@ void write_scene_file(const Scene& scene, const std::string& path) {
     case MeshFormat::kPly: write_ply(bake_scene(scene), path); return;
     case MeshFormat::kOff: write_off(bake_scene(scene), path); return;
   }
-}
-
-void write_file_atomic(const std::string& path, const void* bytes, size_t size) {
-  write_file_atomic(path, [&](ByteSink& s) { s.write(bytes, size); });
-}
-
-void write_file_atomic(const std::string& path, const std::function<void(ByteSink&)>& encode, const char* io_code) {
-  AtomicFile file(path, io_code);
-  encode(file);
-  file.commit();
 }
 
 }  // namespace vgeo
