@@ -3,6 +3,8 @@
 // the mesh arrays (no second in-memory copy of a multi-GB file).
 #include "vgeo/mesh/export.h"
 
+#include "vgeo/mesh/glb.h"
+
 #include <algorithm>
 #include <bit>
 #include <cerrno>
@@ -18,11 +20,7 @@ static_assert(std::endian::native == std::endian::little, "GLB/PLY writers assum
 
 namespace {
 
-// glTF constants (glTF 2.0 spec, section 5).
-constexpr uint32_t kGlbMagic = 0x46546C67;      // "glTF"
-constexpr uint32_t kGlbVersion = 2;
-constexpr uint32_t kChunkJson = 0x4E4F534A;     // "JSON"
-constexpr uint32_t kChunkBin = 0x004E4942;      // "BIN\0"
+// glTF constants (glTF 2.0 spec, section 5; the GLB container's in vgeo/mesh/glb.h).
 constexpr int kComponentFloat = 5126, kComponentUint = 5125;
 constexpr int kTargetArrayBuffer = 34962, kTargetElementArrayBuffer = 34963;
 constexpr int kModeTriangles = 4;
@@ -236,12 +234,12 @@ void encode_glb_to(const Scene& scene, ByteSink& sink, const std::string& where)
 
   std::string text = doc.dump();
   while (text.size() % 4) text.push_back(' ');  // JSON chunk is padded with spaces
-  const uint64_t total = 12 + 8 + text.size() + 8 + offset;
+  const uint64_t total = kGlbHeaderBytes + kGlbChunkHeaderBytes + text.size() + kGlbChunkHeaderBytes + offset;
   if (total > UINT32_MAX) fail("EXPORT_TOO_LARGE", where, "GLB would exceed 4 GiB (" + std::to_string(total) + " bytes)");
-  const uint32_t header[5] = {kGlbMagic, kGlbVersion, uint32_t(total), uint32_t(text.size()), kChunkJson};
+  const uint32_t header[5] = {kGlbMagic, kGlbVersion, uint32_t(total), uint32_t(text.size()), kGlbChunkJson};
   sink.write(header, sizeof header);
   sink.write(text.data(), text.size());
-  const uint32_t bin_header[2] = {uint32_t(offset), kChunkBin};
+  const uint32_t bin_header[2] = {uint32_t(offset), kGlbChunkBin};
   sink.write(bin_header, sizeof bin_header);
   for (size_t i = 0; i < scene.meshes.size(); ++i) {
     const Mesh& m = scene.meshes[i];
