@@ -111,11 +111,6 @@ struct ByteReader {
     s.radius = f32();
     return s;
   }
-  // A reader over the next n bytes (same code and region), which this one skips.
-  ByteReader sub(size_t n) {
-    const uint8_t* p = take(n);
-    return ByteReader(p, n, *where, truncated_code, region);
-  }
 };
 
 }  // namespace vgeo

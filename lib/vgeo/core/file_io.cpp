@@ -47,20 +47,6 @@ int open_regular_file(const std::string& path, uint64_t* size) {
   return fd;
 }
 
-// pread until `size` bytes are read; returns the count read (less only at end of file) or
-// -1 with errno set.
-ssize_t pread_full(int fd, void* dst, size_t size, uint64_t offset) {
-  size_t got = 0;
-  while (got < size) {
-    const ssize_t n = ::pread(fd, static_cast<uint8_t*>(dst) + got, size - got, off_t(offset + got));
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) return -1;
-    if (n == 0) break;
-    got += size_t(n);
-  }
-  return ssize_t(got);
-}
-
 template <class Bytes>
 Bytes read_whole(const std::string& path, uint64_t max_bytes) {
   ReadOnlyFile file(path);
@@ -68,10 +54,10 @@ Bytes read_whole(const std::string& path, uint64_t max_bytes) {
     fail(kErrFileTooLarge, path,
          "file of " + std::to_string(file.size()) + " bytes exceeds the limit of " + std::to_string(max_bytes), kExitBadInput);
   Bytes bytes(size_t(file.size()), 0);  // the size as the file system reports it, capped above
-  const ssize_t got = pread_full(file.fd(), bytes.data(), bytes.size(), 0);
+  const int64_t got = read_at(file.fd(), bytes.data(), bytes.size(), 0);
   if (got < 0) read_fail(path, "read failed", errno);
   uint8_t extra;
-  if (size_t(got) != bytes.size() || pread_full(file.fd(), &extra, 1, bytes.size()) != 0)
+  if (uint64_t(got) != bytes.size() || read_at(file.fd(), &extra, 1, bytes.size()) != 0)
     read_fail(path, "the file changed size while being read", 0);
   return bytes;
 }
@@ -167,6 +153,18 @@ class AtomicFile final : public ByteSink {
 
 }  // namespace
 
+int64_t read_at(int fd, void* dst, size_t size, uint64_t offset) {
+  size_t got = 0;
+  while (got < size) {
+    const ssize_t n = ::pread(fd, static_cast<uint8_t*>(dst) + got, size - got, off_t(offset + got));
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return -1;
+    if (n == 0) break;
+    got += size_t(n);
+  }
+  return int64_t(got);
+}
+
 std::vector<uint8_t> read_file(const std::string& path, uint64_t max_bytes) {
   return read_whole<std::vector<uint8_t>>(path, max_bytes);
 }
@@ -185,9 +183,9 @@ ReadOnlyFile::ReadOnlyFile(ReadOnlyFile&& other) noexcept
 }
 
 void ReadOnlyFile::read_exact(uint64_t offset, void* dst, size_t size) const {
-  const ssize_t got = pread_full(fd_, dst, size, offset);
+  const int64_t got = read_at(fd_, dst, size, offset);
   if (got < 0) read_fail(path_, "read failed", errno);
-  if (size_t(got) != size) read_fail(path_, "unexpected end of file", 0);
+  if (uint64_t(got) != size) read_fail(path_, "unexpected end of file", 0);
 }
 
 int ReadOnlyFile::release() {

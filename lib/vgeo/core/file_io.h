@@ -40,6 +40,11 @@ std::vector<uint8_t> read_file(const std::string& path, uint64_t max_bytes = kMa
 // The same, as text (no transcoding).
 std::string read_text_file(const std::string& path, uint64_t max_bytes = kMaxReadBytes);
 
+// Reads up to `size` bytes at `offset` of an open file, retrying partial reads and EINTR;
+// returns the count read (less than `size` only at end of file), or -1 with errno set.
+// Never throws (the page streamer reports read failures as values).
+int64_t read_at(int fd, void* dst, size_t size, uint64_t offset);
+
 // A regular file open for positioned reads (metadata-only reads, page streaming). Open
 // failures are coded as read_file's; the descriptor is closed by the destructor.
 class ReadOnlyFile {

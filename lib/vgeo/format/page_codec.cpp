@@ -835,7 +835,7 @@ void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q
     for (uint32_t k = 0; k < c.run_count; ++k) {
       c.run_start[k] = data[h.run_start + k];
       const uint8_t* m = data + h.run_material + 4 * k;
-      c.run_material[k] = uint32_t(m[0]) | uint32_t(m[1]) << 8 | uint32_t(m[2]) << 16 | uint32_t(m[3]) << 24;
+      c.run_material[k] = load_le32(m);
       if (k == 0 ? c.run_start[0] != 0 : c.run_start[k] <= c.run_start[k - 1] || c.run_start[k] >= c.triangle_count)
         fail(kErrOutOfRange, where, "material runs not strictly increasing from 0");
       if (c.run_material[k] > kMaxMaterialId) fail(kErrOutOfRange, where, "material id beyond 2^24 - 1");

@@ -3,16 +3,13 @@
 // the mesh arrays (no second in-memory copy of a multi-GB file).
 #include "vgeo/mesh/export.h"
 
-#include "vgeo/mesh/glb.h"
-
 #include <algorithm>
 #include <bit>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
 #include <nlohmann/json.hpp>
+
+#include "vgeo/mesh/glb.h"
 
 namespace vgeo {
 

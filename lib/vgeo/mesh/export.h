@@ -16,7 +16,6 @@
 //    an unknown extension is EXPORT_UNKNOWN_FORMAT (kExitUsage).
 #include <cstdint>
 #include <optional>
-#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>

@@ -85,8 +85,7 @@ struct Streamer::Completion {
 
 namespace {
 
-// Reads one page's stored bytes with pread (looping over partial reads), applying an
-// injected fault. Never throws.
+// Reads one page's stored bytes (read_at), applying an injected fault. Never throws.
 void read_page(int fd, const PageEntry& e, uint32_t page, uint32_t attempt, const LoaderOptions& lo,
                Streamer::Completion* out) {
   out->page = page;
@@ -103,18 +102,12 @@ void read_page(int fd, const PageEntry& e, uint32_t page, uint32_t attempt, cons
   out->bytes.resize(e.stored_size);
   size_t want = e.stored_size;
   if (fault == PageFault::kShortRead) want = e.stored_size / 2;
-  size_t got = 0;
-  while (got < want) {
-    const ssize_t n = pread(fd, out->bytes.data() + got, want - got, off_t(e.file_offset + got));
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) {
-      out->read_error = std::string("pread: ") + std::strerror(errno);
-      return;
-    }
-    if (n == 0) break;
-    got += size_t(n);
+  const int64_t got = read_at(fd, out->bytes.data(), want, e.file_offset);
+  if (got < 0) {
+    out->read_error = std::string("pread: ") + std::strerror(errno);
+    return;
   }
-  if (got != e.stored_size) {
+  if (uint64_t(got) != e.stored_size) {
     out->read_error = "short read: " + std::to_string(got) + " of " + std::to_string(e.stored_size) + " bytes";
     return;
   }
