@@ -72,5 +72,22 @@ TEST(CliOutputs, AFailedWriteOfEveryOutputKindIsCodedAndKeepsThePreviousFile) {
   fs::remove_all(dir);
 }
 
+// `vgeo build --report` is written after the asset: a report that cannot be written (its
+// folder is missing) is coded too, and the asset already written stays complete.
+TEST(CliOutputs, AnUnwritableBuildReportIsCoded) {
+  const fs::path dir = fs::temp_directory_path() / ("vgeo_cli_report_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string mesh = (dir / "mesh.glb").string(), asset = (dir / "mesh.vgeo").string();
+  const std::string report = (dir / "missing" / "report.json").string();
+  ASSERT_EQ(test::run_cli("gen sphere -n 2000 -o '" + mesh + "'").exit_code, 0);
+  const test::CliResult r = test::run_cli("build '" + mesh + "' -o '" + asset + "' --report '" + report + "'");
+  EXPECT_EQ(r.exit_code, 4) << r.output;
+  EXPECT_NE(r.output.find("error[IO_WRITE_FAILED]: " + report + ": creating the temporary file failed"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(test::run_cli("verify '" + asset + "' --quiet --views 2").exit_code, 0);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace vgeo
