@@ -1,12 +1,12 @@
 // `vgeo verify FILE`: checks every mesh's DAG of a VGEODAG1 file against the invariants of
 // spec/invariants.md; exit 0 when all hold, 1 (kExitInvariantViolation) otherwise.
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "commands.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/format/asset_file.h"
 #include "vgeo/core/error.h"
 #include "vgeo/verify/verify.h"
@@ -63,10 +63,7 @@ int run_verify(const VerifyArgs& a) {
     std::printf("the file holds no meshes\n");
   }
   json["ok"] = all_ok;
-  if (!a.json_path.empty()) {
-    std::ofstream f(a.json_path, std::ios::binary);
-    if (!(f << json.dump(2) << "\n") || !f.flush()) fail("IO_WRITE", a.json_path, "cannot write the JSON report", kExitIo);
-  }
+  if (!a.json_path.empty()) write_file_atomic(a.json_path, json.dump(2) + "\n");
   return all_ok ? kExitOk : kExitInvariantViolation;
 }
 }  // namespace

@@ -33,15 +33,8 @@ namespace vgeo {
 // ---- stable error codes ----
 inline constexpr const char* kErrStreamBudget = "STREAM_BUDGET_TOO_SMALL";  // pinned pages alone exceed the budget
 inline constexpr const char* kErrStreamRootPage = "STREAM_ROOT_PAGE";      // a pinned page cannot be read/decoded
-inline constexpr const char* kErrStreamIo = "STREAM_IO";                   // the page file cannot be opened/read
 
-// Reads and parses a page file's header + metadata only (pread; no page is read).
-// Throws STREAM_IO (exit 4) or the FORMAT_* codes of parse_container; a file whose size
-// differs from the header's is FORMAT_INCONSISTENT; metadata past the end FORMAT_TRUNCATED.
-FormatContainer read_container_metadata(const std::string& path);
-// True when the file starts with the page format's magic (spec/format.md); false when it
-// cannot be read or holds anything else.
-bool is_page_file(const std::string& path);
+// Page files' header + metadata are read by lib/vgeo/format (read_container_metadata).
 
 // ---- pure selection (no I/O): the rule of spec/stream.md §Cut ----
 
@@ -128,7 +121,7 @@ class PageLoader;
 class Streamer {
  public:
   // Reads header + metadata from `path` (pread), pins root pages and loads them
-  // synchronously. Throws VgeoError STREAM_IO / FORMAT_* / STREAM_BUDGET_TOO_SMALL /
+  // synchronously. Throws VgeoError FILE_* (lib/vgeo/core/file_io.h) / FORMAT_* / STREAM_BUDGET_TOO_SMALL /
   // STREAM_ROOT_PAGE.
   Streamer(const std::string& path, const StreamOptions& options);
   // Several page files sharing one pool: their meshes and pages are concatenated in file
