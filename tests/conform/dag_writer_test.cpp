@@ -8,6 +8,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "conform/junit_check.h"
 #include "support/run_command.h"
 
 namespace fs = std::filesystem;
@@ -68,6 +69,33 @@ TEST(DagWriter, CProgramRoundTripsThroughVerify) {
     EXPECT_NE(v["message"].get<std::string>().find("ulp"), std::string::npos);
   }
   EXPECT_TRUE(found);
+}
+
+TEST(DagWriter, VerifyJunitCarriesTheCodes) {
+  WriterFiles files;
+  std::string command = VGEO_DAG_WRITER_EXAMPLE;
+  for (const fs::path& p : {files.good, files.broken}) command.append(" '").append(p.string()).append("'");
+  ASSERT_EQ(run_command(command).exit_code, 0);
+  const std::string xml = (files.dir / "broken.xml").string();
+  EXPECT_EQ(run_cli("verify '" + files.broken.string() + "' --quiet --junit '" + xml + "'").exit_code, 1);
+  std::string cases = vgeo::test::checked_junit(xml);
+  EXPECT_NE(cases.find("vgeo.verify.mesh0.structure: failed STRUCT_CLUSTER_BOUNDS"), std::string::npos) << cases;
+  EXPECT_NE(cases.find("vgeo.verify.mesh0.error_bound: failed ERROR_BOUND"), std::string::npos) << cases;
+  EXPECT_NE(cases.find("vgeo.verify.mesh0.cut: passed"), std::string::npos) << cases;
+
+  const std::string good_xml = (files.dir / "good.xml").string();
+  EXPECT_EQ(run_cli("verify '" + files.good.string() + "' --quiet --junit '" + good_xml + "'").exit_code, 0);
+  cases = vgeo::test::checked_junit(good_xml);
+  EXPECT_EQ(cases.find("failed"), std::string::npos) << cases;
+
+  // A file the decoder rejects is one failing testcase carrying the decoder's code (exit 3).
+  const fs::path truncated = files.dir / "truncated.vgeodag";
+  fs::copy_file(files.good, truncated);
+  fs::resize_file(truncated, 100);
+  const std::string bad_xml = (files.dir / "truncated.xml").string();
+  EXPECT_EQ(run_cli("verify '" + truncated.string() + "' --junit '" + bad_xml + "'").exit_code, 3);
+  cases = vgeo::test::checked_junit(bad_xml);
+  EXPECT_NE(cases.find("vgeo.verify.decode: failed DAGFILE_TRUNCATED"), std::string::npos) << cases;
 }
 
 }  // namespace
