@@ -46,9 +46,7 @@ std::string check_of_code(const VerifyReport& report, const std::string& code) {
 JunitSuite junit_suite(const VerifyReport& report, const std::string& file, size_t mesh) {
   JunitSuite suite{file + " mesh " + std::to_string(mesh), {}};
   for (const CheckStats& c : report.checks) {
-    JunitCase tc;
-    tc.classname = "vgeo.verify.mesh" + std::to_string(mesh);
-    tc.name = c.check;
+    JunitCase tc = junit_case("vgeo.verify.mesh" + std::to_string(mesh), c.check);
     tc.seconds = c.seconds;
     tc.skipped = !c.ran;
     tc.skipped_message = c.skipped_reason;
@@ -68,9 +66,7 @@ JunitSuite junit_suite(const VerifyReport& report, const std::string& file, size
 
 // A file the decoder rejected, as one failing testcase (the code is the decoder's).
 void write_rejected_junit(const std::string& path, const std::string& file, const VgeoError& e) {
-  JunitCase tc;
-  tc.classname = "vgeo.verify";
-  tc.name = "decode";
+  JunitCase tc = junit_case("vgeo.verify", "decode");
   tc.failed = true;
   tc.failure_type = e.error().code;
   tc.failure_message = e.error().line();
@@ -118,7 +114,10 @@ int run_verify(const VerifyArgs& a) {
   if (scene.meshes.empty()) {
     all_ok = false;
     std::printf("the file holds no meshes\n");
-    JunitCase tc{"vgeo.verify", "meshes", 0, false, "", true, "VERIFY_NO_MESHES", "the file holds no meshes", ""};
+    JunitCase tc = junit_case("vgeo.verify", "meshes");
+    tc.failed = true;
+    tc.failure_type = "VERIFY_NO_MESHES";
+    tc.failure_message = "the file holds no meshes";
     junit.push_back({a.input, {tc}});
   }
   if (!a.junit_path.empty()) write_junit(a.junit_path, "vgeo verify", junit);

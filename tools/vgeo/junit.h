@@ -7,6 +7,7 @@
 // One testcase per check or vector; a failing one carries its codes in `type` (the first code)
 // and `message` (every code with its count). spec/errors.md §JUnit reports.
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace vgeo::cli {
@@ -22,6 +23,13 @@ struct JunitCase {
   std::string failure_message;  // one line: every code and count
   std::string failure_text;     // details, one finding per line
 };
+
+inline JunitCase junit_case(std::string classname, std::string name) {
+  JunitCase c;
+  c.classname = std::move(classname);
+  c.name = std::move(name);
+  return c;
+}
 
 struct JunitSuite {
   std::string name;
