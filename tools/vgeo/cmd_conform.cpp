@@ -1,13 +1,13 @@
-// `vgeo conform lod|decoder ...`: conformance runs of another implementation against vgeo's
-// vectors (spec/conform.md). Each subcommand lives in its own conform_*.cpp.
-#include "commands.h"
+// `vgeo conform lod ...`: conformance runs of another implementation against vgeo's vectors
+// (spec/conform.md). Each subcommand lives in its own cmd_conform_*.cpp.
+#include "conform.h"
 
 namespace vgeo::cli {
 
 void add_conform_command(CLI::App& app, Context& ctx) {
   auto* cmd = app.add_subcommand("conform", "check another implementation against vgeo's conformance vectors");
   cmd->require_subcommand(1);
-  (void)ctx;
+  add_conform_lod_command(*cmd, ctx);
 }
 
 }  // namespace vgeo::cli

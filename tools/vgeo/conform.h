@@ -1,0 +1,9 @@
+#pragma once
+// `vgeo conform` subcommands (spec/conform.md), registered by cmd_conform.cpp.
+#include "commands.h"
+
+namespace vgeo::cli {
+
+void add_conform_lod_command(CLI::App& conform, Context& ctx);
+
+}  // namespace vgeo::cli
