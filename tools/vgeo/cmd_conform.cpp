@@ -1,4 +1,4 @@
-// `vgeo conform lod ...`: conformance runs of another implementation against vgeo's vectors
+// `vgeo conform lod|decoder|hash ...`: conformance runs of another implementation against vgeo's vectors
 // (spec/conform.md). Each subcommand lives in its own cmd_conform_*.cpp.
 #include "conform.h"
 
@@ -8,6 +8,7 @@ void add_conform_command(CLI::App& app, Context& ctx) {
   auto* cmd = app.add_subcommand("conform", "check another implementation against vgeo's conformance vectors");
   cmd->require_subcommand(1);
   add_conform_lod_command(*cmd, ctx);
+  add_conform_decoder_command(*cmd, ctx);
 }
 
 }  // namespace vgeo::cli
