@@ -56,7 +56,10 @@ TEST(ConformDecoder, BrokenDecoderIsCaughtWithReproducers) {
             std::string::npos) << r.output;
   EXPECT_NE(r.output.find("code v1_header_checksum.vgp: vgeo error[FORMAT_CHECKSUM], decoder error[BAD_CRC]"),
             std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("hash v1_valid_grid_uv_lz4.vgp: vgeo 305dd628287a70b4, decoder 305dd628287a70b5"),
+            std::string::npos) << r.output;
   std::string cases = vgeo::test::checked_junit(xml);
+  EXPECT_NE(cases.find("vgeo.conform.decoder.v1_valid_grid_uv_lz4.vgp: failed CONFORM_DECODER_HASH"), std::string::npos) << cases;
   EXPECT_NE(cases.find("vgeo.conform.decoder.v1_truncated.vgp: failed CONFORM_DECODER_VERDICT"), std::string::npos) << cases;
   EXPECT_NE(cases.find("vgeo.conform.decoder.v1_header_checksum.vgp: skipped"), std::string::npos) << cases;
   EXPECT_NE(cases.find("failed CONFORM_DECODER_DISAGREEMENT"), std::string::npos) << cases;

@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -194,6 +195,7 @@ struct DecoderArgs {
 
 struct Tally {
   size_t inputs = 0, verdict = 0, hash = 0, code = 0, protocol = 0;
+  std::map<std::string, size_t> mutant_verdicts;  // vgeo's verdicts on the mutants (what they exercised)
 };
 
 int run_conform_decoder(const DecoderArgs& a) {
@@ -228,6 +230,7 @@ int run_conform_decoder(const DecoderArgs& a) {
   auto judge = [&](const std::string& name, const std::vector<uint8_t>& bytes, bool always_case) {
     write_file_atomic(scratch, bytes.data(), bytes.size());
     Verdict ours = our_verdict(bytes), theirs = run_decoder(a.command, scratch, a.timeout_s);
+    if (!always_case) ++t.mutant_verdicts[ours.kind == Verdict::kAccept ? "accepted" : ours.value];
     ++t.inputs;
     std::string kind;
     if (theirs.kind == Verdict::kProtocol) kind = "protocol", ++t.protocol;
@@ -273,9 +276,11 @@ int run_conform_decoder(const DecoderArgs& a) {
                                    "): " + std::to_string(t.verdict) + " verdict, " + std::to_string(t.hash) + " hash, " +
                                    std::to_string(t.protocol) + " protocol, " + std::to_string(t.code) +
                                    " code disagreements";
-  log += summary_line + "\n";
+  std::string verdicts = "vgeo's verdicts on the mutants:";
+  for (const auto& [verdict, n] : t.mutant_verdicts) verdicts += " " + verdict + " " + std::to_string(n);
+  log += summary_line + "\n" + verdicts + "\n";
   write_file_atomic(a.out + "/disagreements.txt", log.data(), log.size());
-  if (!a.quiet) std::printf("%s\n", summary_line.c_str());
+  if (!a.quiet) std::printf("%s\n%s\n", summary_line.c_str(), verdicts.c_str());
   if (!a.junit_path.empty()) write_junit(a.junit_path, "vgeo conform decoder", {suite});
   return hard ? kExitInvariantViolation : kExitOk;
 }
