@@ -34,9 +34,17 @@ struct Builds {
   ~Builds() { fs::remove_all(dir); }
 };
 
+// Built once per test binary run (four small builds shared by the tests below).
+const Builds& builds() {
+  static const Builds b;
+  return b;
+}
+
 TEST(Compare, MeshoptVsOpenmeshTableAndThresholds) {
-  Builds b;
-  const std::string json = (b.dir / "c.json").string(), xml = (b.dir / "c.xml").string();
+  const Builds& b = builds();
+  const fs::path dir = b.dir / "thresholds";
+  fs::create_directories(dir);
+  const std::string json = (dir / "c.json").string(), xml = (dir / "c.xml").string();
   auto ok = run_cli("compare '" + b.meshopt + "' '" + b.openmesh + "' --fail-if 'levels>2' --fail-if 'b.error_bound_violations>0' --json '" + json + "'");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
   for (const char* row : {"levels", "stored_triangles", "root_triangles", "drawn_triangles", "error_ratio_median",
@@ -64,7 +72,7 @@ TEST(Compare, MeshoptVsOpenmeshTableAndThresholds) {
 }
 
 TEST(Compare, RejectsOtherMeshesAndBadThresholds) {
-  Builds b;
+  const Builds& b = builds();
   auto other = run_cli("compare '" + b.meshopt + "' '" + b.other + "'");
   EXPECT_EQ(other.exit_code, 3) << other.output;
   EXPECT_NE(other.output.find("error[COMPARE_NOT_SAME_MESH]"), std::string::npos) << other.output;
