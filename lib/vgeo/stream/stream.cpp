@@ -25,14 +25,20 @@ namespace vgeo {
 std::vector<uint8_t> usable_groups(const MeshMetadata& mesh, const std::vector<uint8_t>& page_resident) {
   const ClusterDag& dag = mesh.dag;
   const uint32_t ng = uint32_t(dag.groups.size());
-  std::vector<uint8_t> usable(ng, 0);
+  std::vector<uint8_t> resident(ng, 0);
   for (uint32_t g = 0; g < ng; ++g) {
     if (mesh.group_first_page[g] == kNone) continue;  // empty group: nothing to draw
     bool all = true;
     for (uint32_t p = mesh.group_first_page[g]; p < mesh.group_first_page[g] + mesh.group_page_count[g]; ++p)
       all = all && page_resident[p - mesh.first_page];
-    usable[g] = all;
+    resident[g] = all;
   }
+  return usable_groups_of_resident(dag, std::move(resident));
+}
+
+std::vector<uint8_t> usable_groups_of_resident(const ClusterDag& dag, std::vector<uint8_t> usable) {
+  const uint32_t ng = uint32_t(dag.groups.size());
+  usable.resize(ng, 0);  // groups beyond the given mask are not resident
   // Greatest fixed point of usable[g] = resident(g) && usable[parent] for every parent.
   // Visiting coarse levels first settles a well-formed DAG in one sweep (+1 to confirm);
   // the loop only shrinks the set, so it terminates for any metadata.
