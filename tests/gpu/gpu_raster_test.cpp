@@ -54,3 +54,40 @@ TEST(GpuRaster, DefaultSceneBitIdenticalToCpu) {
 
 }  // namespace
 }  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+TEST(GpuShade, EveryViewWithinOneOf255) {
+  auto gpu = testing::make_test_gpu();
+  ASSERT_TRUE(gpu);
+  SceneFile sf = make_default_scene(96, 64, 1, SceneLoadOptions{});
+  MemoryFormScene ms = make_memory_form_scene(sf.scene);
+  GpuRendererPtr renderer = create_gpu_renderer(*gpu, ms);
+  ThreadPool pool(2);
+  for (ShadeView view : {ShadeView::kLit, ShadeView::kTriangle, ShadeView::kCluster, ShadeView::kGroup, ShadeView::kLod,
+                         ShadeView::kError, ShadeView::kOverdraw}) {
+    RenderSettings settings = sf.settings;
+    settings.view = view;
+    Frame cpu, vk;
+    render_frame(ms.scene, sf.cameras[0], settings, pool, nullptr, &cpu);
+    render_frame_vulkan(*renderer, ms, sf.cameras[0], settings, pool, nullptr, &vk);
+    ASSERT_EQ(cpu.image.rgb.size(), vk.image.rgb.size());
+    int max_diff = 0;
+    uint64_t over = 0, differing = 0;
+    for (size_t i = 0; i < cpu.image.rgb.size(); ++i) {
+      int d = std::abs(int(cpu.image.rgb[i]) - int(vk.image.rgb[i]));
+      max_diff = std::max(max_diff, d);
+      over += d > 1;
+      differing += d != 0;
+    }
+    EXPECT_LE(max_diff, 1) << shade_view_name(view) << ": " << over << " channels over 1/255";
+    EXPECT_NE(vk.stats.find("shade"), nullptr);
+    std::printf("view %-9s channels differing by 1/255: %llu of %zu\n", shade_view_name(view),
+                (unsigned long long)differing, cpu.image.rgb.size());
+  }
+  testing::expect_no_validation_messages(*gpu);
+}
+
+}  // namespace
+}  // namespace vgeo

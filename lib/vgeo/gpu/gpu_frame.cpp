@@ -3,9 +3,11 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cmath>
 #include <cstring>
 
 #include "vgeo/core/error.h"
+#include "vgeo/core/lod.h"
 #include "vgeo/gpu/shader_records.h"
 #include "vgeo/gpu/shaders.h"
 
@@ -46,10 +48,10 @@ MemoryFormScene make_memory_form_scene(const RenderScene& scene) {
 struct GpuRenderer {
   GpuContext* gpu = nullptr;
   std::unique_ptr<GpuRecorder> recorder;
-  ComputePipeline raster;
-  GpuBuffer pages, locations, meshes;
+  ComputePipeline raster, shade;
+  GpuBuffer pages, locations, meshes, materials;
   // Per frame, grown on demand.
-  GpuBuffer instances, visible, vis, counters;
+  GpuBuffer instances, visible, vis, counters, shade_instances, shade_clusters, overdraw, image;
 };
 
 void GpuRendererDeleter::operator()(GpuRenderer* r) const { delete r; }
@@ -58,6 +60,10 @@ namespace {
 
 // Raster shader bindings: pages, locations, meshes, instances, visible, vis, counters.
 constexpr uint32_t kRasterBindings = 7;
+// Shade shader bindings: the raster ones less counters, then shade instances, shade clusters,
+// materials, overdraw, image.
+constexpr uint32_t kShadeBindings = 11;
+constexpr uint32_t kShadeGroupSize = 64;  // shaders/shade.comp local_size_x
 
 template <class T>
 GpuBuffer upload(GpuContext& gpu, const std::vector<T>& data) {
@@ -103,6 +109,85 @@ void raster_range(GpuRenderer& r, const Camera& camera, uint32_t first, uint32_t
   stats->pixels_written = r.counters.data<uint64_t>()[0];
 }
 
+// shade.cpp shade_frame on the GPU: every view, from the visibility buffer now in r.vis.
+void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& settings, const Camera& camera,
+                Frame* out) {
+  GpuContext& gpu = *r.gpu;
+  const ShadeInput defaults;
+  std::vector<GpuShadeInstance> si(scene.instances.size());
+  for (size_t i = 0; i < si.size(); ++i) {
+    std::copy(std::begin(out->instance_views[i].object_to_view.m), std::end(out->instance_views[i].object_to_view.m),
+              si[i].object_to_view);
+    double nm[3][3];
+    shade_normal_matrix(scene.instances[i].object_to_world, nm);
+    for (int row = 0; row < 3; ++row)
+      for (int col = 0; col < 3; ++col) si[i].normal_matrix[3 * row + col] = nm[row][col];
+  }
+  LodView lv;
+  lv.pixels_per_unit_at_1 = out->view.pixels_per_unit_at_1;
+  lv.z_near = float(out->view.z_near);
+  std::vector<GpuShadeCluster> sc(out->visible.size());
+  for (size_t i = 0; i < sc.size(); ++i) {
+    const VisibleCluster& v = out->visible[i];
+    const ClusterDag& dag = scene.meshes[scene.instances[v.instance].mesh];
+    const DagCluster& c = dag.clusters[v.cluster];
+    const InstanceView& iv = out->instance_views[v.instance];
+    sc[i] = {c.group, c.level, dag.level_count,
+             projected_error(sphere_to_view(iv.object_to_view, iv.scale, c.lod_bounds), error_to_view(c.lod_error, iv.scale), lv)};
+  }
+  const uint64_t pixels = uint64_t(camera.width) * camera.height;
+  ensure_size(gpu, r.shade_instances, si.size() * sizeof(GpuShadeInstance));
+  if (!si.empty()) std::memcpy(r.shade_instances.mapped, si.data(), si.size() * sizeof(GpuShadeInstance));
+  ensure_size(gpu, r.shade_clusters, sc.size() * sizeof(GpuShadeCluster));
+  if (!sc.empty()) std::memcpy(r.shade_clusters.mapped, sc.data(), sc.size() * sizeof(GpuShadeCluster));
+  uint32_t max_overdraw = 1;
+  const bool overdraw = settings.view == ShadeView::kOverdraw && !out->overdraw.empty();
+  ensure_size(gpu, r.overdraw, overdraw ? pixels * 4 : 4);
+  if (overdraw) {
+    std::memcpy(r.overdraw.mapped, out->overdraw.data(), pixels * 4);
+    for (uint32_t c : out->overdraw) max_overdraw = std::max(max_overdraw, c);
+  }
+  ensure_size(gpu, r.image, pixels * 4);
+
+  GpuShadeParams params{};
+  params.tan_half_x = out->view.tan_half_x;
+  params.tan_half_y = out->view.tan_half_y;
+  const Vec3 L = defaults.light_direction;
+  const double ll = std::sqrt(double(L.x) * L.x + double(L.y) * L.y + double(L.z) * L.z);
+  params.light[0] = L.x / ll;
+  params.light[1] = L.y / ll;
+  params.light[2] = L.z / ll;
+  params.width = camera.width;
+  params.height = camera.height;
+  params.view = uint32_t(settings.view);
+  params.material_count = uint32_t(scene.materials.size());
+  params.ambient = defaults.ambient;
+  params.threshold_px = settings.threshold_px;
+  params.max_overdraw = max_overdraw;
+  GpuRecorder& rec = *r.recorder;
+  begin_commands(rec);
+  uint32_t t0 = cmd_timestamp(rec);
+  cmd_dispatch(rec, r.shade,
+               {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.shade_instances,
+                &r.shade_clusters, &r.materials, &r.overdraw, &r.image},
+               &params, uint32_t((pixels + kShadeGroupSize - 1) / kShadeGroupSize));
+  uint32_t t1 = cmd_timestamp(rec);
+  submit_and_wait(rec);
+
+  out->image.width = camera.width;
+  out->image.height = camera.height;
+  out->image.rgb.resize(pixels * 3);
+  const uint32_t* rgba = r.image.data<uint32_t>();
+  for (uint64_t p = 0; p < pixels; ++p)
+    for (int k = 0; k < 3; ++k) out->image.rgb[3 * p + k] = uint8_t(rgba[p] >> (8 * k));
+  FrameStats& stats = out->stats;
+  std::erase_if(stats.skipped, [](const auto& s) { return s.first == "shade"; });
+  PassStats pass;
+  pass.name = "shade";
+  pass.ms = timestamp_ms(rec, t0, t1);
+  stats.passes.push_back(pass);
+}
+
 }  // namespace
 
 GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene) {
@@ -110,6 +195,7 @@ GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene
   r->gpu = &gpu;
   r->recorder = create_gpu_recorder(gpu);
   r->raster = create_compute_pipeline(gpu, kShaderRaster, kRasterBindings, sizeof(GpuRasterParams));
+  r->shade = create_compute_pipeline(gpu, kShaderShade, kShadeBindings, sizeof(GpuShadeParams));
 
   std::vector<uint32_t> page_word(scene.pages.size());
   uint64_t words = 0;
@@ -135,6 +221,10 @@ GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene
   r->locations = upload(gpu, locations);
   r->meshes = upload(gpu, meshes);
   r->counters = create_gpu_buffer(gpu, 64);
+  std::vector<GpuMaterial> materials(scene.scene.materials.size());
+  for (size_t i = 0; i < materials.size(); ++i)
+    std::copy(scene.scene.materials[i].base_color.begin(), scene.scene.materials[i].base_color.end(), materials[i].base_color);
+  r->materials = upload(gpu, materials);
   return r;
 }
 
@@ -145,9 +235,12 @@ void render_frame_vulkan(GpuRenderer& r, const MemoryFormScene& mscene, const Ca
   const RenderScene& scene = mscene.scene;
   // Host cull (the CPU reference's passes) decides the visible clusters; its raster output
   // is replaced below by the GPU's.
+  // The overdraw counts are still computed on the host: frame.cpp runs that pass only
+  // together with its own shading, whose image and "shade" pass are replaced below.
   RenderSettings host = settings;
-  host.shade = false;
+  host.shade = settings.shade && settings.view == ShadeView::kOverdraw;
   render_frame(scene, camera, host, pool, history, out, has_next_frame);
+  std::erase_if(out->stats.passes, [](const PassStats& p) { return p.name == "shade"; });
 
   // Per-instance object→clip matrices exactly as frame.cpp (float, from double products).
   const Mat4d view_to_clip =
@@ -179,19 +272,7 @@ void render_frame_vulkan(GpuRenderer& r, const MemoryFormScene& mscene, const Ca
   for (uint64_t k : out->vis.keys) covered += k != 0;
   stats.pixels_covered = covered;
 
-  if (settings.shade) {
-    ShadeInput in;
-    in.vis = &out->vis;
-    in.visible = &out->visible;
-    in.meshes = &scene.meshes;
-    in.materials = &scene.materials;
-    in.instances = &scene.instances;
-    in.instance_views = &out->instance_views;
-    in.view = &out->view;
-    in.threshold_px = settings.threshold_px;
-    in.overdraw = out->overdraw.empty() ? nullptr : &out->overdraw;
-    shade_frame(in, settings.view, pool, &out->image);
-  }
+  if (settings.shade) shade_pass(r, scene, settings, camera, out);
 }
 
 }  // namespace vgeo

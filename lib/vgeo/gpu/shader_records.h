@@ -50,6 +50,42 @@ struct GpuRasterParams {
   uint32_t reserved;
 };
 
+// Per instance and frame, for shading (shade.cpp): object→view (column-major Mat4d::m) and
+// the normal matrix (cofactor matrix of the 3x3 part, sign-corrected; row-major 3x3).
+struct GpuShadeInstance {
+  double object_to_view[16];
+  double normal_matrix[9];
+  double reserved;
+};
+
+// Per visible cluster, what the debug views colour by (from the DAG metadata; the error is
+// core/lod.h projected_error evaluated on the host, the one implementation).
+struct GpuShadeCluster {
+  uint32_t group;
+  uint32_t level;
+  uint32_t level_count;
+  float projected_error;
+};
+
+struct GpuMaterial {
+  float base_color[4];  // linear RGBA (Material::base_color)
+};
+
+// Push constants of shaders/shade.comp (doubles first: std430 aligns them to 8).
+struct GpuShadeParams {
+  double tan_half_x;        // ViewParams
+  double tan_half_y;
+  double light[3];          // normalized light direction (world), as shade.cpp lx, ly, lz
+  uint32_t width;
+  uint32_t height;
+  uint32_t view;            // ShadeView
+  uint32_t material_count;
+  float ambient;
+  float threshold_px;
+  uint32_t max_overdraw;
+  uint32_t reserved;
+};
+
 // Workgroup size of the raster shader: one invocation per triangle of a cluster.
 VGEO_CONSTANT uint32_t kGpuRasterGroupSize = 128u;
 // Largest workgroup count per dispatch dimension the host uses (Vulkan guarantees 65535).
@@ -61,6 +97,10 @@ static_assert(sizeof(GpuMesh) == 16);
 static_assert(sizeof(GpuInstance) == 80 && offsetof(GpuInstance, mesh) == 64);
 static_assert(sizeof(GpuVisibleCluster) == 8);
 static_assert(sizeof(GpuRasterParams) == 32 && offsetof(GpuRasterParams, z_near) == 24);
+static_assert(sizeof(GpuShadeInstance) == 208 && offsetof(GpuShadeInstance, normal_matrix) == 128);
+static_assert(sizeof(GpuShadeCluster) == 16);
+static_assert(sizeof(GpuMaterial) == 16);
+static_assert(sizeof(GpuShadeParams) == 72 && offsetof(GpuShadeParams, width) == 40 && offsetof(GpuShadeParams, ambient) == 56);
 }  // namespace vgeo
 #endif
 #endif
