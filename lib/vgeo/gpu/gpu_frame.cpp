@@ -273,6 +273,10 @@ void render_frame_vulkan(GpuRenderer& r, const MemoryFormScene& mscene, const Ca
   stats.pixels_covered = covered;
 
   if (settings.shade) shade_pass(r, scene, settings, camera, out);
+  // Frame time: the passes' own times (host cull + GPU raster/shade); the host reference's
+  // raster, which render_frame also ran, is not part of this backend's frame.
+  stats.total_ms = 0;
+  for (const PassStats& p : stats.passes) stats.total_ms += p.ms;
 }
 
 }  // namespace vgeo
