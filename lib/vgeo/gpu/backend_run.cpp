@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 
 #include <nlohmann/json.hpp>
 
@@ -78,6 +79,22 @@ Image diff_image(const Frame& cpu, const Frame& gpu) {
   return d;
 }
 
+void write_failure(const std::string& dir, uint32_t f, const Frame& cpu, const Frame& gpu) {
+  char stem[32];
+  std::snprintf(stem, sizeof stem, "/frame_%05u", f);
+  write_png(dir + stem + "_diff.png", diff_image(cpu, gpu));
+  std::ofstream out(dir + stem + "_pixels.txt");
+  out << "# x y | cpu: depth_bits instance cluster triangle | vulkan: depth_bits instance cluster triangle\n";
+  for (uint32_t y = 0; y < cpu.vis.height; ++y)
+    for (uint32_t x = 0; x < cpu.vis.width; ++x) {
+      const size_t p = size_t(y) * cpu.vis.width + x;
+      const Denoted a = denote(cpu.vis.keys[p], cpu.visible), b = denote(gpu.vis.keys[p], gpu.visible);
+      if (a == b) continue;
+      out << x << ' ' << y << " | " << a.depth_bits << ' ' << a.instance << ' ' << a.cluster << ' ' << a.triangle
+          << " | " << b.depth_bits << ' ' << b.instance << ' ' << b.cluster << ' ' << b.triangle << '\n';
+    }
+}
+
 }  // namespace
 
 uint64_t vis_buffer_hash(const VisBuffer& vis, const std::vector<VisibleCluster>& visible) {
@@ -143,6 +160,8 @@ BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& req
       render_frame(scene.scene, cam, s, pool, &cpu_history, &cpu_frame, !last);
       report.comparisons.push_back(compare_frames(cpu_frame, frame, last));
       report.rule_holds = report.rule_holds && report.comparisons.back().holds();
+      if (!report.comparisons.back().holds() && !request.failure_dir.empty())
+        write_failure(request.failure_dir, f, cpu_frame, frame);
     }
   }
   report.width = frame.vis.width;

@@ -28,6 +28,9 @@ struct BackendRunRequest {
   std::optional<bool> occlusion;
   std::string output_png;            // last frame of `backend`
   std::string diff_png;              // with compare_cpu: per-pixel differences of the last frame
+  // With compare_cpu: for every frame that breaks the rule, write frame_NNNNN_diff.png and
+  // frame_NNNNN_pixels.txt (x y and both sides' denoted keys of each differing pixel) here.
+  std::string failure_dir;
 };
 
 // One frame of a comparison (spec/raster.md §Backends agree).

@@ -17,7 +17,11 @@ MemoryFormScene make_memory_form_scene(const RenderScene& scene) {
   BuiltScene built;
   built.meshes = scene.meshes;
   built.materials = scene.materials;
-  const std::vector<uint8_t> bytes = encode_format(built, FormatOptions{});
+  // The memory form does not depend on the disk compression: skip zstd (level 19 costs
+  // seconds on the default scene).
+  FormatOptions format;
+  format.compression = Compression::kNone;
+  const std::vector<uint8_t> bytes = encode_format(built, format);
   const std::string where = "<memory form>";
   const FormatContainer container = parse_container(bytes.data(), bytes.size(), where);
   BuiltScene decoded = decode_format(bytes.data(), bytes.size(), where);
