@@ -4,7 +4,6 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
-#include <nlohmann/json.hpp>
 
 #include "vgeo/core/error.h"
 
@@ -140,318 +139,210 @@ void analyze_render_scene(RenderScene* scene) {
       scene->instances.size() == 1 && dag_is_convex(scene->meshes[scene->instances[0].mesh]);
 }
 
+namespace {
+
+// The CPU executor: each step is today's reference code; state passes between steps here.
+class CpuFrameExecutor final : public FrameExecutor {
+ public:
+  CpuFrameExecutor(const FramePlan& plan, const RenderScene& scene, const Camera& camera,
+                   const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
+                   FrameStreaming* streaming)
+      : scene_(scene), camera_(camera), settings_(settings), pool_(pool), history_(history), out_(out),
+        streaming_(streaming), geometry_(streaming ? streaming->geometry : scene.meshes) {
+    out->view = make_view(camera);
+    out->instance_views = make_instance_views(scene.instances, out->view);
+    out->vis.resize(camera.width, camera.height);
+    out->visible.clear();
+    out->overdraw.clear();
+    out->pass1_visible = 0;
+    const Mat4d view_to_clip =
+        perspective_reversed_z(camera.fov_y, double(camera.width) / double(camera.height), camera.z_near);
+    object_to_clip_ = clip_matrices(out->instance_views, view_to_clip);
+    options_.threshold_px = settings.threshold_px;
+    if (streaming) options_.usable_groups = &streaming->usable;
+    if (plan.previous_hzb) {
+      options_.occlusion.hzb = &history->hzb;
+      options_.occlusion.view = &history->view;
+      options_.occlusion.instances = &history->instance_views;
+      options_.occlusion.policy = settings.hzb_policy;
+    }
+  }
+
+  void run(FrameStep step, PassStats* p, FrameFacts* facts) override {
+    const ViewParams& view = out_->view;
+    switch (step) {
+      case FrameStep::kStreamBegin:
+        begin_streamed_frame(scene_, streaming_);
+        break;
+      case FrameStep::kInstanceCull: {
+        std::vector<uint32_t> all(scene_.instances.size());
+        for (uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+        CullCounters cc;
+        cull_instances(scene_.meshes, scene_.instances, out_->instance_views, all, view, options_,
+                       &visible_instances_, &occluded_instances_, &cc);
+        p->instances_in += cc.instances_in;
+        p->instances_out += cc.instances_out;
+        facts->pass1_occluded |= !occluded_instances_.empty();
+        break;
+      }
+      case FrameStep::kClusterCull: {
+        std::vector<CullItem> seeds;
+        for (uint32_t i : visible_instances_) seeds.push_back({i, 0, CullItem::kNode});
+        cull_clusters(scene_.meshes, scene_.instances, out_->instance_views, seeds, view, options_, pool_, &pass1_);
+        add_cull_counters(pass1_.counters, p);
+        out_->visible = pass1_.visible;
+        out_->pass1_visible = uint32_t(std::min<size_t>(out_->visible.size(), kMaxVisibleClusters));
+        check_visible_count(out_->visible.size());
+        requests_ = std::move(pass1_.requests);
+        clusters_coarser_ = pass1_.counters.clusters_coarser;
+        facts->pass1_occluded |= !pass1_.occluded.empty();
+        break;
+      }
+      case FrameStep::kStreamBind:
+        bind_streamed_geometry(streaming_, scene_, out_->visible, 0, pool_);
+        break;
+      case FrameStep::kRaster:
+        raster_pass(scene_, geometry_, out_->visible, 0, object_to_clip_, settings_, camera_.z_near, pool_, out_->vis, p);
+        break;
+      case FrameStep::kHzb:
+        build_hzb(out_->vis.keys.data(), camera_.width, camera_.height, pool_, &hzb_);
+        hzb_is_complete_ = true;
+        break;
+      case FrameStep::kInstanceCullPost: {
+        CullCounters cc;
+        cull_instances(scene_.meshes, scene_.instances, out_->instance_views, occluded_instances_, view, post_options(),
+                       &post_instances_, nullptr, &cc);
+        p->instances_in += cc.instances_in;
+        p->instances_out += cc.instances_out;
+        break;
+      }
+      case FrameStep::kClusterCullPost: {
+        std::vector<CullItem> seeds = pass1_.occluded;
+        for (uint32_t i : post_instances_) seeds.push_back({i, 0, CullItem::kNode});
+        CullResult pass2;
+        cull_clusters(scene_.meshes, scene_.instances, out_->instance_views, seeds, view, post_options(), pool_, &pass2);
+        add_cull_counters(pass2.counters, p);
+        check_visible_count(out_->visible.size() + pass2.visible.size());
+        requests_.insert(requests_.end(), pass2.requests.begin(), pass2.requests.end());
+        clusters_coarser_ += pass2.counters.clusters_coarser;
+        out_->visible.insert(out_->visible.end(), pass2.visible.begin(), pass2.visible.end());
+        facts->pass2_found_visible = !pass2.visible.empty();
+        break;
+      }
+      case FrameStep::kStreamBindPost:
+        bind_streamed_geometry(streaming_, scene_, out_->visible, out_->pass1_visible, pool_);
+        break;
+      case FrameStep::kRasterPost:
+        raster_pass(scene_, geometry_, out_->visible, out_->pass1_visible, object_to_clip_, settings_, camera_.z_near,
+                    pool_, out_->vis, p);
+        hzb_is_complete_ = false;  // drawn after the pass-1 HZB
+        break;
+      case FrameStep::kHzbNext:
+        if (hzb_is_complete_) history_->hzb = std::move(hzb_);
+        else build_hzb(out_->vis.keys.data(), camera_.width, camera_.height, pool_, &history_->hzb);
+        history_->view = view;
+        history_->instance_views = out_->instance_views;
+        history_->valid = true;
+        break;
+      case FrameStep::kStreamEnd:
+        // Every cluster of this frame is bound: reads may now be issued and pages evicted.
+        end_streamed_frame(streaming_, requests_, clusters_coarser_, out_->visible.size());
+        break;
+      case FrameStep::kOverdraw:
+        overdraw_pass(scene_, geometry_, out_->visible, object_to_clip_, out_->instance_views, view, pool_,
+                      &out_->overdraw);
+        break;
+      case FrameStep::kShade: {
+        ShadeInput in;
+        in.vis = &out_->vis;
+        in.visible = &out_->visible;
+        in.meshes = &geometry_;
+        in.materials = &scene_.materials;
+        in.instances = &scene_.instances;
+        in.instance_views = &out_->instance_views;
+        in.view = &view;
+        in.threshold_px = settings_.threshold_px;
+        in.overdraw = &out_->overdraw;
+        shade_frame(in, settings_.view, pool_, &out_->image);
+        break;
+      }
+    }
+  }
+
+  void finish(FrameStats* stats) override {
+    for (uint64_t k : out_->vis.keys) stats->pixels_covered += k != 0;
+    if (streaming_) stats->stream = streaming_->stats;
+  }
+
+ private:
+  static void add_cull_counters(const CullCounters& c, PassStats* p) {
+    p->nodes_visited += c.nodes_visited;
+    p->groups_visited += c.groups_visited;
+    p->cluster_candidates += c.cluster_candidates;
+    p->clusters_occluded += c.clusters_occluded;
+  }
+  static void check_visible_count(size_t n) {
+    if (n > kMaxVisibleClusters)
+      fail("RENDER_TOO_MANY_VISIBLE_CLUSTERS", "render", "more than 2^25 visible clusters in one view", kExitBadInput);
+  }
+  // Pass 2 tests against this frame's pass-1 HZB with this frame's view and transforms.
+  CullOptions post_options() const {
+    CullOptions post = options_;
+    post.occlusion.hzb = &hzb_;
+    post.occlusion.view = &out_->view;
+    post.occlusion.instances = &out_->instance_views;
+    post.occlusion.policy = settings_.hzb_policy;
+    return post;
+  }
+
+  const RenderScene& scene_;
+  const Camera& camera_;
+  const RenderSettings& settings_;
+  ThreadPool& pool_;
+  FrameHistory* history_;
+  Frame* out_;
+  FrameStreaming* streaming_;
+  const std::vector<ClusterDag>& geometry_;  // the scene's meshes, or the streamed frame's
+  std::vector<Mat4> object_to_clip_;
+  CullOptions options_;
+  std::vector<uint32_t> visible_instances_, occluded_instances_, post_instances_;
+  CullResult pass1_;
+  Hzb hzb_;
+  bool hzb_is_complete_ = false;  // hzb_ is the HZB of the complete frame
+  std::vector<GroupRequest> requests_;
+  uint64_t clusters_coarser_ = 0;
+};
+
+}  // namespace
+
+FrameContext frame_context(const RenderScene& scene, const Camera& camera, const FrameHistory* history,
+                           bool has_next_frame, const FrameStreaming* streaming, const std::string& no_stream_reason) {
+  FrameContext c;
+  c.previous_hzb = history && history->valid && history->hzb.width == camera.width &&
+                   history->hzb.height == camera.height && history->instance_views.size() == scene.instances.size();
+  c.keep_history = history != nullptr;
+  c.has_next_frame = has_next_frame;
+  c.streamed = streaming != nullptr;
+  c.no_stream_reason = no_stream_reason;
+  return c;
+}
+
+void render_planned_frame(const FramePlan& plan, const RenderScene& scene, const Camera& camera,
+                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
+                          FrameStreaming* streaming) {
+  if (plan.streamed != (streaming != nullptr))
+    fail("RENDER_PLAN_MISMATCH", "render", "the frame plan's streaming disagrees with the streaming state", kExitInternal);
+  const auto frame_start = std::chrono::steady_clock::now();
+  CpuFrameExecutor executor(plan, scene, camera, settings, pool, history, out, streaming);
+  execute_frame_plan(plan, executor, scene.instances.size(), uint64_t(camera.width) * camera.height, &out->stats);
+  out->stats.total_ms = ms_since(frame_start);
+}
+
 void render_frame(const RenderScene& scene, const Camera& camera, const RenderSettings& settings,
                   ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame,
                   FrameStreaming* streaming) {
-  auto frame_start = std::chrono::steady_clock::now();
-  FrameStats& stats = out->stats;
-  stats = {};
-  out->view = make_view(camera);
-  const ViewParams& view = out->view;
-  out->instance_views = make_instance_views(scene.instances, view);
-  out->vis.resize(camera.width, camera.height);
-  out->visible.clear();
-  out->overdraw.clear();
-  stats.instances = scene.instances.size();
-  stats.pixels = uint64_t(camera.width) * camera.height;
-  const Mat4d view_to_clip =
-      perspective_reversed_z(camera.fov_y, double(camera.width) / double(camera.height), camera.z_near);
-  const std::vector<Mat4> object_to_clip = clip_matrices(out->instance_views, view_to_clip);
-
-  bool occlusion = settings.occlusion && !scene.single_convex_object;
-  std::string no_occlusion_reason = !settings.occlusion ? "occlusion off" : "single convex object";
-  bool have_previous = occlusion && history && history->valid && history->hzb.width == camera.width &&
-                       history->hzb.height == camera.height &&
-                       history->instance_views.size() == scene.instances.size();
-
-  const std::vector<ClusterDag>& geometry = streaming ? streaming->geometry : scene.meshes;
-  double stream_ms = 0;
-  if (streaming) {
-    auto t0 = std::chrono::steady_clock::now();
-    begin_streamed_frame(scene, streaming);
-    stream_ms += ms_since(t0);
-  }
-
-  // ---- pass 1 ----
-  CullOptions options;
-  options.threshold_px = settings.threshold_px;
-  if (streaming) options.usable_groups = &streaming->usable;
-  if (have_previous) {
-    options.occlusion.hzb = &history->hzb;
-    options.occlusion.view = &history->view;
-    options.occlusion.instances = &history->instance_views;
-    options.occlusion.policy = settings.hzb_policy;
-  }
-  std::vector<uint32_t> all(scene.instances.size()), visible_instances, occluded_instances;
-  for (uint32_t i = 0; i < all.size(); ++i) all[i] = i;
-  {
-    PassStats p;
-    p.name = "instance_cull";
-    auto t0 = std::chrono::steady_clock::now();
-    CullCounters cc;
-    cull_instances(scene.meshes, scene.instances, out->instance_views, all, view, options, &visible_instances,
-                   &occluded_instances, &cc);
-    p.ms = ms_since(t0);
-    p.instances_in = cc.instances_in;
-    p.instances_out = cc.instances_out;
-    stats.passes.push_back(p);
-  }
-  CullResult pass1;
-  {
-    PassStats p;
-    p.name = "cluster_cull";
-    auto t0 = std::chrono::steady_clock::now();
-    std::vector<CullItem> seeds;
-    for (uint32_t i : visible_instances) seeds.push_back({i, 0, CullItem::kNode});
-    cull_clusters(scene.meshes, scene.instances, out->instance_views, seeds, view, options, pool, &pass1);
-    p.ms = ms_since(t0);
-    p.nodes_visited = pass1.counters.nodes_visited;
-    p.groups_visited = pass1.counters.groups_visited;
-    p.cluster_candidates = pass1.counters.cluster_candidates;
-    p.clusters_occluded = pass1.counters.clusters_occluded;
-    stats.passes.push_back(p);
-  }
-  out->visible = pass1.visible;
-  out->pass1_visible = uint32_t(std::min<size_t>(out->visible.size(), kMaxVisibleClusters));
-  if (out->visible.size() > kMaxVisibleClusters)
-    fail("RENDER_TOO_MANY_VISIBLE_CLUSTERS", "render", "more than 2^25 visible clusters in one view", kExitBadInput);
-  if (streaming) {
-    auto t0 = std::chrono::steady_clock::now();
-    bind_streamed_geometry(streaming, scene, out->visible, 0, pool);
-    stream_ms += ms_since(t0);
-  }
-  {
-    PassStats p;
-    p.name = "raster";
-    auto t0 = std::chrono::steady_clock::now();
-    raster_pass(scene, geometry, out->visible, 0, object_to_clip, settings, camera.z_near, pool, out->vis, &p);
-    p.ms = ms_since(t0);
-    stats.passes.push_back(p);
-  }
-
-  // ---- pass 2 ----
-  bool pass1_occluded = !occluded_instances.empty() || !pass1.occluded.empty();
-  Hzb hzb;
-  bool hzb_is_complete = false;
-  std::vector<GroupRequest> requests;
-  uint64_t clusters_ideal = pass1.counters.clusters_ideal, clusters_coarser = pass1.counters.clusters_coarser;
-  if (streaming) requests = std::move(pass1.requests);
-  if (!occlusion) {
-    for (const char* name : {"hzb", "instance_cull_post", "cluster_cull_post", "raster_post", "hzb_next"})
-      stats.skipped.push_back({name, no_occlusion_reason});
-  } else if (!pass1_occluded) {
-    const char* reason = have_previous ? "pass 1 occluded nothing" : "no previous-frame HZB";
-    for (const char* name : {"hzb", "instance_cull_post", "cluster_cull_post", "raster_post"})
-      stats.skipped.push_back({name, reason});
-  } else {
-    {
-      PassStats p;
-      p.name = "hzb";
-      auto t0 = std::chrono::steady_clock::now();
-      build_hzb(out->vis.keys.data(), camera.width, camera.height, pool, &hzb);
-      p.ms = ms_since(t0);
-      stats.passes.push_back(p);
-    }
-    CullOptions post = options;
-    post.occlusion.hzb = &hzb;
-    post.occlusion.view = &view;
-    post.occlusion.instances = &out->instance_views;
-    std::vector<uint32_t> post_instances;
-    {
-      PassStats p;
-      p.name = "instance_cull_post";
-      auto t0 = std::chrono::steady_clock::now();
-      CullCounters cc;
-      cull_instances(scene.meshes, scene.instances, out->instance_views, occluded_instances, view, post,
-                     &post_instances, nullptr, &cc);
-      p.ms = ms_since(t0);
-      p.instances_in = cc.instances_in;
-      p.instances_out = cc.instances_out;
-      stats.passes.push_back(p);
-    }
-    CullResult pass2;
-    {
-      PassStats p;
-      p.name = "cluster_cull_post";
-      auto t0 = std::chrono::steady_clock::now();
-      std::vector<CullItem> seeds = pass1.occluded;
-      for (uint32_t i : post_instances) seeds.push_back({i, 0, CullItem::kNode});
-      cull_clusters(scene.meshes, scene.instances, out->instance_views, seeds, view, post, pool, &pass2);
-      p.ms = ms_since(t0);
-      p.nodes_visited = pass2.counters.nodes_visited;
-      p.groups_visited = pass2.counters.groups_visited;
-      p.cluster_candidates = pass2.counters.cluster_candidates;
-      p.clusters_occluded = pass2.counters.clusters_occluded;
-      stats.passes.push_back(p);
-    }
-    if (out->visible.size() + pass2.visible.size() > kMaxVisibleClusters)
-      fail("RENDER_TOO_MANY_VISIBLE_CLUSTERS", "render", "more than 2^25 visible clusters in one view", kExitBadInput);
-    if (streaming) {
-      requests.insert(requests.end(), pass2.requests.begin(), pass2.requests.end());
-      clusters_ideal += pass2.counters.clusters_ideal;
-      clusters_coarser += pass2.counters.clusters_coarser;
-    }
-    if (pass2.visible.empty()) {
-      stats.skipped.push_back({"raster_post", "pass 2 found nothing newly visible"});
-      hzb_is_complete = true;  // nothing drawn after the pass-1 HZB
-    } else {
-      out->visible.insert(out->visible.end(), pass2.visible.begin(), pass2.visible.end());
-      if (streaming) {
-        auto t0 = std::chrono::steady_clock::now();
-        bind_streamed_geometry(streaming, scene, out->visible, out->pass1_visible, pool);
-        stream_ms += ms_since(t0);
-      }
-      PassStats p;
-      p.name = "raster_post";
-      auto t0 = std::chrono::steady_clock::now();
-      raster_pass(scene, geometry, out->visible, out->pass1_visible, object_to_clip, settings, camera.z_near, pool, out->vis, &p);
-      p.ms = ms_since(t0);
-      stats.passes.push_back(p);
-    }
-  }
-  if (occlusion) {
-    if (!history || !has_next_frame) {
-      stats.skipped.push_back({"hzb_next", "no next frame"});
-    } else {
-      PassStats p;
-      p.name = "hzb_next";
-      auto t0 = std::chrono::steady_clock::now();
-      if (hzb_is_complete) history->hzb = std::move(hzb);
-      else build_hzb(out->vis.keys.data(), camera.width, camera.height, pool, &history->hzb);
-      history->view = view;
-      history->instance_views = out->instance_views;
-      history->valid = true;
-      p.ms = ms_since(t0);
-      stats.passes.push_back(p);
-    }
-  }
-
-  if (streaming) {
-    // Every cluster of this frame is bound: reads may now be issued and pages evicted.
-    PassStats p;
-    p.name = "stream";
-    auto t0 = std::chrono::steady_clock::now();
-    end_streamed_frame(streaming, requests, clusters_ideal, clusters_coarser, out->visible.size());
-    p.ms = stream_ms + ms_since(t0);
-    stats.passes.push_back(p);
-    stats.streamed = true;
-    stats.stream = streaming->stats;
-  }
-  if (settings.shade && settings.view == ShadeView::kOverdraw) {
-    PassStats p;
-    p.name = "overdraw";
-    auto t0 = std::chrono::steady_clock::now();
-    overdraw_pass(scene, geometry, out->visible, object_to_clip, out->instance_views, view, pool, &out->overdraw);
-    p.ms = ms_since(t0);
-    stats.passes.push_back(p);
-  }
-  if (settings.shade) {
-    PassStats p;
-    p.name = "shade";
-    auto t0 = std::chrono::steady_clock::now();
-    ShadeInput in;
-    in.vis = &out->vis;
-    in.visible = &out->visible;
-    in.meshes = &geometry;
-    in.materials = &scene.materials;
-    in.instances = &scene.instances;
-    in.instance_views = &out->instance_views;
-    in.view = &view;
-    in.threshold_px = settings.threshold_px;
-    in.overdraw = &out->overdraw;
-    shade_frame(in, settings.view, pool, &out->image);
-    p.ms = ms_since(t0);
-    stats.passes.push_back(p);
-  } else {
-    stats.skipped.push_back({"shade", "shading not requested"});
-  }
-
-  for (const PassStats& p : stats.passes) {
-    stats.clusters_drawn += p.clusters_drawn;
-    stats.triangles_drawn += p.triangles_drawn;
-  }
-  for (uint64_t k : out->vis.keys) stats.pixels_covered += k != 0;
-  stats.total_ms = ms_since(frame_start);
-}
-
-std::string frame_stats_table(const FrameStats& s) {
-  std::string out;
-  char line[512];
-  std::snprintf(line, sizeof line, "%-19s %9s %9s %9s %9s %10s %9s %9s %11s %11s\n", "pass", "ms", "inst_in",
-                "inst_out", "nodes", "candidates", "occluded", "clusters", "triangles", "pixels");
-  out += line;
-  for (const PassStats& p : s.passes) {
-    std::snprintf(line, sizeof line, "%-19s %9.3f %9llu %9llu %9llu %10llu %9llu %9llu %11llu %11llu\n",
-                  p.name.c_str(), p.ms, (unsigned long long)p.instances_in, (unsigned long long)p.instances_out,
-                  (unsigned long long)p.nodes_visited, (unsigned long long)p.cluster_candidates,
-                  (unsigned long long)p.clusters_occluded, (unsigned long long)p.clusters_drawn,
-                  (unsigned long long)p.triangles_drawn, (unsigned long long)p.pixels_written);
-    out += line;
-  }
-  for (const auto& [name, reason] : s.skipped) out += "(skipped) " + name + ": " + reason + "\n";
-  std::snprintf(line, sizeof line,
-                "frame: %.3f ms, %llu clusters, %llu triangles drawn, %llu of %llu pixels covered "
-                "(%.2f triangles/pixel)\n",
-                s.total_ms, (unsigned long long)s.clusters_drawn, (unsigned long long)s.triangles_drawn,
-                (unsigned long long)s.pixels_covered, (unsigned long long)s.pixels,
-                s.pixels ? double(s.triangles_drawn) / double(s.pixels) : 0.0);
-  out += line;
-  return out;
-}
-
-std::string stream_frame_stats_json(const StreamFrameStats& s) {
-  nlohmann::ordered_json j;
-  j["frame"] = s.frame;
-  j["active"] = s.active;
-  j["pages_requested"] = s.pages_requested;
-  j["pages_missing"] = s.pages_missing;
-  j["requested_bytes"] = s.requested_bytes;
-  j["required_bytes"] = s.required_bytes;
-  j["pages_issued"] = s.pages_issued;
-  j["pages_loaded"] = s.pages_loaded;
-  j["pages_evicted"] = s.pages_evicted;
-  j["bytes_read"] = s.bytes_read;
-  j["resident_bytes"] = s.resident_bytes;
-  j["reserved_bytes"] = s.reserved_bytes;
-  j["resident_pages"] = s.resident_pages;
-  j["read_failures"] = s.read_failures;
-  j["checksum_failures"] = s.checksum_failures;
-  j["decode_failures"] = s.decode_failures;
-  j["pages_marked_bad"] = s.pages_marked_bad;
-  j["clusters_drawn"] = s.clusters_drawn;
-  j["clusters_coarser"] = s.clusters_coarser;
-  j["cut_is_ideal"] = s.cut_is_ideal;
-  return j.dump();
-}
-
-std::string frame_stats_json(const FrameStats& s) {
-  nlohmann::ordered_json j;
-  j["total_ms"] = s.total_ms;
-  j["instances"] = s.instances;
-  j["clusters_drawn"] = s.clusters_drawn;
-  j["triangles_drawn"] = s.triangles_drawn;
-  j["pixels_covered"] = s.pixels_covered;
-  j["pixels"] = s.pixels;
-  j["passes"] = nlohmann::ordered_json::array();
-  for (const PassStats& p : s.passes) {
-    nlohmann::ordered_json q;
-    q["name"] = p.name;
-    q["ms"] = p.ms;
-    q["instances_in"] = p.instances_in;
-    q["instances_out"] = p.instances_out;
-    q["nodes_visited"] = p.nodes_visited;
-    q["groups_visited"] = p.groups_visited;
-    q["cluster_candidates"] = p.cluster_candidates;
-    q["clusters_occluded"] = p.clusters_occluded;
-    q["clusters_drawn"] = p.clusters_drawn;
-    q["triangles_drawn"] = p.triangles_drawn;
-    q["pixels_written"] = p.pixels_written;
-    j["passes"].push_back(q);
-  }
-  j["skipped"] = nlohmann::ordered_json::array();
-  for (const auto& [name, reason] : s.skipped) j["skipped"].push_back({{"name", name}, {"reason", reason}});
-  if (s.streamed) j["stream"] = nlohmann::ordered_json::parse(stream_frame_stats_json(s.stream));
-  return j.dump();
+  const FramePlan plan = plan_frame(scene, settings, frame_context(scene, camera, history, has_next_frame, streaming));
+  render_planned_frame(plan, scene, camera, settings, pool, history, out, streaming);
 }
 
 }  // namespace vgeo

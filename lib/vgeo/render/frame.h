@@ -1,6 +1,7 @@
 #pragma once
-// The CPU reference frame pipeline (spec/scene.md §Frame pipeline), assembled per frame
-// from what the scene calls for:
+// The CPU reference frame pipeline (spec/scene.md §Frame pipeline): the CPU executor of the
+// frame plan (lib/vgeo/render/frame_plan.h, which lists every step and what it consumes and
+// produces):
 //   pass 1: instance cull (frustum, then previous-frame HZB with previous transforms)
 //           → hierarchical LOD + cluster cull (persistent threads) → raster
 //   pass 2: only when pass 1 occluded something: build HZB from pass-1 depth, retest what
@@ -18,6 +19,7 @@
 #include "vgeo/cull/cull.h"
 #include "vgeo/raster/raster.h"
 #include "vgeo/raster/visbuffer.h"
+#include "vgeo/render/frame_plan.h"
 #include "vgeo/render/streaming.h"
 #include "vgeo/shade/shade.h"
 
@@ -42,28 +44,6 @@ struct RenderSettings {
   bool shade = true;          // false: stop after the visibility buffer (tests)
 };
 
-struct PassStats {
-  std::string name;
-  double ms = 0;
-  uint64_t instances_in = 0, instances_out = 0, nodes_visited = 0, groups_visited = 0,
-           cluster_candidates = 0, clusters_occluded = 0, clusters_drawn = 0, triangles_drawn = 0,
-           pixels_written = 0;
-};
-
-struct FrameStats {
-  std::vector<PassStats> passes;                                  // only passes that ran
-  std::vector<std::pair<std::string, std::string>> skipped;       // (pass, reason)
-  uint64_t instances = 0, clusters_drawn = 0, triangles_drawn = 0, pixels_covered = 0, pixels = 0;
-  double total_ms = 0;
-  bool streamed = false;        // the frame ran with streaming (pass "stream")
-  StreamFrameStats stream;      // when streamed
-  const PassStats* find(const std::string& name) const {
-    for (const PassStats& p : passes)
-      if (p.name == name) return &p;
-    return nullptr;
-  }
-};
-
 // What a frame leaves for the next one (two-pass occlusion's "previous frame").
 struct FrameHistory {
   bool valid = false;
@@ -83,20 +63,27 @@ struct Frame {
   FrameStats stats;
 };
 
-// Renders one frame. `streaming` null: every mesh fully in memory (the path without
-// streaming, unchanged). Otherwise the traversal applies its usable masks, drawn clusters'
-// geometry comes from resident pages and the traversal's requests go to its streamer
-// (spec/stream.md §Renderer). `history` may be null (no occlusion history at all); otherwise pass 1
-// tests against it when valid, and when `has_next_frame` it is replaced by this frame's
-// (pass hzb_next). Throws VgeoError RENDER_TOO_MANY_VISIBLE_CLUSTERS when the
-// visibility-buffer id space overflows.
+// Renders one frame: plan_frame from frame_context, then render_planned_frame. `streaming` null:
+// every mesh fully in memory (the path without streaming, unchanged). Otherwise the traversal
+// applies its usable masks, drawn clusters' geometry comes from resident pages and the
+// traversal's requests go to its streamer (spec/stream.md §Renderer). `history` may be null (no
+// occlusion history at all); otherwise pass 1 tests against it when valid, and when
+// `has_next_frame` it is replaced by this frame's (pass hzb_next). Throws VgeoError
+// RENDER_TOO_MANY_VISIBLE_CLUSTERS when the visibility-buffer id space overflows.
 void render_frame(const RenderScene& scene, const Camera& camera, const RenderSettings& settings,
                   ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame = true,
                   FrameStreaming* streaming = nullptr);
 
-// Human-readable per-pass table and JSON (object) of one frame's statistics.
-std::string frame_stats_table(const FrameStats& stats);
-std::string frame_stats_json(const FrameStats& stats);
-std::string stream_frame_stats_json(const StreamFrameStats& stats);
+// The plan's context from the history and streaming state (`no_stream_reason`: the stream pass's
+// skip reason when `streaming` is null).
+FrameContext frame_context(const RenderScene& scene, const Camera& camera, const FrameHistory* history,
+                           bool has_next_frame, const FrameStreaming* streaming,
+                           const std::string& no_stream_reason = "no stream budget");
+
+// Executes `plan` (from plan_frame for these arguments) on the CPU; `streaming` must be non-null
+// exactly when plan.streamed.
+void render_planned_frame(const FramePlan& plan, const RenderScene& scene, const Camera& camera,
+                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
+                          FrameStreaming* streaming);
 
 }  // namespace vgeo

@@ -130,15 +130,14 @@ void bind_streamed_geometry(FrameStreaming* s, const RenderScene& scene, const s
                                            ": page geometry disagrees with the metadata's vertex/triangle counts");
 }
 
-void end_streamed_frame(FrameStreaming* s, const std::vector<GroupRequest>& requests, uint64_t clusters_ideal,
-                        uint64_t clusters_coarser, uint64_t clusters_drawn) {
+void end_streamed_frame(FrameStreaming* s, const std::vector<GroupRequest>& requests, uint64_t clusters_coarser,
+                        uint64_t clusters_drawn) {
   s->requests.clear();
   for (const GroupRequest& r : requests)
     if (s->stream_mesh[r.mesh] != kNone) s->requests.push_back({s->stream_mesh[r.mesh], r.group, r.priority});
   s->stats.clusters_drawn = uint32_t(clusters_drawn);
   s->stats.clusters_coarser = uint32_t(clusters_coarser);
   s->stats.cut_is_ideal = clusters_coarser == 0;
-  (void)clusters_ideal;
   s->streamer->end_frame(s->requests, &s->stats);
   s->streamer->count_frame_cut(s->stats.cut_is_ideal);
 }

@@ -50,7 +50,7 @@ void begin_streamed_frame(const RenderScene& scene, FrameStreaming* s);
 void bind_streamed_geometry(FrameStreaming* s, const RenderScene& scene, const std::vector<VisibleCluster>& visible,
                             size_t first, ThreadPool& pool);
 // Frame end: adds the traversal's requests and counters, issues reads, evicts.
-void end_streamed_frame(FrameStreaming* s, const std::vector<GroupRequest>& requests, uint64_t clusters_ideal,
-                        uint64_t clusters_coarser, uint64_t clusters_drawn);
+void end_streamed_frame(FrameStreaming* s, const std::vector<GroupRequest>& requests, uint64_t clusters_coarser,
+                        uint64_t clusters_drawn);
 
 }  // namespace vgeo

@@ -1,0 +1,216 @@
+#include "vgeo/render/frame_plan.h"
+
+#include <chrono>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "vgeo/render/frame.h"
+
+namespace vgeo {
+
+namespace {
+
+// Reasons of the result-dependent conditions (step_runs).
+constexpr const char* kPass1OccludedNothing = "pass 1 occluded nothing";
+constexpr const char* kPass2FoundNothing = "pass 2 found nothing newly visible";
+constexpr const char* kNoShading = "shading not requested";
+
+constexpr std::array<FramePass, kFrameStepCount> kStepPass = {
+    FramePass::kStream,           FramePass::kInstanceCull, FramePass::kClusterCull,     FramePass::kStream,
+    FramePass::kRaster,           FramePass::kHzb,          FramePass::kInstanceCullPost, FramePass::kClusterCullPost,
+    FramePass::kStream,           FramePass::kRasterPost,   FramePass::kHzbNext,          FramePass::kStream,
+    FramePass::kOverdraw,         FramePass::kShade,
+};
+
+StepPlan run() { return {StepCondition::kRun, ""}; }
+StepPlan skip(const std::string& reason) { return {StepCondition::kSkip, reason}; }
+
+}  // namespace
+
+const char* frame_pass_name(FramePass pass) {
+  static constexpr const char* kNames[kFramePassCount] = {
+      "instance_cull", "cluster_cull", "raster",   "hzb",      "instance_cull_post", "cluster_cull_post",
+      "raster_post",   "hzb_next",     "stream",   "overdraw", "shade"};
+  return kNames[size_t(pass)];
+}
+
+const char* frame_step_name(FrameStep step) {
+  static constexpr const char* kNames[kFrameStepCount] = {
+      "stream_begin",       "instance_cull",     "cluster_cull",     "stream_bind", "raster",
+      "hzb",                "instance_cull_post", "cluster_cull_post", "stream_bind_post", "raster_post",
+      "hzb_next",           "stream_end",         "overdraw",          "shade"};
+  return kNames[size_t(step)];
+}
+
+FramePass frame_step_pass(FrameStep step) { return kStepPass[size_t(step)]; }
+
+FramePlan plan_frame(const RenderScene& scene, const RenderSettings& settings, const FrameContext& context) {
+  FramePlan plan;
+  plan.occlusion = settings.occlusion && !scene.single_convex_object;
+  plan.previous_hzb = plan.occlusion && context.previous_hzb;
+  plan.streamed = context.streamed;
+  auto set = [&](FrameStep s, StepPlan p) { plan.steps[size_t(s)] = std::move(p); };
+  const std::string no_occlusion = !settings.occlusion ? "occlusion off" : "single convex object";
+  // Pass 2 needs something pass 1 occluded, which needs a previous-frame HZB to test against.
+  auto pass2 = [&](StepCondition when) {
+    if (!plan.occlusion) return skip(no_occlusion);
+    if (!plan.previous_hzb) return skip("no previous-frame HZB");
+    return StepPlan{when, ""};
+  };
+  const StepPlan streamed = context.streamed ? run() : skip(context.no_stream_reason);
+  set(FrameStep::kStreamBegin, streamed);
+  set(FrameStep::kInstanceCull, run());
+  set(FrameStep::kClusterCull, run());
+  set(FrameStep::kStreamBind, streamed);
+  set(FrameStep::kRaster, run());
+  set(FrameStep::kHzb, pass2(StepCondition::kIfPass1Occluded));
+  set(FrameStep::kInstanceCullPost, pass2(StepCondition::kIfPass1Occluded));
+  set(FrameStep::kClusterCullPost, pass2(StepCondition::kIfPass1Occluded));
+  set(FrameStep::kStreamBindPost, context.streamed ? pass2(StepCondition::kIfPass2FoundVisible) : streamed);
+  set(FrameStep::kRasterPost, pass2(StepCondition::kIfPass2FoundVisible));
+  if (!plan.occlusion) set(FrameStep::kHzbNext, skip(no_occlusion));
+  else if (!context.keep_history || !context.has_next_frame) set(FrameStep::kHzbNext, skip("no next frame"));
+  else set(FrameStep::kHzbNext, run());
+  set(FrameStep::kStreamEnd, streamed);
+  if (!settings.shade) set(FrameStep::kOverdraw, skip(kNoShading));
+  else if (settings.view != ShadeView::kOverdraw) set(FrameStep::kOverdraw, skip("overdraw view not requested"));
+  else set(FrameStep::kOverdraw, run());
+  set(FrameStep::kShade, settings.shade ? run() : skip(kNoShading));
+  return plan;
+}
+
+bool step_runs(const StepPlan& step, const FrameFacts& facts, std::string* reason) {
+  switch (step.when) {
+    case StepCondition::kRun:
+      return true;
+    case StepCondition::kSkip:
+      *reason = step.skip_reason;
+      return false;
+    case StepCondition::kIfPass1Occluded:
+      if (facts.pass1_occluded) return true;
+      *reason = kPass1OccludedNothing;
+      return false;
+    case StepCondition::kIfPass2FoundVisible:
+      if (facts.pass1_occluded && facts.pass2_found_visible) return true;
+      *reason = facts.pass1_occluded ? kPass2FoundNothing : kPass1OccludedNothing;
+      return false;
+  }
+  return false;
+}
+
+void execute_frame_plan(const FramePlan& plan, FrameExecutor& executor, uint64_t instances, uint64_t pixels,
+                        FrameStats* stats) {
+  *stats = {};
+  std::array<PassStats, kFramePassCount> pass{};
+  std::array<bool, kFramePassCount> ran{};
+  std::array<std::string, kFramePassCount> reason;
+  FrameFacts facts;
+  for (size_t s = 0; s < kFrameStepCount; ++s) {
+    const size_t p = size_t(kStepPass[s]);
+    std::string why;
+    if (!step_runs(plan.steps[s], facts, &why)) {
+      if (reason[p].empty()) reason[p] = why;
+      continue;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    executor.run(FrameStep(s), &pass[p], &facts);
+    pass[p].ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    ran[p] = true;
+  }
+  for (size_t p = 0; p < kFramePassCount; ++p) {
+    if (ran[p]) {
+      pass[p].name = frame_pass_name(FramePass(p));
+      stats->clusters_drawn += pass[p].clusters_drawn;
+      stats->triangles_drawn += pass[p].triangles_drawn;
+      stats->passes.push_back(std::move(pass[p]));
+    } else {
+      stats->skipped.push_back({frame_pass_name(FramePass(p)), reason[p]});
+    }
+  }
+  stats->instances = instances;
+  stats->pixels = pixels;
+  stats->streamed = plan.streamed;
+  executor.finish(stats);
+}
+
+std::string frame_stats_table(const FrameStats& s) {
+  std::string out;
+  char line[512];
+  std::snprintf(line, sizeof line, "%-19s %9s %9s %9s %9s %10s %9s %9s %11s %11s\n", "pass", "ms", "inst_in",
+                "inst_out", "nodes", "candidates", "occluded", "clusters", "triangles", "pixels");
+  out += line;
+  for (const PassStats& p : s.passes) {
+    std::snprintf(line, sizeof line, "%-19s %9.3f %9llu %9llu %9llu %10llu %9llu %9llu %11llu %11llu\n",
+                  p.name.c_str(), p.ms, (unsigned long long)p.instances_in, (unsigned long long)p.instances_out,
+                  (unsigned long long)p.nodes_visited, (unsigned long long)p.cluster_candidates,
+                  (unsigned long long)p.clusters_occluded, (unsigned long long)p.clusters_drawn,
+                  (unsigned long long)p.triangles_drawn, (unsigned long long)p.pixels_written);
+    out += line;
+  }
+  for (const auto& [name, reason] : s.skipped) out += "(skipped) " + name + ": " + reason + "\n";
+  std::snprintf(line, sizeof line,
+                "frame: %.3f ms, %llu clusters, %llu triangles drawn, %llu of %llu pixels covered "
+                "(%.2f triangles/pixel)\n",
+                s.total_ms, (unsigned long long)s.clusters_drawn, (unsigned long long)s.triangles_drawn,
+                (unsigned long long)s.pixels_covered, (unsigned long long)s.pixels,
+                s.pixels ? double(s.triangles_drawn) / double(s.pixels) : 0.0);
+  out += line;
+  return out;
+}
+
+std::string stream_frame_stats_json(const StreamFrameStats& s) {
+  nlohmann::ordered_json j;
+  j["frame"] = s.frame;
+  j["active"] = s.active;
+  j["pages_requested"] = s.pages_requested;
+  j["pages_missing"] = s.pages_missing;
+  j["requested_bytes"] = s.requested_bytes;
+  j["required_bytes"] = s.required_bytes;
+  j["pages_issued"] = s.pages_issued;
+  j["pages_loaded"] = s.pages_loaded;
+  j["pages_evicted"] = s.pages_evicted;
+  j["bytes_read"] = s.bytes_read;
+  j["resident_bytes"] = s.resident_bytes;
+  j["reserved_bytes"] = s.reserved_bytes;
+  j["resident_pages"] = s.resident_pages;
+  j["read_failures"] = s.read_failures;
+  j["checksum_failures"] = s.checksum_failures;
+  j["decode_failures"] = s.decode_failures;
+  j["pages_marked_bad"] = s.pages_marked_bad;
+  j["clusters_drawn"] = s.clusters_drawn;
+  j["clusters_coarser"] = s.clusters_coarser;
+  j["cut_is_ideal"] = s.cut_is_ideal;
+  return j.dump();
+}
+
+std::string frame_stats_json(const FrameStats& s) {
+  nlohmann::ordered_json j;
+  j["total_ms"] = s.total_ms;
+  j["instances"] = s.instances;
+  j["clusters_drawn"] = s.clusters_drawn;
+  j["triangles_drawn"] = s.triangles_drawn;
+  j["pixels_covered"] = s.pixels_covered;
+  j["pixels"] = s.pixels;
+  j["passes"] = nlohmann::ordered_json::array();
+  for (const PassStats& p : s.passes) {
+    nlohmann::ordered_json q;
+    q["name"] = p.name;
+    q["ms"] = p.ms;
+    q["instances_in"] = p.instances_in;
+    q["instances_out"] = p.instances_out;
+    q["nodes_visited"] = p.nodes_visited;
+    q["groups_visited"] = p.groups_visited;
+    q["cluster_candidates"] = p.cluster_candidates;
+    q["clusters_occluded"] = p.clusters_occluded;
+    q["clusters_drawn"] = p.clusters_drawn;
+    q["triangles_drawn"] = p.triangles_drawn;
+    q["pixels_written"] = p.pixels_written;
+    j["passes"].push_back(q);
+  }
+  j["skipped"] = nlohmann::ordered_json::array();
+  for (const auto& [name, reason] : s.skipped) j["skipped"].push_back({{"name", name}, {"reason", reason}});
+  if (s.streamed) j["stream"] = nlohmann::ordered_json::parse(stream_frame_stats_json(s.stream));
+  return j.dump();
+}
+
+}  // namespace vgeo

@@ -1,0 +1,160 @@
+#pragma once
+// The frame plan (normative: spec/scene.md §Frame pipeline): which steps of a frame run and, for
+// each that does not, why — decided once per frame from the scene, the settings and the history,
+// before any pass runs, and executed by a backend's FrameExecutor (the CPU reference in
+// lib/vgeo/render/frame.cpp; a Vulkan executor in lib/vgeo/gpu implements the same steps).
+// Where a decision depends on a pass's result (pass 2 runs only when pass 1 occluded something),
+// the plan states the condition and execute_frame_plan evaluates it, in one place, from the
+// FrameFacts the executor reports. Statistics, their table and JSON are assembled here from what
+// the executor counts, so they have the same shape for every executor.
+//
+// Steps, in execution order, with what each consumes and produces. "Visible list": the frame's
+// visible clusters (instance, cluster) in draw order; a visibility-buffer key's cluster field is
+// the index into it (lib/vgeo/raster/visbuffer.h), so both backends must append in this order:
+//   stream_begin        (pass stream) streaming only. Consumes completed page reads. Produces the
+//                       per-mesh usable-group masks the traversal reads (spec/stream.md §Renderer).
+//   instance_cull       Consumes instances, their root bounds, the view; when the plan says
+//                       previous_hzb, the previous frame's HZB, view and instance views. Produces
+//                       the visible instances and the occluded ones (ascending instance order).
+//                       Sets FrameFacts::pass1_occluded when it occluded an instance.
+//   cluster_cull        Consumes the visible instances (their BVH roots as seeds), LOD threshold,
+//                       usable masks, previous HZB as above. Produces the visible list [0, n1),
+//                       pass-1 occluded items (nodes, groups, clusters), stream requests and the
+//                       ideal/coarser cut counters. Sets pass1_occluded when it occluded anything.
+//                       Fails RENDER_TOO_MANY_VISIBLE_CLUSTERS beyond kMaxVisibleClusters.
+//   stream_bind         (pass stream) streaming only: geometry of visible[0, n1) from resident pages.
+//   raster              Rasterizes visible[0, n1) into the visibility buffer (cleared at frame start).
+//   hzb                 When pass1_occluded: HZB of the pass-1 visibility buffer's depth.
+//   instance_cull_post  When pass1_occluded: the pass-1 occluded instances retested against `hzb`
+//                       with this frame's view and transforms. Produces newly visible instances.
+//   cluster_cull_post   When pass1_occluded: seeds = pass-1 occluded items, then the newly visible
+//                       instances' roots; tested against `hzb`. Appends visible[n1, n2), adds its
+//                       requests and cut counters. Sets FrameFacts::pass2_found_visible when n2 > n1.
+//   stream_bind_post    (pass stream) when pass2_found_visible: geometry of visible[n1, n2).
+//   raster_post         When pass2_found_visible: rasterizes visible[n1, n2) into the same buffer.
+//   hzb_next            Occlusion active, a history to keep and a next frame: HZB of the complete
+//                       visibility buffer (the `hzb` pyramid when raster_post did not run after
+//                       it), stored with this view and instance views as the next frame's history.
+//   stream_end          (pass stream) streaming only: hands requests and cut counters to the
+//                       Streamer (issues reads, evicts). Every visible cluster is bound by now.
+//   overdraw            `overdraw` view and shading: per-pixel count of drawn clusters covering it.
+//   shade               Shading requested: RGBA image from the visibility buffer and visible list.
+// A pass's statistics (time and counters) are the sum over its steps; a pass none of whose steps
+// ran is listed under FrameStats::skipped with the reason of its first step.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "vgeo/stream/stream.h"
+
+namespace vgeo {
+
+struct RenderScene;
+struct RenderSettings;
+
+// Passes of the statistics, in the order they are reported.
+enum class FramePass : uint8_t {
+  kInstanceCull, kClusterCull, kRaster, kHzb, kInstanceCullPost, kClusterCullPost, kRasterPost,
+  kHzbNext, kStream, kOverdraw, kShade,
+};
+inline constexpr size_t kFramePassCount = 11;
+const char* frame_pass_name(FramePass pass);
+
+// Steps, in execution order (see the table above).
+enum class FrameStep : uint8_t {
+  kStreamBegin, kInstanceCull, kClusterCull, kStreamBind, kRaster, kHzb, kInstanceCullPost,
+  kClusterCullPost, kStreamBindPost, kRasterPost, kHzbNext, kStreamEnd, kOverdraw, kShade,
+};
+inline constexpr size_t kFrameStepCount = 14;
+const char* frame_step_name(FrameStep step);
+FramePass frame_step_pass(FrameStep step);  // whose statistics the step adds to
+
+// When a step runs. kRun/kSkip are decided by plan_frame; the others name a pass result.
+enum class StepCondition : uint8_t {
+  kRun,
+  kSkip,
+  kIfPass1Occluded,          // FrameFacts::pass1_occluded
+  kIfPass2FoundVisible,      // pass1_occluded and FrameFacts::pass2_found_visible
+};
+
+struct StepPlan {
+  StepCondition when = StepCondition::kSkip;
+  std::string skip_reason;  // kSkip: why (a false condition's reason is step_runs')
+};
+
+// Results of passes that later steps' conditions read (set by the executor).
+struct FrameFacts {
+  bool pass1_occluded = false;       // instance_cull or cluster_cull occluded something
+  bool pass2_found_visible = false;  // cluster_cull_post appended visible clusters
+};
+
+// What the plan is decided from besides the scene and settings.
+struct FrameContext {
+  bool previous_hzb = false;    // a previous-frame HZB of this resolution and instance count exists
+  bool keep_history = false;    // this frame's HZB can be kept for a next frame (a history exists)
+  bool has_next_frame = false;
+  bool streamed = false;        // the frame runs with page streaming
+  std::string no_stream_reason = "no stream budget";  // when !streamed
+};
+
+struct FramePlan {
+  std::array<StepPlan, kFrameStepCount> steps;  // indexed by FrameStep
+  bool occlusion = false;     // occlusion active (setting on and not a single convex object)
+  bool previous_hzb = false;  // pass 1 tests against the previous frame's HZB
+  bool streamed = false;
+  const StepPlan& step(FrameStep s) const { return steps[size_t(s)]; }
+};
+
+FramePlan plan_frame(const RenderScene& scene, const RenderSettings& settings, const FrameContext& context);
+
+// The one place a step's condition is evaluated: true when it runs; else *reason says why.
+bool step_runs(const StepPlan& step, const FrameFacts& facts, std::string* reason);
+
+struct PassStats {
+  std::string name;
+  double ms = 0;
+  uint64_t instances_in = 0, instances_out = 0, nodes_visited = 0, groups_visited = 0,
+           cluster_candidates = 0, clusters_occluded = 0, clusters_drawn = 0, triangles_drawn = 0,
+           pixels_written = 0;
+};
+
+struct FrameStats {
+  std::vector<PassStats> passes;                                  // only passes that ran
+  std::vector<std::pair<std::string, std::string>> skipped;       // (pass, reason)
+  uint64_t instances = 0, clusters_drawn = 0, triangles_drawn = 0, pixels_covered = 0, pixels = 0;
+  double total_ms = 0;
+  bool streamed = false;        // the frame ran with streaming (pass "stream")
+  StreamFrameStats stream;      // when streamed
+  const PassStats* find(const std::string& name) const {
+    for (const PassStats& p : passes)
+      if (p.name == name) return &p;
+    return nullptr;
+  }
+};
+
+// A backend's frame. execute_frame_plan calls run() once per step that runs, in FrameStep
+// order, and times each call (host wall time; an executor that waits for its device per step
+// therefore reports device time per pass). `stats` is the step's pass's slot: counters are
+// added (a pass's steps share it; `name` and `ms` are filled by the caller). Facts a later
+// condition reads are set in `facts`. finish() runs after the last step and sets what only the
+// executor knows: pixels_covered and, when streamed, the streamer's frame statistics.
+class FrameExecutor {
+ public:
+  virtual ~FrameExecutor() = default;
+  virtual void run(FrameStep step, PassStats* stats, FrameFacts* facts) = 0;
+  virtual void finish(FrameStats* stats) = 0;
+};
+
+// Runs `plan` on `executor` and fills `stats` (total_ms excluded: the caller's frame time).
+// `instances`, `pixels`: the scene's instance count and the view's pixel count.
+void execute_frame_plan(const FramePlan& plan, FrameExecutor& executor, uint64_t instances, uint64_t pixels,
+                        FrameStats* stats);
+
+// Human-readable per-pass table and JSON (object) of one frame's statistics.
+std::string frame_stats_table(const FrameStats& stats);
+std::string frame_stats_json(const FrameStats& stats);
+std::string stream_frame_stats_json(const StreamFrameStats& stats);
+
+}  // namespace vgeo
