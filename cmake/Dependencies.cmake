@@ -7,6 +7,7 @@ find_package(OpenMesh REQUIRED)
 find_package(PkgConfig REQUIRED)
 find_package(PNG REQUIRED)
 find_package(nlohmann_json REQUIRED)
+find_package(Vulkan REQUIRED)
 find_library(METIS_LIBRARY metis REQUIRED)
 find_path(METIS_INCLUDE_DIR metis.h REQUIRED)
 pkg_check_modules(ZSTD REQUIRED IMPORTED_TARGET libzstd)
@@ -16,6 +17,6 @@ add_library(vgeo_deps INTERFACE)
 target_include_directories(vgeo_deps INTERFACE ${METIS_INCLUDE_DIR})
 target_link_libraries(vgeo_deps INTERFACE
   meshoptimizer::meshoptimizer TinyGLTF::TinyGLTF OpenMeshCore OpenMeshTools
-  ${METIS_LIBRARY} PkgConfig::ZSTD PkgConfig::LZ4 PNG::PNG nlohmann_json::nlohmann_json)
+  ${METIS_LIBRARY} PkgConfig::ZSTD PkgConfig::LZ4 PNG::PNG nlohmann_json::nlohmann_json Vulkan::Vulkan)
 # OpenMesh's headers need _USE_MATH_DEFINES on some platforms; harmless here.
 target_compile_definitions(vgeo_deps INTERFACE _USE_MATH_DEFINES)

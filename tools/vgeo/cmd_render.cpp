@@ -8,6 +8,7 @@
 #include "commands.h"
 #include "vgeo/core/file_io.h"
 #include "vgeo/core/error.h"
+#include "vgeo/gpu/backend_run.h"
 #include "vgeo/render/run.h"
 
 namespace vgeo::cli {
@@ -24,7 +25,57 @@ struct RenderArgs {
   double disk_latency_ms = 0, disk_bandwidth_mbs = 0, frame_ms = 0;
   uint32_t save_every = 0, stream_issues = 8;
   bool stream_sync = false;
+  // Backends (spec/gpu.md): any of these selects the backend runner (decoded memory form).
+  std::string backend, compare, device, diff_png;
+  bool validate = false;
 };
+
+// --backend / --compare: render the decoded memory form on the chosen backend (and the CPU).
+void run_backend_command(const RenderArgs& args, const RenderRequest& request, const std::string& cache, Context& ctx) {
+  BackendRunRequest br;
+  br.backend = args.compare.empty() ? Backend::kCpu : Backend::kVulkan;
+  if (!args.backend.empty() && !parse_backend(args.backend, &br.backend))
+    fail("RENDER_BAD_OPTION", "vgeo render", "--backend must be cpu or vulkan", kExitUsage);
+  if (!args.compare.empty()) {
+    if (args.compare != "cpu") fail("RENDER_BAD_OPTION", "vgeo render", "--compare supports only cpu", kExitUsage);
+    if (br.backend != Backend::kVulkan)
+      fail("RENDER_BAD_OPTION", "vgeo render", "--compare cpu needs --backend vulkan", kExitUsage);
+    br.compare_cpu = true;
+  }
+  br.gpu.device = args.device;
+  br.gpu.validate = args.validate;
+  br.threads = request.threads;
+  br.frames = request.frames;
+  br.camera = request.camera;
+  br.threshold_px = request.threshold_px;
+  br.view = request.view;
+  br.occlusion = request.occlusion;
+  br.output_png = request.output_png;
+  br.diff_png = args.diff_png;
+  SceneLoadOptions options;
+  options.cache_dir = cache;
+  options.build.threads = request.threads;
+  SceneFile scene = args.scene.empty() ? make_default_scene(1280, 720, std::max<uint32_t>(request.frames, 1), options)
+                                       : load_scene_file(args.scene, options);
+  if (!args.camera_path.empty()) scene.path = load_camera_path_file(args.camera_path, scene.cameras[0]);
+  BackendRunReport report = run_backend(scene, br);
+  if (!args.json_file.empty()) {
+    std::ofstream f(args.json_file, std::ios::binary | std::ios::trunc);
+    f << report.json() << "\n";
+    if (!f) fail("IO_WRITE_FAILED", args.json_file, "cannot write", kExitIo);
+  }
+  std::printf("%s", (args.json ? report.json() + "\n" : report.table()).c_str());
+  if (!report.validation_messages.empty())
+    fail("GPU_VALIDATION", "vulkan",
+         std::to_string(report.validation_messages.size()) + " validation message(s), first: " +
+             report.validation_messages[0],
+         kExitInternal);
+  if (!report.rule_holds)
+    fail("RENDER_BACKENDS_DIFFER", "vgeo render",
+         "the Vulkan frames break the rule of spec/raster.md §Backends agree (see the comparison above)",
+         kExitInvariantViolation);
+  ctx.exit_code = kExitOk;
+}
 
 std::string default_cache_dir() {
   if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return std::string(x) + "/vgeo";
@@ -64,6 +115,12 @@ void add_render_command(CLI::App& app, Context& ctx) {
   cmd->add_flag("--stream-sync", args->stream_sync, "deterministic loader: each read completes at the next frame");
   cmd->add_option("--out-dir", args->out_dir, "write PNGs of frames here (frame_NNNNN.png): every --save-every-th and the last");
   cmd->add_option("--save-every", args->save_every, "with --out-dir: save every K-th frame (0 = only the last)");
+  cmd->add_option("--backend", args->backend, "cpu|vulkan: render the decoded memory form on this backend (spec/gpu.md)");
+  cmd->add_option("--compare", args->compare, "cpu: with --backend vulkan, render every frame on the CPU too and compare "
+                                              "(spec/raster.md; exit 1 when the rule fails)");
+  cmd->add_option("--diff-png", args->diff_png, "with --compare: PNG of the last frame's differences");
+  cmd->add_option("--device", args->device, "Vulkan device: index or name substring (default: lavapipe; env VGEO_VK_DEVICE)");
+  cmd->add_flag("--validate", args->validate, "enable the Vulkan validation layer; any message fails (env VGEO_VK_VALIDATE=1)");
   cmd->callback([args, &ctx] {
     RenderRequest request;
     request.output_png = args->output;
@@ -105,6 +162,11 @@ void add_render_command(CLI::App& app, Context& ctx) {
     request.save_every = args->save_every;
     if (!args->out_dir.empty()) create_output_directory(args->out_dir);
     std::string cache = args->no_cache ? "" : (args->cache_dir.empty() ? default_cache_dir() : args->cache_dir);
+    if (!args->backend.empty() || !args->compare.empty()) {
+      if (!args->stream_budget.empty()) bad_stream_option("--stream-budget is not supported with --backend/--compare");
+      run_backend_command(*args, request, cache, ctx);
+      return;
+    }
     RenderReport report;
     if (args->scene.empty()) {
       if (!args->stream_budget.empty() || !args->camera_path.empty())

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cassert>
 
-#include "vgeo/raster/visbuffer.h"
+#include "vgeo/core/vis_key.h"
 
 namespace vgeo {
 

@@ -12,6 +12,7 @@
 #include "vgeo/core/byte_io.h"
 #include "vgeo/core/error.h"
 #include "vgeo/format/bitstream.h"
+#include "vgeo/format/memory_page.h"
 
 namespace vgeo::format_detail {
 namespace {
@@ -338,17 +339,12 @@ uint32_t vertex_bits(const CanonicalCluster& c) {
   for (uint32_t k = 0; k < kMaxChannels; ++k) b += c.bits[k];
   return b;
 }
-// Base index (enough bits for vertex_count - 1) plus two offsets of `offset_bits` each.
-uint32_t triangle_bits(uint32_t vertex_count, uint32_t offset_bits) {
-  return bits_for_range(vertex_count - 1) + 2 * offset_bits;
-}
-uint32_t words_for_bits(uint64_t bits) { return uint32_t((bits + 31) / 32); }
 }  // namespace
 
 uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t) {
   const uint32_t ob = index_offset_bits(c);
   return kDescriptorWords + words_for_bits(uint64_t(c.vertex_count) * vertex_bits(c)) +
-         words_for_bits(uint64_t(c.triangle_count) * triangle_bits(c.vertex_count, ob)) + c.run_count;
+         words_for_bits(uint64_t(c.triangle_count) * memory_triangle_bits(c.vertex_count, ob)) + c.run_count;
 }
 
 MemoryPageBuilder::MemoryPageBuilder(uint32_t cluster_count, uint64_t max_words, const std::string& where)
@@ -362,7 +358,7 @@ MemoryPageBuilder::MemoryPageBuilder(uint32_t cluster_count, uint64_t max_words,
 void MemoryPageBuilder::add(const CanonicalCluster& c) {
   assert(next_ < n_);
   const uint32_t ob = index_offset_bits(c);
-  const uint32_t vb = vertex_bits(c), tb = triangle_bits(c.vertex_count, ob), bb = tb - 2 * ob;
+  const uint32_t vb = vertex_bits(c), tb = memory_triangle_bits(c.vertex_count, ob), bb = tb - 2 * ob;
   const uint64_t data = w_.size();
   const uint64_t vwords = words_for_bits(uint64_t(c.vertex_count) * vb);
   const uint64_t twords = words_for_bits(uint64_t(c.triangle_count) * tb);
@@ -442,7 +438,7 @@ void validate_memory_page(const uint32_t* w, size_t word_count, const MeshQuanti
       vb += bits[k];
     }
     if ((d[2] >> 10) != data) fail(kErrInconsistent, where, at + "data offset is not the running offset");
-    const uint32_t tb = triangle_bits(vc, ob), bb = tb - 2 * ob;
+    const uint32_t tb = memory_triangle_bits(vc, ob), bb = tb - 2 * ob;
     const uint64_t vwords = words_for_bits(uint64_t(vc) * vb), twords = words_for_bits(uint64_t(tc) * tb);
     if (data + vwords + twords + runs > word_count) fail(kErrTruncated, where, at + "data beyond the page");
     uint64_t bit = data * 32;
@@ -473,16 +469,16 @@ void validate_memory_page(const uint32_t* w, size_t word_count, const MeshQuanti
 
 void decode_cluster(const uint32_t* w, uint32_t i, const MeshQuantization& q, DecodedCluster* out) {
   assert(i < w[0]);
-  const uint32_t* d = &w[1 + i * kDescriptorWords];
-  const uint32_t vc = d[0] & 0xFFu, tc = (d[0] >> 8) & 0xFFu, runs = (d[0] >> 16) & 0xFFu;
-  const uint32_t ob = (d[0] >> 24) & 15u;
+  const uint32_t* d = &w[memory_descriptor_word(i)];
+  const uint32_t vc = memory_vertex_count(d[0]), tc = memory_triangle_count(d[0]), runs = memory_run_count(d[0]);
+  const uint32_t ob = memory_offset_bits(d[0]);
   const uint32_t channels = q.channel_count();
   uint32_t bits[kMaxChannels], vb = 0;
   for (uint32_t k = 0; k < kMaxChannels; ++k) {
-    bits[k] = k < 6 ? (d[1] >> (5 * k)) & 31u : d[2] & 31u;
+    bits[k] = memory_channel_bits(d[1], d[2], k);
     vb += bits[k];
   }
-  uint64_t data = d[2] >> 10;
+  uint64_t data = memory_data_offset(d[2]);
   out->vertex_count = vc;
   out->triangle_count = tc;
   out->index_offset_bits = ob;
@@ -494,7 +490,7 @@ void decode_cluster(const uint32_t* w, uint32_t i, const MeshQuantization& q, De
   for (uint32_t v = 0; v < vc; ++v) {
     int32_t* qv = &out->quantized[size_t(v) * channels];
     for (uint32_t k = 0; k < channels; ++k) {
-      qv[k] = int32_t(d[3 + k]) + int32_t(read_bits(w, bit, bits[k]));
+      qv[k] = int32_t(d[kMemoryMinWord + k]) + int32_t(read_bits(w, bit, bits[k]));
       bit += bits[k];
     }
     for (int k = 0; k < 3; ++k) out->positions[3 * v + k] = dequantize_position(qv[k], q.position_step_log2);
@@ -508,7 +504,7 @@ void decode_cluster(const uint32_t* w, uint32_t i, const MeshQuantization& q, De
       for (int k = 0; k < 2; ++k) out->uvs[2 * v + k] = dequantize_position(qv[ch + k], q.uv_step_log2);
   }
   data += words_for_bits(uint64_t(vc) * vb);
-  const uint32_t tb = triangle_bits(vc, ob), bb = tb - 2 * ob;
+  const uint32_t tb = memory_triangle_bits(vc, ob), bb = tb - 2 * ob;
   out->indices.resize(size_t(tc) * 3);
   bit = data * 32;
   for (uint32_t t = 0; t < tc; ++t, bit += tb) {

@@ -8,11 +8,12 @@
 
 #include "vgeo/dag/cluster_dag.h"
 #include "vgeo/format/format.h"
+#include "vgeo/format/memory_page.h"
 
 namespace vgeo::format_detail {
 
 inline constexpr uint32_t kMaxChannels = 7;          // x y z, oct u v, uv u v
-inline constexpr uint32_t kDescriptorWords = 10;     // memory-form cluster descriptor
+inline constexpr uint32_t kDescriptorWords = kMemoryDescriptorWords;  // memory-form cluster descriptor
 inline constexpr uint32_t kDiskPageMagic = 0x47504456u;    // "VDPG" little-endian (version 1)
 inline constexpr uint32_t kDiskPageMagicV2 = 0x32504456u;  // "VDP2" little-endian (version 2)
 // Version 2: a vertex equal (every channel) to a vertex of an earlier cluster of the same

@@ -86,8 +86,9 @@ Vec3dd xform_point(const Mat4d& m, const float* p) {
           m.at(2, 0) * p[0] + m.at(2, 1) * p[1] + m.at(2, 2) * p[2] + m.at(2, 3)};
 }
 
-// Inverse-transpose of the 3x3 part (normals to world), scaled arbitrarily (normalized later).
-void normal_matrix(const Mat4d& m, double out[3][3]) {
+}  // namespace
+
+void shade_normal_matrix(const Mat4d& m, double out[3][3]) {
   double a[3][3];
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) a[r][c] = m.at(r, c);
@@ -103,8 +104,6 @@ void normal_matrix(const Mat4d& m, double out[3][3]) {
       for (int c = 0; c < 3; ++c) out[r][c] = -out[r][c];
 }
 
-}  // namespace
-
 void shade_frame(const ShadeInput& in, ShadeView mode, ThreadPool& pool, Image* out) {
   const VisBuffer& vis = *in.vis;
   const ViewParams& view = *in.view;
@@ -115,7 +114,7 @@ void shade_frame(const ShadeInput& in, ShadeView mode, ThreadPool& pool, Image* 
   std::vector<std::array<std::array<double, 3>, 3>> normal_mats(in.instances->size());
   for (size_t i = 0; i < in.instances->size(); ++i) {
     double nm[3][3];
-    normal_matrix((*in.instances)[i].object_to_world, nm);
+    shade_normal_matrix((*in.instances)[i].object_to_world, nm);
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) normal_mats[i][r][c] = nm[r][c];
   }

@@ -38,6 +38,10 @@ struct ShadeInput {
   const std::vector<uint32_t>* overdraw = nullptr;  // per pixel count (ShadeView::kOverdraw)
 };
 
+// Inverse-transpose of the 3x3 part of `m` (normals to world), scaled arbitrarily (the
+// shader normalizes): the cofactor matrix, negated when det < 0. Row-major out[r][c].
+void shade_normal_matrix(const Mat4d& m, double out[3][3]);
+
 // Shades every pixel; deterministic for any thread count (pure per-pixel function).
 void shade_frame(const ShadeInput& input, ShadeView view, ThreadPool& pool, Image* out);
 

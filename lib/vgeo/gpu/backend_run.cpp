@@ -1,0 +1,236 @@
+// Backend runner and comparison (backend_run.h).
+#include "vgeo/gpu/backend_run.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "vgeo/core/error.h"
+#include "vgeo/core/hash.h"
+#include "vgeo/gpu/gpu_frame.h"
+
+namespace vgeo {
+
+bool parse_backend(const std::string& name, Backend* out) {
+  if (name == "cpu") *out = Backend::kCpu;
+  else if (name == "vulkan") *out = Backend::kVulkan;
+  else return false;
+  return true;
+}
+
+const char* backend_name(Backend backend) { return backend == Backend::kCpu ? "cpu" : "vulkan"; }
+
+namespace {
+
+// What a key denotes, independent of the visible-cluster list's order. Background: zeros
+// (depth bits 0 never occur in a written key).
+struct Denoted {
+  uint32_t depth_bits = 0, instance = 0, cluster = 0, triangle = 0;
+  friend bool operator==(const Denoted&, const Denoted&) = default;
+};
+Denoted denote(uint64_t key, const std::vector<VisibleCluster>& visible) {
+  if (key == 0) return {};
+  const VisibleCluster& v = visible[vis_key_cluster(key)];
+  return {vis_key_depth_bits(key), v.instance, v.cluster, vis_key_triangle(key)};
+}
+
+std::string hex64(uint64_t v) {
+  char buf[24];
+  std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)v);
+  return buf;
+}
+
+FrameComparison compare_frames(const Frame& cpu, const Frame& gpu, bool shaded) {
+  FrameComparison c;
+  std::vector<VisibleCluster> a = cpu.visible, b = gpu.visible;
+  std::sort(a.begin(), a.end());
+  std::sort(b.begin(), b.end());
+  c.clusters_equal = a == b;
+  for (size_t p = 0; p < cpu.vis.keys.size(); ++p)
+    c.vis_pixels_differing += !(denote(cpu.vis.keys[p], cpu.visible) == denote(gpu.vis.keys[p], gpu.visible));
+  c.shaded = shaded;
+  if (shaded)
+    for (size_t p = 0; p < cpu.image.rgb.size() / 3; ++p) {
+      int d = 0;
+      for (int k = 0; k < 3; ++k) d = std::max(d, std::abs(int(cpu.image.rgb[3 * p + k]) - int(gpu.image.rgb[3 * p + k])));
+      c.max_channel_diff = std::max(c.max_channel_diff, d);
+      c.pixels_over += d > 1;
+    }
+  return c;
+}
+
+// Diff image: red = the visibility key differs, green = shaded difference (×64, so 1/255
+// shows dim and anything over the rule bright), black = identical.
+Image diff_image(const Frame& cpu, const Frame& gpu) {
+  Image d;
+  d.width = cpu.vis.width;
+  d.height = cpu.vis.height;
+  d.rgb.assign(size_t(d.width) * d.height * 3, 0);
+  for (size_t p = 0; p < size_t(d.width) * d.height; ++p) {
+    if (!(denote(cpu.vis.keys[p], cpu.visible) == denote(gpu.vis.keys[p], gpu.visible))) d.rgb[3 * p] = 255;
+    int m = 0;
+    if (!cpu.image.rgb.empty() && !gpu.image.rgb.empty())
+      for (int k = 0; k < 3; ++k) m = std::max(m, std::abs(int(cpu.image.rgb[3 * p + k]) - int(gpu.image.rgb[3 * p + k])));
+    d.rgb[3 * p + 1] = uint8_t(std::min(255, 64 * m));
+  }
+  return d;
+}
+
+void write_failure(const std::string& dir, uint32_t f, const Frame& cpu, const Frame& gpu) {
+  char stem[32];
+  std::snprintf(stem, sizeof stem, "/frame_%05u", f);
+  write_png(dir + stem + "_diff.png", diff_image(cpu, gpu));
+  std::ofstream out(dir + stem + "_pixels.txt");
+  out << "# x y | cpu: depth_bits instance cluster triangle | vulkan: depth_bits instance cluster triangle\n";
+  for (uint32_t y = 0; y < cpu.vis.height; ++y)
+    for (uint32_t x = 0; x < cpu.vis.width; ++x) {
+      const size_t p = size_t(y) * cpu.vis.width + x;
+      const Denoted a = denote(cpu.vis.keys[p], cpu.visible), b = denote(gpu.vis.keys[p], gpu.visible);
+      if (a == b) continue;
+      out << x << ' ' << y << " | " << a.depth_bits << ' ' << a.instance << ' ' << a.cluster << ' ' << a.triangle
+          << " | " << b.depth_bits << ' ' << b.instance << ' ' << b.cluster << ' ' << b.triangle << '\n';
+    }
+}
+
+}  // namespace
+
+uint64_t vis_buffer_hash(const VisBuffer& vis, const std::vector<VisibleCluster>& visible) {
+  uint64_t h = kFnvOffset;
+  for (uint64_t key : vis.keys) {
+    const Denoted d = denote(key, visible);
+    const uint32_t words[4] = {d.depth_bits, d.instance, d.cluster, d.triangle};
+    h = fnv1a64(words, sizeof words, h);
+  }
+  return h;
+}
+
+uint64_t cluster_set_hash(const std::vector<VisibleCluster>& visible) {
+  std::vector<VisibleCluster> sorted = visible;
+  std::sort(sorted.begin(), sorted.end());
+  uint64_t h = kFnvOffset;
+  for (const VisibleCluster& v : sorted) {
+    const uint32_t words[2] = {v.instance, v.cluster};
+    h = fnv1a64(words, sizeof words, h);
+  }
+  return h;
+}
+
+BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& request) {
+  RenderSettings settings = file.settings;
+  if (request.threshold_px) settings.threshold_px = *request.threshold_px;
+  if (request.view) settings.view = *request.view;
+  if (request.occlusion) settings.occlusion = *request.occlusion;
+  if (!(settings.threshold_px > 0) || !std::isfinite(settings.threshold_px))
+    fail("RENDER_BAD_OPTION", "render", "--tau must be a positive finite number of pixels", kExitUsage);
+  if (request.camera >= file.cameras.size())
+    fail("RENDER_BAD_CAMERA", "render", "camera " + std::to_string(request.camera) + " does not exist", kExitUsage);
+  if (file.streaming)
+    fail("GPU_STREAMING_UNSUPPORTED", "render",
+         "--backend/--compare render fully resident scenes only (the scene's pages exceed the stream budget)", kExitUsage);
+  const uint32_t frames = request.frames ? request.frames : (file.path.empty() ? 1 : uint32_t(file.path.size()));
+  if (frames > kMaxPathFrames) fail("RENDER_BAD_OPTION", "render", "--frames at most 100000", kExitUsage);
+  const bool vulkan = request.backend == Backend::kVulkan;
+  const bool compare = vulkan && request.compare_cpu;
+
+  const MemoryFormScene scene = make_memory_form_scene(file.scene);
+  std::unique_ptr<GpuContext> gpu;
+  GpuRendererPtr renderer;
+  if (vulkan) {
+    gpu = create_gpu_context(request.gpu);
+    renderer = create_gpu_renderer(*gpu, scene);
+  }
+  BackendRunReport report;
+  report.backend = request.backend;
+  if (gpu) report.device = gpu->device_name;
+  ThreadPool pool(request.threads);
+  FrameHistory history, cpu_history;
+  Frame frame, cpu_frame;
+  for (uint32_t f = 0; f < frames; ++f) {
+    const Camera& cam = file.path.empty() ? file.cameras[request.camera] : file.path[std::min<size_t>(f, file.path.size() - 1)];
+    const bool last = f + 1 == frames;
+    RenderSettings s = settings;
+    s.shade = last;  // as render_scene: only the kept image is shaded
+    if (vulkan) render_frame_vulkan(*renderer, scene, cam, s, pool, &history, &frame, !last);
+    else render_frame(scene.scene, cam, s, pool, &history, &frame, !last);
+    report.frames.push_back(frame.stats);
+    if (compare) {
+      render_frame(scene.scene, cam, s, pool, &cpu_history, &cpu_frame, !last);
+      report.comparisons.push_back(compare_frames(cpu_frame, frame, last));
+      report.rule_holds = report.rule_holds && report.comparisons.back().holds();
+      if (!report.comparisons.back().holds() && !request.failure_dir.empty())
+        write_failure(request.failure_dir, f, cpu_frame, frame);
+    }
+  }
+  report.width = frame.vis.width;
+  report.height = frame.vis.height;
+  report.vis_hash = vis_buffer_hash(frame.vis, frame.visible);
+  report.cluster_set_hash = cluster_set_hash(frame.visible);
+  report.image_hash = fnv1a64(frame.image.rgb.data(), frame.image.rgb.size());
+  if (!request.output_png.empty()) write_png(request.output_png, frame.image);
+  if (compare && !request.diff_png.empty()) write_png(request.diff_png, diff_image(cpu_frame, frame));
+  if (gpu) {
+    std::lock_guard<std::mutex> lock(gpu->messages_mutex);
+    report.validation_messages = gpu->validation_messages;
+  }
+  return report;
+}
+
+std::string BackendRunReport::table() const {
+  std::string out = "backend: " + std::string(backend_name(backend)) + (device.empty() ? "" : " (" + device + ")") + "\n";
+  if (!frames.empty()) out += frame_stats_table(frames.back());
+  out += "vis_hash " + hex64(vis_hash) + "  cluster_set_hash " + hex64(cluster_set_hash) + "\n";
+  if (!comparisons.empty()) {
+    uint64_t vis_diff = 0, over = 0;
+    int max_diff = 0;
+    uint32_t cluster_mismatch = 0;
+    for (const FrameComparison& c : comparisons) {
+      vis_diff += c.vis_pixels_differing;
+      over += c.pixels_over;
+      max_diff = std::max(max_diff, c.max_channel_diff);
+      cluster_mismatch += !c.clusters_equal;
+    }
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "compare cpu: %zu frame(s); cluster sets %s; vis pixels differing %llu; shaded max channel diff "
+                  "%d/255, pixels over 1/255 %llu: rule %s\n",
+                  comparisons.size(), cluster_mismatch ? "DIFFER" : "equal", (unsigned long long)vis_diff, max_diff,
+                  (unsigned long long)over, rule_holds ? "holds" : "FAILS");
+    out += line;
+  }
+  return out;
+}
+
+std::string BackendRunReport::json() const {
+  nlohmann::ordered_json j;
+  j["backend"] = backend_name(backend);
+  if (!device.empty()) j["device"] = device;
+  j["width"] = width;
+  j["height"] = height;
+  j["vis_hash"] = hex64(vis_hash);
+  j["cluster_set_hash"] = hex64(cluster_set_hash);
+  j["image_hash"] = hex64(image_hash);
+  j["frames"] = nlohmann::ordered_json::array();
+  for (const FrameStats& f : frames) j["frames"].push_back(nlohmann::ordered_json::parse(frame_stats_json(f)));
+  if (!comparisons.empty()) {
+    nlohmann::ordered_json c = nlohmann::ordered_json::array();
+    for (const FrameComparison& fc : comparisons) {
+      nlohmann::ordered_json e;
+      e["clusters_equal"] = fc.clusters_equal;
+      e["vis_pixels_differing"] = fc.vis_pixels_differing;
+      if (fc.shaded) {
+        e["max_channel_diff"] = fc.max_channel_diff;
+        e["pixels_over"] = fc.pixels_over;
+      }
+      c.push_back(e);
+    }
+    j["compare_cpu"] = c;
+    j["rule_holds"] = rule_holds;
+  }
+  j["validation_messages"] = validation_messages.size();
+  return j.dump(2);
+}
+
+}  // namespace vgeo

@@ -1,0 +1,151 @@
+#pragma once
+// Headless Vulkan 1.3 context for the GPU backend (spec/gpu.md): instance, one compute-
+// capable device (Mesa lavapipe by default), host-visible buffers, compute pipelines from
+// the SPIR-V embedded in the library, and a one-shot command recorder. Plain structs,
+// no global state: every object belongs to the GpuContext that made it.
+//
+// Validation: with GpuOptions::validate (CLI --validate, env VGEO_VK_VALIDATE=1) the
+// Khronos validation layer and a debug-utils messenger are on; every message the layer
+// reports is kept in GpuContext::validation_messages (never printed by the library), and
+// callers fail on a non-empty list.
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace vgeo {
+
+// Device chosen when neither GpuOptions::device nor VGEO_VK_DEVICE names one: the
+// project's reference GPU is Mesa's CPU driver (lavapipe reports "llvmpipe ...").
+inline constexpr const char* kDefaultGpuDevice = "llvmpipe";
+
+struct GpuOptions {
+  // Device to use: a decimal index into vkEnumeratePhysicalDevices, or a case-insensitive
+  // substring of the device name. Empty: env VGEO_VK_DEVICE, else kDefaultGpuDevice,
+  // else the first device.
+  std::string device;
+  bool validate = false;  // also on when env VGEO_VK_VALIDATE=1
+};
+
+struct GpuContext {
+  VkInstance instance = VK_NULL_HANDLE;
+  VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
+  VkPhysicalDevice physical = VK_NULL_HANDLE;
+  VkDevice device = VK_NULL_HANDLE;
+  VkQueue queue = VK_NULL_HANDLE;
+  uint32_t queue_family = 0;
+  uint32_t host_memory_type = 0;  // host-visible, host-coherent memory type index
+  VkPhysicalDeviceProperties properties{};
+  std::string device_name;
+  bool validation = false;
+
+  // Filled by the debug messenger (any thread); read after the GPU work has finished.
+  std::mutex messages_mutex;
+  std::vector<std::string> validation_messages;
+
+  GpuContext() = default;
+  GpuContext(const GpuContext&) = delete;
+  GpuContext& operator=(const GpuContext&) = delete;
+  ~GpuContext();
+};
+
+// Throws VgeoError: GPU_NO_DEVICE (no Vulkan driver or no physical device),
+// GPU_DEVICE_NOT_FOUND (the requested device does not exist), GPU_FEATURE_MISSING
+// (a required feature: Vulkan 1.3 with synchronization2 and maintenance4, shaderInt64,
+// shaderFloat64, shaderBufferInt64Atomics),
+// GPU_VALIDATION_UNAVAILABLE (validation requested, layer not installed), GPU_ERROR.
+std::unique_ptr<GpuContext> create_gpu_context(const GpuOptions& options);
+
+// Names of the physical devices, in enumeration order (for error messages and `--device`).
+std::vector<std::string> list_gpu_devices();
+
+// Throws VgeoError GPU_ERROR (exit kExitInternal) when `result` is not VK_SUCCESS.
+void check_vk(VkResult result, const char* what);
+
+// A host-visible, host-coherent storage buffer, persistently mapped (lavapipe's only heap
+// is device-local and host-visible). Move-only; frees itself.
+struct GpuBuffer {
+  GpuContext* context = nullptr;
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkDeviceSize size = 0;
+  void* mapped = nullptr;
+
+  GpuBuffer() = default;
+  GpuBuffer(GpuBuffer&& o) noexcept { *this = std::move(o); }
+  GpuBuffer& operator=(GpuBuffer&& o) noexcept;
+  GpuBuffer(const GpuBuffer&) = delete;
+  GpuBuffer& operator=(const GpuBuffer&) = delete;
+  ~GpuBuffer() { reset(); }
+  void reset();
+  template <class T>
+  T* data() const { return static_cast<T*>(mapped); }
+};
+
+// `size` bytes (0 is rounded up to 4, the smallest legal storage buffer). Larger than
+// maxStorageBufferRange is a programming error: callers split (spec/gpu.md).
+GpuBuffer create_gpu_buffer(GpuContext& context, VkDeviceSize size);
+
+// SPIR-V embedded in the library by the build (shaders/*.comp → generated shaders.h).
+struct ShaderBinary {
+  const char* name;
+  const uint32_t* words;
+  size_t word_count;
+};
+
+// A compute pipeline whose bindings 0..storage_buffers-1 of set 0 are storage buffers and
+// whose push-constant block is `push_constant_bytes` long.
+struct ComputePipeline {
+  GpuContext* context = nullptr;
+  VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  uint32_t storage_buffers = 0, push_constant_bytes = 0;
+
+  ComputePipeline() = default;
+  ComputePipeline(ComputePipeline&& o) noexcept { *this = std::move(o); }
+  ComputePipeline& operator=(ComputePipeline&& o) noexcept;
+  ComputePipeline(const ComputePipeline&) = delete;
+  ComputePipeline& operator=(const ComputePipeline&) = delete;
+  ~ComputePipeline() { reset(); }
+  void reset();
+};
+
+ComputePipeline create_compute_pipeline(GpuContext& context, const ShaderBinary& shader,
+                                        uint32_t storage_buffers, uint32_t push_constant_bytes);
+
+// Records compute work into one command buffer and runs it synchronously. Every dispatch
+// is followed by a full compute→compute/transfer/host memory barrier, so consecutive
+// dispatches see each other's writes (the frame's passes are sequential by design).
+struct GpuRecorder {
+  GpuContext* context = nullptr;
+  VkCommandPool pool = VK_NULL_HANDLE;
+  VkCommandBuffer commands = VK_NULL_HANDLE;
+  VkDescriptorPool descriptors = VK_NULL_HANDLE;
+  VkFence fence = VK_NULL_HANDLE;
+  VkQueryPool timestamps = VK_NULL_HANDLE;
+  uint32_t timestamps_used = 0;
+  bool recording = false;
+
+  GpuRecorder() = default;
+  GpuRecorder(const GpuRecorder&) = delete;
+  GpuRecorder& operator=(const GpuRecorder&) = delete;
+  ~GpuRecorder();
+};
+
+std::unique_ptr<GpuRecorder> create_gpu_recorder(GpuContext& context);
+void begin_commands(GpuRecorder& rec);
+void cmd_fill(GpuRecorder& rec, const GpuBuffer& buffer, uint32_t value);
+void cmd_dispatch(GpuRecorder& rec, const ComputePipeline& pipeline,
+                  const std::vector<const GpuBuffer*>& buffers, const void* push_constants,
+                  uint32_t groups_x, uint32_t groups_y = 1, uint32_t groups_z = 1);
+// Writes a GPU timestamp; returns its slot (read with read_timestamps_ms after submit).
+uint32_t cmd_timestamp(GpuRecorder& rec);
+void submit_and_wait(GpuRecorder& rec);
+// Milliseconds between timestamp slots `from` and `to` of the last submission.
+double timestamp_ms(GpuRecorder& rec, uint32_t from, uint32_t to);
+
+}  // namespace vgeo

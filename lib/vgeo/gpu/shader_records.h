@@ -1,0 +1,106 @@
+#ifndef VGEO_GPU_SHADER_RECORDS_H
+#define VGEO_GPU_SHADER_RECORDS_H
+// Records the host writes and the shaders read (storage buffers and push constants), written
+// once in the common C++/GLSL subset (core/shared_glsl.h). Only 32-bit scalars and arrays of
+// them, so std430 (GLSL) and the C++ layout agree; C++ checks size and offsets below.
+#include "vgeo/core/shared_glsl.h"
+
+#ifdef __cplusplus
+namespace vgeo {
+#endif
+
+// Where cluster c of a mesh lives: word offset of its memory-form page in the page buffer,
+// and its index in that page. One per (mesh, cluster), meshes concatenated.
+struct GpuClusterLocation {
+  uint32_t page_word;
+  uint32_t cluster_in_page;
+};
+
+struct GpuMesh {
+  uint32_t first_location;       // index of cluster 0's GpuClusterLocation
+  int32_t position_step_log2;    // MeshQuantization::position_step_log2
+  uint32_t channel_count;        // MeshQuantization::channel_count()
+  uint32_t normal_bits;          // 0: no normals
+};
+
+// Per instance and frame: the float object→clip matrix the CPU rasterizer gets
+// (column-major, Mat4::m), the mesh, and the material offset of the mesh's materials.
+struct GpuInstance {
+  float object_to_clip[16];
+  uint32_t mesh;
+  uint32_t reserved[3];
+};
+
+// The visibility key's visible-cluster index i denotes visible[i] (cull/cull.h VisibleCluster).
+struct GpuVisibleCluster {
+  uint32_t instance;
+  uint32_t cluster;
+};
+
+// Push constants of shaders/raster.comp: rasterize visible[first_visible + g] for workgroup g
+// (g = y · groups_x + x) of visible_count.
+struct GpuRasterParams {
+  uint32_t width;
+  uint32_t height;
+  uint32_t first_visible;
+  uint32_t visible_count;
+  uint32_t groups_x;
+  uint32_t cull_backfaces;
+  float z_near;                  // RasterOptions::z_near (float, widened to double as on the CPU)
+  uint32_t reserved;
+};
+
+// Per instance and frame, for shading (shade.cpp): object→view (column-major Mat4d::m) and
+// the normal matrix (cofactor matrix of the 3x3 part, sign-corrected; row-major 3x3).
+struct GpuShadeInstance {
+  double object_to_view[16];
+  double normal_matrix[9];
+  double reserved;
+};
+
+// Per visible cluster, what the debug views colour by (from the DAG metadata; the error is
+// core/lod.h projected_error evaluated on the host, the one implementation).
+struct GpuShadeCluster {
+  uint32_t group;
+  uint32_t level;
+  uint32_t level_count;
+  float projected_error;
+};
+
+struct GpuMaterial {
+  float base_color[4];  // linear RGBA (Material::base_color)
+};
+
+// Push constants of shaders/shade.comp (doubles first: std430 aligns them to 8).
+struct GpuShadeParams {
+  double tan_half_x;        // ViewParams
+  double tan_half_y;
+  double light[3];          // normalized light direction (world), as shade.cpp lx, ly, lz
+  uint32_t width;
+  uint32_t height;
+  uint32_t view;            // ShadeView
+  uint32_t material_count;
+  float ambient;
+  float threshold_px;
+  uint32_t max_overdraw;
+  uint32_t reserved;
+};
+
+// Workgroup size of the raster shader: one invocation per triangle of a cluster.
+VGEO_CONSTANT uint32_t kGpuRasterGroupSize = 128u;
+// Largest workgroup count per dispatch dimension the host uses (Vulkan guarantees 65535).
+VGEO_CONSTANT uint32_t kGpuMaxGroupsX = 65535u;
+
+#ifdef __cplusplus
+static_assert(sizeof(GpuClusterLocation) == 8);
+static_assert(sizeof(GpuMesh) == 16);
+static_assert(sizeof(GpuInstance) == 80 && offsetof(GpuInstance, mesh) == 64);
+static_assert(sizeof(GpuVisibleCluster) == 8);
+static_assert(sizeof(GpuRasterParams) == 32 && offsetof(GpuRasterParams, z_near) == 24);
+static_assert(sizeof(GpuShadeInstance) == 208 && offsetof(GpuShadeInstance, normal_matrix) == 128);
+static_assert(sizeof(GpuShadeCluster) == 16);
+static_assert(sizeof(GpuMaterial) == 16);
+static_assert(sizeof(GpuShadeParams) == 72 && offsetof(GpuShadeParams, width) == 40 && offsetof(GpuShadeParams, ambient) == 56);
+}  // namespace vgeo
+#endif
+#endif

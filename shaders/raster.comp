@@ -1,0 +1,268 @@
+#version 460
+// Software rasterizer in compute: the GLSL image of lib/vgeo/raster/raster.cpp, operation for
+// operation, so every visibility-buffer key is bit-identical to the CPU reference
+// (spec/raster.md §Backends agree). Doubles where the CPU uses double, int64 where it uses
+// int64; every floating-point temporary is `precise` (SPIR-V NoContraction) because the CPU
+// build does not contract a·b + c into a fused multiply-add either. One workgroup per visible
+// cluster, one invocation per triangle; covered pixels get atomicMax of the key.
+#extension GL_EXT_shader_explicit_arithmetic_types : require
+#extension GL_EXT_shader_atomic_int64 : require
+#extension GL_GOOGLE_include_directive : require
+#include "vgeo/core/vis_key.h"
+#include "vgeo/gpu/shader_records.h"
+
+layout(local_size_x = 128) in;  // kGpuRasterGroupSize = kMaxClusterTriangles
+
+layout(std430, binding = 0) readonly buffer Pages { uint32_t page_words[]; };
+layout(std430, binding = 1) readonly buffer Locations { GpuClusterLocation locations[]; };
+layout(std430, binding = 2) readonly buffer Meshes { GpuMesh meshes[]; };
+layout(std430, binding = 3) readonly buffer Instances { GpuInstance instances[]; };
+layout(std430, binding = 4) readonly buffer Visible { GpuVisibleCluster visible[]; };
+layout(std430, binding = 5) buffer Vis { uint64_t vis[]; };
+layout(std430, binding = 6) buffer Counters { uint64_t pixels_written; };
+layout(push_constant) uniform Push { GpuRasterParams params; };
+
+#define VGEO_PAGE_WORD(i) page_words[i]
+#include "memory_page.glsl"
+
+// raster.h / raster.cpp constants.
+const int64_t kSubpixelScale = int64_t(256);  // 1 << kSubpixelBits
+const int64_t kHalfPixel = int64_t(128);
+const double kMaxSnapped = double(int64_t(1) << 28);
+const double kGuardBandNdc = 64.0;
+const uint32_t kNear = 0u, kGuardPosX = 1u, kGuardNegX = 2u, kGuardPosY = 3u, kGuardNegY = 4u, kPlaneCount = 5u;
+const uint32_t kOutNear = 1u;
+const uint32_t kOutClipMask = 31u;
+const uint32_t kOutViewPosX = 32u, kOutViewNegX = 64u, kOutViewPosY = 128u, kOutViewNegY = 256u;
+const uint32_t kOutRejectMask = 1u | 32u | 64u | 128u | 256u;
+const int kMaxPolygon = 8;  // 3 + kPlaneCount
+
+struct ClipVertex { double x, y, z, w; };
+struct ScreenVertex { int64_t x, y; double z; };
+
+double plane_distance(ClipVertex v, uint32_t plane, double z_near) {
+  precise double d;
+  if (plane == kNear) d = v.w - z_near;
+  else if (plane == kGuardPosX) d = kGuardBandNdc * v.w - v.x;
+  else if (plane == kGuardNegX) d = kGuardBandNdc * v.w + v.x;
+  else if (plane == kGuardPosY) d = kGuardBandNdc * v.w - v.y;
+  else d = kGuardBandNdc * v.w + v.y;
+  return d;
+}
+
+uint32_t outcode(ClipVertex v, double z_near) {
+  uint32_t code = 0u;
+  for (uint32_t p = 0u; p < kPlaneCount; ++p)
+    if (plane_distance(v, p, z_near) < 0.0) code |= 1u << p;
+  if (v.x > v.w) code |= kOutViewPosX;
+  if (v.x < -v.w) code |= kOutViewNegX;
+  if (v.y > v.w) code |= kOutViewPosY;
+  if (v.y < -v.w) code |= kOutViewNegY;
+  return code;
+}
+
+ClipVertex intersect_plane(ClipVertex a, ClipVertex b, uint32_t plane, double z_near) {
+  precise double d_in = plane_distance(a, plane, z_near);
+  precise double d_out = plane_distance(b, plane, z_near);
+  precise double t = d_in / (d_in - d_out);
+  ClipVertex r;
+  precise double rx = a.x + t * (b.x - a.x);
+  precise double ry = a.y + t * (b.y - a.y);
+  precise double rz = a.z + t * (b.z - a.z);
+  precise double rw = a.w + t * (b.w - a.w);
+  r.x = rx; r.y = ry; r.z = rz; r.w = rw;
+  precise double g = kGuardBandNdc * r.w;
+  if (plane == kNear) r.w = z_near;
+  else if (plane == kGuardPosX) r.x = g;
+  else if (plane == kGuardNegX) r.x = -g;
+  else if (plane == kGuardPosY) r.y = g;
+  else r.y = -g;
+  return r;
+}
+
+int64_t snap(double units) {
+  precise double u = units;
+  if (!(u >= -kMaxSnapped)) u = -kMaxSnapped;
+  if (!(u <= kMaxSnapped)) u = kMaxSnapped;
+  precise double f = floor(u + 0.5);
+  return int64_t(f);
+}
+
+ScreenVertex project(ClipVertex v, double scale_x, double scale_y) {
+  precise double inv_w = 1.0 / v.w;
+  precise double sx = (v.x * inv_w * 0.5 + 0.5) * scale_x;
+  precise double sy = (0.5 - v.y * inv_w * 0.5) * scale_y;
+  precise double sz = v.z * inv_w;
+  ScreenVertex s;
+  s.x = snap(sx);
+  s.y = snap(sy);
+  s.z = sz;
+  return s;
+}
+
+int64_t floor_div(int64_t a, int64_t b) {
+  int64_t q = a / b;
+  return (a % b != int64_t(0) && a < int64_t(0)) ? q - int64_t(1) : q;
+}
+int64_t ceil_div(int64_t a, int64_t b) { return -floor_div(-a, b); }
+
+const double kMinWrittenDepth = 1.1754943508222875e-38LF;  // FLT_MIN = 2^-126, exact in double
+
+// One oriented triangle's setup (raster.cpp Setup).
+int64_t g_vx[3], g_vy[3], g_dx[3], g_dy[3], g_bias[3];
+int64_t g_x0, g_y0;
+double g_z0, g_a, g_b;
+
+int64_t edge_at(int i, int64_t px, int64_t py) {
+  int64_t cx = px * kSubpixelScale + kHalfPixel, cy = py * kSubpixelScale + kHalfPixel;
+  return g_dx[i] * (cy - g_vy[i]) - g_dy[i] * (cx - g_vx[i]) - g_bias[i];
+}
+
+float depth_at(int64_t px, int64_t py) {
+  precise double dx = double(px * kSubpixelScale + kHalfPixel - g_x0);
+  precise double dy = double(py * kSubpixelScale + kHalfPixel - g_y0);
+  precise double z = (g_z0 + g_a * dx) + g_b * dy;
+  if (!(z >= kMinWrittenDepth)) z = kMinWrittenDepth;
+  if (z > 1.0) z = 1.0;
+  return float(z);
+}
+
+// raster.cpp raster_triangle (all pixel loops produce the same set; this is the bounding-box
+// loop over exact edge functions). Returns false when culled (back face, zero area).
+bool raster_triangle(ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, uint32_t id_bits, inout uint64_t written) {
+  int64_t area = (v1.x - v0.x) * (v2.y - v0.y) - (v2.x - v0.x) * (v1.y - v0.y);
+  if (area == int64_t(0)) return false;
+  bool front = area < int64_t(0);
+  if (!front && params.cull_backfaces != 0u) return false;
+  if (area < int64_t(0)) {
+    ScreenVertex t = v1;
+    v1 = v2;
+    v2 = t;
+    area = -area;
+  }
+  ScreenVertex v[3] = ScreenVertex[3](v0, v1, v2);
+  for (int i = 0; i < 3; ++i) {
+    ScreenVertex a = v[i];
+    ScreenVertex b = v[(i + 1) % 3];
+    g_vx[i] = a.x;
+    g_vy[i] = a.y;
+    g_dx[i] = b.x - a.x;
+    g_dy[i] = b.y - a.y;
+    bool top_left = g_dy[i] < int64_t(0) || (g_dy[i] == int64_t(0) && g_dx[i] > int64_t(0));
+    g_bias[i] = top_left ? int64_t(0) : int64_t(1);
+  }
+  int64_t min_x = min(v0.x, min(v1.x, v2.x)), max_x = max(v0.x, max(v1.x, v2.x));
+  int64_t min_y = min(v0.y, min(v1.y, v2.y)), max_y = max(v0.y, max(v1.y, v2.y));
+  int64_t min_px = max(int64_t(0), ceil_div(min_x - kHalfPixel, kSubpixelScale));
+  int64_t max_px = min(int64_t(params.width) - int64_t(1), floor_div(max_x - kHalfPixel, kSubpixelScale));
+  int64_t min_py = max(int64_t(0), ceil_div(min_y - kHalfPixel, kSubpixelScale));
+  int64_t max_py = min(int64_t(params.height) - int64_t(1), floor_div(max_y - kHalfPixel, kSubpixelScale));
+
+  precise double inv_area = 1.0 / double(area);
+  precise double dz1 = v1.z - v0.z;
+  precise double dz2 = v2.z - v0.z;
+  g_x0 = v0.x;
+  g_y0 = v0.y;
+  g_z0 = v0.z;
+  precise double pa = (dz1 * double(v2.y - v0.y) - dz2 * double(v1.y - v0.y)) * inv_area;
+  precise double pb = (dz2 * double(v1.x - v0.x) - dz1 * double(v2.x - v0.x)) * inv_area;
+  g_a = pa;
+  g_b = pb;
+
+  for (int64_t py = min_py; py <= max_py; ++py)
+    for (int64_t px = min_px; px <= max_px; ++px)
+      if (edge_at(0, px, py) >= int64_t(0) && edge_at(1, px, py) >= int64_t(0) && edge_at(2, px, py) >= int64_t(0)) {
+        uint64_t key = pack_vis_key_bits(floatBitsToUint(depth_at(px, py)), 0u, 0u) | uint64_t(id_bits);
+        atomicMax(vis[uint32_t(py) * params.width + uint32_t(px)], key);
+        ++written;
+      }
+  return true;
+}
+
+struct TransformedVertex {
+  ClipVertex clip;
+  ScreenVertex screen;
+  uint32_t code;
+  bool finite;
+};
+
+bool finite_d(double v) { return !isinf(v) && !isnan(v); }
+
+TransformedVertex transform_vertex(MemoryCluster c, uint32_t v, GpuInstance inst, int32_t step_log2,
+                                   double z_near, double scale_x, double scale_y) {
+  double p[3];
+  for (uint32_t k = 0u; k < 3u; ++k) p[k] = double(dequantize_position(memory_vertex_channel(c, v, k), step_log2));
+  double cc[4];
+  for (int r = 0; r < 4; ++r) {
+    precise double s = ((double(inst.object_to_clip[r]) * p[0] + double(inst.object_to_clip[4 + r]) * p[1]) +
+                        double(inst.object_to_clip[8 + r]) * p[2]) + double(inst.object_to_clip[12 + r]);
+    cc[r] = s;
+  }
+  TransformedVertex t;
+  t.clip = ClipVertex(cc[0], cc[1], cc[2], cc[3]);
+  t.finite = finite_d(cc[0]) && finite_d(cc[1]) && finite_d(cc[2]) && finite_d(cc[3]);
+  t.code = t.finite ? outcode(t.clip, z_near) : 0u;
+  t.screen = ScreenVertex(int64_t(0), int64_t(0), 0.0);
+  if (t.finite && (t.code & kOutClipMask) == 0u) t.screen = project(t.clip, scale_x, scale_y);
+  return t;
+}
+
+void main() {
+  uint32_t group = gl_WorkGroupID.y * params.groups_x + gl_WorkGroupID.x;
+  if (group >= params.visible_count) return;
+  uint32_t visible_index = params.first_visible + group;
+  GpuVisibleCluster vc = visible[visible_index];
+  GpuInstance inst = instances[vc.instance];
+  GpuMesh mesh = meshes[inst.mesh];
+  GpuClusterLocation loc = locations[mesh.first_location + vc.cluster];
+  MemoryCluster c = memory_cluster(loc.page_word, loc.cluster_in_page, mesh.channel_count);
+  uint32_t tri = gl_LocalInvocationID.x;
+  if (tri >= c.triangle_count) return;
+
+  const double z_near = double(params.z_near);
+  const double scale_x = double(params.width) * double(kSubpixelScale);
+  const double scale_y = double(params.height) * double(kSubpixelScale);
+  uvec3 idx = memory_triangle(c, tri);
+  if (idx.x >= c.vertex_count || idx.y >= c.vertex_count || idx.z >= c.vertex_count) return;
+  TransformedVertex tv[3];
+  tv[0] = transform_vertex(c, idx.x, inst, mesh.position_step_log2, z_near, scale_x, scale_y);
+  tv[1] = transform_vertex(c, idx.y, inst, mesh.position_step_log2, z_near, scale_x, scale_y);
+  tv[2] = transform_vertex(c, idx.z, inst, mesh.position_step_log2, z_near, scale_x, scale_y);
+  if (!tv[0].finite || !tv[1].finite || !tv[2].finite) return;
+  if ((tv[0].code & tv[1].code & tv[2].code & kOutRejectMask) != 0u) return;
+  uint32_t id_bits = (visible_index << kVisTriangleBits) | tri;
+  uint32_t clip_mask = (tv[0].code | tv[1].code | tv[2].code) & kOutClipMask;
+  uint64_t written = uint64_t(0);
+  if (clip_mask == 0u) {
+    raster_triangle(tv[0].screen, tv[1].screen, tv[2].screen, id_bits, written);
+  } else {
+    // raster.cpp clip_polygon: Sutherland–Hodgman in the fixed plane order.
+    ClipVertex poly[kMaxPolygon];
+    ClipVertex outp[kMaxPolygon];
+    poly[0] = tv[0].clip;
+    poly[1] = tv[1].clip;
+    poly[2] = tv[2].clip;
+    int count = 3;
+    for (uint32_t plane = 0u; plane < kPlaneCount && count >= 3; ++plane) {
+      if ((clip_mask & (1u << plane)) == 0u) continue;
+      int n = 0;
+      for (int i = 0; i < count; ++i) {
+        ClipVertex cur = poly[i];
+        ClipVertex next = poly[(i + 1) % count];
+        bool cur_in = plane_distance(cur, plane, z_near) >= 0.0;
+        bool next_in = plane_distance(next, plane, z_near) >= 0.0;
+        if (cur_in) outp[n++] = cur;
+        if (cur_in != next_in)
+          outp[n++] = cur_in ? intersect_plane(cur, next, plane, z_near) : intersect_plane(next, cur, plane, z_near);
+      }
+      poly = outp;
+      count = n;
+    }
+    if (count >= 3) {
+      ScreenVertex screen[kMaxPolygon];
+      for (int k = 0; k < count; ++k) screen[k] = project(poly[k], scale_x, scale_y);
+      for (int k = 1; k + 1 < count; ++k) raster_triangle(screen[0], screen[k], screen[k + 1], id_bits, written);
+    }
+  }
+  if (written != uint64_t(0)) atomicAdd(pixels_written, written);
+}

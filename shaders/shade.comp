@@ -1,0 +1,177 @@
+#version 460
+// Deferred shading of the visibility buffer: the GLSL image of lib/vgeo/shade/shade.cpp,
+// every view (lit, triangle, cluster, group, lod, error, overdraw). Same double arithmetic
+// where the CPU uses double; sRGB by the formula the CPU tabulates (the rule allows 1/255).
+// One invocation per pixel; output RGBA8 packed in a uint32 (A = 255).
+#extension GL_EXT_shader_explicit_arithmetic_types : require
+#extension GL_GOOGLE_include_directive : require
+#include "vgeo/core/vis_key.h"
+#include "vgeo/gpu/shader_records.h"
+
+layout(local_size_x = 64) in;
+
+layout(std430, binding = 0) readonly buffer Pages { uint32_t page_words[]; };
+layout(std430, binding = 1) readonly buffer Locations { GpuClusterLocation locations[]; };
+layout(std430, binding = 2) readonly buffer Meshes { GpuMesh meshes[]; };
+layout(std430, binding = 3) readonly buffer Instances { GpuInstance instances[]; };
+layout(std430, binding = 4) readonly buffer Visible { GpuVisibleCluster visible[]; };
+layout(std430, binding = 5) readonly buffer Vis { uint64_t vis[]; };
+layout(std430, binding = 6) readonly buffer ShadeInstances { GpuShadeInstance shade_instances[]; };
+layout(std430, binding = 7) readonly buffer ShadeClusters { GpuShadeCluster shade_clusters[]; };
+layout(std430, binding = 8) readonly buffer Materials { GpuMaterial materials[]; };
+layout(std430, binding = 9) readonly buffer Overdraw { uint32_t overdraw[]; };
+layout(std430, binding = 10) writeonly buffer Image { uint32_t image[]; };
+layout(push_constant) uniform Push { GpuShadeParams params; };
+
+#define VGEO_PAGE_WORD(i) page_words[i]
+#include "memory_page.glsl"
+
+// ShadeView values (shade.h).
+const uint32_t kLit = 0u, kTriangle = 1u, kCluster = 2u, kGroup = 3u, kLod = 4u, kError = 5u, kOverdraw = 6u;
+const vec3 kBackground = vec3(0.02, 0.025, 0.035);
+
+// core/hash.h fnv1a64 over the 16 bytes of two little-endian uint64 values.
+uint64_t fnv1a64_pair(uint64_t a, uint64_t b) {
+  uint64_t h = 14695981039346656037ul;
+  const uint64_t prime = 1099511628211ul;
+  for (uint32_t i = 0u; i < 8u; ++i) h = (h ^ ((a >> (8u * i)) & 0xFFul)) * prime;
+  for (uint32_t i = 0u; i < 8u; ++i) h = (h ^ ((b >> (8u * i)) & 0xFFul)) * prime;
+  return h;
+}
+
+float id_channel(uint64_t h, uint32_t shift) {
+  precise float c = 0.15 + 0.85 * float(uint32_t((h >> shift) & 0xFFul)) / 255.0;
+  return c;
+}
+vec3 id_colour(uint64_t a, uint64_t b) {
+  uint64_t h = fnv1a64_pair(a, b);
+  return vec3(id_channel(h, 8u), id_channel(h, 24u), id_channel(h, 40u));
+}
+
+vec3 heat(float t) {
+  t = clamp(t, 0.0, 1.0);
+  if (t < 1.0 / 3.0) return vec3(0.0, 3.0 * t, 1.0 - 3.0 * t);
+  if (t < 2.0 / 3.0) return vec3(3.0 * (t - 1.0 / 3.0), 1.0, 0.0);
+  return vec3(1.0, 1.0 - 3.0 * (t - 2.0 / 3.0), 0.0);
+}
+
+uint32_t to_srgb8(float linear) {
+  float c = clamp(linear, 0.0, 1.0);
+  if (!(c >= 0.0)) c = 0.0;
+  double cd = double(c);
+  double s = cd <= 0.0031308 ? 12.92 * cd : 1.055 * double(pow(c, 1.0 / 2.4)) - 0.055;
+  return uint32_t(clamp(round(s * 255.0), 0.0, 255.0));
+}
+
+// format/container.cpp octahedral_decode.
+vec3 octahedral_decode(uint32_t qx, uint32_t qy, uint32_t bits) {
+  precise float scale = float((1u << bits) - 1u);
+  precise float x = float(qx) / scale * 2.0 - 1.0;
+  precise float y = float(qy) / scale * 2.0 - 1.0;
+  precise float z = 1.0 - abs(x) - abs(y);
+  if (z < 0.0) {
+    precise float ox = (1.0 - abs(y)) * (x >= 0.0 ? 1.0 : -1.0);
+    precise float oy = (1.0 - abs(x)) * (y >= 0.0 ? 1.0 : -1.0);
+    x = ox;
+    y = oy;
+  }
+  precise float len = sqrt(x * x + y * y + z * z);
+  return vec3(x / len, y / len, z / len);
+}
+
+dvec3 vertex_position(MemoryCluster c, uint32_t v, int32_t step_log2) {
+  return dvec3(double(dequantize_position(memory_vertex_channel(c, v, 0u), step_log2)),
+               double(dequantize_position(memory_vertex_channel(c, v, 1u), step_log2)),
+               double(dequantize_position(memory_vertex_channel(c, v, 2u), step_log2)));
+}
+
+vec3 shade_lit(uint32_t x, uint32_t y, GpuVisibleCluster v, uint32_t tri) {
+  GpuInstance inst = instances[v.instance];
+  GpuShadeInstance si = shade_instances[v.instance];
+  GpuMesh mesh = meshes[inst.mesh];
+  GpuClusterLocation loc = locations[mesh.first_location + v.cluster];
+  MemoryCluster c = memory_cluster(loc.page_word, loc.cluster_in_page, mesh.channel_count);
+  uvec3 idx = memory_triangle(c, tri);
+  dvec3 p[3];
+  dvec3 q[3];
+  for (int k = 0; k < 3; ++k) {
+    p[k] = vertex_position(c, idx[k], mesh.position_step_log2);
+    precise double qx = si.object_to_view[0] * p[k].x + si.object_to_view[4] * p[k].y + si.object_to_view[8] * p[k].z + si.object_to_view[12];
+    precise double qy = si.object_to_view[1] * p[k].x + si.object_to_view[5] * p[k].y + si.object_to_view[9] * p[k].z + si.object_to_view[13];
+    precise double qz = si.object_to_view[2] * p[k].x + si.object_to_view[6] * p[k].y + si.object_to_view[10] * p[k].z + si.object_to_view[14];
+    q[k] = dvec3(qx, qy, qz);
+  }
+  precise double dx = ((double(x) + 0.5) / double(params.width) * 2.0 - 1.0) * params.tan_half_x;
+  precise double dy = (1.0 - (double(y) + 0.5) / double(params.height) * 2.0) * params.tan_half_y;
+  const double dz = -1.0;
+  precise dvec3 e1 = q[1] - q[0];
+  precise dvec3 e2 = q[2] - q[0];
+  precise dvec3 pv = dvec3(dy * e2.z - dz * e2.y, dz * e2.x - dx * e2.z, dx * e2.y - dy * e2.x);
+  precise double det = e1.x * pv.x + e1.y * pv.y + e1.z * pv.z;
+  double b1 = 1.0 / 3.0, b2 = 1.0 / 3.0;
+  if (abs(det) > 0.0) {
+    precise dvec3 tv = -q[0];
+    precise dvec3 qv = dvec3(tv.y * e1.z - tv.z * e1.y, tv.z * e1.x - tv.x * e1.z, tv.x * e1.y - tv.y * e1.x);
+    precise double nb1 = (tv.x * pv.x + tv.y * pv.y + tv.z * pv.z) / det;
+    precise double nb2 = (dx * qv.x + dy * qv.y + dz * qv.z) / det;
+    b1 = nb1;
+    b2 = nb2;
+    if (isinf(b1) || isnan(b1) || isinf(b2) || isnan(b2)) b1 = b2 = 1.0 / 3.0;
+    b1 = clamp(b1, 0.0, 1.0);
+    b2 = clamp(b2, 0.0, 1.0 - b1);
+  }
+  precise double b0 = 1.0 - b1 - b2;
+  double bw[3] = double[3](b0, b1, b2);
+  dvec3 n = dvec3(0.0);
+  if (mesh.normal_bits != 0u) {
+    for (int k = 0; k < 3; ++k) {
+      vec3 nk = octahedral_decode(uint32_t(memory_vertex_channel(c, idx[k], 3u)),
+                                  uint32_t(memory_vertex_channel(c, idx[k], 4u)), mesh.normal_bits);
+      precise dvec3 add = bw[k] * dvec3(nk);
+      n += add;
+    }
+  } else {
+    precise dvec3 a1 = p[1] - p[0];
+    precise dvec3 a2 = p[2] - p[0];
+    precise dvec3 cr = dvec3(a1.y * a2.z - a1.z * a2.y, a1.z * a2.x - a1.x * a2.z, a1.x * a2.y - a1.y * a2.x);
+    n = cr;
+  }
+  double wn[3];
+  for (int r = 0; r < 3; ++r) {
+    precise double w = si.normal_matrix[3 * r] * n.x + si.normal_matrix[3 * r + 1] * n.y + si.normal_matrix[3 * r + 2] * n.z;
+    wn[r] = w;
+  }
+  precise double nl = sqrt(wn[0] * wn[0] + wn[1] * wn[1] + wn[2] * wn[2]);
+  precise double lambert = nl > 0.0 ? max(0.0, (wn[0] * params.light[0] + wn[1] * params.light[1] + wn[2] * params.light[2]) / nl) : 0.0;
+  uint32_t mat = memory_material(c, tri);
+  vec4 base = vec4(0.8, 0.8, 0.8, 1.0);
+  if (mat < params.material_count) {
+    GpuMaterial m = materials[mat];
+    base = vec4(m.base_color[0], m.base_color[1], m.base_color[2], m.base_color[3]);
+  }
+  precise float k = float(double(params.ambient) + double(1.0 - params.ambient) * lambert);
+  return base.rgb * k;
+}
+
+void main() {
+  uint32_t p = gl_GlobalInvocationID.x;
+  if (p >= params.width * params.height) return;
+  uint32_t x = p % params.width, y = p / params.width;
+  uint64_t key = vis[p];
+  vec3 col = kBackground;
+  if (params.view == kOverdraw) {
+    uint32_t n = overdraw[p];
+    if (n > 0u) col = heat(float(n - 1u) / float(max(params.max_overdraw - 1u, 1u)));
+  } else if (key != uint64_t(0)) {
+    uint32_t vc = vis_key_cluster(key), tri = vis_key_triangle(key);
+    GpuVisibleCluster v = visible[vc];
+    GpuShadeCluster sc = shade_clusters[vc];
+    if (params.view == kTriangle) col = id_colour(uint64_t(vc), uint64_t(tri));
+    else if (params.view == kCluster) col = id_colour(uint64_t(v.instance), uint64_t(v.cluster));
+    else if (params.view == kGroup) col = id_colour(uint64_t(v.instance), uint64_t(sc.group) | (uint64_t(1) << 40));
+    else if (params.view == kLod) col = heat(sc.level_count > 1u ? float(sc.level) / float(sc.level_count - 1u) : 0.0);
+    else if (params.view == kError) col = heat(sc.projected_error / max(params.threshold_px, 1e-6));
+    else col = shade_lit(x, y, v, tri);
+  }
+  image[p] = to_srgb8(col.r) | (to_srgb8(col.g) << 8) | (to_srgb8(col.b) << 16) | (255u << 24);
+}

@@ -1,0 +1,123 @@
+// Golden renders (spec/raster.md §10a): per scene, the CPU reference's vis_hash,
+// cluster_set_hash and image must equal the committed ones (tests/golden/expected/, written
+// only by tools/update-goldens), and the Vulkan backend on lavapipe, with the validation layer
+// on, must keep the rule against the CPU on every frame. A failure leaves the diff PNG and
+// the differing pixels in <build>/golden-out/NAME/.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "vgeo/gpu/backend_run.h"
+
+namespace vgeo {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Golden {
+  const char* name;
+  const char* scene;       // path under the source tree; "" = the embedded default scene
+  ShadeView view = ShadeView::kLit;
+  uint32_t width = 0, height = 0;  // 0: the scene's resolution
+  uint32_t frames = 0;             // 0: the scene's camera path, else 1
+};
+
+// Small resolutions keep the whole test at seconds (CI budget, DEVELOPERS.md).
+const Golden kGoldens[] = {
+    {"default", "", ShadeView::kLit, 160, 90, 1},
+    {"cgal", "tests/scenes/cgal.json", ShadeView::kLit, 160, 90},
+    {"far_away", "tests/scenes/far_away.json", ShadeView::kLit, 128, 96},
+    {"scale_small", "tests/golden/scenes/scale_small.json"},
+    {"scale_large", "tests/golden/scenes/scale_large.json"},
+    {"inside_bounds", "tests/golden/scenes/inside_bounds.json"},
+    {"near_plane", "tests/golden/scenes/near_plane.json"},
+    {"occlusion_path", "tests/scenes/camera_path.json", ShadeView::kLit, 128, 96},
+    {"view_triangle", "tests/scenes/spheres.json", ShadeView::kTriangle, 160, 90},
+    {"view_cluster", "tests/scenes/spheres.json", ShadeView::kCluster, 160, 90},
+    {"view_group", "tests/scenes/spheres.json", ShadeView::kGroup, 160, 90},
+    {"view_lod", "tests/scenes/spheres.json", ShadeView::kLod, 160, 90},
+    {"view_error", "tests/scenes/spheres.json", ShadeView::kError, 160, 90},
+    {"view_overdraw", "tests/scenes/spheres.json", ShadeView::kOverdraw, 160, 90},
+};
+
+SceneFile load_golden_scene(const Golden& g) {
+  SceneLoadOptions options;
+  options.cache_dir = std::string(VGEO_BINARY_DIR) + "/cache/vgeo-golden";
+  if (!*g.scene) return make_default_scene(g.width, g.height, 1, options);
+  SceneFile sf = load_scene_file(std::string(VGEO_SOURCE_DIR) + "/" + g.scene, options);
+  if (g.width)
+    for (std::vector<Camera>* cams : {&sf.cameras, &sf.path})
+      for (Camera& c : *cams) {
+        c.width = g.width;
+        c.height = g.height;
+      }
+  return sf;
+}
+
+std::string hex64(uint64_t v) {
+  char buf[24];
+  std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)v);
+  return buf;
+}
+
+class GoldenTest : public ::testing::TestWithParam<Golden> {};
+
+TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
+  const Golden& g = GetParam();
+  const fs::path expected_dir = fs::path(VGEO_SOURCE_DIR) / "tests/golden/expected";
+  const fs::path out_dir = fs::path(VGEO_BINARY_DIR) / "golden-out" / g.name;
+  fs::create_directories(out_dir);
+  SceneFile sf = load_golden_scene(g);
+
+  BackendRunRequest cpu;
+  cpu.backend = Backend::kCpu;
+  cpu.view = g.view;
+  cpu.frames = g.frames;
+  cpu.threads = 2;
+  const bool update = std::getenv("VGEO_UPDATE_GOLDENS") && std::string(std::getenv("VGEO_UPDATE_GOLDENS")) == "1";
+  cpu.output_png = ((update ? expected_dir : out_dir) / (std::string(g.name) + ".png")).string();
+  BackendRunReport ref = run_backend(sf, cpu);
+  const fs::path expected_json = expected_dir / (std::string(g.name) + ".json");
+  if (update) {
+    nlohmann::ordered_json j;
+    j["vis_hash"] = hex64(ref.vis_hash);
+    j["cluster_set_hash"] = hex64(ref.cluster_set_hash);
+    j["image_hash"] = hex64(ref.image_hash);
+    j["frames"] = ref.frames.size();
+    std::ofstream(expected_json) << j.dump(2) << "\n";
+  } else {
+    std::ifstream in(expected_json);
+    ASSERT_TRUE(in) << expected_json << " missing: run tools/update-goldens";
+    nlohmann::json j = nlohmann::json::parse(in);
+    EXPECT_EQ(j["vis_hash"].get<std::string>(), hex64(ref.vis_hash)) << g.name << ": CPU reference changed";
+    EXPECT_EQ(j["cluster_set_hash"].get<std::string>(), hex64(ref.cluster_set_hash)) << g.name;
+    EXPECT_EQ(j["image_hash"].get<std::string>(), hex64(ref.image_hash)) << g.name;
+  }
+
+  BackendRunRequest vk = cpu;
+  vk.backend = Backend::kVulkan;
+  vk.compare_cpu = true;
+  vk.gpu.validate = true;
+  vk.output_png = (out_dir / "vulkan.png").string();
+  vk.diff_png = (out_dir / "diff.png").string();
+  vk.failure_dir = out_dir.string();
+  BackendRunReport got = run_backend(sf, vk);
+  EXPECT_TRUE(got.rule_holds) << g.name << ":\n" << got.table() << "diff PNG and differing pixels in " << out_dir;
+  EXPECT_EQ(got.vis_hash, ref.vis_hash) << g.name;
+  EXPECT_EQ(got.cluster_set_hash, ref.cluster_set_hash) << g.name;
+  EXPECT_TRUE(got.validation_messages.empty()) << g.name << ": " << got.validation_messages.size()
+                                               << " validation message(s), first: "
+                                               << (got.validation_messages.empty() ? "" : got.validation_messages[0]);
+  ASSERT_EQ(got.comparisons.size(), ref.frames.size());
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, GoldenTest, ::testing::ValuesIn(kGoldens),
+                         [](const ::testing::TestParamInfo<Golden>& info) { return std::string(info.param.name); });
+
+}  // namespace
+}  // namespace vgeo

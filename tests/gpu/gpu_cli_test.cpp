@@ -1,0 +1,43 @@
+// `vgeo render --backend/--compare/--device/--validate` end to end (spec/gpu.md §Backends).
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "support/run_command.h"
+
+namespace vgeo {
+namespace {
+
+const std::string kScene = std::string(VGEO_SOURCE_DIR) + "/tests/scenes/far_away.json";
+
+TEST(GpuCli, CompareCpuHoldsWithValidationAndReportsHashes) {
+  test::CliResult r = test::run_cli("render '" + kScene + "' --compare cpu --validate --json --no-cache");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  nlohmann::json j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["backend"], "vulkan");
+  EXPECT_TRUE(j["rule_holds"].get<bool>());
+  EXPECT_EQ(j["validation_messages"].get<int>(), 0);
+  EXPECT_EQ(j["compare_cpu"][0]["vis_pixels_differing"].get<int>(), 0);
+  EXPECT_EQ(j["vis_hash"].get<std::string>().size(), 16u);
+  // The CPU backend renders the same decoded memory form: the same hashes.
+  test::CliResult c = test::run_cli("render '" + kScene + "' --backend cpu --json --no-cache");
+  ASSERT_EQ(c.exit_code, 0) << c.output;
+  nlohmann::json k = nlohmann::json::parse(c.output);
+  EXPECT_EQ(k["vis_hash"], j["vis_hash"]);
+  EXPECT_EQ(k["cluster_set_hash"], j["cluster_set_hash"]);
+}
+
+TEST(GpuCli, UnknownDeviceIsAOneLineCodedError) {
+  test::CliResult r = test::run_cli("render '" + kScene + "' --backend vulkan --device no-such-gpu --no-cache");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("error[GPU_DEVICE_NOT_FOUND]"), std::string::npos) << r.output;
+}
+
+TEST(GpuCli, CompareNeedsTheVulkanBackend) {
+  test::CliResult r = test::run_cli("render '" + kScene + "' --backend cpu --compare cpu --no-cache");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("error[RENDER_BAD_OPTION]"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace vgeo
