@@ -15,6 +15,7 @@
 
 #include "vgeo/dag/build_internal.h"
 #include "vgeo/dag/cluster_dag.h"
+#include "vgeo/core/surface_distance.h"
 
 namespace vgeo::build_detail {
 
@@ -105,30 +106,11 @@ class ModQuadricRecordT : public OpenMesh::Decimater::ModQuadricT<MeshT> {
   std::vector<std::pair<int, int>> collapses;
 };
 
+// lib/vgeo/core's exact point-triangle distance (the one the error lattice uses).
 double point_triangle_distance(const OpenMesh::Vec3d& p, const OpenMesh::Vec3d& a, const OpenMesh::Vec3d& b,
                                const OpenMesh::Vec3d& c) {
-  // Ericson, Real-Time Collision Detection 5.1.5 (closest point on triangle), in double.
-  using V = OpenMesh::Vec3d;
-  V ab = b - a, ac = c - a, ap = p - a;
-  double d1 = ab | ap, d2 = ac | ap;
-  if (d1 <= 0 && d2 <= 0) return (p - a).norm();
-  V bp = p - b;
-  double d3 = ab | bp, d4 = ac | bp;
-  if (d3 >= 0 && d4 <= d3) return (p - b).norm();
-  double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (p - (a + ab * (d1 / (d1 - d3)))).norm();
-  V cp = p - c;
-  double d5 = ab | cp, d6 = ac | cp;
-  if (d6 >= 0 && d5 <= d6) return (p - c).norm();
-  double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (p - (a + ac * (d2 / (d2 - d6)))).norm();
-  double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return (p - (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))))).norm();
-  double denom = va + vb + vc;
-  if (!(std::abs(denom) > 0)) return std::min({(p - a).norm(), (p - b).norm(), (p - c).norm()});
-  double v = vb / denom, w = vc / denom;
-  return (p - (a + ab * v + ac * w)).norm();
+  auto d = [](const OpenMesh::Vec3d& v) { return DVec3{v[0], v[1], v[2]}; };
+  return std::sqrt(point_triangle_distance_squared(d(p), d(a), d(b), d(c)));
 }
 
 // One OpenMesh vertex per welded position of the group; material is a face property, so
@@ -286,13 +268,11 @@ bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before
   // edge key equals. Only locked ones are ever looked up, and they lie on the group border
   // (a minority), so nothing else is inserted.
   std::vector<uint64_t> keys;
-  for (size_t i = 0; i < 3 * after.triangle_count(); ++i) {
-    uint32_t a = welded.weld[after.corners[i]];
-    if (!locked[a]) continue;
-    uint32_t b = welded.weld[after.corners[i - i % 3 + (i + 1) % 3]];
+  for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
+    if (!locked[a]) return;
     keys.push_back((uint64_t(a) << 32) | a);
     if (a != b && locked[b]) keys.push_back(edge_key(a, b));
-  }
+  });
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
   while (slots < 2 * keys.size()) slots <<= 1, --shift;
@@ -305,19 +285,17 @@ bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before
   };
   for (uint64_t key : keys) table[slot(key)] = key;
   auto present = [&](uint64_t key) { return table[slot(key)] == key; };
-  for (size_t i = 0; i < before.triangle_count(); ++i)
-    for (int k = 0; k < 3; ++k) {
-      uint32_t a = welded.weld[before.corners[3 * i + k]];
-      if (!locked[a]) continue;
-      // Every locked vertex of `before` is used by `after`.
-      if (!present((uint64_t(a) << 32) | a)) return false;
-      // Every shared edge of `before` (both ends locked) is an edge of `after`.
-      uint32_t b = welded.weld[before.corners[3 * i + (k + 1) % 3]];
-      if (a == b || !locked[b]) continue;
-      uint64_t key = edge_key(a, b);
-      if (std::binary_search(shared_edges.begin(), shared_edges.end(), key) && !present(key)) return false;
-    }
-  return true;
+  bool preserved = true;
+  for_each_welded_edge(welded, before.corners, [&](uint32_t a, uint32_t b) {
+    if (!preserved || !locked[a]) return;
+    // Every locked vertex of `before` is used by `after`.
+    if (!present((uint64_t(a) << 32) | a)) preserved = false;
+    // Every shared edge of `before` (both ends locked) is an edge of `after`.
+    if (a == b || !locked[b]) return;
+    uint64_t key = edge_key(a, b);
+    if (std::binary_search(shared_edges.begin(), shared_edges.end(), key) && !present(key)) preserved = false;
+  });
+  return preserved;
 }
 
 }  // namespace vgeo::build_detail
