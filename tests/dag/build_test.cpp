@@ -1,7 +1,10 @@
 // Builder properties on small synthetic meshes (spec/dag.md).
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <cstring>
+#include <set>
 
 #include "dag_checks.h"
 #include "support/shapes.h"
@@ -265,6 +268,41 @@ TEST(Build, BlockedGroupingKeepsPropertiesAndDeterminism) {
     EXPECT_GT(r.levels[0].clusters, 2 * internal.group_block_clusters) << "several blocks at level 0";
   }
 }
+
+
+// Issue 15 §1: a per-corner mesh (every triangle owns its corners: flat normals, uv seams
+// everywhere) simplifies with meshopt like its welded twin: positions with more than two
+// wedges are simplified as one (spec/dag.md §3), corners keep input attribute sets (D2).
+TEST(Build, PerCornerMeshSimplifiesWithMeshopt) {
+  Mesh welded = make_sphere(40, 64);
+  Mesh m = make_per_corner(welded);
+  BuildReport r, rw;
+  ClusterDag d = build(m, Simplifier::kMeshopt, 2, &r);
+  ClusterDag dw = build(welded, Simplifier::kMeshopt, 2, &rw);
+  expect_dag_properties(d, m.triangle_count());
+  expect_borders_preserved(d, true);
+  EXPECT_GE(double(d.triangle_count()), 1.8 * double(m.triangle_count())) << "stored x";
+  EXPECT_LE(r.root_clusters, 4u);
+  EXPECT_EQ(r.levels.size(), rw.levels.size());
+  // Every stored vertex is an input corner: position, normal and uv bits of one input vertex.
+  std::set<std::array<uint32_t, 8>> input;
+  auto record = [](const float* p, const float* n, const float* uv) {
+    std::array<uint32_t, 8> key;
+    std::memcpy(key.data(), p, 12);
+    std::memcpy(key.data() + 3, n, 12);
+    std::memcpy(key.data() + 6, uv, 8);
+    return key;
+  };
+  for (size_t v = 0; v < m.vertex_count(); ++v)
+    input.insert(record(&m.positions[3 * v], &m.normals[3 * v], &m.uvs[2 * v]));
+  for (size_t v = 0; v < d.positions.size() / 3; ++v)
+    ASSERT_TRUE(input.count(record(&d.positions[3 * v], &d.normals[3 * v], &d.uvs[2 * v]))) << "vertex " << v;
+  BuiltScene a, b;
+  a.meshes.push_back(build(m, Simplifier::kMeshopt, 1));
+  b.meshes.push_back(build(m, Simplifier::kMeshopt, 3));
+  EXPECT_EQ(encode_dag_file(a), encode_dag_file(b));
+}
+
 
 }  // namespace
 }  // namespace vgeo::test

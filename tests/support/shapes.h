@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "vgeo/mesh/generate.h"
 #include "vgeo/mesh/mesh.h"
 
 namespace vgeo::test {
@@ -31,31 +32,34 @@ inline Mesh make_grid(uint32_t n, float size = 1.0f, bool hole = false, Vec3 off
   return m;
 }
 
-// Closed UV sphere (poles welded), `rings` x `segments`, CCW seen from outside.
+// Closed UV sphere (poles welded): lib/vgeo/mesh's generator.
 inline Mesh make_sphere(uint32_t rings, uint32_t segments, float radius = 1.0f, Vec3 center = {}) {
+  return make_uv_sphere(rings, segments, radius, center);
+}
+
+// The same surface as a per-corner mesh (every triangle owns its three vertices, as many
+// PLY/STL/Blender exports are): flat face normals, and uvs from the source (or a planar
+// projection) with each triangle's uvs shifted by its own offset, so uv seams are everywhere.
+inline Mesh make_per_corner(const Mesh& src, bool uv_seams = true) {
   Mesh m;
-  m.name = "sphere";
-  const double pi = 3.14159265358979323846;
-  auto add = [&](double th, double ph) {
-    double x = std::sin(th) * std::cos(ph), y = std::sin(th) * std::sin(ph), z = std::cos(th);
-    m.positions.insert(m.positions.end(), {center.x + float(radius * x), center.y + float(radius * y),
-                                           center.z + float(radius * z)});
-    m.normals.insert(m.normals.end(), {float(x), float(y), float(z)});
-  };
-  add(0, 0);  // north pole: vertex 0
-  for (uint32_t r = 1; r < rings; ++r)
-    for (uint32_t s = 0; s < segments; ++s) add(pi * r / rings, 2 * pi * s / segments);
-  add(pi, 0);  // south pole
-  uint32_t south = uint32_t(m.positions.size() / 3 - 1);
-  auto ring = [&](uint32_t r, uint32_t s) { return 1 + (r - 1) * segments + (s % segments); };
-  for (uint32_t s = 0; s < segments; ++s) m.indices.insert(m.indices.end(), {0, ring(1, s), ring(1, s + 1)});
-  for (uint32_t r = 1; r + 1 < rings; ++r)
-    for (uint32_t s = 0; s < segments; ++s) {
-      uint32_t a = ring(r, s), b = ring(r, s + 1), c = ring(r + 1, s), d = ring(r + 1, s + 1);
-      m.indices.insert(m.indices.end(), {a, c, d, a, d, b});
+  m.name = src.name + "-per-corner";
+  for (size_t t = 0; t < src.triangle_count(); ++t) {
+    Vec3 p[3];
+    for (int k = 0; k < 3; ++k) p[k] = src.position(src.indices[3 * t + k]);
+    Vec3 n = cross(p[1] - p[0], p[2] - p[0]);
+    float len = length(n);
+    n = len > 0 ? n * (1.0f / len) : Vec3{0, 0, 1};
+    const float shift = uv_seams ? float(t % 7) : 0.0f;
+    for (int k = 0; k < 3; ++k) {
+      uint32_t v = src.indices[3 * t + k];
+      m.positions.insert(m.positions.end(), {p[k].x, p[k].y, p[k].z});
+      m.normals.insert(m.normals.end(), {n.x, n.y, n.z});
+      float u = src.uvs.empty() ? p[k].x : src.uvs[2 * v], w = src.uvs.empty() ? p[k].y : src.uvs[2 * v + 1];
+      m.uvs.insert(m.uvs.end(), {u + shift, w});
+      m.indices.push_back(uint32_t(3 * t + k));
     }
-  for (uint32_t s = 0; s < segments; ++s)
-    m.indices.insert(m.indices.end(), {south, ring(rings - 1, s + 1), ring(rings - 1, s)});
+  }
+  m.materials = src.materials;
   return m;
 }
 

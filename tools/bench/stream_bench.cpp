@@ -12,6 +12,7 @@
 
 #include "vgeo/dag/build.h"
 #include "vgeo/format/format.h"
+#include "vgeo/mesh/generate.h"
 #include "vgeo/stream/stream.h"
 
 namespace {
@@ -21,28 +22,11 @@ constexpr uint32_t kStoppedFrames = 60;  // convergence must happen within 1 s
 constexpr float kOrbitRadius = 2.5f;   // sphere radius 1: the cut needs a fraction of the pages
 constexpr double kFrameMs = 16.7;        // 60 Hz frame pacing (the loader runs in real time)
 
-vgeo::Mesh uv_sphere(uint32_t rings, uint32_t segments) {
-  vgeo::Mesh m;
-  const double pi = 3.14159265358979323846;
-  for (uint32_t r = 0; r <= rings; ++r)
-    for (uint32_t s = 0; s <= segments; ++s) {
-      const double th = pi * r / rings, ph = 2 * pi * s / segments;
-      m.positions.insert(m.positions.end(), {float(std::sin(th) * std::cos(ph)), float(std::sin(th) * std::sin(ph)),
-                                             float(std::cos(th))});
-    }
-  for (uint32_t r = 0; r < rings; ++r)
-    for (uint32_t s = 0; s < segments; ++s) {
-      const uint32_t a = r * (segments + 1) + s, b = a + 1, c = a + segments + 1, d = c + 1;
-      m.indices.insert(m.indices.end(), {a, c, d, a, d, b});
-    }
-  return m;
-}
-
 const std::string& scene_file() {
   static const std::string path = [] {
     vgeo::BuildOptions bo;
     vgeo::BuiltScene scene;
-    scene.meshes.push_back(vgeo::build_dag(uv_sphere(200, 400), bo));
+    scene.meshes.push_back(vgeo::build_dag(vgeo::make_uv_sphere(200, 400), bo));
     scene.materials.push_back(vgeo::Material{});
     scene.instances.push_back(vgeo::Instance{});
     vgeo::FormatOptions fo;

@@ -22,6 +22,20 @@ inline Vec3 cross(Vec3 a, Vec3 b) {
 }
 inline float length(Vec3 a) { return std::sqrt(dot(a, a)); }
 
+// Morton code of three 10-bit cell coordinates (x in the lowest bit of each triple): the
+// one spatial sort key of the builder's chunking and grouping and of the page container.
+inline uint32_t morton_code(uint32_t x, uint32_t y, uint32_t z) {
+  auto spread = [](uint32_t v) {  // 10 bits -> every third bit
+    v &= 0x3FFu;
+    v = (v | (v << 16)) & 0x030000FFu;
+    v = (v | (v << 8)) & 0x0300F00Fu;
+    v = (v | (v << 4)) & 0x030C30C3u;
+    v = (v | (v << 2)) & 0x09249249u;
+    return v;
+  };
+  return spread(x) | (spread(y) << 1) | (spread(z) << 2);
+}
+
 // Distances in double: positions may sit 1e7 units from the origin (spec/invariants.md).
 inline double distance_d(Vec3 a, Vec3 b) {
   double dx = double(a.x) - b.x, dy = double(a.y) - b.y, dz = double(a.z) - b.z;

@@ -20,6 +20,7 @@
 #include "vgeo/core/error.h"
 #include "vgeo/core/progress.h"
 #include "vgeo/core/thread_pool.h"
+#include "vgeo/mesh/validate.h"
 
 namespace vgeo {
 
@@ -50,27 +51,21 @@ struct WorkGroup {
   float parent_error = 0.0f;
 };
 
+// spec/dag.md §6, with lib/vgeo/mesh's checks (the importers raise their own codes for them).
 void validate_mesh(const Mesh& mesh) {
   const std::string where = mesh.name.empty() ? "<mesh>" : mesh.name;
   if (mesh.positions.size() % 3 != 0 || mesh.indices.size() % 3 != 0)
-    fail("BUILD_BAD_MESH", where, "position or index array length is not a multiple of 3");
+    fail("BUILD_BAD_MESH", where, mesh_array_size_defect(mesh));
   if (mesh.triangle_count() == 0) fail("BUILD_EMPTY_MESH", where, "the mesh has no triangles");
   // Offsets in the DAG are 32-bit and the DAG stores about twice the input.
   if (mesh.triangle_count() > (size_t(1) << 30) || mesh.vertex_count() >= kNone)
     fail("BUILD_MESH_TOO_LARGE", where, "more than 2^30 triangles or 2^32-1 vertices");
-  if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
-    fail("BUILD_BAD_MESH", where, "normals are not one per vertex");
-  if (!mesh.uvs.empty() && mesh.uvs.size() != 2 * mesh.vertex_count())
-    fail("BUILD_BAD_MESH", where, "uvs are not one per vertex");
-  if (!mesh.materials.empty() && mesh.materials.size() != mesh.triangle_count())
-    fail("BUILD_BAD_MESH", where, "materials are not one per triangle");
-  for (float p : mesh.positions)
-    if (!std::isfinite(p)) fail("BUILD_NONFINITE_POSITION", where, "a vertex position is NaN or infinite");
-  size_t vcount = mesh.vertex_count();
-  for (uint32_t i : mesh.indices)
-    if (i >= vcount)
-      fail("BUILD_INDEX_OUT_OF_RANGE", where,
-           "index " + std::to_string(i) + " >= vertex count " + std::to_string(vcount));
+  if (std::string defect = mesh_array_size_defect(mesh); !defect.empty()) fail("BUILD_BAD_MESH", where, defect);
+  if (first_non_finite(mesh.positions) < mesh.positions.size())
+    fail("BUILD_NONFINITE_POSITION", where, "a vertex position is NaN or infinite");
+  if (size_t i = first_index_out_of_range(mesh); i < mesh.indices.size())
+    fail("BUILD_INDEX_OUT_OF_RANGE", where,
+         "index " + std::to_string(mesh.indices[i]) + " >= vertex count " + std::to_string(mesh.vertex_count()));
 }
 
 Sphere cluster_sphere(const Mesh& mesh, const TriangleSet& t) {
@@ -116,10 +111,7 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
       double f = extent > 0 ? (c - box.min[k]) / extent : 0.0;
       q[k] = uint32_t(std::clamp(f * kCells, 0.0, double(kCells - 1)));
     }
-    uint32_t code = 0;
-    for (int b = 3; b >= 0; --b)
-      for (int k = 0; k < 3; ++k) code = (code << 1) | ((q[k] >> b) & 1);
-    return code;
+    return morton_code(q[2], q[1], q[0]);  // z in the lowest bit of each triple
   };
   std::vector<uint16_t> cell(n);
   std::vector<size_t> count(kCells * kCells * kCells + 1, 0);
@@ -264,425 +256,493 @@ void for_each_key_of_sorted_pairs(const std::vector<std::pair<uint64_t, uint32_t
   }
 }
 
-}  // namespace
+// ---- build state: what the phases of spec/dag.md §2 share ----
 
-ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report) {
-  return build_dag_internal(mesh, options, InternalBuildOptions{}, report);
-}
-
-ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions& options,
-                                            const InternalBuildOptions& internal, BuildReport* report) {
-  double t_start = now_seconds();
-  validate_mesh(mesh);
-  BuildReport rep;
-  rep.input_triangles = mesh.triangle_count();
-  ThreadPool pool(options.threads);
-  WeldedMesh welded = weld_positions(mesh);
-  const size_t vertex_count = mesh.vertex_count();
-  // Only vertices referenced by triangles count (leaf chunking, ClusterDag::bounds).
-  const Aabb mesh_box = indexed_bounds(mesh, pool);
-  rep.seconds_prepare = now_seconds() - t_start;
-  // Per-task scratch arrays (vertex_count entries, kept all-kNone between uses) come from
-  // a small locked free list: parallel_for does not tell a task which worker runs it.
-  std::mutex scratch_mutex;
-  std::vector<std::vector<uint32_t>> scratch_pool;
-  auto take_scratch = [&]() {
-    std::lock_guard<std::mutex> lock(scratch_mutex);
-    if (scratch_pool.empty()) return std::vector<uint32_t>(vertex_count, kNone);
-    std::vector<uint32_t> s = std::move(scratch_pool.back());
-    scratch_pool.pop_back();
+// Per-task scratch arrays (vertex_count entries, kept all-kNone between uses) from a small
+// locked free list: parallel_for does not tell a task which worker runs it.
+struct ScratchPool {
+  size_t size = 0;
+  std::mutex mutex;
+  std::vector<std::vector<uint32_t>> free;
+  std::vector<uint32_t> take() {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (free.empty()) return std::vector<uint32_t>(size, kNone);
+    std::vector<uint32_t> s = std::move(free.back());
+    free.pop_back();
     return s;
-  };
-  auto give_scratch = [&](std::vector<uint32_t>&& s) {
-    std::lock_guard<std::mutex> lock(scratch_mutex);
-    scratch_pool.push_back(std::move(s));
-  };
-  Progress progress("build", mesh.triangle_count(), options.progress);
+  }
+  void give(std::vector<uint32_t>&& s) {
+    std::lock_guard<std::mutex> lock(mutex);
+    free.push_back(std::move(s));
+  }
+};
 
-  // ---- leaves ----
+// Lock state by welded id (spec/dag.md §2.3 Locks). `retired`/`retired_edges` persist across
+// levels; `owner`/`locked` are per level and reset to kNone/0 after it.
+struct LockState {
+  std::vector<uint8_t> retired;         // welded vertex of a terminal group's member
+  std::vector<uint64_t> retired_edges;  // sorted welded edge keys of terminal groups' members
+  std::vector<uint32_t> owner;          // block (cross-block pass) or block<<16|group tag
+  std::vector<uint8_t> locked;
+};
+
+struct BuildState {
+  const Mesh& mesh;
+  const BuildOptions& options;
+  const InternalBuildOptions& internal;
+  ThreadPool pool;
+  WeldedMesh welded;
+  Aabb mesh_box;  // of the vertices referenced by triangles (leaf chunking, ClusterDag::bounds)
+  ScratchPool scratch;
+  LockState locks;
   std::vector<WorkCluster> clusters;
   std::vector<WorkGroup> groups;
-  {
-    double t0 = now_seconds();
-    // Large meshes are cut into spatially coherent chunks (cells of a 16^3 grid in Morton
-    // order, consecutive cells merged up to kLeafChunkTriangles) clustered in parallel.
-    // The chunking depends only on the mesh, so the output does not depend on threads.
-    std::vector<TriangleSet> chunks = leaf_chunks(mesh, mesh_box, pool);
-    std::vector<std::vector<TriangleSet>> chunk_leaves(chunks.size());
-    pool.parallel_for(chunks.size(), [&](size_t i) {
-      std::vector<uint32_t> s = take_scratch();
-      chunk_leaves[i] = split_into_clusters(welded, chunks[i], s, internal.leaf_split);
-      give_scratch(std::move(s));
-      chunks[i] = TriangleSet();
-    });
-    std::vector<TriangleSet> leaves;
-    for (auto& cl : chunk_leaves)
-      for (TriangleSet& t : cl) leaves.push_back(std::move(t));
-    chunk_leaves.clear();
-    clusters.resize(leaves.size());
-    pool.parallel_for(leaves.size(), [&](size_t i) {
-      WorkCluster& c = clusters[i];
-      c.triangles = std::move(leaves[i]);
-      c.bounds = cluster_sphere(mesh, c.triangles);
-      c.lod_bounds = c.bounds;
-    });
-    rep.seconds_cluster = now_seconds() - t0;
+  BuildReport report;
+
+  BuildState(const Mesh& m, const BuildOptions& o, const InternalBuildOptions& i)
+      : mesh(m), options(o), internal(i), pool(o.threads) {}
+};
+
+// One level's result of a group task (simplify, border check, split, error).
+struct GroupResult {
+  bool terminal = true;
+  float error = 0.0f;
+  std::vector<TriangleSet> clusters;
+  double seconds_simplify = 0, seconds_split = 0, seconds_error = 0;
+};
+
+// A spatial block of one level's active clusters: grouped by its own METIS call.
+struct Block {
+  std::vector<uint32_t> items;                // indices into `active`, ascending
+  std::vector<std::vector<uint32_t>> groups;  // members as cluster indices
+  std::vector<uint64_t> shared_edges;         // sorted welded edge keys
+  std::vector<GroupResult> results;
+  double seconds_group = 0, seconds_locks = 0;
+};
+
+// State of one level L (spec/dag.md §2.3).
+struct LevelState {
+  uint32_t level = 0;
+  std::vector<uint32_t> active;                // level-L cluster indices
+  BuildLevelReport report;
+  std::vector<std::vector<uint64_t>> open_keys;  // per active cluster: open welded edges (grouping)
+  bool simplify_allowed = false;               // false: one terminal group (root or kMaxLevels)
+  std::vector<Block> blocks;
+  std::vector<uint64_t> cross_edges;  // sorted welded edges used by clusters of two blocks
+  double seconds_cross = 0;
+};
+
+// ---- 1. validate, weld ----
+void prepare(BuildState& s) {
+  const double t0 = now_seconds();
+  validate_mesh(s.mesh);
+  s.report.input_triangles = s.mesh.triangle_count();
+  s.welded = weld_positions(s.mesh);
+  s.mesh_box = indexed_bounds(s.mesh, s.pool);
+  const size_t vertex_count = s.mesh.vertex_count();
+  s.scratch.size = vertex_count;
+  s.locks.retired.assign(vertex_count, 0);
+  s.locks.owner.assign(vertex_count, kNone);
+  s.locks.locked.assign(vertex_count, 0);
+  s.report.seconds_prepare = now_seconds() - t0;
+}
+
+// ---- 2. leaf clusters ----
+void build_leaves(BuildState& s) {
+  const double t0 = now_seconds();
+  // Large meshes are cut into spatially coherent chunks (cells of a 16^3 grid in Morton
+  // order, consecutive cells merged up to kLeafChunkTriangles) clustered in parallel.
+  // The chunking depends only on the mesh, so the output does not depend on threads.
+  std::vector<TriangleSet> chunks = leaf_chunks(s.mesh, s.mesh_box, s.pool);
+  std::vector<std::vector<TriangleSet>> chunk_leaves(chunks.size());
+  s.pool.parallel_for(chunks.size(), [&](size_t i) {
+    std::vector<uint32_t> scratch = s.scratch.take();
+    chunk_leaves[i] = split_into_clusters(s.welded, chunks[i], scratch, s.internal.leaf_split);
+    s.scratch.give(std::move(scratch));
+    chunks[i] = TriangleSet();
+  });
+  std::vector<TriangleSet> leaves;
+  for (auto& cl : chunk_leaves)
+    for (TriangleSet& t : cl) leaves.push_back(std::move(t));
+  chunk_leaves.clear();
+  s.clusters.resize(leaves.size());
+  s.pool.parallel_for(leaves.size(), [&](size_t i) {
+    WorkCluster& c = s.clusters[i];
+    c.triangles = std::move(leaves[i]);
+    c.bounds = cluster_sphere(s.mesh, c.triangles);
+    c.lod_bounds = c.bounds;
+  });
+  s.report.seconds_cluster = now_seconds() - t0;
+}
+
+// ---- 3a. level edges: per-cluster open edges (grouping) and the level's report ----
+void count_level_edges(BuildState& s, LevelState& L) {
+  const double t0 = now_seconds();
+  const std::vector<uint32_t>& active = L.active;
+  L.report.level = L.level;
+  L.report.clusters = active.size();
+  std::vector<uint64_t> open(active.size()), all(active.size());
+  L.open_keys.assign(active.size(), {});
+  s.pool.parallel_for(active.size(), [&](size_t i) {
+    count_cluster_edges(s.welded, s.clusters[active[i]].triangles, &open[i], &all[i], &L.open_keys[i]);
+  });
+  uint64_t so = 0, sa = 0;
+  for (size_t i = 0; i < active.size(); ++i) {
+    so += open[i];
+    sa += all[i];
+    L.report.triangles += s.clusters[active[i]].triangles.triangle_count();
   }
+  L.report.boundary_edge_fraction = sa ? double(so) / double(sa) : 0.0;
+  L.report.average_fill = double(L.report.triangles) / double(active.size()) / kMaxClusterTriangles;
+  s.report.seconds_edges += now_seconds() - t0;
+}
 
-  // Welded vertices of retired (terminal) clusters: locked for every later level, since
-  // those clusters stay drawable next to anything coarser (spec/dag.md §Locks).
-  std::vector<uint8_t> retired(vertex_count, 0);
-  std::vector<uint64_t> retired_edges;  // sorted welded edge keys of retired clusters
-  std::vector<uint32_t> owner(vertex_count, kNone);
-  std::vector<uint8_t> locked(vertex_count, 0);
+// ---- 3b. blocks, and the locks/edges of vertices used by two blocks ----
+// Groups never span blocks, so a vertex used by two blocks is used by two groups and is
+// locked up front; every other vertex belongs to one block, whose task decides it.
+void plan_blocks(BuildState& s, LevelState& L) {
+  const double t0 = now_seconds();
+  const std::vector<uint32_t>& active = L.active;
+  const bool last_level = L.level + 1 >= kMaxLevels;
+  L.simplify_allowed = !(active.size() == 1 || last_level);
+  if (!L.simplify_allowed) {
+    L.blocks.resize(1);
+    if (active.size() > 1) L.blocks[0].groups = {active};
+    else L.blocks[0].groups = {{active[0]}};
+    L.blocks[0].results.resize(L.blocks[0].groups.size());
+  } else {
+    std::vector<Vec3> centres(active.size());
+    for (size_t i = 0; i < active.size(); ++i) centres[i] = s.clusters[active[i]].bounds.center;
+    std::vector<std::vector<uint32_t>> items = spatial_blocks(centres, s.internal.group_block_clusters);
+    L.blocks.resize(items.size());
+    for (size_t b = 0; b < items.size(); ++b) L.blocks[b].items = std::move(items[b]);
+  }
+  const size_t block_count = L.blocks.size();
+  assert(block_count < (size_t(1) << 16));
+  // Cross-block locks and edges (only with several blocks): the first block to claim a
+  // vertex owns it, any other locks it, so `locked` does not depend on the order.
+  if (block_count > 1) {
+    std::vector<uint32_t>& owner = s.locks.owner;
+    std::vector<uint8_t>& locked = s.locks.locked;
+    std::vector<uint32_t> block_of(active.size());
+    for (size_t b = 0; b < block_count; ++b)
+      for (uint32_t i : L.blocks[b].items) block_of[i] = uint32_t(b);
+    s.pool.parallel_for(active.size(), [&](size_t i) {
+      for (uint32_t v : s.clusters[active[i]].triangles.corners) {
+        uint32_t w = s.welded.weld[v], expected = kNone;
+        if (!std::atomic_ref<uint32_t>(owner[w]).compare_exchange_strong(expected, block_of[i],
+                                                                          std::memory_order_relaxed) &&
+            expected != block_of[i])
+          std::atomic_ref<uint8_t>(locked[w]).store(1, std::memory_order_relaxed);
+      }
+    });
+    std::vector<std::vector<uint64_t>> per_cluster(active.size());
+    s.pool.parallel_for(active.size(), [&](size_t i) {
+      const TriangleSet& t = s.clusters[active[i]].triangles;
+      for (uint32_t v : t.corners)
+        std::atomic_ref<uint32_t>(owner[s.welded.weld[v]]).store(kNone, std::memory_order_relaxed);
+      for_each_welded_edge(s.welded, t.corners, [&](uint32_t a, uint32_t b) {
+        if (a != b && locked[a] && locked[b]) per_cluster[i].push_back(edge_key(a, b));
+      });
+    });
+    // (edge, block) pairs; an edge used by two blocks is shared.
+    std::vector<std::pair<uint64_t, uint32_t>> candidates;
+    for (size_t i = 0; i < active.size(); ++i)
+      for (uint64_t e : per_cluster[i]) candidates.push_back({e, block_of[i]});
+    std::sort(candidates.begin(), candidates.end());
+    for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
+      if (shared) L.cross_edges.push_back(e);
+    });
+  }
+  L.seconds_cross = now_seconds() - t0;
+}
 
-  std::vector<uint32_t> active(clusters.size());
+// ---- 3c. block task: METIS grouping, then the locks and shared edges of the block ----
+// (its own vertices only: cross-block ones are locked already, so tasks never race).
+void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
+  Block& blk = L.blocks[b];
+  const double tb = now_seconds();
+  {
+    const size_t n = blk.items.size();
+    std::vector<const TriangleSet*> sets(n);
+    std::vector<Sphere> bounds(n);
+    std::vector<std::vector<uint64_t>> keys(n);
+    for (size_t i = 0; i < n; ++i) {
+      sets[i] = &s.clusters[L.active[blk.items[i]]].triangles;
+      bounds[i] = s.clusters[L.active[blk.items[i]]].bounds;
+      keys[i] = std::move(L.open_keys[blk.items[i]]);
+    }
+    blk.groups = group_clusters(sets, keys, bounds, s.internal.group_target_clusters);
+    for (auto& g : blk.groups)
+      for (uint32_t& m : g) m = L.active[blk.items[m]];
+  }
+  const double tl = now_seconds();
+  blk.seconds_group = tl - tb;
+  std::vector<uint32_t>& owner = s.locks.owner;
+  std::vector<uint8_t>& locked = s.locks.locked;
+  // Locks: welded vertices used by two groups of this level, or by a retired cluster.
+  for (size_t g = 0; g < blk.groups.size(); ++g) {
+    const uint32_t tag = uint32_t(b << 16 | g);
+    for (uint32_t m : blk.groups[g])
+      for (uint32_t v : s.clusters[m].triangles.corners) {
+        uint32_t w = s.welded.weld[v];
+        if (locked[w]) continue;
+        if (s.locks.retired[w] || (owner[w] != kNone && owner[w] != tag)) locked[w] = 1;
+        else owner[w] = tag;
+      }
+  }
+  // Shared edges: welded edges with both ends locked used by two groups of this level, by
+  // two blocks, or by a retired cluster (only those must survive; few: they lie on group
+  // borders).
+  std::vector<std::pair<uint64_t, uint32_t>> candidates;
+  for (size_t g = 0; g < blk.groups.size(); ++g)
+    for (uint32_t m : blk.groups[g])
+      for_each_welded_edge(s.welded, s.clusters[m].triangles.corners, [&](uint32_t a, uint32_t c) {
+        if (a != c && locked[a] && locked[c]) candidates.push_back({edge_key(a, c), uint32_t(g)});
+      });
+  std::sort(candidates.begin(), candidates.end());
+  const std::vector<uint64_t>& retired_edges = s.locks.retired_edges;
+  for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
+    if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), e) ||
+        std::binary_search(L.cross_edges.begin(), L.cross_edges.end(), e))
+      blk.shared_edges.push_back(e);
+  });
+  blk.results.resize(blk.groups.size());
+  blk.seconds_locks = now_seconds() - tl;
+}
+
+// ---- 3d. group task: simplify, check the border, split, measure the error ----
+void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
+  const Block& blk = L.blocks[b];
+  GroupResult& r = L.blocks[b].results[g];
+  const double ts = now_seconds();
+  TriangleSet merged;
+  for (uint32_t m : blk.groups[g]) {
+    const TriangleSet& t = s.clusters[m].triangles;
+    merged.corners.insert(merged.corners.end(), t.corners.begin(), t.corners.end());
+    merged.materials.insert(merged.materials.end(), t.materials.begin(), t.materials.end());
+  }
+  SimplifyResult simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier);
+  size_t before = merged.triangle_count(), after = simplified.triangles.triangle_count();
+  bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
+  bool sealed = enough && locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked,
+                                                  blk.shared_edges);
+  const double tm = now_seconds();
+  r.seconds_simplify = tm - ts;
+  if (!sealed) return;
+  std::vector<uint32_t> scratch = s.scratch.take();
+  r.clusters = split_into_clusters(s.welded, simplified.triangles, scratch, s.internal.group_split);
+  s.scratch.give(std::move(scratch));
+  r.seconds_split = now_seconds() - tm;
+  r.terminal = false;
+  const double tv = now_seconds();
+  // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the backends'
+  // estimates (meshopt's quadric, OpenMesh's removed-vertex distance) can be below the
+  // distance from the simplified surface back to its input, so measure that too.
+  r.error = simplification_error(s.mesh, merged, simplified.triangles, simplified.error);
+  r.seconds_error = now_seconds() - tv;
+}
+
+// ---- 3e. the level scheduler: one pipelined parallel region per level ----
+// A block task whenever no block task runs (METIS is the serial path: its calls are
+// serialised, GKlib's RNG is global), otherwise a ready group task, otherwise the next block
+// (or wait for one to finish). While one thread runs METIS on a block, the others simplify
+// the groups of blocks already grouped.
+void run_level(BuildState& s, LevelState& L) {
+  const size_t block_count = L.blocks.size();
+  std::mutex queue_mutex;
+  std::condition_variable queue_changed;
+  std::vector<std::pair<uint32_t, uint32_t>> ready;  // (block, group), taken from the back
+  size_t next_block = 0, blocks_done = 0, blocks_running = 0;
+  std::exception_ptr first_error;
+  s.pool.run_on_all([&](unsigned) {
+    std::unique_lock<std::mutex> lock(queue_mutex);
+    for (;;) {
+      bool take_block = next_block < block_count && (blocks_running == 0 || ready.empty());
+      if (take_block) {
+        size_t b = next_block++;
+        ++blocks_running;
+        lock.unlock();
+        try {
+          group_and_lock_block(s, L, b);
+        } catch (...) {
+          std::lock_guard<std::mutex> guard(queue_mutex);
+          if (!first_error) first_error = std::current_exception();
+          L.blocks[b].results.assign(L.blocks[b].groups.size(), GroupResult());
+        }
+        lock.lock();
+        --blocks_running;
+        ++blocks_done;
+        for (size_t g = L.blocks[b].groups.size(); g-- > 0;) ready.push_back({uint32_t(b), uint32_t(g)});
+        queue_changed.notify_all();
+        continue;
+      }
+      if (!ready.empty()) {
+        auto [b, g] = ready.back();
+        ready.pop_back();
+        lock.unlock();
+        try {
+          simplify_one_group(s, L, b, g);
+        } catch (...) {
+          std::lock_guard<std::mutex> guard(queue_mutex);
+          if (!first_error) first_error = std::current_exception();
+        }
+        lock.lock();
+        continue;
+      }
+      if (blocks_done == block_count) return;
+      queue_changed.wait(lock);
+    }
+  });
+  if (first_error) std::rethrow_exception(first_error);
+}
+
+// The pipelined region's wall time, divided between its parts by their summed task times
+// (spec/dag.md §4).
+void account_level_time(BuildReport& rep, const LevelState& L, double wall) {
+  double group = 0, locks = 0, simplify = 0, split = 0, error = 0;
+  for (const Block& blk : L.blocks) {
+    group += blk.seconds_group;
+    locks += blk.seconds_locks;
+    for (const GroupResult& r : blk.results) {
+      simplify += r.seconds_simplify;
+      split += r.seconds_split;
+      error += r.seconds_error;
+    }
+  }
+  double sum = group + locks + simplify + split + error;
+  rep.seconds_locks += L.seconds_cross;
+  if (sum > 0) {
+    rep.seconds_group += wall * group / sum;
+    rep.seconds_locks += wall * locks / sum;
+    rep.seconds_simplify += wall * simplify / sum;
+    rep.seconds_split += wall * split / sum;
+    rep.seconds_error += wall * error / sum;
+  } else {
+    rep.seconds_group += wall;
+  }
+}
+
+// ---- 3f. combine in group order: groups, generated clusters, retired vertices/edges ----
+// Returns the next level's active clusters.
+std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
+  const double tc = now_seconds();
+  std::vector<GroupResult> results;
+  std::vector<std::vector<uint32_t>> level_groups;
+  for (Block& blk : L.blocks) {
+    for (GroupResult& r : blk.results) results.push_back(std::move(r));
+    for (auto& g : blk.groups) level_groups.push_back(std::move(g));
+  }
+  std::vector<WorkCluster>& clusters = s.clusters;
+  std::vector<WorkGroup>& groups = s.groups;
+  const uint32_t first_group = uint32_t(groups.size());
+  for (auto& members : level_groups) {
+    WorkGroup g;
+    g.members = std::move(members);
+    g.level = L.level;
+    uint32_t gi = uint32_t(groups.size());
+    std::vector<Sphere> b, lb;
+    float max_child = 0.0f;
+    for (uint32_t m : g.members) {
+      clusters[m].group = gi;
+      b.push_back(clusters[m].bounds);
+      lb.push_back(clusters[m].lod_bounds);
+      max_child = std::max(max_child, clusters[m].lod_error);
+    }
+    g.bounds = enclose_spheres(b.data(), b.size());
+    g.parent_bounds = enclose_spheres(lb.data(), lb.size());
+    g.parent_error = max_child;
+    groups.push_back(std::move(g));
+  }
+  const uint32_t group_count = uint32_t(groups.size()) - first_group;
+  L.report.groups = group_count;
+
+  std::vector<uint32_t> next;
+  std::vector<uint64_t> new_retired_edges;
+  for (uint32_t i = 0; i < group_count; ++i) {
+    GroupResult& r = results[i];
+    uint32_t gi = first_group + i;
+    if (r.terminal) {
+      groups[gi].terminal = true;
+      groups[gi].parent_error = kTerminalError;
+      ++L.report.stuck_groups;
+      for (uint32_t m : groups[gi].members) {
+        const TriangleSet& t = clusters[m].triangles;
+        for (uint32_t v : t.corners) s.locks.retired[s.welded.weld[v]] = 1;
+        for_each_welded_edge(s.welded, t.corners, [&](uint32_t a, uint32_t b) {
+          if (a != b) new_retired_edges.push_back(edge_key(a, b));
+        });
+      }
+      continue;
+    }
+    // parent_error = max(member lod_error) + own error; float addition of a
+    // non-negative term never goes below the max, so monotonicity holds exactly.
+    float own = std::isfinite(r.error) && r.error > 0 ? r.error : 0.0f;
+    groups[gi].parent_error = groups[gi].parent_error + own;
+    for (TriangleSet& t : r.clusters) {
+      WorkCluster c;
+      c.triangles = std::move(t);
+      c.level = L.level + 1;
+      c.generating_group = gi;
+      c.lod_bounds = groups[gi].parent_bounds;
+      c.lod_error = groups[gi].parent_error;
+      groups[gi].generated.push_back(uint32_t(clusters.size()));
+      next.push_back(uint32_t(clusters.size()));
+      clusters.push_back(std::move(c));
+    }
+  }
+  if (!L.simplify_allowed) L.report.stuck_groups = 0;  // roots by construction, not stuck
+  s.pool.parallel_for(next.size(), [&](size_t i) {
+    WorkCluster& c = clusters[next[i]];
+    c.bounds = cluster_sphere(s.mesh, c.triangles);
+  });
+  // Reset per-level lock state (only the touched entries; the same values from any task).
+  s.pool.parallel_for(L.active.size(), [&](size_t i) {
+    for (uint32_t v : clusters[L.active[i]].triangles.corners) {
+      uint32_t w = s.welded.weld[v];
+      std::atomic_ref<uint32_t>(s.locks.owner[w]).store(kNone, std::memory_order_relaxed);
+      std::atomic_ref<uint8_t>(s.locks.locked[w]).store(0, std::memory_order_relaxed);
+    }
+  });
+  std::vector<uint64_t>& retired_edges = s.locks.retired_edges;
+  if (!new_retired_edges.empty()) {
+    retired_edges.insert(retired_edges.end(), new_retired_edges.begin(), new_retired_edges.end());
+    std::sort(retired_edges.begin(), retired_edges.end());
+    retired_edges.erase(std::unique(retired_edges.begin(), retired_edges.end()), retired_edges.end());
+  }
+  s.report.seconds_combine += now_seconds() - tc;
+  return next;
+}
+
+// ---- 3. per level: edges, blocks, group/lock/simplify/split/error, combine ----
+void build_levels(BuildState& s) {
+  Progress progress("build", s.mesh.triangle_count(), s.options.progress);
+  std::vector<uint32_t> active(s.clusters.size());
   for (size_t i = 0; i < active.size(); ++i) active[i] = uint32_t(i);
   size_t processed = 0;
   for (uint32_t level = 0; !active.empty(); ++level) {
-    BuildLevelReport lr;
-    lr.level = level;
-    std::vector<std::vector<uint64_t>> open_keys;  // per active cluster, for grouping
-    lr.clusters = active.size();
-    double te = now_seconds();
-    {
-      std::vector<uint64_t> open(active.size()), all(active.size());
-      open_keys.assign(active.size(), {});
-      pool.parallel_for(active.size(), [&](size_t i) {
-        count_cluster_edges(welded, clusters[active[i]].triangles, &open[i], &all[i], &open_keys[i]);
-      });
-      uint64_t so = 0, sa = 0;
-      for (size_t i = 0; i < active.size(); ++i) {
-        so += open[i];
-        sa += all[i];
-        lr.triangles += clusters[active[i]].triangles.triangle_count();
-      }
-      lr.boundary_edge_fraction = sa ? double(so) / double(sa) : 0.0;
-      lr.average_fill = double(lr.triangles) / double(active.size()) / kMaxClusterTriangles;
-    }
-    rep.seconds_edges += now_seconds() - te;
-
-    // ---- group, locks, simplify: one pipelined parallel region per level ----
-    // The active clusters are cut into spatial blocks (block_clusters); each block is
-    // grouped by its own METIS call (serialised, GKlib's RNG is global), then its locks
-    // and shared edges are computed, then its groups are simplified. While one thread
-    // runs METIS on a block, the others simplify the groups of blocks already grouped.
-    // Groups never span blocks, so a vertex used by two blocks is used by two groups and
-    // is locked up front (cross-block locks); every other vertex belongs to one block.
-    bool last_level = level + 1 >= kMaxLevels;
-    const bool simplify_allowed = !(active.size() == 1 || last_level);
-    struct GroupResult {
-      bool terminal = true;
-      float error = 0.0f;
-      std::vector<TriangleSet> clusters;
-      double seconds_simplify = 0, seconds_split = 0, seconds_error = 0;
-    };
-    struct Block {
-      std::vector<uint32_t> items;                 // indices into `active`, ascending
-      std::vector<std::vector<uint32_t>> groups;   // members as cluster indices
-      std::vector<uint64_t> shared_edges;          // sorted welded edge keys
-      std::vector<GroupResult> results;
-      double seconds_group = 0, seconds_locks = 0;
-    };
-    std::vector<Block> blocks;
-    const double t0 = now_seconds();
-    if (!simplify_allowed) {
-      blocks.resize(1);
-      if (active.size() > 1) blocks[0].groups = {active};
-      else blocks[0].groups = {{active[0]}};
-      blocks[0].results.resize(blocks[0].groups.size());
-    } else {
-      std::vector<Vec3> centres(active.size());
-      for (size_t i = 0; i < active.size(); ++i) centres[i] = clusters[active[i]].bounds.center;
-      std::vector<std::vector<uint32_t>> items = spatial_blocks(centres, internal.group_block_clusters);
-      blocks.resize(items.size());
-      for (size_t b = 0; b < items.size(); ++b) blocks[b].items = std::move(items[b]);
-    }
-    const size_t block_count = blocks.size();
-    assert(block_count < (size_t(1) << 16));
-    // Cross-block locks and edges (only with several blocks): the first block to claim a
-    // vertex owns it, any other locks it, so `locked` does not depend on the order.
-    std::vector<uint64_t> cross_edges;  // sorted welded edges used by clusters of two blocks
-    if (block_count > 1) {
-      std::vector<uint32_t> block_of(active.size());
-      for (size_t b = 0; b < block_count; ++b)
-        for (uint32_t i : blocks[b].items) block_of[i] = uint32_t(b);
-      pool.parallel_for(active.size(), [&](size_t i) {
-        for (uint32_t v : clusters[active[i]].triangles.corners) {
-          uint32_t w = welded.weld[v], expected = kNone;
-          if (!std::atomic_ref<uint32_t>(owner[w]).compare_exchange_strong(expected, block_of[i],
-                                                                            std::memory_order_relaxed) &&
-              expected != block_of[i])
-            std::atomic_ref<uint8_t>(locked[w]).store(1, std::memory_order_relaxed);
-        }
-      });
-      std::vector<std::vector<uint64_t>> per_cluster(active.size());
-      pool.parallel_for(active.size(), [&](size_t i) {
-        const TriangleSet& t = clusters[active[i]].triangles;
-        for (uint32_t v : t.corners) std::atomic_ref<uint32_t>(owner[welded.weld[v]]).store(kNone, std::memory_order_relaxed);
-        for (size_t k = 0; k < t.corners.size(); ++k) {
-          uint32_t a = welded.weld[t.corners[k]], b = welded.weld[t.corners[k - k % 3 + (k + 1) % 3]];
-          if (a != b && locked[a] && locked[b]) per_cluster[i].push_back(edge_key(a, b));
-        }
-      });
-      // (edge, block) pairs; an edge used by two blocks is shared.
-      std::vector<std::pair<uint64_t, uint32_t>> candidates;
-      for (size_t i = 0; i < active.size(); ++i)
-        for (uint64_t e : per_cluster[i]) candidates.push_back({e, block_of[i]});
-      std::sort(candidates.begin(), candidates.end());
-      for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
-        if (shared) cross_edges.push_back(e);
-      });
-    }
-    const double seconds_cross = now_seconds() - t0;
-
-    // Block task: METIS grouping, then locks and shared edges of the block's vertices
-    // (its own vertices only: cross-block ones are locked already, so no race).
-    auto run_block = [&](size_t b) {
-      Block& blk = blocks[b];
-      double tb = now_seconds();
-      {
-        const size_t n = blk.items.size();
-        std::vector<const TriangleSet*> sets(n);
-        std::vector<Sphere> bounds(n);
-        std::vector<std::vector<uint64_t>> keys(n);
-        for (size_t i = 0; i < n; ++i) {
-          sets[i] = &clusters[active[blk.items[i]]].triangles;
-          bounds[i] = clusters[active[blk.items[i]]].bounds;
-          keys[i] = std::move(open_keys[blk.items[i]]);
-        }
-        blk.groups = group_clusters(sets, keys, bounds, internal.group_target_clusters);
-        for (auto& g : blk.groups)
-          for (uint32_t& m : g) m = active[blk.items[m]];
-      }
-      double tl = now_seconds();
-      blk.seconds_group = tl - tb;
-      // Locks: welded vertices used by two groups of this level, or by a retired cluster.
-      for (size_t g = 0; g < blk.groups.size(); ++g) {
-        const uint32_t tag = uint32_t(b << 16 | g);
-        for (uint32_t m : blk.groups[g])
-          for (uint32_t v : clusters[m].triangles.corners) {
-            uint32_t w = welded.weld[v];
-            if (locked[w]) continue;
-            if (retired[w] || (owner[w] != kNone && owner[w] != tag)) locked[w] = 1;
-            else owner[w] = tag;
-          }
-      }
-      // Shared edges: welded edges with both ends locked used by two groups of this level,
-      // by two blocks, or by a retired cluster (only those must survive; few: they lie on
-      // group borders).
-      std::vector<std::pair<uint64_t, uint32_t>> candidates;
-      for (size_t g = 0; g < blk.groups.size(); ++g)
-        for (uint32_t m : blk.groups[g]) {
-          const TriangleSet& t = clusters[m].triangles;
-          for (size_t k = 0; k < t.corners.size(); ++k) {
-            uint32_t a = welded.weld[t.corners[k]], c = welded.weld[t.corners[k - k % 3 + (k + 1) % 3]];
-            if (a != c && locked[a] && locked[c]) candidates.push_back({edge_key(a, c), uint32_t(g)});
-          }
-        }
-      std::sort(candidates.begin(), candidates.end());
-      for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
-        if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), e) ||
-            std::binary_search(cross_edges.begin(), cross_edges.end(), e))
-          blk.shared_edges.push_back(e);
-      });
-      blk.results.resize(blk.groups.size());
-      blk.seconds_locks = now_seconds() - tl;
-    };
-    // Group task: simplify, check the border, split, measure the error.
-    auto run_group = [&](size_t b, size_t g) {
-      const Block& blk = blocks[b];
-      GroupResult& r = blocks[b].results[g];
-      double ts = now_seconds();
-      TriangleSet merged;
-      for (uint32_t m : blk.groups[g]) {
-        const TriangleSet& t = clusters[m].triangles;
-        merged.corners.insert(merged.corners.end(), t.corners.begin(), t.corners.end());
-        merged.materials.insert(merged.materials.end(), t.materials.begin(), t.materials.end());
-      }
-      SimplifyResult s = simplify_group(welded, merged, locked, options.simplifier);
-      size_t before = merged.triangle_count(), after = s.triangles.triangle_count();
-      bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
-      bool sealed = enough && locked_border_preserved(welded, merged, s.triangles, locked, blk.shared_edges);
-      double tm = now_seconds();
-      r.seconds_simplify = tm - ts;
-      if (!sealed) return;
-      std::vector<uint32_t> sc = take_scratch();
-      r.clusters = split_into_clusters(welded, s.triangles, sc, internal.group_split);
-      give_scratch(std::move(sc));
-      r.seconds_split = now_seconds() - tm;
-      r.terminal = false;
-      const double tv = now_seconds();
-      // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the backends'
-      // estimates (meshopt's quadric, OpenMesh's removed-vertex distance) can be below the
-      // distance from the simplified surface back to its input, so measure that too.
-      r.error = simplification_error(*welded.mesh, merged, s.triangles, s.error);
-      r.seconds_error = now_seconds() - tv;
-    };
-    const double tr = now_seconds();
-    if (simplify_allowed) {
-      // Scheduler: a block task whenever no block task runs (METIS is the serial path),
-      // otherwise a ready group task, otherwise the next block (or wait for one to finish).
-      std::mutex queue_mutex;
-      std::condition_variable queue_changed;
-      std::vector<std::pair<uint32_t, uint32_t>> ready;  // (block, group), taken from the back
-      size_t next_block = 0, blocks_done = 0, blocks_running = 0;
-      std::exception_ptr first_error;
-      pool.run_on_all([&](unsigned) {
-        std::unique_lock<std::mutex> lock(queue_mutex);
-        for (;;) {
-          bool take_block = next_block < block_count && (blocks_running == 0 || ready.empty());
-          if (take_block) {
-            size_t b = next_block++;
-            ++blocks_running;
-            lock.unlock();
-            try {
-              run_block(b);
-            } catch (...) {
-              std::lock_guard<std::mutex> guard(queue_mutex);
-              if (!first_error) first_error = std::current_exception();
-              blocks[b].results.assign(blocks[b].groups.size(), GroupResult());
-            }
-            lock.lock();
-            --blocks_running;
-            ++blocks_done;
-            for (size_t g = blocks[b].groups.size(); g-- > 0;) ready.push_back({uint32_t(b), uint32_t(g)});
-            queue_changed.notify_all();
-            continue;
-          }
-          if (!ready.empty()) {
-            auto [b, g] = ready.back();
-            ready.pop_back();
-            lock.unlock();
-            try {
-              run_group(b, g);
-            } catch (...) {
-              std::lock_guard<std::mutex> guard(queue_mutex);
-              if (!first_error) first_error = std::current_exception();
-            }
-            lock.lock();
-            continue;
-          }
-          if (blocks_done == block_count) return;
-          queue_changed.wait(lock);
-        }
-      });
-      if (first_error) std::rethrow_exception(first_error);
-    }
-    std::vector<GroupResult> results;
-    std::vector<std::vector<uint32_t>> level_groups;
-    {
-      // The region's wall time, divided between its parts by their summed task times.
-      double wall = now_seconds() - tr, group = 0, locks = 0, simplify = 0, split = 0, error = 0;
-      for (Block& blk : blocks) {
-        group += blk.seconds_group;
-        locks += blk.seconds_locks;
-        for (GroupResult& r : blk.results) {
-          simplify += r.seconds_simplify;
-          split += r.seconds_split;
-          error += r.seconds_error;
-          results.push_back(std::move(r));
-        }
-        for (auto& g : blk.groups) level_groups.push_back(std::move(g));
-      }
-      double sum = group + locks + simplify + split + error;
-      rep.seconds_locks += seconds_cross;
-      if (sum > 0) {
-        rep.seconds_group += wall * group / sum;
-        rep.seconds_locks += wall * locks / sum;
-        rep.seconds_simplify += wall * simplify / sum;
-        rep.seconds_split += wall * split / sum;
-        rep.seconds_error += wall * error / sum;
-      } else {
-        rep.seconds_group += wall;
-      }
-    }
-    const double tc = now_seconds();
-    uint32_t first_group = uint32_t(groups.size());
-    for (auto& members : level_groups) {
-      WorkGroup g;
-      g.members = std::move(members);
-      g.level = level;
-      uint32_t gi = uint32_t(groups.size());
-      std::vector<Sphere> b, lb;
-      float max_child = 0.0f;
-      for (uint32_t m : g.members) {
-        clusters[m].group = gi;
-        b.push_back(clusters[m].bounds);
-        lb.push_back(clusters[m].lod_bounds);
-        max_child = std::max(max_child, clusters[m].lod_error);
-      }
-      g.bounds = enclose_spheres(b.data(), b.size());
-      g.parent_bounds = enclose_spheres(lb.data(), lb.size());
-      g.parent_error = max_child;
-      groups.push_back(std::move(g));
-    }
-    uint32_t group_count = uint32_t(groups.size()) - first_group;
-    lr.groups = group_count;
-
-    // ---- combine in group order ----
-    std::vector<uint32_t> next;
-    std::vector<uint64_t> new_retired_edges;
-    for (uint32_t i = 0; i < group_count; ++i) {
-      GroupResult& r = results[i];
-      uint32_t gi = first_group + i;
-      if (r.terminal) {
-        groups[gi].terminal = true;
-        groups[gi].parent_error = kTerminalError;
-        ++lr.stuck_groups;
-        for (uint32_t m : groups[gi].members) {
-          const TriangleSet& t = clusters[m].triangles;
-          for (uint32_t v : t.corners) retired[welded.weld[v]] = 1;
-          for (size_t k = 0; k < t.corners.size(); ++k) {
-            uint32_t a = welded.weld[t.corners[k]], b = welded.weld[t.corners[k - k % 3 + (k + 1) % 3]];
-            if (a != b) new_retired_edges.push_back(edge_key(a, b));
-          }
-        }
-        continue;
-      }
-      // parent_error = max(member lod_error) + own error; float addition of a
-      // non-negative term never goes below the max, so monotonicity holds exactly.
-      float own = std::isfinite(r.error) && r.error > 0 ? r.error : 0.0f;
-      groups[gi].parent_error = groups[gi].parent_error + own;
-      for (TriangleSet& t : r.clusters) {
-        WorkCluster c;
-        c.triangles = std::move(t);
-        c.level = level + 1;
-        c.generating_group = gi;
-        c.lod_bounds = groups[gi].parent_bounds;
-        c.lod_error = groups[gi].parent_error;
-        groups[gi].generated.push_back(uint32_t(clusters.size()));
-        next.push_back(uint32_t(clusters.size()));
-        clusters.push_back(std::move(c));
-      }
-    }
-    if (active.size() == 1 || last_level) lr.stuck_groups = 0;  // roots by construction, not stuck
-    pool.parallel_for(next.size(), [&](size_t i) {
-      WorkCluster& c = clusters[next[i]];
-      c.bounds = cluster_sphere(mesh, c.triangles);
-    });
-    // Reset per-level lock state (only the touched entries; the same values from any task).
-    pool.parallel_for(active.size(), [&](size_t i) {
-      for (uint32_t v : clusters[active[i]].triangles.corners) {
-        uint32_t w = welded.weld[v];
-        std::atomic_ref<uint32_t>(owner[w]).store(kNone, std::memory_order_relaxed);
-        std::atomic_ref<uint8_t>(locked[w]).store(0, std::memory_order_relaxed);
-      }
-    });
-    if (!new_retired_edges.empty()) {
-      retired_edges.insert(retired_edges.end(), new_retired_edges.begin(), new_retired_edges.end());
-      std::sort(retired_edges.begin(), retired_edges.end());
-      retired_edges.erase(std::unique(retired_edges.begin(), retired_edges.end()), retired_edges.end());
-    }
-    rep.seconds_combine += now_seconds() - tc;
-    processed += lr.triangles;
-    progress.set(std::min<size_t>(processed, mesh.triangle_count()));
-    rep.levels.push_back(lr);
-    active = std::move(next);
+    LevelState L;
+    L.level = level;
+    L.active = std::move(active);
+    count_level_edges(s, L);
+    plan_blocks(s, L);
+    const double region_start = now_seconds();
+    if (L.simplify_allowed) run_level(s, L);
+    account_level_time(s.report, L, now_seconds() - region_start);
+    active = combine_level(s, L);
+    processed += L.report.triangles;
+    progress.set(std::min<size_t>(processed, s.mesh.triangle_count()));
+    s.report.levels.push_back(L.report);
   }
+}
 
-  // ---- layout: groups in creation order (sorted by level), clusters sorted by group ----
-  double th = now_seconds();
+// ---- 4. layout: groups in creation order (sorted by level), clusters sorted by group ----
+ClusterDag lay_out(BuildState& s) {
+  const double t0 = now_seconds();
+  const Mesh& mesh = s.mesh;
+  const std::vector<WorkCluster>& clusters = s.clusters;
+  const std::vector<WorkGroup>& groups = s.groups;
+  ThreadPool& pool = s.pool;
   ClusterDag dag;
   std::vector<uint32_t> new_index(clusters.size(), kNone);
   {
@@ -802,23 +862,26 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
     std::memcpy(&dag.indices[3 * size_t(c.triangle_offset)], cluster_local[i].data(), 3 * size_t(c.triangle_count));
     for (size_t t = 0; t < c.triangle_count; ++t) dag.triangle_materials[c.triangle_offset + t] = w.triangles.materials[t];
   });
-  {
-    // Only vertices referenced by triangles count as leaf positions.
-    dag.bounds = mesh_box;
-  }
+  // Only vertices referenced by triangles count as leaf positions.
+  dag.bounds = s.mesh_box;
+  s.report.seconds_layout = now_seconds() - t0;
+  return dag;
+}
 
-  rep.seconds_layout = now_seconds() - th;
-  th = now_seconds();
-
-  // ---- culling hierarchy ----
+// ---- 5. culling hierarchy ----
+void build_hierarchy(BuildState& s, ClusterDag& dag) {
+  const double t0 = now_seconds();
   if (!dag.groups.empty()) {
     std::vector<uint32_t> items(dag.groups.size());
     for (size_t i = 0; i < items.size(); ++i) items[i] = uint32_t(i);
     BvhBuilder bvh{dag.groups, dag.bvh_nodes};
     bvh.build(items, 0, items.size());
   }
-  rep.seconds_hierarchy = now_seconds() - th;
+  s.report.seconds_hierarchy = now_seconds() - t0;
+}
 
+// Totals of spec/dag.md §4 that need the finished DAG.
+void finish_report(BuildReport& rep, const ClusterDag& dag, double seconds_total) {
   rep.stored_triangles = dag.triangle_count();
   for (const DagGroup& g : dag.groups)
     if (g.flags & kGroupTerminal) {
@@ -826,10 +889,29 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
       for (uint32_t c = g.first_cluster; c < g.first_cluster + g.cluster_count; ++c)
         rep.root_triangles += dag.clusters[c].triangle_count;
     }
-  rep.seconds_total = now_seconds() - t_start;
+  rep.seconds_total = seconds_total;
   struct rusage usage {};
   if (getrusage(RUSAGE_SELF, &usage) == 0) rep.peak_memory_bytes = uint64_t(usage.ru_maxrss) * 1024;
-  if (report) *report = std::move(rep);
+}
+
+}  // namespace
+
+ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport* report) {
+  return build_dag_internal(mesh, options, InternalBuildOptions{}, report);
+}
+
+// The steps of spec/dag.md §2, in order.
+ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions& options,
+                                            const InternalBuildOptions& internal, BuildReport* report) {
+  const double t_start = now_seconds();
+  BuildState s(mesh, options, internal);
+  prepare(s);
+  build_leaves(s);
+  build_levels(s);
+  ClusterDag dag = lay_out(s);
+  build_hierarchy(s, dag);
+  finish_report(s.report, dag, now_seconds() - t_start);
+  if (report) *report = std::move(s.report);
   return dag;
 }
 

@@ -134,4 +134,12 @@ inline uint64_t edge_key(uint32_t a, uint32_t b) {
   return a < b ? (uint64_t(a) << 32) | b : (uint64_t(b) << 32) | a;
 }
 
+// The welded edges of a corner list: fn(a, b) per corner, a = welded id of the corner, b = of
+// the next corner of its triangle, in corner order. a == b on welded-degenerate triangles.
+template <class Fn>
+inline void for_each_welded_edge(const WeldedMesh& welded, const std::vector<uint32_t>& corners, Fn&& fn) {
+  for (size_t t = 0; t + 3 <= corners.size(); t += 3)
+    for (size_t k = 0; k < 3; ++k) fn(welded.weld[corners[t + k]], welded.weld[corners[t + (k + 1) % 3]]);
+}
+
 }  // namespace vgeo::build_detail

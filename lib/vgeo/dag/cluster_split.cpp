@@ -118,17 +118,14 @@ void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, u
   std::vector<uint64_t> table(slots, kEmpty);
   std::vector<uint32_t> uses(slots, 0);
   uint64_t all = 0;
-  for (size_t t = 0; t < n; ++t)
-    for (int k = 0; k < 3; ++k) {
-      uint32_t a = welded.weld[cluster.corners[3 * t + k]];
-      uint32_t b = welded.weld[cluster.corners[3 * t + (k + 1) % 3]];
-      if (a == b) continue;
-      const uint64_t key = edge_key(a, b);
-      size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
-      while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
-      if (table[h] == kEmpty) table[h] = key, ++all;
-      ++uses[h];
-    }
+  for_each_welded_edge(welded, cluster.corners, [&](uint32_t a, uint32_t b) {
+    if (a == b) return;
+    const uint64_t key = edge_key(a, b);
+    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+    while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
+    if (table[h] == kEmpty) table[h] = key, ++all;
+    ++uses[h];
+  });
   uint64_t open = 0;
   const size_t first_open = open_keys ? open_keys->size() : 0;
   for (size_t h = 0; h < slots; ++h)

@@ -15,15 +15,6 @@ namespace vgeo::build_detail {
 
 namespace {
 
-uint32_t spread_bits(uint32_t x) {  // 10 bits -> every third bit
-  x &= 0x3FF;
-  x = (x | (x << 16)) & 0x030000FF;
-  x = (x | (x << 8)) & 0x0300F00F;
-  x = (x | (x << 4)) & 0x030C30C3;
-  x = (x | (x << 2)) & 0x09249249;
-  return x;
-}
-
 struct WeightedEdge {
   uint32_t a, b;
   int weight;
@@ -139,7 +130,7 @@ std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const Triang
       uint32_t q[3];
       for (int k = 0; k < 3; ++k)
         q[k] = uint32_t(std::clamp((double(bounds[c].center[k]) - lo[k]) / extent * 1023.0, 0.0, 1023.0));
-      order[c] = {spread_bits(q[0]) | (spread_bits(q[1]) << 1) | (spread_bits(q[2]) << 2), uint32_t(c)};
+      order[c] = {morton_code(q[0], q[1], q[2]), uint32_t(c)};
     }
     std::sort(order.begin(), order.end());
     // Adjacency lookup: edges are sorted by (a, b).

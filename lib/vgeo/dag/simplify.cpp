@@ -15,6 +15,7 @@
 
 #include "vgeo/dag/build_internal.h"
 #include "vgeo/dag/cluster_dag.h"
+#include "vgeo/core/surface_distance.h"
 
 namespace vgeo::build_detail {
 
@@ -23,24 +24,43 @@ namespace {
 size_t target_triangles(size_t n) { return std::max<size_t>(1, size_t(double(n) * kSimplifyTargetRatio)); }
 
 // ---------------------------------------------------------------- meshopt backend
-// Sub-mesh vertices are (original vertex, material) pairs: attribute and material
-// discontinuities become meshopt "seams" (same position, other index), which it keeps
-// consistent without locking. LockBorder locks the sub-mesh's topological border: the
-// group border, and also the original mesh's open edges (0.18 has no per-vertex locks;
-// spec/dag.md §Limitations).
+// Sub-mesh vertices are (vertex, material) pairs: attribute and material discontinuities
+// become meshopt "seams" (same position, other index), which it keeps consistent without
+// locking. meshopt 0.18 locks a position with more than two such wedges ("complex"), and a
+// per-corner mesh (every triangle owns its corners: flat normals, UV seams everywhere) is
+// nothing but such positions: there a position is welded into one sub-mesh vertex per
+// material (`kMaxSeamWedges`), simplified as a smooth surface, and each surviving corner
+// takes the attributes of the input corner (same position and material) whose triangle faces
+// most like the output triangle (pick_corner_attributes). LockBorder locks the sub-mesh's
+// topological border: the group border, and also the original mesh's open edges (0.18 has no
+// per-vertex locks; spec/dag.md §Limitations).
+
+// Wedges (distinct (vertex, material) pairs) at one position that meshopt 0.18 can move as a
+// seam; more are locked by it, so such positions are welded instead.
+constexpr size_t kMaxSeamWedges = 2;
+
+// Unit geometric normal of a triangle, in double (zero for a degenerate one).
+DVec3 face_normal(const Mesh& mesh, uint32_t a, uint32_t b, uint32_t c) {
+  const float *p = &mesh.positions[3 * size_t(a)], *q = &mesh.positions[3 * size_t(b)], *r = &mesh.positions[3 * size_t(c)];
+  double e1[3], e2[3];
+  for (int k = 0; k < 3; ++k) e1[k] = double(q[k]) - p[k], e2[k] = double(r[k]) - p[k];
+  DVec3 n{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+  double len = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+  if (!(len > 0)) return DVec3{};
+  return DVec3{n.x / len, n.y / len, n.z / len};
+}
+
 SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group) {
   const Mesh& mesh = *welded.mesh;
   size_t n = group.triangle_count();
-  // Sub-mesh vertex = rank of its (vertex << 32 | material) key among the distinct keys
-  // (sorted, so the sub-mesh does not depend on corner order). Distinct keys via an open
-  // addressing table (load ≤ 1/2); slot_of[i] remembers each corner's slot.
+  // Distinct (vertex << 32 | material) keys of the corners via an open addressing table
+  // (load ≤ 1/2); slot_of[i] remembers each corner's slot.
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
   while (slots < 6 * n) slots <<= 1, --shift;
   constexpr uint64_t kEmpty = ~uint64_t(0);  // vertex ids < 2^32 - 1, so never a key
   std::vector<uint64_t> slot_key(slots, kEmpty);
   std::vector<uint32_t> slot_of(3 * n);
-  std::vector<uint64_t> unique_keys;
   std::vector<std::pair<uint64_t, uint32_t>> unique_slots;  // (key, slot)
   unique_slots.reserve(3 * n);
   for (size_t i = 0; i < 3 * n; ++i) {
@@ -53,13 +73,40 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
     }
     slot_of[i] = uint32_t(h);
   }
-  std::sort(unique_slots.begin(), unique_slots.end());
-  std::vector<uint32_t> rank_of_slot(slots);
-  unique_keys.resize(unique_slots.size());
-  for (size_t r = 0; r < unique_slots.size(); ++r) {
-    unique_keys[r] = unique_slots[r].first;
-    rank_of_slot[unique_slots[r].second] = uint32_t(r);
+  // Positions with more than kMaxSeamWedges wedges are welded: their keys become
+  // (welded id, material). Sorted welded ids, so the sub-mesh does not depend on corner order.
+  std::vector<std::pair<uint32_t, uint32_t>> wedge_of(unique_slots.size());  // (welded id, vertex)
+  for (size_t u = 0; u < unique_slots.size(); ++u) {
+    uint32_t v = uint32_t(unique_slots[u].first >> 32);
+    wedge_of[u] = {welded.weld[v], v};
   }
+  std::sort(wedge_of.begin(), wedge_of.end());
+  std::vector<uint32_t> welded_positions;  // sorted
+  for (size_t i = 0; i < wedge_of.size();) {
+    size_t j = i;
+    while (j < wedge_of.size() && wedge_of[j].first == wedge_of[i].first) ++j;
+    if (j - i > kMaxSeamWedges) welded_positions.push_back(wedge_of[i].first);
+    i = j;
+  }
+  auto is_welded = [&](uint32_t w) {
+    return std::binary_search(welded_positions.begin(), welded_positions.end(), w);
+  };
+  // Sub-mesh key per unique slot, then the sub-mesh vertex = rank among the distinct keys.
+  std::vector<uint64_t> sub_key_of_slot(slots);
+  std::vector<uint64_t> unique_keys;
+  unique_keys.reserve(unique_slots.size());
+  for (auto [key, slot] : unique_slots) {
+    uint32_t v = uint32_t(key >> 32), w = welded.weld[v];
+    uint64_t sub = is_welded(w) ? (uint64_t(w) << 32) | uint32_t(key) : key;
+    sub_key_of_slot[slot] = sub;
+    unique_keys.push_back(sub);
+  }
+  std::sort(unique_keys.begin(), unique_keys.end());
+  unique_keys.erase(std::unique(unique_keys.begin(), unique_keys.end()), unique_keys.end());
+  std::vector<uint32_t> rank_of_slot(slots);
+  for (auto [key, slot] : unique_slots)
+    rank_of_slot[slot] = uint32_t(std::lower_bound(unique_keys.begin(), unique_keys.end(), sub_key_of_slot[slot]) -
+                                  unique_keys.begin());
   std::vector<unsigned int> indices(3 * n);
   for (size_t i = 0; i < 3 * n; ++i) indices[i] = rank_of_slot[slot_of[i]];
   std::vector<float> positions(3 * unique_keys.size());
@@ -77,6 +124,43 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
   r.triangles.materials.resize(out_count / 3);
   for (size_t i = 0; i < out_count; ++i) r.triangles.corners[i] = uint32_t(unique_keys[out[i]] >> 32);
   for (size_t t = 0; t < out_count / 3; ++t) r.triangles.materials[t] = uint32_t(unique_keys[out[3 * t]]);
+  if (welded_positions.empty()) return r;
+
+  // Welded corners: the input corner of the same position and material whose triangle's
+  // normal is closest to the output triangle's (ties: smallest vertex id), so flat-shaded
+  // corners keep the attributes of the face they now approximate. D2: an input vertex.
+  std::vector<std::pair<uint64_t, uint32_t>> candidates;  // (sub-mesh key, input corner)
+  for (size_t i = 0; i < 3 * n; ++i) {
+    const uint64_t sub = sub_key_of_slot[slot_of[i]];
+    if (is_welded(uint32_t(sub >> 32))) candidates.push_back({sub, uint32_t(i)});
+  }
+  std::sort(candidates.begin(), candidates.end());
+  std::vector<DVec3> input_normal(n);
+  for (size_t t = 0; t < n; ++t)
+    input_normal[t] = face_normal(mesh, group.corners[3 * t], group.corners[3 * t + 1], group.corners[3 * t + 2]);
+  for (size_t t = 0; t < out_count / 3; ++t) {
+    DVec3 nt{};
+    bool normal_known = false;
+    for (int k = 0; k < 3; ++k) {
+      const uint64_t sub = unique_keys[out[3 * t + k]];
+      if (!is_welded(uint32_t(sub >> 32))) continue;
+      if (!normal_known) {
+        nt = face_normal(mesh, r.triangles.corners[3 * t], r.triangles.corners[3 * t + 1], r.triangles.corners[3 * t + 2]);
+        normal_known = true;
+      }
+      auto it = std::lower_bound(candidates.begin(), candidates.end(), std::make_pair(sub, uint32_t(0)));
+      double best_score = -2;
+      uint32_t best = kNone;
+      for (; it != candidates.end() && it->first == sub; ++it) {
+        const DVec3& ni = input_normal[it->second / 3];
+        const double score = nt.x * ni.x + nt.y * ni.y + nt.z * ni.z;
+        const uint32_t v = group.corners[it->second];
+        if (score > best_score || (score == best_score && v < best)) best_score = score, best = v;
+      }
+      assert(best != kNone);
+      r.triangles.corners[3 * t + k] = best;
+    }
+  }
   return r;
 }
 
@@ -105,30 +189,11 @@ class ModQuadricRecordT : public OpenMesh::Decimater::ModQuadricT<MeshT> {
   std::vector<std::pair<int, int>> collapses;
 };
 
+// lib/vgeo/core's exact point-triangle distance (the one the error lattice uses).
 double point_triangle_distance(const OpenMesh::Vec3d& p, const OpenMesh::Vec3d& a, const OpenMesh::Vec3d& b,
                                const OpenMesh::Vec3d& c) {
-  // Ericson, Real-Time Collision Detection 5.1.5 (closest point on triangle), in double.
-  using V = OpenMesh::Vec3d;
-  V ab = b - a, ac = c - a, ap = p - a;
-  double d1 = ab | ap, d2 = ac | ap;
-  if (d1 <= 0 && d2 <= 0) return (p - a).norm();
-  V bp = p - b;
-  double d3 = ab | bp, d4 = ac | bp;
-  if (d3 >= 0 && d4 <= d3) return (p - b).norm();
-  double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (p - (a + ab * (d1 / (d1 - d3)))).norm();
-  V cp = p - c;
-  double d5 = ab | cp, d6 = ac | cp;
-  if (d6 >= 0 && d5 <= d6) return (p - c).norm();
-  double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (p - (a + ac * (d2 / (d2 - d6)))).norm();
-  double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return (p - (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))))).norm();
-  double denom = va + vb + vc;
-  if (!(std::abs(denom) > 0)) return std::min({(p - a).norm(), (p - b).norm(), (p - c).norm()});
-  double v = vb / denom, w = vc / denom;
-  return (p - (a + ab * v + ac * w)).norm();
+  auto d = [](const OpenMesh::Vec3d& v) { return DVec3{v[0], v[1], v[2]}; };
+  return std::sqrt(point_triangle_distance_squared(d(p), d(a), d(b), d(c)));
 }
 
 // One OpenMesh vertex per welded position of the group; material is a face property, so
@@ -271,6 +336,7 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
   return r;
 }
 
+
 }  // namespace
 
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
@@ -286,13 +352,11 @@ bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before
   // edge key equals. Only locked ones are ever looked up, and they lie on the group border
   // (a minority), so nothing else is inserted.
   std::vector<uint64_t> keys;
-  for (size_t i = 0; i < 3 * after.triangle_count(); ++i) {
-    uint32_t a = welded.weld[after.corners[i]];
-    if (!locked[a]) continue;
-    uint32_t b = welded.weld[after.corners[i - i % 3 + (i + 1) % 3]];
+  for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
+    if (!locked[a]) return;
     keys.push_back((uint64_t(a) << 32) | a);
     if (a != b && locked[b]) keys.push_back(edge_key(a, b));
-  }
+  });
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
   while (slots < 2 * keys.size()) slots <<= 1, --shift;
@@ -305,19 +369,17 @@ bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before
   };
   for (uint64_t key : keys) table[slot(key)] = key;
   auto present = [&](uint64_t key) { return table[slot(key)] == key; };
-  for (size_t i = 0; i < before.triangle_count(); ++i)
-    for (int k = 0; k < 3; ++k) {
-      uint32_t a = welded.weld[before.corners[3 * i + k]];
-      if (!locked[a]) continue;
-      // Every locked vertex of `before` is used by `after`.
-      if (!present((uint64_t(a) << 32) | a)) return false;
-      // Every shared edge of `before` (both ends locked) is an edge of `after`.
-      uint32_t b = welded.weld[before.corners[3 * i + (k + 1) % 3]];
-      if (a == b || !locked[b]) continue;
-      uint64_t key = edge_key(a, b);
-      if (std::binary_search(shared_edges.begin(), shared_edges.end(), key) && !present(key)) return false;
-    }
-  return true;
+  bool preserved = true;
+  for_each_welded_edge(welded, before.corners, [&](uint32_t a, uint32_t b) {
+    if (!preserved || !locked[a]) return;
+    // Every locked vertex of `before` is used by `after`.
+    if (!present((uint64_t(a) << 32) | a)) preserved = false;
+    // Every shared edge of `before` (both ends locked) is an edge of `after`.
+    if (a == b || !locked[b]) return;
+    uint64_t key = edge_key(a, b);
+    if (std::binary_search(shared_edges.begin(), shared_edges.end(), key) && !present(key)) preserved = false;
+  });
+  return preserved;
 }
 
 }  // namespace vgeo::build_detail

@@ -619,4 +619,31 @@ Scene generate_scene(const GenerateOptions& options) {
   return scene;
 }
 
+Mesh make_uv_sphere(uint32_t rings, uint32_t segments, float radius, Vec3 center) {
+  Mesh m;
+  m.name = "sphere";
+  const double pi = 3.14159265358979323846;
+  auto add = [&](double th, double ph) {
+    double x = std::sin(th) * std::cos(ph), y = std::sin(th) * std::sin(ph), z = std::cos(th);
+    m.positions.insert(m.positions.end(), {center.x + float(radius * x), center.y + float(radius * y),
+                                           center.z + float(radius * z)});
+    m.normals.insert(m.normals.end(), {float(x), float(y), float(z)});
+  };
+  add(0, 0);  // north pole: vertex 0
+  for (uint32_t r = 1; r < rings; ++r)
+    for (uint32_t s = 0; s < segments; ++s) add(pi * r / rings, 2 * pi * s / segments);
+  add(pi, 0);  // south pole
+  uint32_t south = uint32_t(m.positions.size() / 3 - 1);
+  auto ring = [&](uint32_t r, uint32_t s) { return 1 + (r - 1) * segments + (s % segments); };
+  for (uint32_t s = 0; s < segments; ++s) m.indices.insert(m.indices.end(), {0, ring(1, s), ring(1, s + 1)});
+  for (uint32_t r = 1; r + 1 < rings; ++r)
+    for (uint32_t s = 0; s < segments; ++s) {
+      uint32_t a = ring(r, s), b = ring(r, s + 1), c = ring(r + 1, s), d = ring(r + 1, s + 1);
+      m.indices.insert(m.indices.end(), {a, c, d, a, d, b});
+    }
+  for (uint32_t s = 0; s < segments; ++s)
+    m.indices.insert(m.indices.end(), {south, ring(rings - 1, s + 1), ring(rings - 1, s)});
+  return m;
+}
+
 }  // namespace vgeo

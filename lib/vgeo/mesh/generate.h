@@ -93,6 +93,11 @@ Scene generate_scene(const GenerateOptions& options);
 // result is deterministic); vertices with a zero sum get (0,0,1). Resizes mesh.normals.
 void compute_smooth_normals(Mesh& mesh);
 
+// Closed UV sphere, the small fixed mesh of unit tests and benchmarks (generate_mesh's
+// shapes are for scale): `rings` x `segments`, one vertex per pole (welded), CCW seen from
+// outside, unit normals, no uvs; 2 * segments * (rings - 1) triangles.
+Mesh make_uv_sphere(uint32_t rings, uint32_t segments, float radius = 1.0f, Vec3 center = {});
+
 // SplitMix64 (Steele, Lea, Flood 2014): the only PRNG used by the generators.
 struct SplitMix64 {
   uint64_t state = 0;

@@ -25,42 +25,54 @@ void OutputBudget::charge(uint64_t count, uint64_t bytes_each, const char* what)
   remaining -= count * bytes_each;
 }
 
-void check_mesh_attributes(const Mesh& mesh, const std::string& where) {
+std::string mesh_array_size_defect(const Mesh& mesh) {
   const size_t n = mesh.vertex_count();
-  if (mesh.positions.size() != 3 * n || (!mesh.normals.empty() && mesh.normals.size() != 3 * n) ||
-      (!mesh.uvs.empty() && mesh.uvs.size() != 2 * n) || mesh.indices.size() % 3 != 0 ||
-      (!mesh.materials.empty() && mesh.materials.size() != mesh.triangle_count())) {
+  if (mesh.positions.size() % 3 != 0) return "position array length is not a multiple of 3";
+  if (mesh.indices.size() % 3 != 0) return "index array length is not a multiple of 3";
+  if (!mesh.normals.empty() && mesh.normals.size() != 3 * n) return "normals are not one per vertex";
+  if (!mesh.uvs.empty() && mesh.uvs.size() != 2 * n) return "uvs are not one per vertex";
+  if (!mesh.materials.empty() && mesh.materials.size() != mesh.triangle_count())
+    return "materials are not one per triangle";
+  return {};
+}
+
+size_t first_non_finite(const std::vector<float>& values) {
+  for (size_t i = 0; i < values.size(); ++i)
+    if (!std::isfinite(values[i])) return i;
+  return values.size();
+}
+
+size_t first_index_out_of_range(const Mesh& mesh) {
+  const size_t n = mesh.vertex_count();
+  for (size_t i = 0; i < mesh.indices.size(); ++i)
+    if (mesh.indices[i] >= n) return i;
+  return mesh.indices.size();
+}
+
+void check_mesh_attributes(const Mesh& mesh, const std::string& where) {
+  if (!mesh_array_size_defect(mesh).empty()) {
     fail("INTERNAL_SIZE_MISMATCH", where, "mesh '" + mesh.name + "' has inconsistent array sizes",
          kExitInternal);
   }
-  for (size_t i = 0; i < mesh.positions.size(); ++i) {
-    if (!std::isfinite(mesh.positions[i])) {
-      fail("POSITION_NOT_FINITE", where,
-           "mesh '" + mesh.name + "' vertex " + std::to_string(i / 3) + " has a non-finite position");
-    }
+  if (size_t i = first_non_finite(mesh.positions); i < mesh.positions.size()) {
+    fail("POSITION_NOT_FINITE", where,
+         "mesh '" + mesh.name + "' vertex " + std::to_string(i / 3) + " has a non-finite position");
   }
-  for (size_t i = 0; i < mesh.normals.size(); ++i) {
-    if (!std::isfinite(mesh.normals[i])) {
-      fail("ATTRIBUTE_NOT_FINITE", where,
-           "mesh '" + mesh.name + "' vertex " + std::to_string(i / 3) + " has a non-finite normal");
-    }
+  if (size_t i = first_non_finite(mesh.normals); i < mesh.normals.size()) {
+    fail("ATTRIBUTE_NOT_FINITE", where,
+         "mesh '" + mesh.name + "' vertex " + std::to_string(i / 3) + " has a non-finite normal");
   }
-  for (size_t i = 0; i < mesh.uvs.size(); ++i) {
-    if (!std::isfinite(mesh.uvs[i])) {
-      fail("ATTRIBUTE_NOT_FINITE", where,
-           "mesh '" + mesh.name + "' vertex " + std::to_string(i / 2) + " has a non-finite uv");
-    }
+  if (size_t i = first_non_finite(mesh.uvs); i < mesh.uvs.size()) {
+    fail("ATTRIBUTE_NOT_FINITE", where,
+         "mesh '" + mesh.name + "' vertex " + std::to_string(i / 2) + " has a non-finite uv");
   }
 }
 
 void check_mesh_indices(const Mesh& mesh, const std::string& where) {
-  const size_t n = mesh.vertex_count();
-  for (size_t i = 0; i < mesh.indices.size(); ++i) {
-    if (mesh.indices[i] >= n) {
-      fail("INDEX_OUT_OF_RANGE", where,
-           "mesh '" + mesh.name + "' index " + std::to_string(i) + " = " +
-               std::to_string(mesh.indices[i]) + " >= vertex count " + std::to_string(n));
-    }
+  if (size_t i = first_index_out_of_range(mesh); i < mesh.indices.size()) {
+    fail("INDEX_OUT_OF_RANGE", where,
+         "mesh '" + mesh.name + "' index " + std::to_string(i) + " = " + std::to_string(mesh.indices[i]) +
+             " >= vertex count " + std::to_string(mesh.vertex_count()));
   }
 }
 

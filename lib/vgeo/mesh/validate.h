@@ -30,6 +30,15 @@ struct OutputBudget {
   void charge(uint64_t count, uint64_t bytes_each, const char* what);
 };
 
+// The checks themselves, shared by the importers (codes below) and build_dag (BUILD_* codes,
+// spec/dag.md §6): each returns what is wrong, so each caller raises its own stable code.
+// Empty when every array has the length the mesh's counts imply, else which one does not.
+std::string mesh_array_size_defect(const Mesh& mesh);
+// Index of the first non-finite value, or values.size() when all are finite.
+size_t first_non_finite(const std::vector<float>& values);
+// Corner of the first index >= vertex_count(), or indices.size() when all are in range.
+size_t first_index_out_of_range(const Mesh& mesh);
+
 // POSITION_NOT_FINITE for the first non-finite position coordinate; ATTRIBUTE_NOT_FINITE for
 // a non-finite normal or uv. Also asserts (fails INTERNAL_SIZE_MISMATCH) array-size contracts.
 void check_mesh_attributes(const Mesh& mesh, const std::string& where);

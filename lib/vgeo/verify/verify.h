@@ -104,6 +104,16 @@ struct VerifyReport {
 
 VerifyReport verify_dag(const ClusterDag& dag, const VerifyOptions& options = {});
 
+// The ERROR_BOUND measurement, per cluster: the sampled one-sided distance from the cluster's
+// triangles to the leaves (lattice of options.error_samples_per_edge, exact in double against
+// a tree of all leaf triangles); 0 for leaves. Depends only on the DAG (any builder's).
+struct ClusterDeviation {
+  std::vector<double> distance;  // per cluster
+  std::vector<DVec3> worst;      // the lattice point where it is reached
+  uint64_t samples = 0;
+};
+ClusterDeviation measure_cluster_deviation(const ClusterDag& dag, const VerifyOptions& options = {});
+
 // The report as a JSON object (spec/invariants.md §Report); `mesh` names the DAG.
 std::string verify_report_json(const VerifyReport& report, const std::string& mesh = "");
 // A short human-readable table (one line per check plus the distributions).

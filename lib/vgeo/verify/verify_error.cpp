@@ -12,38 +12,28 @@
 #include "vgeo/core/thread_pool.h"
 #include "vgeo/verify/verify_detail.h"
 
-namespace vgeo::verify_detail {
-void check_error_bound(const ClusterDag& dag, const VerifyOptions& options, Sink& sink, ErrorBoundResult* result) {
+namespace vgeo {
+
+ClusterDeviation measure_cluster_deviation(const ClusterDag& dag, const VerifyOptions& options) {
   const size_t nc = dag.clusters.size();
   auto corner = [&](const DagCluster& k, uint32_t t, int j) {
     size_t v = size_t(k.vertex_offset) + dag.indices[3 * (size_t(k.triangle_offset) + t) + j];
     return DVec3{dag.positions[3 * v], dag.positions[3 * v + 1], dag.positions[3 * v + 2]};
   };
   std::vector<DVec3> leaf_corners;
-  double max_abs = 0;
   for (const DagCluster& k : dag.clusters) {
-    for (uint32_t v = 0; v < k.vertex_count; ++v)
-      for (int j = 0; j < 3; ++j)
-        max_abs = std::max(max_abs, std::fabs(double(dag.positions[3 * (size_t(k.vertex_offset) + v) + j])));
     if (k.generating_group != kNone) continue;
     for (uint32_t t = 0; t < k.triangle_count; ++t)
       for (int j = 0; j < 3; ++j) leaf_corners.push_back(corner(k, t, j));
   }
-  // Tolerance: stored positions are float; a simplified vertex placed at the measured
-  // error is rounded by up to half an ulp per coordinate (√3/2 ulp), and so are the leaves.
-  // Four ulps of the largest coordinate covers both roundings (spec/invariants.md §5).
-  const double abs_tol = 4.0 * float_ulp(max_abs);
   TriangleDistanceTree bvh(std::move(leaf_corners));
-
+  ClusterDeviation out;
+  out.distance.assign(nc, 0.0);
+  out.worst.assign(nc, DVec3{});
   std::vector<uint32_t> targets;
   for (size_t c = 0; c < nc; ++c)
     if (dag.clusters[c].generating_group != kNone) targets.push_back(uint32_t(c));
-  struct Measured {
-    double dist = 0;
-    DVec3 worst{0, 0, 0};
-    uint64_t samples = 0;
-  };
-  std::vector<Measured> measured(targets.size());
+  std::vector<uint64_t> samples(targets.size(), 0);
   const uint32_t k_sub = std::max(1u, options.error_samples_per_edge);
   if (!bvh.empty()) {
     ThreadPool pool(options.threads);
@@ -51,13 +41,13 @@ void check_error_bound(const ClusterDag& dag, const VerifyOptions& options, Sink
     pool.run_on_all([&](unsigned) {
       for (size_t i; (i = next.fetch_add(1)) < targets.size();) {
         const DagCluster& k = dag.clusters[targets[i]];
-        Measured m;
         uint32_t hint = ~0u;
         double best2 = 0;
+        DVec3 worst{0, 0, 0};
         auto sample = [&](DVec3 p) {
           double d2 = bvh.nearest_distance_squared(p, &hint);
-          ++m.samples;
-          if (d2 > best2) best2 = d2, m.worst = p;
+          ++samples[i];
+          if (d2 > best2) best2 = d2, worst = p;
         };
         // The shared lattice (lib/vgeo/core/surface_distance.h): the builder measures its stored
         // error on a refinement of the same lattice, so every point sampled here was measured.
@@ -65,34 +55,54 @@ void check_error_bound(const ClusterDag& dag, const VerifyOptions& options, Sink
         for (size_t j = 0; j < tri_indices.size(); ++j)
           tri_indices[j] = k.vertex_offset + dag.indices[3 * size_t(k.triangle_offset) + j];
         for_each_lattice_point(dag.positions.data(), tri_indices.data(), k.triangle_count, k_sub, sample);
-        m.dist = std::sqrt(best2);
-        measured[i] = m;
+        out.distance[targets[i]] = std::sqrt(best2);
+        out.worst[targets[i]] = worst;
       }
     });
   }
+  for (uint64_t n : samples) out.samples += n;
+  return out;
+}
+
+}  // namespace vgeo
+
+namespace vgeo::verify_detail {
+
+void check_error_bound(const ClusterDag& dag, const VerifyOptions& options, Sink& sink, ErrorBoundResult* result) {
+  double max_abs = 0;
+  for (const DagCluster& k : dag.clusters)
+    for (uint32_t v = 0; v < k.vertex_count; ++v)
+      for (int j = 0; j < 3; ++j)
+        max_abs = std::max(max_abs, std::fabs(double(dag.positions[3 * (size_t(k.vertex_offset) + v) + j])));
+  // Tolerance: stored positions are float; a simplified vertex placed at the measured
+  // error is rounded by up to half an ulp per coordinate (√3/2 ulp), and so are the leaves.
+  // Four ulps of the largest coordinate covers both roundings (spec/invariants.md §5).
+  const double abs_tol = 4.0 * verify_detail::float_ulp(max_abs);
+  const ClusterDeviation deviation = measure_cluster_deviation(dag, options);
+  result->samples += deviation.samples;
   result->ratios_per_level.assign(dag.level_count + 1, {});
-  for (size_t i = 0; i < targets.size(); ++i) {
-    const uint32_t c = targets[i];
+  for (size_t c = 0; c < dag.clusters.size(); ++c) {
     const DagCluster& k = dag.clusters[c];
-    const Measured& m = measured[i];
-    result->samples += m.samples;
+    if (k.generating_group == kNone) continue;
+    const double dist = deviation.distance[c];
+    const DVec3 worst = deviation.worst[c];
     ++result->clusters;
     if (k.lod_error > 0 && std::isfinite(k.lod_error)) {
-      double ratio = m.dist / k.lod_error;
+      double ratio = dist / k.lod_error;
       result->ratios.push_back(ratio);
       if (k.level < result->ratios_per_level.size()) result->ratios_per_level[k.level].push_back(ratio);
     }
-    if (!(m.dist <= double(k.lod_error) + abs_tol))
+    if (!(dist <= double(k.lod_error) + abs_tol))
       sink.add("ERROR_BOUND", "error_bound", "cluster", c,
-               "sampled distance to the leaves " + fmt_float(m.dist) + " exceeds stored lod_error " +
+               "sampled distance to the leaves " + fmt_float(dist) + " exceeds stored lod_error " +
                    fmt_float(k.lod_error) + " (level " + std::to_string(k.level) + ")",
-               {{"measured", m.dist},
+               {{"measured", dist},
                 {"stored", k.lod_error},
-                {"ratio", k.lod_error > 0 ? m.dist / k.lod_error : std::numeric_limits<double>::infinity()},
+                {"ratio", k.lod_error > 0 ? dist / k.lod_error : std::numeric_limits<double>::infinity()},
                 {"tolerance", abs_tol},
-                {"worst_x", m.worst.x},
-                {"worst_y", m.worst.y},
-                {"worst_z", m.worst.z}});
+                {"worst_x", worst.x},
+                {"worst_y", worst.y},
+                {"worst_z", worst.z}});
   }
 }
 
