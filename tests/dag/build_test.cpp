@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
 
 #include "dag_checks.h"
 #include "support/shapes.h"
@@ -185,6 +186,34 @@ TEST(Build, RetiredClustersKeepTheirBordersAtLaterLevels) {
     }
     expect_dag_properties(d, m.triangle_count());
     expect_borders_preserved(d, /*same_use_count=*/false);
+  }
+}
+
+// The split's limits hold for every input (spec/dag.md §Split): a soup of disjoint triangles
+// has 3 vertices per triangle, so 128 triangles (the triangle limit) need 6 clusters by the
+// vertex limit (64); both split methods, all triangles kept.
+TEST(Build, SplitKeepsTheVertexLimitForDisjointTriangles) {
+  Mesh m;
+  for (uint32_t t = 0; t < kMaxClusterTriangles; ++t) {
+    const float x = float(t % 16), y = float(t / 16);
+    m.positions.insert(m.positions.end(), {x, y, 0, x + 0.5f, y, 0, x, y + 0.5f, 0});
+    m.indices.insert(m.indices.end(), {3 * t, 3 * t + 1, 3 * t + 2});
+  }
+  const build_detail::WeldedMesh welded = build_detail::weld_positions(m);
+  build_detail::TriangleSet all;
+  all.corners = m.indices;
+  all.materials.assign(m.triangle_count(), 0);
+  for (auto method : {build_detail::SplitMethod::kMeshopt, build_detail::SplitMethod::kMetis}) {
+    std::vector<uint32_t> scratch(welded.weld.size(), kNone);
+    const std::vector<build_detail::TriangleSet> clusters = build_detail::split_into_clusters(welded, all, scratch, method);
+    size_t triangles = 0;
+    for (const build_detail::TriangleSet& c : clusters) {
+      std::set<uint32_t> vertices(c.corners.begin(), c.corners.end());
+      EXPECT_LE(c.triangle_count(), kMaxClusterTriangles);
+      EXPECT_LE(vertices.size(), kMaxClusterVertices) << "method " << int(method);
+      triangles += c.triangle_count();
+    }
+    EXPECT_EQ(triangles, all.triangle_count());
   }
 }
 
