@@ -134,6 +134,48 @@ TEST(Hzb, SpheresReachingTheNearPlaneAreNeverOccluded) {
   }
 }
 
+// Deterministic (every run): behind a wall every sphere is occluded; a single background
+// pixel anywhere under the sphere's projection must make it visible, under every mip policy.
+// Catches a texel loop that skips the last covered row or column of the sphere's rectangle.
+TEST(Hzb, EveryPixelUnderTheSphereCanRevealIt) {
+  constexpr uint32_t kW = 40, kH = 30;
+  Camera c;
+  c.width = kW;
+  c.height = kH;
+  c.z_near = 0.01;
+  c.fov_y = 1.0;
+  const ViewParams view = make_view(c);
+  ThreadPool pool(1);
+  const std::vector<uint64_t> wall(size_t(kW) * kH, pack_vis_key(1.0f, 0, 0));  // at the near plane
+  const Sphere spheres[] = {{{0.0f, 0.0f, -3.0f}, 0.3f},    {{0.37f, -0.21f, -2.0f}, 0.13f},
+                            {{-0.55f, 0.33f, -2.5f}, 0.21f}, {{0.11f, 0.47f, -1.7f}, 0.07f},
+                            {{-0.8f, -0.5f, -3.3f}, 0.4f},   {{0.63f, 0.05f, -2.2f}, 0.05f}};
+  for (const Sphere& s : spheres) {
+    std::vector<uint8_t> covered(size_t(kW) * kH, 0);
+    for_sphere_points(s, [&](double x, double y, double z) {
+      const double depth = -z;
+      const double sx = (x / (depth * view.tan_half_x) * 0.5 + 0.5) * kW;
+      const double sy = (0.5 - y / (depth * view.tan_half_y) * 0.5) * kH;
+      if (sx < 0 || sy < 0 || sx >= kW || sy >= kH) return;
+      covered[size_t(sy) * kW + size_t(sx)] = 1;
+    });
+    for (auto policy : {HzbMipPolicy::k4x4, HzbMipPolicy::k2x2, HzbMipPolicy::kFinest}) {
+      Hzb hzb;
+      build_hzb(wall.data(), kW, kH, pool, &hzb);
+      ASSERT_TRUE(hzb_occludes(hzb, s, view, policy)) << "sphere r=" << s.radius;
+      for (uint32_t p = 0; p < kW * kH; ++p) {
+        if (!covered[p]) continue;
+        std::vector<uint64_t> holed = wall;
+        holed[p] = 0;  // background: nothing in front of the sphere there
+        build_hzb(holed.data(), kW, kH, pool, &hzb);
+        EXPECT_FALSE(hzb_occludes(hzb, s, view, policy))
+            << "pixel (" << p % kW << ", " << p / kW << ") under sphere r=" << s.radius << ", policy "
+            << int(policy);
+      }
+    }
+  }
+}
+
 RC_GTEST_PROP(Frustum, CulledSphereHasNoPointInsideTheFrustum, ()) {
   Camera c;
   c.width = *rc::gen::element(64u, 100u, 1920u);

@@ -164,6 +164,61 @@ TEST(Build, RejectsEmptyAndInvalidMeshes) {
   }
 }
 
+// Retired (terminal) clusters stay drawable next to anything coarser, so their welded vertices
+// stay locked at every later level (spec/dag.md §Locks). Half of the grid is double-sided (each
+// triangle also reversed): OpenMesh refuses those faces (complex edges) and passes them through
+// locked, so the groups there cannot simplify and retire at level 0, beside the plain half,
+// which keeps simplifying; meshopt sees a border there. The edges between the halves must
+// survive every later level (deterministic: one thread, no random case).
+TEST(Build, RetiredClustersKeepTheirBordersAtLaterLevels) {
+  Mesh m = make_grid(64);
+  const size_t single_sided = m.triangle_count();
+  for (size_t t = 0; t < single_sided; ++t) {
+    const uint32_t a = m.indices[3 * t], b = m.indices[3 * t + 1], c = m.indices[3 * t + 2];
+    if (m.positions[3 * a] < 0.5f && m.positions[3 * b] < 0.5f && m.positions[3 * c] < 0.5f)
+      m.indices.insert(m.indices.end(), {a, c, b});
+  }
+  for (Simplifier s : {Simplifier::kMeshopt, Simplifier::kOpenMesh}) {
+    BuildReport r;
+    const ClusterDag d = build(m, s, 1, &r);
+    uint64_t retired_below_top = 0;
+    for (size_t l = 0; l + 1 < r.levels.size(); ++l) retired_below_top += r.levels[l].stuck_groups;
+    if (s == Simplifier::kOpenMesh) {
+      ASSERT_GT(retired_below_top, 0u) << "the double-sided half must retire early (precondition)";
+    }
+    expect_dag_properties(d, m.triangle_count());
+    expect_borders_preserved(d, /*same_use_count=*/false);
+  }
+}
+
+// The split's limits hold for every input (spec/dag.md §Split): a soup of disjoint triangles
+// has 3 vertices per triangle, so 128 triangles (the triangle limit) need 6 clusters by the
+// vertex limit (64); both split methods, all triangles kept.
+TEST(Build, SplitKeepsTheVertexLimitForDisjointTriangles) {
+  Mesh m;
+  for (uint32_t t = 0; t < kMaxClusterTriangles; ++t) {
+    const float x = float(t % 16), y = float(t / 16);
+    m.positions.insert(m.positions.end(), {x, y, 0, x + 0.5f, y, 0, x, y + 0.5f, 0});
+    m.indices.insert(m.indices.end(), {3 * t, 3 * t + 1, 3 * t + 2});
+  }
+  const build_detail::WeldedMesh welded = build_detail::weld_positions(m);
+  build_detail::TriangleSet all;
+  all.corners = m.indices;
+  all.materials.assign(m.triangle_count(), 0);
+  for (auto method : {build_detail::SplitMethod::kMeshopt, build_detail::SplitMethod::kMetis}) {
+    std::vector<uint32_t> scratch(welded.weld.size(), kNone);
+    const std::vector<build_detail::TriangleSet> clusters = build_detail::split_into_clusters(welded, all, scratch, method);
+    size_t triangles = 0;
+    for (const build_detail::TriangleSet& c : clusters) {
+      std::set<uint32_t> vertices(c.corners.begin(), c.corners.end());
+      EXPECT_LE(c.triangle_count(), kMaxClusterTriangles);
+      EXPECT_LE(vertices.size(), kMaxClusterVertices) << "method " << int(method);
+      triangles += c.triangle_count();
+    }
+    EXPECT_EQ(triangles, all.triangle_count());
+  }
+}
+
 TEST(Build, SingleTriangle) {
   Mesh m;
   m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0};
@@ -248,7 +303,10 @@ TEST(Build, SpatialBlocksPartitionTheItems) {
 TEST(Build, BlockedGroupingKeepsPropertiesAndDeterminism) {
   // Tiny blocks (16 clusters) force the pipelined per-block grouping with cross-block
   // locks on every level above one block: borders must stay sealed and the bytes must
-  // not depend on the thread count.
+  // not depend on the thread count. The borders are checked on the multi-thread build too:
+  // only there do groups of one block simplify while other blocks are still being grouped,
+  // so only there does a vertex shared with another block depend on the up-front
+  // cross-block lock (with 1 thread every block's own locks run before any simplification).
   build_detail::InternalBuildOptions internal;
   internal.group_block_clusters = 16;
   for (Simplifier s : {Simplifier::kMeshopt, Simplifier::kOpenMesh}) {
@@ -263,6 +321,8 @@ TEST(Build, BlockedGroupingKeepsPropertiesAndDeterminism) {
     b.meshes.push_back(build_detail::build_dag_internal(m, o, internal, &r));
     expect_dag_properties(a.meshes[0], m.triangle_count());
     expect_borders_preserved(a.meshes[0]);
+    expect_dag_properties(b.meshes[0], m.triangle_count());
+    expect_borders_preserved(b.meshes[0]);
     EXPECT_EQ(encode_dag_file(a), encode_dag_file(b));
     ASSERT_GT(r.levels.size(), 2u);
     EXPECT_GT(r.levels[0].clusters, 2 * internal.group_block_clusters) << "several blocks at level 0";

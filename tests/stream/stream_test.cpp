@@ -12,6 +12,8 @@
 #include "vgeo/dag/build.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/file_io.h"
+#include "vgeo/core/thread_pool.h"
+#include "vgeo/cull/cull.h"
 #include "vgeo/format/format.h"
 #include "vgeo/stream/stream.h"
 #include "vgeo/verify/verify.h"
@@ -92,41 +94,98 @@ TEST(Stream, FixtureHasSeveralPagesAndLevels) {
   EXPECT_LT(f.pinned, f.total / 2);
 }
 
-// With every group usable the resident cut is exactly the lod_selects cut.
+// The renderer's cut (lib/vgeo/cull select_cut, the traversal the frame pipeline runs) of the
+// fixture's meshes, each placed at the origin, seen from `eye` looking down -z; `usable`
+// null = no streaming. Cluster ids per mesh, ascending.
+std::vector<std::vector<uint32_t>> renderer_cut(Vec3 eye, float tau, const std::vector<std::vector<uint8_t>>* usable) {
+  const Fixture& f = fixture();
+  std::vector<CullInstance> instances(2);
+  for (uint32_t m = 0; m < 2; ++m) instances[m].mesh = m;
+  ViewParams view;
+  view.world_to_view.at(0, 3) = -double(eye.x);
+  view.world_to_view.at(1, 3) = -double(eye.y);
+  view.world_to_view.at(2, 3) = -double(eye.z);
+  view.pixels_per_unit_at_1 = kPixelsPerUnit;
+  view.z_near = 0.01;
+  ThreadPool pool(2);
+  const std::vector<VisibleCluster> cut = select_cut(f.scene.meshes, instances, view, tau, pool, usable);
+  return {cut_of_instance(cut, 0), cut_of_instance(cut, 1)};
+}
+
+// With every group usable the resident cut is exactly the lod_selects cut: the streamer's
+// selection against the flat lod_selects test, and the renderer's resident traversal against
+// its own traversal without streaming (same arithmetic, so compared exactly).
 RC_GTEST_PROP(StreamProperty, AllUsableCutIsTheLodCut, ()) {
   const Fixture& f = fixture();
   const float d = *rc::gen::inRange(0, 4000) / 100.0f;
   const Vec3 eye{d * 0.6f, -d * 0.3f, d};
   const float tau = *rc::gen::element(0.25f, 1.0f, 4.0f);
+  std::vector<std::vector<uint8_t>> all_usable;
   for (uint32_t m = 0; m < 2; ++m) {
     const MeshMetadata& mm = f.container.meshes[m];
+    all_usable.push_back(std::vector<uint8_t>(mm.dag.groups.size(), 1));
     LodView v{eye, kPixelsPerUnit, 0.01f};
-    const std::vector<uint32_t> cut =
-        select_resident_cut(mm.dag, std::vector<uint8_t>(mm.dag.groups.size(), 1), v, tau);
+    const std::vector<uint32_t> cut = select_resident_cut(mm.dag, all_usable.back(), v, tau);
     std::vector<uint32_t> expect;
     for (uint32_t c = 0; c < mm.dag.clusters.size(); ++c) {
       const DagCluster& cl = mm.dag.clusters[c];
       if (lod_selects(cl.lod_bounds, cl.lod_error, cl.parent_bounds, cl.parent_error, v, tau)) expect.push_back(c);
     }
     RC_ASSERT(cut == expect);
+    RC_ASSERT(select_resident_cut(mm.dag, {}, v, tau) == expect);
   }
+  RC_ASSERT(renderer_cut(eye, tau, &all_usable) == renderer_cut(eye, tau, nullptr));
 }
 
-// Random residency (any subset of pages) gives a valid, crack-free cut.
+// Random residency (any subset of pages) gives a valid, crack-free cut: the renderer's
+// (what a streamed frame draws) and the streamer's selection alike.
 RC_GTEST_PROP(StreamProperty, AnyResidencyGivesAValidCut, ()) {
   const Fixture& f = fixture();
   const std::vector<uint8_t> pinned = pinned_pages(f.container);
   const uint32_t np = uint32_t(f.container.pages.size());
   const auto resident_bits = *rc::gen::container<std::vector<bool>>(np, rc::gen::arbitrary<bool>());
   const float d = *rc::gen::inRange(0, 3000) / 100.0f;
+  const Vec3 eye{0.3f, 0.2f, d};
+  std::vector<std::vector<uint8_t>> usable(2);
   for (uint32_t m = 0; m < 2; ++m) {
     const MeshMetadata& mm = f.container.meshes[m];
     std::vector<uint8_t> resident(mm.page_count);
     for (uint32_t k = 0; k < mm.page_count; ++k)
       resident[k] = pinned[mm.first_page + k] || resident_bits[mm.first_page + k];
-    const std::vector<uint8_t> usable = usable_groups(mm, resident);
-    const std::vector<uint32_t> cut = select_resident_cut(mm.dag, usable, LodView{{0.3f, 0.2f, d}, kPixelsPerUnit, 0.01f}, 1.0f);
+    usable[m] = usable_groups(mm, resident);
+    const std::vector<uint32_t> cut = select_resident_cut(mm.dag, usable[m], LodView{eye, kPixelsPerUnit, 0.01f}, 1.0f);
     RC_ASSERT(check_cut(f.scene.meshes[m], f.contexts[m], cut).ok());
+  }
+  const std::vector<std::vector<uint32_t>> drawn = renderer_cut(eye, 1.0f, &usable);
+  for (uint32_t m = 0; m < 2; ++m) RC_ASSERT(check_cut(f.scene.meshes[m], f.contexts[m], drawn[m]).ok());
+}
+
+// Only the pinned pages resident: the renderer's traversal draws a valid cut from usable groups
+// only, coarser than the ideal one, and the streamer's selection (the same resident_lod_test)
+// draws the same clusters.
+TEST(Stream, RootsOnlyCutIsTheUsableCoarsestLevel) {
+  const Fixture& f = fixture();
+  const Vec3 eye{0.3f, 0.2f, 2.5f};  // close: the ideal cut is fine, so it differs from the roots
+  std::vector<std::vector<uint8_t>> usable(2);
+  for (uint32_t m = 0; m < 2; ++m) {
+    const MeshMetadata& mm = f.container.meshes[m];
+    std::vector<uint8_t> resident(mm.page_count);
+    const std::vector<uint8_t> pinned = pinned_pages(f.container);
+    for (uint32_t k = 0; k < mm.page_count; ++k) resident[k] = pinned[mm.first_page + k];
+    usable[m] = usable_groups(mm, resident);
+  }
+  const std::vector<std::vector<uint32_t>> drawn = renderer_cut(eye, 1.0f, &usable);
+  const std::vector<std::vector<uint32_t>> ideal = renderer_cut(eye, 1.0f, nullptr);
+  for (uint32_t m = 0; m < 2; ++m) {
+    const ClusterDag& dag = f.scene.meshes[m];
+    EXPECT_TRUE(check_cut(dag, f.contexts[m], drawn[m]).ok()) << "mesh " << m;
+    // The sphere's ideal cut is finer than its roots here (the flat grid simplifies without
+    // error, so its ideal cut is its roots already).
+    if (m == 0) EXPECT_NE(drawn[m], ideal[m]);
+    ASSERT_FALSE(drawn[m].empty());
+    for (uint32_t c : drawn[m]) EXPECT_TRUE(usable[m][dag.clusters[c].group]) << "cluster " << c;
+    EXPECT_EQ(drawn[m], select_resident_cut(f.container.meshes[m].dag, usable[m],
+                                            LodView{eye, kPixelsPerUnit, 0.01f}, 1.0f)) << "mesh " << m;
   }
 }
 
@@ -194,6 +253,46 @@ RC_GTEST_PROP(StreamProperty, EvictionKeepsParentsOfResidentChildren, ()) {
     }
   }
   RC_TAG(evictions > 0 ? "evicted" : "no eviction");
+}
+
+// The victim choice itself (deterministic, no streaming run): a page a resident child group
+// depends on is never evicted, whatever the page order. Here the child page 0 comes before its
+// parent page 1, so the key alone (equal keys: higher page index first) would pick the parent.
+TEST(StreamEviction, VictimIsNeverAPageWithAResidentChild) {
+  std::vector<PageState> state(3, PageState::kResident);
+  const std::vector<uint8_t> pinned{0, 0, 1};
+  // page 1 holds page 0's parent group; page 2 (pinned, the root) holds page 1's.
+  const std::vector<std::vector<uint32_t>> children{{}, {0}, {1}};
+  std::vector<uint64_t> last_wanted{5, 5, 5};
+  std::vector<float> priority{1, 1, 1};
+  const EvictionView v{state, pinned, children, last_wanted, priority, 9};
+  EXPECT_TRUE(page_evictable(v, 0));
+  EXPECT_FALSE(page_evictable(v, 1)) << "resident child page 0 depends on it";
+  EXPECT_FALSE(page_evictable(v, 2)) << "pinned";
+  EXPECT_EQ(choose_eviction_victim(v), 0u);
+  last_wanted = {7, 3, 3};  // the parent is the least recently wanted: still not evictable
+  priority = {2, 0.5f, 0.5f};
+  EXPECT_EQ(choose_eviction_victim(v), 0u);
+  state[0] = PageState::kAbsent;  // the child is gone: now the parent may go
+  EXPECT_EQ(choose_eviction_victim(v), 1u);
+  state[1] = PageState::kInFlight;  // nothing installed but the pinned root
+  EXPECT_EQ(choose_eviction_victim(v), kNone);
+}
+
+// The victim key: pages not wanted this frame before wanted ones (least recently wanted
+// first), then lower priority, then the higher page index (finer data).
+TEST(StreamEviction, VictimKeyOrder) {
+  const std::vector<PageState> state(4, PageState::kResident);
+  const std::vector<uint8_t> pinned(4, 0);
+  const std::vector<std::vector<uint32_t>> children(4);
+  std::vector<uint64_t> last_wanted{9, 9, 4, 6};
+  std::vector<float> priority{0.1f, 3, 5, 1};
+  const EvictionView v{state, pinned, children, last_wanted, priority, 9};
+  EXPECT_EQ(choose_eviction_victim(v), 2u);  // not wanted, least recently
+  last_wanted = {9, 9, 9, 9};
+  EXPECT_EQ(choose_eviction_victim(v), 0u);  // all wanted: lowest priority
+  priority = {1, 1, 1, 1};
+  EXPECT_EQ(choose_eviction_victim(v), 3u);  // ties: the higher page index
 }
 
 TEST(Stream, InactiveWhenEverythingFits) {

@@ -107,6 +107,18 @@ TEST(Verify, LoweredParentErrorIsCaught) {
   EXPECT_EQ(r.count("STRUCT_SHARED_VALUE"), 0u);
 }
 
+// The per-cluster projected check on its own (not only along DAG edges): group 4's members
+// project more lod error than their own (lowered) parent error from every eye.
+TEST(Verify, ClusterProjectingMoreThanItsOwnParentIsCaught) {
+  ClusterDag dag = make_hand_dag();
+  test::set_group_parent_error(dag, 4, 0.01f);  // below its members' lod_error 0.03
+  VerifyReport r = verify_dag(dag, quick_options());
+  bool within_cluster = false;
+  for (const auto& v : r.violations)
+    within_cluster |= v.code == "MONO_PROJECTED" && v.message.find("> projected parent_error") != std::string::npos;
+  EXPECT_TRUE(within_cluster);
+}
+
 TEST(Verify, ShrunkParentSphereIsCaught) {
   ClusterDag dag = make_hand_dag();
   // Group 4's members have non-zero lod_error, so a smaller parent sphere lets a child
@@ -128,6 +140,7 @@ TEST(Verify, RemovedTriangleIsCaught) {
   EXPECT_GT(r.count("CRACK_OPEN_EDGE"), 0u);
   CutCheck c = check_cut(dag, range(16, 24));
   EXPECT_FALSE(c.ok());
+  ASSERT_FALSE(c.violations.empty());
   EXPECT_EQ(c.violations[0].code, "CRACK_OPEN_EDGE");
 }
 
@@ -145,6 +158,7 @@ TEST(Verify, MovedBorderVertexInGeneratedClusterIsCaught) {
   EXPECT_GT(r.count("CRACK_OPEN_EDGE"), 0u);
   CutCheck c = check_cut(dag, concat({16, 17}, range(4, 16)));  // quadrant 0 coarse, 1..3 leaves
   EXPECT_FALSE(c.ok());
+  ASSERT_FALSE(c.violations.empty());
   EXPECT_EQ(c.violations[0].code, "CRACK_OPEN_EDGE");
   EXPECT_GE(c.mismatched_edges, 4u);  // two edges at the moved copy, two at the unmoved one
 }

@@ -1,10 +1,12 @@
 #pragma once
-// The LOD cut as the runtime makes it (lib/vgeo/core/lod.h), evaluated over all clusters of a
-// DAG for one camera: what a frame would draw at threshold tau, without culling.
+// The LOD cut as the runtime makes it (the lod_selects cut: select_resident_cut with every
+// group usable), counted over all clusters of a DAG for one camera: what a frame would draw
+// at threshold tau, without culling.
 #include <cstdint>
 
 #include "vgeo/dag/cluster_dag.h"
 #include "vgeo/core/lod.h"
+#include "vgeo/stream/stream.h"
 
 namespace vgeo::bench {
 
@@ -15,8 +17,8 @@ struct CutCount {
 
 inline CutCount count_cut(const ClusterDag& dag, const LodView& view, float tau) {
   CutCount c;
-  for (const DagCluster& cl : dag.clusters) {
-    if (!lod_selects(cl.lod_bounds, cl.lod_error, cl.parent_bounds, cl.parent_error, view, tau)) continue;
+  for (uint32_t ci : select_resident_cut(dag, {}, view, tau)) {
+    const DagCluster& cl = dag.clusters[ci];
     ++c.clusters;
     c.triangles += cl.triangle_count;
     if (cl.level > c.max_level) c.max_level = cl.level;

@@ -29,11 +29,17 @@ inline float projected_error(const Sphere& bounds, float error, const LodView& v
   return float(double(error) * view.pixels_per_unit_at_1 / d);
 }
 
-// Draw a cluster iff its parent is too coarse and it is fine enough (Nanite's local cut).
+// Draw a cluster iff its parent is too coarse and it is fine enough (Nanite's local cut),
+// on already projected errors: the one cut predicate (lod_selects, lib/vgeo/verify, the
+// resident rule of spec/stream.md §Cut).
+inline bool cut_selects(float projected_parent_px, float projected_lod_px, float threshold_px) {
+  return projected_parent_px > threshold_px && projected_lod_px <= threshold_px;
+}
+
 inline bool lod_selects(const Sphere& lod_bounds, float lod_error, const Sphere& parent_bounds,
                         float parent_error, const LodView& view, float threshold_px) {
-  return projected_error(parent_bounds, parent_error, view) > threshold_px &&
-         projected_error(lod_bounds, lod_error, view) <= threshold_px;
+  return cut_selects(projected_error(parent_bounds, parent_error, view), projected_error(lod_bounds, lod_error, view),
+                     threshold_px);
 }
 
 }  // namespace vgeo

@@ -127,30 +127,28 @@ void cull_clusters(const std::vector<ClusterDag>& meshes, const std::vector<Cull
 
   std::vector<WorkerOut> workers(pool.size());
 
-  // Streaming: the residency rule; `from_group` is false for a cluster postponed by pass 1,
+  // Streaming: the residency rule (resident_lod_test, lib/vgeo/stream) then frustum; `from_group` is false for a cluster postponed by pass 1,
   // whose request was already emitted there.
-  auto resident_lod_test = [&](WorkerOut& w, uint32_t instance, const ClusterDag& dag, uint32_t ci,
+  auto resident_cluster_test = [&](WorkerOut& w, uint32_t instance, const ClusterDag& dag, uint32_t ci,
                                const std::vector<uint8_t>& usable, bool from_group) {
     const DagCluster& c = dag.clusters[ci];
     const InstanceView& iv = instance_views[instance];
     const float parent_px = projected_error(sphere_to_view(iv.object_to_view, iv.scale, c.parent_bounds),
                                             error_to_view(c.parent_error, iv.scale), lv);
-    if (!(parent_px > tau)) return false;
-    const bool fine_enough = projected_error(sphere_to_view(iv.object_to_view, iv.scale, c.lod_bounds),
-                                             error_to_view(c.lod_error, iv.scale), lv) <= tau;
-    const bool group_usable = usable[c.group] != 0;
-    const bool drawn = group_usable && (fine_enough || (c.generating_group != kNone && !usable[c.generating_group]));
-    if (!drawn && !fine_enough) return false;
+    const float lod_px = projected_error(sphere_to_view(iv.object_to_view, iv.scale, c.lod_bounds),
+                                         error_to_view(c.lod_error, iv.scale), lv);
+    const ResidentLod r = resident_lod_test(c, usable, parent_px, lod_px, tau);
+    if (!r.drawn && !r.ideal) return false;
     if (options.frustum && sphere_outside_frustum(culling_sphere(iv, c.bounds), view)) {
-      if (drawn) ++w.counters.clusters_frustum_culled;
+      if (r.drawn) ++w.counters.clusters_frustum_culled;
       return false;
     }
-    if (fine_enough && from_group) {  // a cluster of the ideal cut, in view: request its group
+    if (r.ideal && from_group) {  // a cluster of the ideal cut, in view: request its group
       ++w.counters.clusters_ideal;
-      w.counters.clusters_coarser += group_usable ? 0 : 1;
+      w.counters.clusters_coarser += usable[c.group] ? 0 : 1;
       w.requests.push_back({instances[instance].mesh, c.group, parent_px});
     }
-    return drawn;
+    return r.drawn;
   };
 
   auto test_cluster = [&](WorkerOut& w, uint32_t instance, const ClusterDag& dag, uint32_t ci, bool from_group) {
@@ -161,7 +159,7 @@ void cull_clusters(const std::vector<ClusterDag>& meshes, const std::vector<Cull
         options.usable_groups ? &(*options.usable_groups)[instances[instance].mesh] : nullptr;
     if (usable && !usable->empty()) {
       // Tests LOD and frustum on the resident rule (and emits the page requests).
-      if (!resident_lod_test(w, instance, dag, ci, *usable, from_group)) return;
+      if (!resident_cluster_test(w, instance, dag, ci, *usable, from_group)) return;
       ++w.counters.clusters_selected_lod;
     } else {
       if (!cluster_lod_selects(c, iv, lv, tau)) return;

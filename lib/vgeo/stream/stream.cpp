@@ -66,14 +66,14 @@ std::vector<uint8_t> usable_groups_of_resident(const ClusterDag& dag, std::vecto
 
 std::vector<uint32_t> select_resident_cut(const ClusterDag& dag, const std::vector<uint8_t>& usable,
                                           const LodView& view, float threshold_px) {
+  const std::vector<uint8_t> all_usable(usable.empty() ? dag.groups.size() : 0, 1);
+  const std::vector<uint8_t>& u = usable.empty() ? all_usable : usable;
   std::vector<uint32_t> cut;
   for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
     const DagCluster& cl = dag.clusters[c];
-    if (!usable[cl.group]) continue;
-    if (!(projected_error(cl.parent_bounds, cl.parent_error, view) > threshold_px)) continue;
-    const bool leaf = cl.generating_group == kNone;
-    if (leaf || projected_error(cl.lod_bounds, cl.lod_error, view) <= threshold_px || !usable[cl.generating_group])
-      cut.push_back(c);
+    const float parent_px = projected_error(cl.parent_bounds, cl.parent_error, view);
+    const float lod_px = projected_error(cl.lod_bounds, cl.lod_error, view);
+    if (resident_lod_test(cl, u, parent_px, lod_px, threshold_px).drawn) cut.push_back(c);
   }
   return cut;
 }
@@ -407,11 +407,25 @@ void Streamer::install(Completion& c, StreamFrameStats* stats) {
   }
 }
 
-bool Streamer::evictable(uint32_t page) const {
-  if (state_[page] != PageState::kResident || pinned_[page]) return false;
-  for (uint32_t q : page_children_[page])
-    if (state_[q] == PageState::kResident) return false;  // a resident child group depends on it
+bool page_evictable(const EvictionView& v, uint32_t page) {
+  if (v.state[page] != PageState::kResident || v.pinned[page]) return false;
+  for (uint32_t q : v.page_children[page])
+    if (v.state[q] == PageState::kResident) return false;  // a resident child group depends on it
   return true;
+}
+
+uint32_t choose_eviction_victim(const EvictionView& v) {
+  auto key_less = [&](uint32_t a, uint32_t b) {
+    const bool wa = v.last_wanted_frame[a] == v.frame, wb = v.last_wanted_frame[b] == v.frame;
+    if (wa != wb) return !wa;
+    if (!wa && v.last_wanted_frame[a] != v.last_wanted_frame[b]) return v.last_wanted_frame[a] < v.last_wanted_frame[b];
+    if (v.priority[a] != v.priority[b]) return v.priority[a] < v.priority[b];
+    return a > b;  // finer data (placed later) goes first
+  };
+  uint32_t victim = kNone;
+  for (uint32_t q = 0; q < uint32_t(v.state.size()); ++q)
+    if (page_evictable(v, q) && (victim == kNone || key_less(q, victim))) victim = q;
+  return victim;
 }
 
 void Streamer::evict(uint32_t page, StreamFrameStats* stats) {
@@ -512,22 +526,13 @@ void Streamer::end_frame(const std::vector<GroupRequest>& requests, StreamFrameS
     });
     // Issue, evicting the lowest-priority evictable pages: not wanted this frame first
     // (least recently wanted first), then wanted pages of strictly lower priority.
-    auto victim_key_less = [&](uint32_t a, uint32_t b) {
-      const bool wa = last_wanted_frame_[a] == frame_, wb = last_wanted_frame_[b] == frame_;
-      if (wa != wb) return !wa;
-      if (!wa && last_wanted_frame_[a] != last_wanted_frame_[b]) return last_wanted_frame_[a] < last_wanted_frame_[b];
-      if (priority_[a] != priority_[b]) return priority_[a] < priority_[b];
-      return a > b;  // finer data (placed later) goes first
-    };
     for (uint32_t p : candidates) {
       if (stats.pages_issued >= options_.max_issues_per_frame || in_flight_ >= options_.max_in_flight) break;
       const uint64_t size = container_.pages[p].memory_size;
       if (size > options_.budget_bytes) continue;
       bool room = true;
       while (reserved_bytes_ + size > options_.budget_bytes) {
-        uint32_t victim = kNone;
-        for (uint32_t q = 0; q < np; ++q)
-          if (evictable(q) && (victim == kNone || victim_key_less(q, victim))) victim = q;
+        const uint32_t victim = choose_eviction_victim(eviction_view());
         const bool victim_lower = victim != kNone && (last_wanted_frame_[victim] != frame_ ||
                                                       priority_[victim] < page_priority[p]);
         if (!victim_lower) {
@@ -557,8 +562,7 @@ StreamFrameStats Streamer::update(const std::vector<StreamView>& views, std::vec
   std::vector<GroupRequest> requests;
   for (size_t v = 0; v < views.size(); ++v) {
     const ClusterDag& dag = container_.meshes[views[v].mesh].dag;
-    ideal[v] = select_resident_cut(dag, std::vector<uint8_t>(dag.groups.size(), 1), views[v].view,
-                                   options_.threshold_px);
+    ideal[v] = select_resident_cut(dag, {}, views[v].view, options_.threshold_px);
     if (!active_) continue;
     for (uint32_t c : ideal[v]) {
       const DagCluster& cl = dag.clusters[c];

@@ -52,9 +52,26 @@ std::vector<uint8_t> usable_groups(const MeshMetadata& mesh, const std::vector<u
 // greatest fixed point of usable(g) = resident(g) ∧ usable(every parent group of g).
 std::vector<uint8_t> usable_groups_of_resident(const ClusterDag& dag, std::vector<uint8_t> resident);
 
-// Cluster c is drawn iff usable[group(c)] && proj(parent) > τ &&
-// (c is a leaf || proj(lod) ≤ τ || !usable[generating_group(c)]). Ascending cluster ids.
-// With every group usable this is exactly the lod_selects cut.
+// The rule of spec/stream.md §Cut for one cluster c, on its projected errors (pixels):
+//   ideal: cut_selects(parent, lod) — c belongs to the fully-resident (lod_selects) cut;
+//   drawn: usable[group(c)] && proj(parent) > τ && (proj(lod) ≤ τ || !usable[generating_group(c)]).
+// The one implementation of the residency rule: the renderer's traversal (lib/vgeo/cull)
+// and select_resident_cut both decide through it. `usable` is indexed by group.
+struct ResidentLod {
+  bool ideal = false;
+  bool drawn = false;
+};
+inline ResidentLod resident_lod_test(const DagCluster& c, const std::vector<uint8_t>& usable, float parent_px,
+                                     float lod_px, float threshold_px) {
+  ResidentLod r;
+  r.ideal = cut_selects(parent_px, lod_px, threshold_px);
+  const bool finer_unusable = c.generating_group != kNone && !usable[c.generating_group];
+  r.drawn = usable[c.group] && parent_px > threshold_px && (r.ideal || finer_unusable);
+  return r;
+}
+
+// The clusters drawn by resident_lod_test, ascending cluster ids; `usable` empty = every
+// group usable, which is exactly the lod_selects cut.
 std::vector<uint32_t> select_resident_cut(const ClusterDag& dag, const std::vector<uint8_t>& usable,
                                           const LodView& view, float threshold_px);
 
@@ -92,6 +109,23 @@ struct GroupRequest {
 };
 
 enum class PageState : uint8_t { kAbsent = 0, kInFlight = 1, kResident = 2, kBad = 3 };
+
+// ---- pure eviction choice (no I/O): spec/stream.md §Requests, step 4 ----
+
+// The per-page bookkeeping the eviction choice reads (the Streamer's own arrays).
+struct EvictionView {
+  const std::vector<PageState>& state;
+  const std::vector<uint8_t>& pinned;
+  const std::vector<std::vector<uint32_t>>& page_children;  // pages holding a group whose parent group has a part in the page
+  const std::vector<uint64_t>& last_wanted_frame;
+  const std::vector<float>& priority;                       // last wanted priority
+  uint64_t frame = 0;                                       // the current frame
+};
+// Installed, not pinned, and no installed page holds a child group depending on it.
+bool page_evictable(const EvictionView& v, uint32_t page);
+// The evictable page with the lowest key (not wanted this frame first, least recently wanted
+// first; then lower priority; then the higher page index), or kNone.
+uint32_t choose_eviction_victim(const EvictionView& v);
 
 struct StreamFrameStats {
   uint64_t frame = 0;
@@ -169,7 +203,9 @@ class Streamer {
 
  private:
   void install(Completion& c, StreamFrameStats* stats);
-  bool evictable(uint32_t page) const;
+  EvictionView eviction_view() const {
+    return {state_, pinned_, page_children_, last_wanted_frame_, priority_, frame_};
+  }
   void evict(uint32_t page, StreamFrameStats* stats);
 
   StreamOptions options_;

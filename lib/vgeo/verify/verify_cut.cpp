@@ -322,7 +322,7 @@ void check_views(const ClusterDag& dag, const VerifyOptions& options, bool monot
         values.push_back({"threshold_px", tau});
         s.list.clear();
         for (size_t c = 0; c < nc; ++c) {
-          bool selected = proj_parent[c] > tau && proj_lod[c] <= tau;  // == lod_selects()
+          const bool selected = cut_selects(proj_parent[c], proj_lod[c], tau);
           s.sel[c] = selected;
           if (selected) s.list.push_back(uint32_t(c));
         }

@@ -1,5 +1,6 @@
 // spec/invariants.md §LOD: the projected-error test of lib/vgeo/core/lod.h is monotonic for
-// nested spheres and finite for every eye, including eyes inside the spheres.
+// nested spheres and finite for every eye, including eyes inside the spheres. Label core:
+// the code under test is core's (a bug in lod.h fails `ctest -L core`).
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
@@ -51,6 +52,30 @@ TEST(Lod, TerminalErrorIsNeverRefinedAndZeroErrorIsAlwaysFine) {
   EXPECT_TRUE(std::isfinite(projected_error(s, 1.0f, view)));
   // A root (parent +inf, lod 0) is drawn at every threshold.
   EXPECT_TRUE(lod_selects(s, 0.0f, s, kTerminalError, view, 1e30f));
+}
+
+// Exact values (every run, no random case needed): the error is projected from the sphere's
+// nearest point, d - r, never from its centre; z_near clamps the distance from below.
+TEST(Lod, ProjectedErrorUsesTheNearestPointOfTheSphere) {
+  LodView view{{0, 0, 0}, 100.0f, 0.5f};
+  EXPECT_EQ(projected_error(Sphere{{0, 0, -3}, 1.0f}, 1.0f, view), 50.0f);       // 100 / (3 - 1)
+  EXPECT_EQ(projected_error(Sphere{{4, 0, 0}, 0.0f}, 2.0f, view), 50.0f);        // a point: 2 * 100 / 4
+  EXPECT_EQ(projected_error(Sphere{{0, 0, -3}, 2.75f}, 1.0f, view), 200.0f);     // d - r < z_near: 100 / 0.5
+}
+
+// The cut predicate's boundaries: a parent exactly at τ is fine enough (not drawn), a cluster
+// exactly at τ is fine enough (drawn): ties go to the coarser cluster.
+TEST(Lod, CutSelectsSplitsTiesTowardTheCoarserCluster) {
+  EXPECT_TRUE(cut_selects(2.0f, 1.0f, 1.0f));
+  EXPECT_FALSE(cut_selects(1.0f, 0.5f, 1.0f));  // parent == τ: the parent is drawn instead
+  EXPECT_TRUE(cut_selects(1.5f, 1.0f, 1.0f));   // lod == τ: fine enough
+  EXPECT_FALSE(cut_selects(3.0f, 1.5f, 1.0f));  // too coarse: a child is drawn instead
+  const LodView view{{0, 0, 0}, 4.0f, 0.01f};
+  const Sphere child{{0, 0, -3}, 1.0f}, parent{{0, 0, -3}, 2.0f};
+  // child: 0.5 * 4 / 2 = 1 px (== τ); parent: 0.5 * 4 / 1 = 2 px (exact in binary).
+  EXPECT_TRUE(lod_selects(child, 0.5f, parent, 0.5f, view, 1.0f));
+  EXPECT_FALSE(lod_selects(child, 0.5f, parent, 0.5f, view, 0.99f));
+  EXPECT_FALSE(lod_selects(child, 0.5f, parent, 0.5f, view, 2.0f));
 }
 
 }  // namespace
