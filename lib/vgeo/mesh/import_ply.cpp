@@ -2,6 +2,7 @@
 // Imported: vertex x y z, nx ny nz (all three), u v / s t / texture_u texture_v /
 // texture_s texture_t; face vertex_indices or vertex_index lists. Every other element and
 // property is read and skipped. Unknown header lines are skipped (Blender writes some).
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -137,7 +138,9 @@ struct BodyReader {
 
   BodyReader(const Header& h, const uint8_t* data, size_t size, const std::string& w)
       : encoding(h.encoding), p(data + h.body_offset), end(data + size), where(w),
-        text(data + h.body_offset, size - h.body_offset) {}
+        text(data + h.body_offset, size - h.body_offset) {
+    text.line = 1 + uint64_t(std::count(data, data + h.body_offset, uint8_t('\n')));  // errors name file lines
+  }
 
   [[noreturn]] void truncated() const { fail("FILE_TRUNCATED", where, "PLY body ends before the elements its header declares"); }
 
