@@ -1,5 +1,5 @@
 // Writes seed corpora for the format fuzz targets from small meshes:
-//   fuzz_make_seeds OUT_DIR  →  OUT_DIR/{container,page_transcode,memory_decode,roundtrip}/*
+//   fuzz_make_seeds OUT_DIR  →  OUT_DIR/{container,page_transcode,memory_decode,roundtrip,dag_verify}/*
 // Files: whole encoded files (versions 1 and 2, every compression, with/without normals and UVs), their raw
 // disk pages and memory pages (prefixed with the two quantization bytes the page targets
 // read first), and a few byte strings for the round-trip target.
@@ -8,7 +8,10 @@
 #include <random>
 
 #include "format/format_test_util.h"
+#include "vgeo/dag/build.h"
+#include "vgeo/dag/dag_io.h"
 #include "vgeo/format/page_codec.h"
+#include "vgeo/mesh/generate.h"
 
 namespace fs = std::filesystem;
 using namespace vgeo;
@@ -67,5 +70,25 @@ int main(int argc, char** argv) {
     write(out / "roundtrip" / ("bytes" + std::to_string(i)), b);
   }
   std::printf("wrote %d seeds to %s\n", n + 16, out.c_str());
+  // VGEODAG1 files (dag_verify): built DAGs of small generated meshes (several levels, one
+  // and two meshes, with and without attributes), small enough for thousands of verifies/s.
+  fs::create_directories(out / "dag_verify");
+  int d = 0;
+  for (GenShape shape : {GenShape::kSphere, GenShape::kTerrain, GenShape::kTorus})
+    for (uint64_t tris : {64u, 600u}) {
+      GenerateOptions g;
+      g.shape = shape;
+      g.target_triangles = tris;
+      Mesh m = generate_mesh(g);
+      if (d % 2) m.uvs.clear();
+      BuildOptions b;
+      b.threads = 1;
+      BuiltScene scene = test::scene_of({build_dag(m, b)});
+      write(out / "dag_verify" / ("dag" + std::to_string(d++)), encode_dag_file(scene));
+      if (tris == 64u) {
+        scene.meshes.push_back(scene.meshes[0]);
+        write(out / "dag_verify" / ("dag" + std::to_string(d++)), encode_dag_file(scene));
+      }
+    }
   return 0;
 }

@@ -144,14 +144,13 @@ TEST(ImportCleanup, OffPolygonsCommentsAndColorsImport) {
   EXPECT_EQ(r.scene.meshes[0].vertex_count(), 5u);
 }
 
-TEST(ImportCleanup, OpenMeshFormatErrors) {
+TEST(ImportCleanup, MeshFileFormatErrors) {
   std::vector<std::tuple<std::string, std::string, std::string>> cases = {
       {"huge.off", "OFF\n100000000 100000000 0\n0 0 0\n", "FILE_TRUNCATED"},
       {"huge.ply", "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\nend_header\n", "FILE_TRUNCATED"},
       {"badidx.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "INDEX_OUT_OF_RANGE"},
       {"badidx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", "INDEX_OUT_OF_RANGE"},
-      // OpenMesh's OBJ reader skips a "v nan" line, so the face then points past the list.
-      {"nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", "INDEX_OUT_OF_RANGE"},
+      {"nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", "POSITION_NOT_FINITE"},
       {"nofaces.off", "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n", "MESH_EMPTY"},
       {"empty.stl", "", "MESH_EMPTY"},
       {"short.stl", std::string(80, 'x') + std::string("\x10\x00\x00\x00", 4) + std::string(50, '\0'), "FILE_TRUNCATED"},

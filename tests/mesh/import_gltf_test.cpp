@@ -532,7 +532,7 @@ TEST(ImportGltf, ContainerAndFormatErrors) {
               vgeo::import_scene_from_memory(reinterpret_cast<const uint8_t*>(bad_json.data()), bad_json.size(), "b.gltf");
             }),
             "GLTF_PARSE_ERROR");
-  EXPECT_EQ(error_code_of([&] { vgeo::import_scene_from_memory(glb.data(), glb.size(), "mesh.obj"); }),
+  EXPECT_EQ(error_code_of([&] { vgeo::import_scene_from_memory(glb.data(), glb.size(), "mesh.xyz"); }),
             "MESH_FORMAT_UNSUPPORTED");
   EXPECT_EQ(error_code_of([&] { vgeo::import_scene_from_memory(nullptr, 0, "empty.gltf"); }), "GLTF_PARSE_ERROR");
   EXPECT_EQ(error_code_of([&] { vgeo::import_scene("/nonexistent/x.glb"); }), "FILE_NOT_FOUND");

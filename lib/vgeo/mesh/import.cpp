@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <limits>
 
+#include "vgeo/mesh/import_text.h"
 #include "vgeo/mesh/validate.h"
 #include "vgeo/mesh/weld.h"
 
@@ -20,6 +21,7 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
+// The one place the importer reads a file: the whole file, at most 4 GiB.
 std::vector<uint8_t> read_file(const std::string& path) {
   std::error_code ec;
   const uint64_t size = std::filesystem::file_size(path, ec);
@@ -71,6 +73,16 @@ void finish(ImportResult& r, const ImportOptions& options, const std::string& wh
   if (scene.materials.empty()) scene.materials.push_back(Material{"default", {0.8f, 0.8f, 0.8f, 1.0f}});
 }
 
+bool is_mesh_file_format(const std::string& ext) { return ext == "obj" || ext == "ply" || ext == "off" || ext == "stl"; }
+
+// OBJ / PLY / OFF / STL: the readers of import_obj.cpp ... import_stl.cpp.
+void import_mesh_file(const uint8_t* data, size_t size, const std::string& ext, const std::string& where, ImportResult& r) {
+  if (ext == "obj") detail::import_obj(data, size, where, r);
+  if (ext == "ply") detail::import_ply(data, size, where, r);
+  if (ext == "off") detail::import_off(data, size, where, r);
+  if (ext == "stl") detail::import_stl(data, size, where, r);
+}
+
 }  // namespace
 
 ImportResult import_scene(const std::string& path, const ImportOptions& options) {
@@ -83,8 +95,9 @@ ImportResult import_scene(const std::string& path, const ImportOptions& options)
     std::vector<uint8_t> bytes = read_file(path);
     std::string base_dir = std::filesystem::path(path).parent_path().string();
     detail::import_gltf(bytes.data(), bytes.size(), &bytes, ext == "glb", path, base_dir, true, r);
-  } else if (ext == "obj" || ext == "ply" || ext == "off" || ext == "stl") {
-    detail::import_openmesh(path, ext, r);
+  } else if (is_mesh_file_format(ext)) {
+    const std::vector<uint8_t> bytes = read_file(path);
+    import_mesh_file(bytes.data(), bytes.size(), ext, path, r);
   } else {
     fail("MESH_FORMAT_UNSUPPORTED", path, "unknown extension '." + ext + "' (expected .gltf .glb .obj .ply .off .stl)");
   }
@@ -96,11 +109,15 @@ ImportResult import_scene_from_memory(const uint8_t* data, size_t size, const st
                                       const ImportOptions& options) {
   const std::string ext = lower_extension(name_for_format_detection);
   const std::string where = name_for_format_detection.empty() ? "<memory>" : name_for_format_detection;
-  if (ext != "gltf" && ext != "glb")
-    fail("MESH_FORMAT_UNSUPPORTED", where, "memory import supports .gltf and .glb only, got '." + ext + "'");
   ImportResult r;
   static const uint8_t kEmpty = 0;
-  detail::import_gltf(size == 0 ? &kEmpty : data, size, nullptr, ext == "glb", where, "", false, r);
+  if (size == 0) data = &kEmpty;
+  if (ext == "gltf" || ext == "glb")
+    detail::import_gltf(data, size, nullptr, ext == "glb", where, "", false, r);
+  else if (is_mesh_file_format(ext))
+    import_mesh_file(data, size, ext, where, r);
+  else
+    fail("MESH_FORMAT_UNSUPPORTED", where, "unknown extension '." + ext + "' (expected .gltf .glb .obj .ply .off .stl)");
   finish(r, options, where);
   return r;
 }

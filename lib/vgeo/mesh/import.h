@@ -1,6 +1,6 @@
 #pragma once
-// Mesh import with strict validation: glTF 2.0 (.gltf/.glb) via tinygltf, OBJ/PLY/OFF/STL via
-// OpenMesh. Every rejection is a VgeoError with a stable code from spec/errors.md
+// Mesh import with strict validation: glTF 2.0 (.gltf/.glb) via tinygltf, OBJ/PLY/OFF/STL by
+// readers of our own (import_obj/ply/off/stl.cpp; OpenMesh's crash and hang on mutated files). Every rejection is a VgeoError with a stable code from spec/errors.md
 // ("Import" section); warnings never stop an import and are returned with the scene.
 //
 // What the importer guarantees about a returned Scene (the contract later stages rely on):
@@ -24,15 +24,18 @@
 //   - glTF materials map 1:1 to Scene::materials (name, baseColorFactor); primitives without
 //     a material use one default material appended after them.
 //
-// OBJ/PLY/OFF/STL specifics (OpenMesh): one mesh, one identity instance, one default material.
-//   - polygons become fans (v0, vi, vi+1) in file order; '#' comments in ASCII OFF are stripped
-//     before OpenMesh parses (CGAL writes them before the keyword and after values).
-//   - OpenMesh's halfedge mesh cannot hold non-manifold faces: such a face gets its own copies
-//     of its corner vertices (same positions), so vertex counts can exceed the file's; the
-//     weld merges them back. Faces repeating a vertex are dropped (FACE_REPEATED_VERTEX,
-//     counted as degenerate). STL corners are merged by exact position by OpenMesh.
-//   - vertex normals/uvs are imported when the file has them (never for STL).
-//
+// OBJ/PLY/OFF/STL specifics: one mesh, one identity instance, one default material.
+//   - polygons become fans (v0, vi, vi+1) in file order; a polygon repeating a vertex is
+//     dropped whole (FACE_REPEATED_VERTEX, counted as degenerate). Triangles are those the
+//     OpenMesh readers used before produced (tests/mesh/import_corpus_test.cpp checks data/).
+//   - OBJ: one vertex per distinct (v, vt, vn) corner (seams kept; unused v lines dropped);
+//     uvs/normals exist when a face uses vt/vn; corners lacking them are filled
+//     (ATTRIBUTE_FILLED). PLY/OFF: vertices as in the file. STL: corners merged by exact
+//     position; no normals.
+//   - ASCII OFF: '#' comments anywhere; ST/C/N prefixes; nOFF, 4OFF and binary OFF refused
+//     (MESH_FORMAT_UNSUPPORTED). PLY: ascii and binary of either byte order.
+//   - every count read from a file is checked against the bytes left before storage is
+//     reserved for it, so memory is bounded by a small multiple of the file size.
 //   - a "zero-area" triangle is one whose edge cross product, computed in double from the
 //     float positions, is exactly (0,0,0).
 #include <cstddef>
@@ -67,21 +70,20 @@ struct ImportResult {
 // .gltf .glb .obj .ply .off .stl. Throws VgeoError (codes in spec/errors.md).
 ImportResult import_scene(const std::string& path, const ImportOptions& options = {});
 
-// Imports glTF/GLB bytes (format from the extension of `name_for_format_detection`). No file
-// system access: a glTF that references an external buffer fails with EXTERNAL_BUFFER_MISSING.
-// Only .gltf and .glb are accepted here (MESH_FORMAT_UNSUPPORTED otherwise).
+// Imports file bytes (format from the extension of `name_for_format_detection`, as
+// import_scene). No file system access: a glTF that references an external buffer fails with
+// EXTERNAL_BUFFER_MISSING.
 ImportResult import_scene_from_memory(const uint8_t* data, size_t size,
                                       const std::string& name_for_format_detection,
                                       const ImportOptions& options = {});
 
 namespace detail {
-// Format readers (import_gltf.cpp, import_openmesh.cpp). They fill `out.scene` with raw
+// glTF reader (import_gltf.cpp; OBJ/PLY/OFF/STL readers: import_text.h). They fill `out.scene` with raw
 // triangles and warnings; import_scene() then runs the shared clean-up (validate.h, weld.h).
 // `allow_fs` false = memory mode. When `owned_bytes` is the vector holding `data`, it is freed
 // as soon as tinygltf has copied the buffers (keeps peak memory near 2x the GLB size).
 void import_gltf(const uint8_t* data, size_t size, std::vector<uint8_t>* owned_bytes, bool is_glb,
                  const std::string& where, const std::string& base_dir, bool allow_fs, ImportResult& out);
-void import_openmesh(const std::string& path, const std::string& extension, ImportResult& out);
 }  // namespace detail
 
 }  // namespace vgeo

@@ -1,0 +1,139 @@
+// OFF reader (ASCII; spec/errors.md §Import). Keyword prefixes ST (uv), C (colour, ignored),
+// N (normal) as in "STCNOFF"; nOFF/4OFF and binary OFF are refused as unsupported. '#' starts
+// a comment anywhere (CGAL writes them before the keyword and after values). Each vertex and
+// each face is one line: a vertex line holds x y z [nx ny nz] [colour...] [u v], a face line
+// n i0 .. i(n-1) [colour...].
+#include <cmath>
+
+#include "vgeo/mesh/import_text.h"
+
+namespace vgeo::detail {
+namespace {
+
+// The shortest vertex line ("0 0 0\n") and face line ("3 0 1 2\n"): bounds on header counts.
+constexpr uint64_t kMinVertexLineBytes = 6;
+constexpr uint64_t kMinFaceLineBytes = 8;
+constexpr size_t kMaxLineTokens = 4096;  // past this a line is not an OFF record we read
+
+struct OffKeyword {
+  bool uvs = false, colors = false, normals = false;
+};
+
+// Reads the next non-empty line with comments removed into `tokens`; false at the end.
+bool next_record(TextCursor& in, std::vector<std::string_view>& tokens, uint64_t& line) {
+  while (!in.at_end()) {
+    line = in.line;
+    std::string_view rest = in.rest_of_line();
+    const size_t hash = rest.find('#');
+    if (hash != std::string_view::npos) rest = rest.substr(0, hash);
+    tokens.clear();
+    TextCursor lc(reinterpret_cast<const uint8_t*>(rest.data()), rest.size());
+    for (std::string_view t = lc.token_on_line(); !t.empty(); t = lc.token_on_line()) {
+      if (tokens.size() == kMaxLineTokens) break;
+      tokens.push_back(t);
+    }
+    if (!tokens.empty()) return true;
+  }
+  return false;
+}
+
+OffKeyword parse_keyword(std::string_view k, const std::string& where) {
+  OffKeyword kw;
+  if (k.size() < 3 || k.substr(k.size() - 3) != "OFF")
+    fail("MESH_PARSE_ERROR", where, "OFF file does not start with an OFF keyword");
+  std::string_view prefix = k.substr(0, k.size() - 3);
+  if (prefix.size() >= 2 && prefix.substr(0, 2) == "ST") {
+    kw.uvs = true;
+    prefix.remove_prefix(2);
+  }
+  if (!prefix.empty() && prefix[0] == 'C') {
+    kw.colors = true;
+    prefix.remove_prefix(1);
+  }
+  if (!prefix.empty() && prefix[0] == 'N') {
+    kw.normals = true;
+    prefix.remove_prefix(1);
+  }
+  if (!prefix.empty())
+    fail(prefix.find_first_of("n4") != std::string_view::npos ? "MESH_FORMAT_UNSUPPORTED" : "MESH_PARSE_ERROR", where,
+         "OFF variant '" + std::string(k.substr(0, 32)) + "' is not supported (nOFF/4OFF/unknown prefix)");
+  return kw;
+}
+
+float number(std::string_view t, const std::string& where, uint64_t line, const char* what) {
+  float v = 0;
+  if (!parse_float(t, v))
+    fail("MESH_PARSE_ERROR", at_line(where, line), std::string(what) + " '" + std::string(t.substr(0, 32)) + "' is not a number");
+  return v;
+}
+
+}  // namespace
+
+void import_off(const uint8_t* data, size_t size, const std::string& where, ImportResult& out) {
+  if (size == 0) fail("MESH_EMPTY", where, "file is empty");
+  TextCursor in(data, size);
+  std::vector<std::string_view> tok;
+  uint64_t line = 0;
+  if (!next_record(in, tok, line)) fail("MESH_PARSE_ERROR", where, "OFF file has no OFF keyword");
+  const OffKeyword kw = parse_keyword(tok[0], where);
+  if (tok.size() > 1 && tok[1] == "BINARY") fail("MESH_FORMAT_UNSUPPORTED", where, "binary OFF is not supported");
+  // Counts: on the keyword line or the next record.
+  size_t first = 1;
+  if (tok.size() < 3) {
+    if (!next_record(in, tok, line)) fail("FILE_TRUNCATED", where, "OFF header counts missing");
+    first = 0;
+  }
+  if (tok.size() < first + 2) fail("MESH_PARSE_ERROR", at_line(where, line), "OFF header counts missing");
+  int64_t nv = -1, nf = -1;
+  if (!parse_int(tok[first], nv) || !parse_int(tok[first + 1], nf))
+    fail("MESH_PARSE_ERROR", at_line(where, line), "OFF header counts are not integers");
+  if (nv < 0 || nf < 0) fail("MESH_PARSE_ERROR", at_line(where, line), "OFF header counts are negative");
+  if (uint64_t(nv) > in.remaining() / kMinVertexLineBytes || uint64_t(nf) > in.remaining() / kMinFaceLineBytes + 1)
+    fail("FILE_TRUNCATED", where, "OFF header declares " + std::to_string(nv) + " vertices and " + std::to_string(nf) +
+                                      " faces, more than a " + std::to_string(size) + "-byte file can hold");
+  Mesh mesh;
+  mesh.positions.reserve(size_t(nv) * 3);
+  if (kw.normals) mesh.normals.reserve(size_t(nv) * 3);
+  if (kw.uvs) mesh.uvs.reserve(size_t(nv) * 2);
+  const size_t needed = 3 + (kw.normals ? 3 : 0) + (kw.uvs ? 2 : 0);
+  for (int64_t v = 0; v < nv; ++v) {
+    if (!next_record(in, tok, line))
+      fail("FILE_TRUNCATED", where, "OFF file ends after " + std::to_string(v) + " of " + std::to_string(nv) + " vertices");
+    if (tok.size() < needed || (!kw.colors && tok.size() != needed))
+      fail("MESH_PARSE_ERROR", at_line(where, line),
+           "OFF vertex line has " + std::to_string(tok.size()) + " values, expected " + std::to_string(needed) +
+               (kw.colors ? " or more" : ""));
+    for (size_t k = 0; k < 3; ++k) mesh.positions.push_back(number(tok[k], where, line, "coordinate"));
+    if (kw.normals)
+      for (size_t k = 3; k < 6; ++k) mesh.normals.push_back(number(tok[k], where, line, "normal"));
+    if (kw.uvs)
+      for (size_t k = tok.size() - 2; k < tok.size(); ++k) mesh.uvs.push_back(number(tok[k], where, line, "uv"));
+  }
+  PolygonSink sink(mesh);
+  std::vector<uint32_t> ring;
+  for (int64_t f = 0; f < nf; ++f) {
+    if (!next_record(in, tok, line))
+      fail("FILE_TRUNCATED", where, "OFF file ends after " + std::to_string(f) + " of " + std::to_string(nf) + " faces");
+    int64_t n = -1;
+    if (!parse_int(tok[0], n) || n < 0)
+      fail("MESH_PARSE_ERROR", at_line(where, line), "OFF face corner count '" + std::string(tok[0].substr(0, 32)) + "' is invalid");
+    if (uint64_t(n) + 1 > tok.size())
+      fail("MESH_PARSE_ERROR", at_line(where, line),
+           "OFF face declares " + std::to_string(n) + " corners but its line holds " + std::to_string(tok.size() - 1) + " values");
+    ring.clear();
+    for (int64_t c = 1; c <= n; ++c) {
+      int64_t idx = -1;
+      if (!parse_int(tok[size_t(c)], idx))
+        fail("MESH_PARSE_ERROR", at_line(where, line), "OFF face index '" + std::string(tok[size_t(c)].substr(0, 32)) + "' is not an integer");
+      if (idx < 0 || idx >= nv)
+        fail("INDEX_OUT_OF_RANGE", at_line(where, line),
+             "OFF face refers to vertex " + std::to_string(idx) + " of " + std::to_string(nv));
+      ring.push_back(uint32_t(idx));
+    }
+    sink.add(ring.data(), ring.size());
+  }
+  sink.finish(out);
+  push_single_mesh_scene(std::move(mesh), where, out);
+}
+
+}  // namespace vgeo::detail

@@ -1,0 +1,110 @@
+#pragma once
+// Shared pieces of the OBJ / PLY / OFF / STL readers (import_obj.cpp, import_ply.cpp,
+// import_off.cpp, import_stl.cpp): a bounds-checked cursor over the file's bytes, strict
+// number parsing, and the polygon-to-triangle step every format shares. Every read checks the
+// end of the buffer, so no input can make a reader step outside it; every count taken from a
+// file is checked against the bytes left before anything is reserved for it.
+#include <charconv>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "vgeo/mesh/import.h"
+
+namespace vgeo::detail {
+
+// Bytes of text: whitespace-separated tokens, with line tracking for error messages.
+struct TextCursor {
+  const char* p = nullptr;
+  const char* end = nullptr;
+  uint64_t line = 1;  // 1-based line of `p`
+
+  TextCursor(const uint8_t* data, size_t size)
+      : p(reinterpret_cast<const char*>(data)), end(reinterpret_cast<const char*>(data) + size) {}
+  bool at_end() const { return p >= end; }
+  size_t remaining() const { return size_t(end - p); }
+  // Skips spaces, tabs, '\r' (and, if `newlines`, line breaks).
+  void skip_blanks(bool newlines) {
+    while (p < end && (*p == ' ' || *p == '\t' || *p == '\r' || (newlines && *p == '\n') || *p == '\f' || *p == '\v')) {
+      if (*p == '\n') ++line;
+      ++p;
+    }
+  }
+  bool at_line_end() const { return p >= end || *p == '\n'; }
+  // Next token on this line (empty at the end of the line).
+  std::string_view token_on_line() {
+    skip_blanks(false);
+    const char* b = p;
+    while (p < end && *p != ' ' && *p != '\t' && *p != '\r' && *p != '\n' && *p != '\f' && *p != '\v') ++p;
+    return {b, size_t(p - b)};
+  }
+  // Next token, crossing lines (empty only at the end of the buffer).
+  std::string_view token() {
+    skip_blanks(true);
+    return token_on_line();
+  }
+  // Moves past the end of the current line.
+  void next_line() {
+    while (p < end && *p != '\n') ++p;
+    if (p < end) {
+      ++p;
+      ++line;
+    }
+  }
+  // The rest of the current line (without '\r\n'), leaving the cursor at the next line.
+  std::string_view rest_of_line() {
+    const char* b = p;
+    while (p < end && *p != '\n') ++p;
+    const char* e = p;
+    if (e > b && e[-1] == '\r') --e;
+    if (p < end) {
+      ++p;
+      ++line;
+    }
+    return {b, size_t(e - b)};
+  }
+};
+
+// Whole-token numbers: "1", "+2.", "-3e4", "inf" (non-finite values are caught later by the
+// shared validation with their own codes). A token with anything after the number is refused.
+template <typename T>
+bool parse_number(std::string_view t, T& out) {
+  if (!t.empty() && t[0] == '+') t.remove_prefix(1);  // from_chars takes '-' only
+  if (t.empty() || t[0] == '+' || (t[0] == '-' && t.size() > 1 && t[1] == '+')) return false;
+  const auto r = std::from_chars(t.data(), t.data() + t.size(), out);
+  return r.ec == std::errc() && r.ptr == t.data() + t.size();
+}
+inline bool parse_float(std::string_view t, float& out) { return parse_number(t, out); }
+inline bool parse_double(std::string_view t, double& out) { return parse_number(t, out); }
+inline bool parse_int(std::string_view t, int64_t& out) { return parse_number(t, out); }
+
+// "<where>:<line>" for error messages that point into a text file.
+inline std::string at_line(const std::string& where, uint64_t line) { return where + ":" + std::to_string(line); }
+
+// Triangles from polygons, shared by every format: fans (v0, vi, vi+1) in file order. A
+// polygon that repeats a vertex is dropped whole (FACE_REPEATED_VERTEX, counted in
+// degenerate_removed), one with fewer than 3 corners is skipped; indices are checked by the
+// caller. Keeps the triangle output of the OpenMesh readers these replace.
+struct PolygonSink {
+  Mesh& mesh;
+  size_t repeated_vertex_faces = 0;
+  std::vector<uint32_t> sorted;  // scratch for the repeat test of long polygons
+
+  explicit PolygonSink(Mesh& m) : mesh(m) {}
+  void add(const uint32_t* ring, size_t n);
+  // Adds the FACE_REPEATED_VERTEX warning and count to `out` (once, after the last polygon).
+  void finish(ImportResult& out) const;
+};
+
+// One mesh (named after the file stem of `where`), one identity instance, one default
+// material: the scene of every single-mesh format.
+void push_single_mesh_scene(Mesh&& mesh, const std::string& where, ImportResult& out);
+
+// The readers. `data` is the whole file; `where` names it in errors.
+void import_obj(const uint8_t* data, size_t size, const std::string& where, ImportResult& out);
+void import_ply(const uint8_t* data, size_t size, const std::string& where, ImportResult& out);
+void import_off(const uint8_t* data, size_t size, const std::string& where, ImportResult& out);
+void import_stl(const uint8_t* data, size_t size, const std::string& where, ImportResult& out);
+
+}  // namespace vgeo::detail
