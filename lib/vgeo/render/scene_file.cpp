@@ -1,5 +1,6 @@
 #include "vgeo/render/scene_file.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -13,6 +14,7 @@
 #include "vgeo/core/hash.h"
 #include "vgeo/mesh/generate.h"
 #include "vgeo/mesh/import.h"
+#include "vgeo/render/run.h"
 #include "vgeo/stream/stream.h"
 
 namespace vgeo {
@@ -206,29 +208,36 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
       std::string file = get_string(c, m, path, "dag", "");
       std::filesystem::path fp(file);
       if (fp.is_relative()) fp = std::filesystem::path(c.base_dir) / fp;
-      if (c.options->stream_budget && is_page_file(fp.string())) {
-        // Metadata only (header + metadata read; no page): decided after all meshes.
-        FormatContainer fc;
-        try {
-          fc = read_container_metadata(fp.string());
-        } catch (const VgeoError& e) {
-          bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
+      if (c.options->stream && is_page_file(fp.string())) {
+        // Metadata only (header + metadata read once per file; no page): decided after all meshes.
+        const std::string canonical = std::filesystem::weakly_canonical(fp).string();
+        ScenePageMesh pm;
+        pm.file = 0;
+        while (pm.file < out->page_files.size() && out->page_files[pm.file].path != canonical) ++pm.file;
+        if (pm.file == out->page_files.size()) {
+          ScenePageFile pf;
+          pf.path = canonical;
+          try {
+            pf.metadata = read_container_metadata(canonical);
+          } catch (const VgeoError& e) {
+            bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
+          }
+          out->page_files.push_back(std::move(pf));
         }
+        const FormatContainer& fc = out->page_files[pm.file].metadata;
         double index = get_number(c, m, path, "index", 0, 0, 1e9);
         if (index >= double(fc.meshes.size())) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh in " + file);
-        ScenePageMesh pm;
-        pm.file = std::filesystem::weakly_canonical(fp).string();
         pm.index = uint32_t(index);
         pm.material_offset = uint32_t(out->scene.materials.size());
         if (out->scene.materials.size() + fc.materials.size() > kMaxSceneMaterials)
           bad(c, "SCENE_TOO_LARGE", path + ": too many materials");
         out->scene.materials.insert(out->scene.materials.end(), fc.materials.begin(), fc.materials.end());
-        MeshMetadata& mm = fc.meshes[pm.index];
+        const MeshMetadata& mm = fc.meshes[pm.index];
         for (uint32_t p = mm.first_page; p < mm.first_page + mm.page_count; ++p) pm.page_bytes += fc.pages[p].memory_size;
         if (!bvh_is_tree(mm.dag)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
         out->page_meshes.resize(out->scene.meshes.size());
         out->page_meshes.push_back(pm);
-        out->scene.meshes.push_back(std::move(mm.dag));
+        out->scene.meshes.push_back(mm.dag);
         continue;
       }
       BuiltScene built;
@@ -293,34 +302,52 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
   }
 }
 
-// With a stream budget: page-file meshes stay metadata-only when their pages exceed it,
-// else they are decoded exactly as read_asset_file does without a budget.
+// With a stream budget: the one decision whether the scene streams (spec/stream.md §Renderer).
+// Page-file meshes stay metadata-only when their pages exceed the budget, else they are decoded
+// exactly as read_asset_file does without a budget (each file read once).
 void resolve_page_meshes(const Ctx& c, SceneFile* out) {
-  if (!c.options->stream_budget) return;
+  if (!c.options->stream) return;
+  out->stream = c.options->stream;
+  const uint64_t budget = out->stream->budget_bytes;
   out->page_meshes.resize(out->scene.meshes.size());
-  std::set<std::pair<std::string, uint32_t>> counted;
+  std::set<std::pair<uint32_t, uint32_t>> counted;
   for (const ScenePageMesh& pm : out->page_meshes)
-    if (!pm.file.empty() && counted.insert({pm.file, pm.index}).second) out->page_bytes += pm.page_bytes;
-  if (counted.empty()) return;
-  out->streaming = out->page_bytes > *c.options->stream_budget;
-  if (out->streaming) return;
+    if (pm.file != kNone && counted.insert({pm.file, pm.index}).second) out->page_bytes += pm.page_bytes;
+  if (counted.empty()) {
+    out->stream_reason = "no mesh of the scene comes from a page file";
+    return;
+  }
+  out->streaming = out->page_bytes > budget;
+  if (out->streaming) {
+    size_t in_memory = out->page_meshes.size() - std::count_if(out->page_meshes.begin(), out->page_meshes.end(),
+                                                               [](const ScenePageMesh& pm) { return pm.file != kNone; });
+    out->stream_reason = "data " + format_bytes(out->page_bytes) + " > budget " + format_bytes(budget) + ", " +
+                         std::to_string(out->page_files.size()) + " page file(s)" +
+                         (in_memory ? ", " + std::to_string(in_memory) + " mesh(es) not from page files stay in memory" : "");
+    return;
+  }
+  out->stream_reason = "data " + format_bytes(out->page_bytes) + " <= budget " + format_bytes(budget);
+  std::vector<std::optional<BuiltScene>> decoded(out->page_files.size());
   for (size_t i = 0; i < out->page_meshes.size(); ++i) {
     ScenePageMesh& pm = out->page_meshes[i];
-    if (pm.file.empty()) continue;
+    if (pm.file == kNone) continue;
     const std::string path = "meshes[" + std::to_string(i) + "]";
-    BuiltScene built;
-    try {
-      built = read_asset_file(pm.file);
-    } catch (const VgeoError& e) {
-      bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
+    std::optional<BuiltScene>& built = decoded[pm.file];
+    if (!built) {
+      try {
+        built = read_asset_file(out->page_files[pm.file].path);
+      } catch (const VgeoError& e) {
+        bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
+      }
     }
-    if (pm.index >= built.meshes.size()) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh");
-    ClusterDag dag = std::move(built.meshes[pm.index]);
+    if (pm.index >= built->meshes.size()) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh");
+    ClusterDag dag = built->meshes[pm.index];
     if (!bvh_is_tree(dag)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
     for (uint32_t& t : dag.triangle_materials) t += pm.material_offset;
     out->scene.meshes[i] = std::move(dag);
-    pm.file.clear();
+    pm.file = kNone;
   }
+  out->page_files.clear();  // nothing streams
 }
 
 // ---- transforms and cameras ----
@@ -448,6 +475,10 @@ std::vector<Camera> expand_path(const Ctx& c, const json& j, const Camera& base)
 }
 
 }  // namespace
+
+std::string SceneFile::stream_note() const {
+  return std::string("streaming: ") + (streaming ? "on" : "off") + " (" + stream_reason + ")";
+}
 
 FormatOptions memory_form_options() {
   FormatOptions o;  // the defaults of `vgeo build`: the same grid, so the same memory form

@@ -11,15 +11,22 @@
 #include "vgeo/cull/view.h"
 #include "vgeo/format/format.h"
 #include "vgeo/render/frame.h"
+#include "vgeo/stream/stream.h"
 
 namespace vgeo {
 
 inline constexpr int kSceneFileVersion = 1;
 
+// A page file a scene streams from: its header + metadata, read once at load.
+struct ScenePageFile {
+  std::string path;          // canonical
+  FormatContainer metadata;  // read_container_metadata(path)
+};
+
 // A scene mesh read from a page-format file and streamed (its scene DAG is the file's
 // metadata DAG, without vertex arrays).
 struct ScenePageMesh {
-  std::string file;              // empty: the mesh is fully in memory
+  uint32_t file = kNone;         // index into SceneFile::page_files; kNone: fully in memory
   uint32_t index = 0;            // mesh index in the file
   uint32_t material_offset = 0;  // the file's materials start here in the scene's
   uint64_t page_bytes = 0;       // memory-form bytes of the mesh's pages
@@ -30,19 +37,24 @@ struct SceneFile {
   std::vector<Camera> cameras;  // at least one
   std::vector<Camera> path;     // expanded camera path (empty when the file has none)
   RenderSettings settings;
-  // Set only when loaded with SceneLoadOptions::stream_budget (spec/stream.md §Renderer):
-  std::vector<ScenePageMesh> page_meshes;  // per scene mesh
+  // Streaming (spec/stream.md §Renderer), decided once, at load, from SceneLoadOptions::stream:
+  std::optional<StreamOptions> stream;     // as requested (budget_bytes > 0); nullopt: no budget
+  bool streaming = false;                  // page_bytes > budget: page-file meshes stay metadata-only
+  std::string stream_reason = "no stream budget";  // why streaming is on or off (one line)
+  std::vector<ScenePageFile> page_files;   // when streaming: the streamed files, each read once
+  std::vector<ScenePageMesh> page_meshes;  // when a budget is given: per scene mesh
   uint64_t page_bytes = 0;   // memory-form page bytes of the distinct page-file meshes used
-  bool streaming = false;    // page_bytes > budget: page-file meshes stay metadata-only
+  std::string stream_note() const;  // "streaming: on (<reason>)" / "streaming: off (<reason>)"
 };
 
 struct SceneLoadOptions {
   std::string cache_dir;         // empty: no DAG cache (always build)
   BuildOptions build;            // used for meshes built on demand
-  // Streaming: meshes from page-format files are first read as metadata only; if their
-  // pages' memory bytes exceed this budget they stay so (SceneFile::streaming), otherwise
-  // they are decoded as without a budget (streaming off, identical output).
-  std::optional<uint64_t> stream_budget;
+  // Streaming, the one place its options are given (the budget decides it; threshold_px is
+  // the render's τ): meshes from page-format files are first read as metadata only; if their
+  // pages' memory bytes exceed stream->budget_bytes they stay so (SceneFile::streaming),
+  // otherwise they are decoded as without a budget (streaming off, identical output).
+  std::optional<StreamOptions> stream;
 };
 
 // Throws VgeoError with a SCENE_* code (exit 3; SCENE_READ_FAILED exit 4) on any malformed
