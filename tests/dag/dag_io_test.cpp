@@ -133,7 +133,7 @@ TEST(DagFile, WriteReadFile) {
     read_dag_file((dir / "missing.vgeodag").string());
     FAIL();
   } catch (const VgeoError& e) {
-    EXPECT_EQ(e.error().code, "DAGFILE_IO");
+    EXPECT_EQ(e.error().code, "FILE_NOT_FOUND");
     EXPECT_EQ(e.error().exit_code, kExitIo);
   }
   std::filesystem::remove_all(dir);
@@ -163,12 +163,12 @@ TEST(DagFile, StreamedFileEqualsTheEncodingAcrossFlushes) {
   std::fclose(f);
   EXPECT_GT(expected.size(), size_t(5) << 20);
   EXPECT_TRUE(got == expected);
-  // Writing into a directory that does not exist fails with DAGFILE_IO and creates nothing.
+  // Writing into a directory that does not exist fails with IO_WRITE_FAILED and creates nothing.
   try {
     write_dag_file((dir / "no" / "such.vgeodag").string(), s);
     FAIL();
   } catch (const VgeoError& e) {
-    EXPECT_EQ(e.error().code, "DAGFILE_IO");
+    EXPECT_EQ(e.error().code, "IO_WRITE_FAILED");
     EXPECT_EQ(e.error().exit_code, kExitIo);
   }
   size_t entries = 0;

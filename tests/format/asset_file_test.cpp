@@ -74,7 +74,7 @@ TEST(AssetFile, RejectsUnknownTruncatedAndMissingFiles) {
   auto unknown = scratch("unknown.bin");
   std::ofstream(unknown) << "not an asset file";
   EXPECT_EQ(error_code_of(unknown.string()), "ASSET_FILE_UNKNOWN");
-  EXPECT_EQ(error_code_of(scratch("missing.vgeo").string()), "ASSET_FILE_IO");
+  EXPECT_EQ(error_code_of(scratch("missing.vgeo").string()), "FILE_NOT_FOUND");
   auto page_path = scratch("t.vgeo");
   write_asset_file(page_path.string(), small_scene(), AssetFileKind::kPages);
   std::filesystem::resize_file(page_path, std::filesystem::file_size(page_path) - 1);

@@ -18,6 +18,7 @@
 #include "support/shapes.h"
 #include "vgeo/dag/cluster_dag.h"
 #include "vgeo/core/hash.h"
+#include "vgeo/format/decode_hash.h"
 #include "vgeo/format/format.h"
 
 namespace vgeo::test {
@@ -185,20 +186,8 @@ inline BuiltScene scene_of(std::vector<ClusterDag> meshes) {
   return s;
 }
 
-// Canonical decode hash (spec/format.md §Conformance): FNV-1a 64 over, per mesh, the
-// decoded positions, normals, uvs (float32 bits, little-endian), indices (u8) and
-// triangle materials (u32 little-endian), in cluster-index order.
-inline uint64_t decoded_hash(const BuiltScene& s) {
-  uint64_t h = kFnvOffset;
-  for (const ClusterDag& d : s.meshes) {
-    h = fnv1a64(d.positions.data(), d.positions.size() * 4, h);
-    h = fnv1a64(d.normals.data(), d.normals.size() * 4, h);
-    h = fnv1a64(d.uvs.data(), d.uvs.size() * 4, h);
-    h = fnv1a64(d.indices.data(), d.indices.size(), h);
-    h = fnv1a64(d.triangle_materials.data(), d.triangle_materials.size() * 4, h);
-  }
-  return h;
-}
+// Canonical decode hash (spec/format.md §Conformance): lib/vgeo/format/decode_hash.h.
+inline uint64_t decoded_hash(const BuiltScene& s) { return decode_hash(s); }
 
 inline std::string error_code_of(const std::function<void()>& f) {
   try {

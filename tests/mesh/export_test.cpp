@@ -168,7 +168,7 @@ TEST(ExportFiles, FailedWriteLeavesExistingFileUntouchedAndNoTempFiles) {
     write_glb(good, dir.file("no/such/dir/x.glb"));
     FAIL();
   } catch (const VgeoError& e) {
-    EXPECT_EQ(e.error().code, "EXPORT_IO");
+    EXPECT_EQ(e.error().code, "IO_WRITE_FAILED");
     EXPECT_EQ(e.error().exit_code, kExitIo);
   }
 }

@@ -163,7 +163,7 @@ TEST(SceneFile, MissingFileIsAnIoError) {
     load_scene_file("/nonexistent/scene.json", {});
     FAIL();
   } catch (const VgeoError& e) {
-    EXPECT_EQ(e.error().code, "SCENE_READ_FAILED");
+    EXPECT_EQ(e.error().code, "FILE_NOT_FOUND");
     EXPECT_EQ(e.error().exit_code, kExitIo);
   }
 }

@@ -11,6 +11,7 @@
 #include "support/shapes.h"
 #include "vgeo/dag/build.h"
 #include "vgeo/core/error.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/format/format.h"
 #include "vgeo/stream/stream.h"
 #include "vgeo/verify/verify.h"
@@ -227,7 +228,7 @@ TEST(Stream, MissingFileIsAnIoError) {
     Streamer s("/nonexistent/vgeo.vgp", o);
     FAIL();
   } catch (const VgeoError& e) {
-    EXPECT_EQ(e.error().code, kErrStreamIo);
+    EXPECT_EQ(e.error().code, kErrFileNotFound);
     EXPECT_EQ(e.error().exit_code, kExitIo);
   }
 }

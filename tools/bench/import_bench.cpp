@@ -13,11 +13,14 @@
 #include <string>
 #include <vector>
 
+#include "vgeo/mesh/glb.h"
 #include "vgeo/mesh/import.h"
 
 namespace {
 
-constexpr uint32_t kGlbMagic = 0x46546C67, kChunkJson = 0x4E4F534A, kChunkBin = 0x004E4942;
+using vgeo::kGlbChunkBin;
+using vgeo::kGlbChunkJson;
+using vgeo::kGlbMagic;
 
 struct GridGlb {
   std::string path;
@@ -55,10 +58,10 @@ GridGlb write_grid_glb(size_t target_triangles) {
   u32(2);
   u32(total);
   u32(uint32_t(json.size()));
-  u32(kChunkJson);
+  u32(kGlbChunkJson);
   std::fwrite(json.data(), 1, json.size(), f);
   u32(bin_len);
-  u32(kChunkBin);
+  u32(kGlbChunkBin);
   std::vector<float> row(side1 * 3);
   for (size_t y = 0; y < side1; ++y) {
     for (size_t x = 0; x < side1; ++x) {

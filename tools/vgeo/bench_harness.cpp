@@ -11,6 +11,7 @@
 #include <sstream>
 #include <thread>
 
+#include "vgeo/core/file_io.h"
 #include "vgeo/core/error.h"
 
 namespace vgeo::bench {
@@ -27,7 +28,8 @@ double quantile(const std::vector<double>& sorted, double q) {
   return sorted[i] * (1 - f) + sorted[j] * f;
 }
 
-std::string read_file(const char* path) {
+// A /proc pseudo-file (its size is not known before reading; not a vgeo input).
+std::string read_proc_file(const char* path) {
   std::ifstream f(path, std::ios::binary);
   std::ostringstream s;
   s << f.rdbuf();
@@ -40,12 +42,7 @@ std::string trim(std::string s) {
   return b == std::string::npos ? std::string() : s.substr(b);
 }
 
-void write_text(const std::filesystem::path& path, const std::string& text) {
-  std::ofstream f(path, std::ios::binary);
-  f << text;
-  f.close();
-  if (!f) fail("IO_WRITE_FAILED", path.string(), "cannot write file", kExitIo);
-}
+void write_text(const std::filesystem::path& path, const std::string& text) { write_file_atomic(path.string(), text); }
 
 std::string md_cell(const std::string& s) {
   std::string o;
@@ -126,7 +123,7 @@ Stats ratio_stats(const std::vector<double>& a, const std::vector<double>& b) {
 
 std::string read_load_average() {
   // The first three fields: 1, 5 and 15 minute load averages.
-  std::istringstream in(read_file("/proc/loadavg"));
+  std::istringstream in(read_proc_file("/proc/loadavg"));
   std::string a, b, c;
   in >> a >> b >> c;
   return a + " " + b + " " + c;
@@ -134,7 +131,7 @@ std::string read_load_average() {
 
 MachineInfo describe_machine() {
   MachineInfo m;
-  std::istringstream cpu(read_file("/proc/cpuinfo"));
+  std::istringstream cpu(read_proc_file("/proc/cpuinfo"));
   for (std::string line; std::getline(cpu, line);) {
     if (line.rfind("model name", 0) == 0) {
       m.cpu_model = trim(line.substr(line.find(':') + 1));
@@ -143,7 +140,7 @@ MachineInfo describe_machine() {
   }
   if (m.cpu_model.empty()) m.cpu_model = "unknown";
   m.logical_cores = std::thread::hardware_concurrency();
-  std::istringstream mem(read_file("/proc/meminfo"));
+  std::istringstream mem(read_proc_file("/proc/meminfo"));
   for (std::string line; std::getline(mem, line);) {
     if (line.rfind("MemTotal:", 0) == 0) {
       m.memory_bytes = std::strtoull(line.c_str() + 9, nullptr, 10) * 1024ull;
@@ -175,7 +172,7 @@ MachineInfo describe_machine() {
   m.build_flags += ", AddressSanitizer";
 #endif
 #endif
-  std::string cmd = read_file("/proc/self/cmdline");
+  std::string cmd = read_proc_file("/proc/self/cmdline");
   for (char& c : cmd)
     if (c == '\0') c = ' ';
   m.command_line = trim(cmd);

@@ -10,6 +10,7 @@
 #include "bench_harness.h"
 #include "bench_suites.h"
 #include "commands.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/progress.h"
 
@@ -36,11 +37,7 @@ void run_bench(const BenchArgs& args) {
     fail("BENCH_UNKNOWN_SUITE", "vgeo bench", "unknown suite '" + args.suite + "' (expected all, " + names + ")",
          kExitUsage);
   }
-  std::error_code ec;
-  std::filesystem::create_directories(args.out, ec);
-  if (ec || !std::filesystem::is_directory(args.out))
-    fail("IO_CREATE_DIR", args.out, "cannot create output directory" + (ec ? ": " + ec.message() : std::string()),
-         kExitIo);
+  create_output_directory(args.out);
 
   BenchConfig cfg;
   cfg.quick = args.quick;

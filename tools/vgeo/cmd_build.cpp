@@ -3,11 +3,11 @@
 // (spec/format.md), or a VGEODAG1 file (spec/dag.md) when OUT ends in .vgeodag.
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/dag/build.h"
 #include "vgeo/dag/dag_io.h"
 #include "vgeo/format/asset_file.h"
@@ -128,9 +128,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
         m["name"] = scene.meshes[i].name;
         j["meshes"].push_back(m);
       }
-      std::ofstream out(args->report);
-      out << j.dump(2) << "\n";
-      if (!out) fail("REPORT_IO", args->report, "cannot write the report", kExitIo);
+      write_file_atomic(args->report, j.dump(2) + "\n");
     }
     ctx.exit_code = kExitOk;
   });

@@ -7,11 +7,11 @@
 // Exit 0 only when every invariant holds and the frame rendered.
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <string>
 
 #include "commands.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/dag/build.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/progress.h"
@@ -46,9 +46,7 @@ void add_demo_command(CLI::App& app, Context& ctx) {
   cmd->add_option("--triangles", args->triangles, "triangles of the default asset")
       ->check(CLI::Range(uint64_t(1000), uint64_t(20'000'000)));
   cmd->callback([args, &ctx] {
-    std::error_code ec;
-    std::filesystem::create_directories(args->out_dir, ec);
-    if (ec) fail("DEMO_OUTPUT", args->out_dir, "cannot create the output folder: " + ec.message(), kExitIo);
+    create_output_directory(args->out_dir);
 
     // 1. The default asset.
     GenerateOptions gen;
@@ -78,10 +76,8 @@ void add_demo_command(CLI::App& app, Context& ctx) {
     verify.threads = args->threads;
     VerifyReport verdict = verify_dag(dag, verify);
     std::printf("\n== 3. invariants (spec/invariants.md)\n%s", verify_report_summary(verdict).c_str());
-    {
-      std::ofstream json(std::filesystem::path(args->out_dir) / "verify.json");
-      json << verify_report_json(verdict, "default") << "\n";
-    }
+    write_file_atomic((std::filesystem::path(args->out_dir) / "verify.json").string(),
+                      verify_report_json(verdict, "default") + "\n");
 
     // 4. A frame of the default scene.
     RenderRequest request;

@@ -4,9 +4,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 
 #include "commands.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/core/error.h"
 #include "vgeo/render/run.h"
 
@@ -105,11 +105,7 @@ void add_render_command(CLI::App& app, Context& ctx) {
     }
     request.out_dir = args->out_dir;
     request.save_every = args->save_every;
-    if (!args->out_dir.empty()) {
-      std::error_code ec;
-      std::filesystem::create_directories(args->out_dir, ec);
-      if (ec) fail("IO_WRITE_FAILED", args->out_dir, "cannot create directory: " + ec.message(), kExitIo);
-    }
+    if (!args->out_dir.empty()) create_output_directory(args->out_dir);
     std::string cache = args->no_cache ? "" : (args->cache_dir.empty() ? default_cache_dir() : args->cache_dir);
     RenderReport report;
     if (args->scene.empty()) {
@@ -123,11 +119,7 @@ void add_render_command(CLI::App& app, Context& ctx) {
       if (!args->camera_path.empty()) scene.path = load_camera_path_file(args->camera_path, scene.cameras[0]);
       report = render_scene(scene, request);
     }
-    if (!args->json_file.empty()) {
-      std::ofstream f(args->json_file, std::ios::binary | std::ios::trunc);
-      f << report.json() << "\n";
-      if (!f) fail("IO_WRITE_FAILED", args->json_file, "cannot write", kExitIo);
-    }
+    if (!args->json_file.empty()) write_file_atomic(args->json_file, report.json() + "\n");
     if (args->json) {
       std::printf("%s\n", report.json().c_str());
     } else {

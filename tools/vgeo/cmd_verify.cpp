@@ -1,12 +1,13 @@
 // `vgeo verify FILE`: checks every mesh's DAG of a VGEODAG1 file against the invariants of
 // spec/invariants.md; exit 0 when all hold, 1 (kExitInvariantViolation) otherwise.
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "commands.h"
+#include "junit.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/format/asset_file.h"
 #include "vgeo/core/error.h"
 #include "vgeo/verify/verify.h"
@@ -17,6 +18,7 @@ namespace {
 struct VerifyArgs {
   std::string input;
   std::string json_path;
+  std::string junit_path;
   std::string checks = "all";
   uint32_t views = VerifyOptions{}.views;
   uint32_t thresholds = VerifyOptions{}.thresholds_per_view;
@@ -27,6 +29,49 @@ struct VerifyArgs {
   bool quiet = false;
   bool strict_border = false;
 };
+
+// The check a code belongs to: from the stored violations, else by its prefix
+// (spec/invariants.md: STRUCT_ structure, MONO_ monotonic, CUT_ cut, CRACK_ crack, ERROR_ error_bound).
+std::string check_of_code(const VerifyReport& report, const std::string& code) {
+  for (const Violation& v : report.violations)
+    if (v.code == code) return v.check;
+  static const std::pair<const char*, const char*> kPrefixes[] = {
+      {"STRUCT_", "structure"}, {"MONO_", "monotonic"}, {"CUT_", "cut"}, {"CRACK_", "crack"}, {"ERROR_", "error_bound"}};
+  for (const auto& [prefix, check] : kPrefixes)
+    if (code.rfind(prefix, 0) == 0) return check;
+  return "structure";
+}
+
+// One testcase per check: failed with every code it reported, skipped with its reason.
+JunitSuite junit_suite(const VerifyReport& report, const std::string& file, size_t mesh) {
+  JunitSuite suite{file + " mesh " + std::to_string(mesh), {}};
+  for (const CheckStats& c : report.checks) {
+    JunitCase tc = junit_case("vgeo.verify.mesh" + std::to_string(mesh), c.check);
+    tc.seconds = c.seconds;
+    tc.skipped = !c.ran;
+    tc.skipped_message = c.skipped_reason;
+    for (const ViolationCount& n : report.counts) {
+      if (check_of_code(report, n.code) != c.check) continue;
+      if (tc.failure_type.empty()) tc.failure_type = n.code;
+      tc.failure_message += (tc.failed ? ", " : "") + n.code + " x" + std::to_string(n.count);
+      tc.failed = true;
+    }
+    for (const Violation& v : report.violations)
+      if (v.check == c.check)
+        tc.failure_text += v.code + " " + v.element + " " + std::to_string(v.index) + ": " + v.message + "\n";
+    suite.cases.push_back(std::move(tc));
+  }
+  return suite;
+}
+
+// A file the decoder rejected, as one failing testcase (the code is the decoder's).
+void write_rejected_junit(const std::string& path, const std::string& file, const VgeoError& e) {
+  JunitCase tc = junit_case("vgeo.verify", "decode");
+  tc.failed = true;
+  tc.failure_type = e.error().code;
+  tc.failure_message = e.error().line();
+  write_junit(path, "vgeo verify", {JunitSuite{file, {tc}}});
+}
 
 int run_verify(const VerifyArgs& a) {
   VerifyOptions options;
@@ -41,8 +86,15 @@ int run_verify(const VerifyArgs& a) {
   options.max_stored_per_code = a.max_stored;
   options.strict_border = a.strict_border;
 
-  BuiltScene scene = read_asset_file(a.input);  // page format or VGEODAG1; throws VgeoError
+  BuiltScene scene;
+  try {
+    scene = read_asset_file(a.input);  // page format or VGEODAG1; throws VgeoError
+  } catch (const VgeoError& e) {
+    if (!a.junit_path.empty()) write_rejected_junit(a.junit_path, a.input, e);
+    throw;
+  }
   bool all_ok = true;
+  std::vector<JunitSuite> junit;
   nlohmann::json json{{"file", a.input}, {"meshes", nlohmann::json::array()}};
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     VerifyReport report = verify_dag(scene.meshes[m], options);
@@ -56,17 +108,21 @@ int run_verify(const VerifyArgs& a) {
                     v.message.c_str());
       }
     }
+    junit.push_back(junit_suite(report, a.input, m));
     json["meshes"].push_back(nlohmann::json::parse(verify_report_json(report, "mesh " + std::to_string(m))));
   }
   if (scene.meshes.empty()) {
     all_ok = false;
     std::printf("the file holds no meshes\n");
+    JunitCase tc = junit_case("vgeo.verify", "meshes");
+    tc.failed = true;
+    tc.failure_type = "VERIFY_NO_MESHES";
+    tc.failure_message = "the file holds no meshes";
+    junit.push_back({a.input, {tc}});
   }
+  if (!a.junit_path.empty()) write_junit(a.junit_path, "vgeo verify", junit);
   json["ok"] = all_ok;
-  if (!a.json_path.empty()) {
-    std::ofstream f(a.json_path, std::ios::binary);
-    if (!(f << json.dump(2) << "\n") || !f.flush()) fail("IO_WRITE", a.json_path, "cannot write the JSON report", kExitIo);
-  }
+  if (!a.json_path.empty()) write_file_atomic(a.json_path, json.dump(2) + "\n");
   return all_ok ? kExitOk : kExitInvariantViolation;
 }
 }  // namespace
@@ -76,6 +132,7 @@ void add_verify_command(CLI::App& app, Context& ctx) {
   auto* cmd = app.add_subcommand("verify", "check a DAG file against every invariant of spec/invariants.md");
   cmd->add_option("file", args->input, "asset file written by `vgeo build` (page format VGEOPAGE or DAG file VGEODAG1)")->required();
   cmd->add_option("--json", args->json_path, "write the full report (every stored violation) as JSON");
+  cmd->add_option("--junit", args->junit_path, "write a JUnit XML report (one testcase per check and mesh)");
   cmd->add_option("--checks", args->checks, "comma-separated: structure,monotonic,cut,crack,error_bound (default all)");
   cmd->add_option("--views", args->views, "random viewpoints for the projected-error, cut and crack checks");
   cmd->add_option("--thresholds", args->thresholds, "pixel thresholds (cuts) per viewpoint");

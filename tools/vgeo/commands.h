@@ -17,5 +17,7 @@ void add_verify_command(CLI::App& app, Context& ctx);
 void add_render_command(CLI::App& app, Context& ctx);
 void add_bench_command(CLI::App& app, Context& ctx);
 void add_demo_command(CLI::App& app, Context& ctx);
+void add_compare_command(CLI::App& app, Context& ctx);
+void add_conform_command(CLI::App& app, Context& ctx);
 
 }  // namespace vgeo::cli

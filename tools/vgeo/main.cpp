@@ -17,6 +17,8 @@ int main(int argc, char** argv) {
   vgeo::cli::add_render_command(app, ctx);
   vgeo::cli::add_bench_command(app, ctx);
   vgeo::cli::add_demo_command(app, ctx);
+  vgeo::cli::add_compare_command(app, ctx);
+  vgeo::cli::add_conform_command(app, ctx);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

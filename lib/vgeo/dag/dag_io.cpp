@@ -4,23 +4,17 @@
 // padding is not stored (so valid data has exactly one encoding), trailing bytes are an error.
 #include "vgeo/dag/dag_io.h"
 
-#include <unistd.h>
-
-#include <cerrno>
-#include <cstdio>
-#include <bit>
-#include <cstring>
 #include <algorithm>
-#include <filesystem>
+#include <cstring>
 
+#include "vgeo/core/byte_io.h"
 #include "vgeo/core/error.h"
-#include "vgeo/mesh/export.h"
+#include "vgeo/core/file_io.h"
 
 namespace vgeo {
 
 namespace {
 
-constexpr char kMagic[8] = {'V', 'G', 'E', 'O', 'D', 'A', 'G', '1'};
 constexpr uint32_t kVersion = 1;
 constexpr uint32_t kMeshHasNormals = 1u << 0;
 constexpr uint32_t kMeshHasUvs = 1u << 1;
@@ -33,114 +27,15 @@ constexpr size_t kMeshHeaderBytes = 4 + 4 + 6 * 4 + 6 * 4;
 constexpr size_t kMaterialMinBytes = 4 + 4 * 4;
 constexpr size_t kInstanceBytes = 4 + 16 * 4;
 
-// Little-endian field writer. Without a sink everything stays in `bytes`; with one,
-// `bytes` is handed over whenever it passes kFlushBytes and large 32-bit arrays go to the
-// sink straight from the caller's memory (no copy of a multi-GB file in memory).
-class Writer {
- public:
-  static constexpr size_t kFlushBytes = size_t(1) << 20;  // same order as the file buffer
-  std::vector<uint8_t> bytes;
-  ByteSink* sink = nullptr;
-  void u8(uint8_t v) { bytes.push_back(v); }
-  void u32(uint32_t v) {
-    for (int i = 0; i < 4; ++i) bytes.push_back(uint8_t(v >> (8 * i)));
-  }
-  void f32(float f) {
-    uint32_t v;
-    std::memcpy(&v, &f, 4);
-    u32(v);
-  }
-  void raw(const void* data, size_t size) {
-    if (sink && size >= kFlushBytes) {
-      flush();
-      sink->write(data, size);
-      return;
-    }
-    const auto* p = static_cast<const uint8_t*>(data);
-    bytes.insert(bytes.end(), p, p + size);
-    maybe_flush();
-  }
-  // Arrays of 32-bit values: one copy on little-endian hosts (the file is little-endian).
-  template <class T>
-  void array32(const T* values, size_t count) {
-    static_assert(sizeof(T) == 4);
-    if constexpr (std::endian::native == std::endian::little) {
-      raw(values, 4 * count);
-    } else {
-      for (size_t i = 0; i < count; ++i) {
-        uint32_t v;
-        std::memcpy(&v, &values[i], 4);
-        u32(v);
-        maybe_flush();
-      }
-    }
-  }
-  void sphere(const Sphere& s) {
-    f32(s.center.x);
-    f32(s.center.y);
-    f32(s.center.z);
-    f32(s.radius);
-  }
-  void maybe_flush() {
-    if (sink && bytes.size() >= kFlushBytes) flush();
-  }
-  void flush() {
-    if (!sink) return;  // in-memory encoding: everything stays in `bytes`
-    if (!bytes.empty()) sink->write(bytes.data(), bytes.size());
-    bytes.clear();
-  }
-};
-
-class Reader {
- public:
-  Reader(const uint8_t* data, size_t size, const std::string& where) : p_(data), end_(data + size), where_(where) {}
-  size_t remaining() const { return size_t(end_ - p_); }
-  void need(uint64_t bytes, const char* what) {
-    if (bytes > remaining())
-      fail("DAGFILE_TRUNCATED", where_, std::string("file ends inside ") + what);
-  }
-  uint8_t u8() {
-    need(1, "a byte field");
-    return *p_++;
-  }
-  uint32_t u32() {
-    need(4, "a 32-bit field");
-    uint32_t v = uint32_t(p_[0]) | uint32_t(p_[1]) << 8 | uint32_t(p_[2]) << 16 | uint32_t(p_[3]) << 24;
-    p_ += 4;
-    return v;
-  }
-  float f32() {
-    uint32_t v = u32();
-    float f;
-    std::memcpy(&f, &v, 4);
-    return f;
-  }
-  Sphere sphere() {
-    Sphere s;
-    s.center.x = f32();
-    s.center.y = f32();
-    s.center.z = f32();
-    s.radius = f32();
-    return s;
-  }
-  const uint8_t* bytes(size_t n) {
-    need(n, "a byte array");
-    const uint8_t* q = p_;
-    p_ += n;
-    return q;
-  }
-
- private:
-  const uint8_t* p_;
-  const uint8_t* end_;
-  const std::string& where_;
-};
-
+// The decoder's reader: truncation is DAGFILE_TRUNCATED ("file ends inside ...").
+ByteReader file_reader(const uint8_t* data, size_t size, const std::string& where) {
+  return ByteReader(data, size, where, "DAGFILE_TRUNCATED", "file");
+}
 [[noreturn]] void out_of_range(const std::string& where, const std::string& what) {
   fail("DAGFILE_INDEX_OUT_OF_RANGE", where, what);
 }
 
-void encode_mesh(Writer& w, const ClusterDag& d) {
+void encode_mesh(ByteWriter& w, const ClusterDag& d) {
   size_t vcount = d.vertex_count(), tcount = d.triangle_count();
   bool normals = !d.normals.empty(), uvs = !d.uvs.empty();
   w.u32((normals ? kMeshHasNormals : 0) | (uvs ? kMeshHasUvs : 0));
@@ -189,7 +84,7 @@ void encode_mesh(Writer& w, const ClusterDag& d) {
   w.array32(d.triangle_materials.data(), tcount);
 }
 
-ClusterDag decode_mesh(Reader& r, const std::string& where, uint32_t material_count) {
+ClusterDag decode_mesh(ByteReader& r, const std::string& where, uint32_t material_count) {
   ClusterDag d;
   uint32_t flags = r.u32();
   if (flags & ~(kMeshHasNormals | kMeshHasUvs))
@@ -254,7 +149,7 @@ ClusterDag decode_mesh(Reader& r, const std::string& where, uint32_t material_co
     d.uvs.resize(2 * size_t(vertices));
     for (float& f : d.uvs) f = r.f32();
   }
-  const uint8_t* idx = r.bytes(3 * size_t(triangles));
+  const uint8_t* idx = r.take(3 * size_t(triangles), "a byte array");
   d.indices.assign(idx, idx + 3 * size_t(triangles));
   d.triangle_materials.resize(triangles);
   for (uint32_t& m : d.triangle_materials) m = r.u32();
@@ -311,8 +206,8 @@ ClusterDag decode_mesh(Reader& r, const std::string& where, uint32_t material_co
 namespace {
 
 // The whole file through `w` (its own bytes, or its sink).
-void encode_scene(Writer& w, const BuiltScene& scene) {
-  w.raw(kMagic, 8);
+void encode_scene(ByteWriter& w, const BuiltScene& scene) {
+  w.raw(kDagFileMagic, 8);
   w.u32(kVersion);
   w.u32(uint32_t(scene.meshes.size()));
   w.u32(uint32_t(scene.materials.size()));
@@ -334,7 +229,7 @@ void encode_scene(Writer& w, const BuiltScene& scene) {
 }  // namespace
 
 std::vector<uint8_t> encode_dag_file(const BuiltScene& scene) {
-  Writer w;
+  ByteWriter w;
   {
     // Reserve the whole file: the large arrays are appended without regrowth.
     size_t size = 8 + 4 * 4 + scene.instances.size() * kInstanceBytes;
@@ -351,20 +246,20 @@ std::vector<uint8_t> encode_dag_file(const BuiltScene& scene) {
 }
 
 void write_dag_to(ByteSink& sink, const BuiltScene& scene) {
-  Writer w;
+  ByteWriter w;
   w.sink = &sink;
-  w.bytes.reserve(Writer::kFlushBytes + 4096);
+  w.bytes.reserve(ByteWriter::kFlushBytes + 4096);
   encode_scene(w, scene);
 }
 
 BuiltScene decode_dag_file(const uint8_t* data, size_t size, const std::string& where) {
-  Reader r(data, size, where);
+  ByteReader r = file_reader(data, size, where);
   // "VGEODAG" then the format generation digit: a different digit is another version.
   size_t prefix = std::min<size_t>(size, 7);
-  if (prefix > 0 && std::memcmp(data, kMagic, prefix) != 0) fail("DAGFILE_BAD_MAGIC", where, "not a VGEODAG file");
+  if (prefix > 0 && std::memcmp(data, kDagFileMagic, prefix) != 0) fail("DAGFILE_BAD_MAGIC", where, "not a VGEODAG file");
   if (size < 8) fail("DAGFILE_TRUNCATED", where, "file ends inside the magic");
-  r.bytes(8);
-  if (data[7] != kMagic[7]) fail("DAGFILE_BAD_VERSION", where, "unsupported VGEODAG version");
+  r.take(8);
+  if (data[7] != kDagFileMagic[7]) fail("DAGFILE_BAD_VERSION", where, "unsupported VGEODAG version");
   uint32_t version = r.u32();
   if (version != kVersion)
     fail("DAGFILE_BAD_VERSION", where, "version " + std::to_string(version) + ", expected " + std::to_string(kVersion));
@@ -376,7 +271,7 @@ BuiltScene decode_dag_file(const uint8_t* data, size_t size, const std::string& 
   s.materials.resize(material_count);
   for (Material& m : s.materials) {
     uint32_t len = r.u32();
-    const uint8_t* name = r.bytes(len);
+    const uint8_t* name = r.take(len, "a byte array");
     m.name.assign(reinterpret_cast<const char*>(name), len);
     for (float& c : m.base_color) c = r.f32();
   }
@@ -395,19 +290,11 @@ BuiltScene decode_dag_file(const uint8_t* data, size_t size, const std::string& 
 }
 
 void write_dag_file(const std::string& path, const BuiltScene& scene) {
-  write_file_atomic(path, [&](ByteSink& sink) { write_dag_to(sink, scene); }, "DAGFILE_IO");
+  write_file_atomic(path, [&](ByteSink& sink) { write_dag_to(sink, scene); });
 }
 
 BuiltScene read_dag_file(const std::string& path) {
-  FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) fail("DAGFILE_IO", path, std::string("cannot open: ") + std::strerror(errno), kExitIo);
-  std::vector<uint8_t> bytes;
-  uint8_t buf[1 << 16];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof(buf), f)) > 0) bytes.insert(bytes.end(), buf, buf + n);
-  bool error = std::ferror(f) != 0;
-  std::fclose(f);
-  if (error) fail("DAGFILE_IO", path, "read failed", kExitIo);
+  const std::vector<uint8_t> bytes = read_file(path, kAnyFileSize);  // multi-GB DAGs are valid
   return decode_dag_file(bytes.data(), bytes.size(), path);
 }
 

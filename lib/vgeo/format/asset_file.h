@@ -16,11 +16,12 @@ enum class AssetFileKind : uint8_t { kPages = 0, kDagFile = 1 };
 // `.vgeodag` → kDagFile; anything else → kPages.
 AssetFileKind asset_file_kind_for_path(const std::string& path);
 
-// Throws VgeoError: ASSET_FILE_IO (exit 4), ASSET_FILE_UNKNOWN (neither magic, exit 3), or the
-// decoder's FORMAT_* / DAGFILE_* code.
+// Throws VgeoError: the FILE_* codes of read_file (lib/vgeo/core/file_io.h), ASSET_FILE_UNKNOWN
+// (neither magic, exit 3), or the decoder's FORMAT_* / DAGFILE_* code.
 BuiltScene read_asset_file(const std::string& path);
 
-// Written atomically (temporary file + rename): an existing file is never left half-written.
+// Written atomically (write_file_atomic): an existing file is never left half-written;
+// IO_WRITE_FAILED (exit 4) on an I/O failure.
 void write_asset_file(const std::string& path, const BuiltScene& scene, AssetFileKind kind,
                       const FormatOptions& options = {}, FormatReport* report = nullptr);
 

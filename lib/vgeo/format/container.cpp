@@ -11,7 +11,9 @@
 #include <limits>
 #include <numeric>
 
+#include "vgeo/core/byte_io.h"
 #include "vgeo/core/error.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/format/bitstream.h"
 #include "vgeo/format/crc32c.h"
 #include "vgeo/format/format.h"
@@ -23,7 +25,6 @@ using namespace format_detail;
 
 namespace {
 
-constexpr char kMagic[8] = {'V', 'G', 'E', 'O', 'P', 'A', 'G', 'E'};
 // Record sizes in the metadata (bytes); used to bound counts before allocating.
 constexpr uint32_t kMaterialMinBytes = 20, kInstanceBytes = 68, kMeshHeaderBytes = 68,
                    kClusterBytes = 76, kGroupBytes = 60, kBvhNodeBytes = 76, kPageEntryBytes = 24;
@@ -37,58 +38,34 @@ constexpr bool kCheckChecksums = true;
 
 [[noreturn]] void encode_fail(const std::string& what) { fail(kErrEncode, "<encoder>", what); }
 
-// ---- little-endian byte writer / checked reader ----
-struct Writer {
-  std::vector<uint8_t> b;
-  void u32(uint32_t v) { for (int k = 0; k < 4; ++k) b.push_back(uint8_t(v >> (8 * k))); }
-  void i32(int32_t v) { u32(uint32_t(v)); }
-  void u64(uint64_t v) { u32(uint32_t(v)); u32(uint32_t(v >> 32)); }
-  void f32(float v) { uint32_t u; std::memcpy(&u, &v, 4); u32(u); }
-  void sphere(const Sphere& s) { f32(s.center.x); f32(s.center.y); f32(s.center.z); f32(s.radius); }
-};
-
-struct Reader {
-  const uint8_t* p;
-  size_t size, pos;
-  const std::string& where;
-  const uint8_t* take(size_t n) {
-    if (n > size - pos) fail(kErrTruncated, where, "metadata ends inside a field");
-    const uint8_t* r = p + pos;
-    pos += n;
-    return r;
-  }
-  uint32_t u32() {
-    const uint8_t* b = take(4);
-    return uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24;
-  }
-  int32_t i32() { return int32_t(u32()); }
-  float f32() { const uint32_t u = u32(); float f; std::memcpy(&f, &u, 4); return f; }
-  // Counts are bounded by the bytes left: each element takes ≥ min_bytes.
-  uint32_t count(uint32_t min_bytes, const char* what) {
-    const uint32_t n = u32();
-    if (uint64_t(n) * min_bytes > size - pos)
-      fail(kErrTruncated, where, std::string(what) + " count exceeds the remaining metadata");
-    return n;
-  }
-  Sphere sphere() {
-    Sphere s;
-    s.center.x = f32(), s.center.y = f32(), s.center.z = f32(), s.radius = f32();
-    if (!std::isfinite(s.center.x) || !std::isfinite(s.center.y) || !std::isfinite(s.center.z) ||
-        !std::isfinite(s.radius))
-      fail(kErrOutOfRange, where, "non-finite bounding sphere");
-    return s;
-  }
-  float error() {
-    const float e = f32();
-    if (!(e >= 0.0f)) fail(kErrOutOfRange, where, "LOD error negative or NaN");
-    return e;
-  }
-};
-
-uint32_t read_le32(const uint8_t* b) {
-  return uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24;
+// ---- metadata fields (lib/vgeo/core/byte_io.h) with the checks of spec/format.md §2 ----
+ByteReader metadata_reader(const uint8_t* data, size_t size, const std::string& where) {
+  return ByteReader(data, size, where, kErrTruncated, "metadata");
 }
-uint64_t read_le64(const uint8_t* b) { return read_le32(b) | uint64_t(read_le32(b + 4)) << 32; }
+// Counts are bounded by the bytes left: each element takes ≥ min_bytes.
+uint32_t read_count(ByteReader& r, uint32_t min_bytes, const char* what) {
+  const uint32_t n = r.u32();
+  if (uint64_t(n) * min_bytes > r.remaining())
+    fail(kErrTruncated, *r.where, std::string(what) + " count exceeds the remaining metadata");
+  return n;
+}
+Sphere read_finite_sphere(ByteReader& r) {
+  const Sphere s = r.sphere();
+  if (!std::isfinite(s.center.x) || !std::isfinite(s.center.y) || !std::isfinite(s.center.z) || !std::isfinite(s.radius))
+    fail(kErrOutOfRange, *r.where, "non-finite bounding sphere");
+  return s;
+}
+float read_lod_error(ByteReader& r) {
+  const float e = r.f32();
+  if (!(e >= 0.0f)) fail(kErrOutOfRange, *r.where, "LOD error negative or NaN");
+  return e;
+}
+
+// Byte offsets of the 64-byte file header's fields (spec/format.md §1).
+constexpr size_t kHeaderVersion = 8, kHeaderHeaderSize = 12, kHeaderFileSize = 16, kHeaderCompression = 24,
+                 kHeaderPageSize = 28, kHeaderPageCount = 32, kHeaderMetadataSize = 36, kHeaderMetadataCrc = 40,
+                 kHeaderMetadataRawSize = 44, kHeaderMetadataCompression = 48, kHeaderReservedV1 = 44,
+                 kHeaderReservedV2 = 52, kHeaderCrc = 60;
 
 bool is_pow2(uint32_t v) { return v && !(v & (v - 1)); }
 
@@ -199,28 +176,28 @@ void check_options(const FormatOptions& o) {
 
 // Version 2 stores every array of fixed-size metadata records byte-transposed (byte j of
 // record i at j·n + i): equal and slowly varying fields line up for the compressor.
-void put_records(Writer& meta, const Writer& records, uint32_t record_size, uint32_t version) {
-  assert(records.b.size() % record_size == 0);
+void put_records(ByteWriter& meta, const ByteWriter& records, uint32_t record_size, uint32_t version) {
+  assert(records.bytes.size() % record_size == 0);
   if (version < 2) {
-    meta.b.insert(meta.b.end(), records.b.begin(), records.b.end());
+    meta.bytes.insert(meta.bytes.end(), records.bytes.begin(), records.bytes.end());
     return;
   }
-  const size_t n = records.b.size() / record_size, at = meta.b.size();
-  meta.b.resize(at + records.b.size());
+  const size_t n = records.bytes.size() / record_size, at = meta.bytes.size();
+  meta.bytes.resize(at + records.bytes.size());
   for (size_t i = 0; i < n; ++i)
-    for (uint32_t j = 0; j < record_size; ++j) meta.b[at + j * n + i] = records.b[i * record_size + j];
+    for (uint32_t j = 0; j < record_size; ++j) meta.bytes[at + j * n + i] = records.bytes[i * record_size + j];
 }
 
-void write_cluster(Writer& w, const DagCluster& c) {
+void write_cluster(ByteWriter& w, const DagCluster& c) {
   w.u32(c.group); w.u32(c.generating_group); w.u32(c.level); w.u32(c.vertex_count); w.u32(c.triangle_count);
   w.sphere(c.bounds); w.sphere(c.lod_bounds); w.sphere(c.parent_bounds);
   w.f32(c.lod_error); w.f32(c.parent_error);
 }
-void write_group(Writer& w, const DagGroup& g) {
+void write_group(ByteWriter& w, const DagGroup& g) {
   w.u32(g.first_cluster); w.u32(g.cluster_count); w.u32(g.first_generated); w.u32(g.generated_count);
   w.u32(g.level); w.u32(g.flags); w.sphere(g.bounds); w.sphere(g.parent_bounds); w.f32(g.parent_error);
 }
-void write_node(Writer& w, const BvhNode& n) {
+void write_node(ByteWriter& w, const BvhNode& n) {
   w.sphere(n.bounds); w.sphere(n.lod_bounds); w.f32(n.max_parent_error);
   w.u32(n.child_count); w.u32(n.group_mask);
   for (uint32_t k = 0; k < kBvhMaxChildren; ++k) w.u32(n.children[k]);
@@ -334,17 +311,17 @@ void octahedral_decode(const uint32_t q[2], uint32_t bits, float n[3]) {
 
 std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions& o, FormatReport* report) {
   check_options(o);
-  Writer meta;
+  ByteWriter meta;
   meta.u32(uint32_t(scene.materials.size()));
   for (const Material& m : scene.materials) {
     if (m.name.size() > kMaxNameBytes) encode_fail("material name longer than 4096 bytes");
     meta.u32(uint32_t(m.name.size()));
-    meta.b.insert(meta.b.end(), m.name.begin(), m.name.end());
+    meta.bytes.insert(meta.bytes.end(), m.name.begin(), m.name.end());
     for (float c : m.base_color) meta.f32(c);
   }
   meta.u32(uint32_t(scene.instances.size()));
   {
-    Writer recs;
+    ByteWriter recs;
     for (const Instance& in : scene.instances) {
       if (in.mesh >= scene.meshes.size()) encode_fail("instance refers to a missing mesh");
       recs.u32(in.mesh);
@@ -490,28 +467,28 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
     meta.u32(uint32_t(dag.bvh_nodes.size()));
     meta.u32(first_page);
     meta.u32(uint32_t(pages.size()) - first_page);
-    Writer recs;
+    ByteWriter recs;
     for (const DagCluster& c : stored.clusters) write_cluster(recs, c);
     put_records(meta, recs, kClusterBytes, o.version);
-    recs.b.clear();
+    recs.bytes.clear();
     for (const DagGroup& g : stored.groups) write_group(recs, g);
     put_records(meta, recs, kGroupBytes, o.version);
-    recs.b.clear();
+    recs.bytes.clear();
     for (uint32_t id : dag.generated_clusters) recs.u32(id);
     put_records(meta, recs, 4, o.version);
-    recs.b.clear();
+    recs.bytes.clear();
     for (const BvhNode& n : stored.bvh_nodes) {
       if (n.child_count > kBvhMaxChildren) encode_fail("BVH node with more than 8 children");
       write_node(recs, n);
     }
     put_records(meta, recs, kBvhNodeBytes, o.version);
-    recs.b.clear();
+    recs.bytes.clear();
     for (uint32_t c : slots) recs.u32(c);
     put_records(meta, recs, 4, o.version);
   }
   meta.u32(uint32_t(pages.size()));
   {
-    Writer recs;
+    ByteWriter recs;
     for (const PageOut& p : pages) {
       recs.u32(p.mesh); recs.u32(uint32_t(p.stored.size())); recs.u32(p.raw); recs.u32(p.memory);
       recs.u32(p.clusters); recs.u32(p.crc);
@@ -520,19 +497,19 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
   }
   // Version 2: the metadata is compressed with the file's codec unless that would exceed
   // kMaxMetadataRatio (then it is stored as is, metadata_compression 0).
-  const uint64_t meta_raw_size = meta.b.size();
+  const uint64_t meta_raw_size = meta.bytes.size();
   Compression meta_comp = Compression::kNone;
   std::vector<uint8_t> meta_stored;
   if (o.version >= 2 && o.compression != Compression::kNone) {
-    meta_stored = compress(meta.b, o.compression, o.zstd_level);
-    if (meta_stored.size() < meta.b.size() && meta_stored.size() * uint64_t(kMaxMetadataRatio) >= meta.b.size())
+    meta_stored = compress(meta.bytes, o.compression, o.zstd_level);
+    if (meta_stored.size() < meta.bytes.size() && meta_stored.size() * uint64_t(kMaxMetadataRatio) >= meta.bytes.size())
       meta_comp = o.compression;
   }
-  if (meta_comp == Compression::kNone) meta_stored = meta.b;
+  if (meta_comp == Compression::kNone) meta_stored = meta.bytes;
   if (meta_stored.size() > UINT32_MAX || meta_raw_size > UINT32_MAX) encode_fail("metadata larger than 4 GiB");
 
-  Writer file;
-  file.b.insert(file.b.end(), kMagic, kMagic + 8);
+  ByteWriter file;
+  file.bytes.insert(file.bytes.end(), kPageFileMagic, kPageFileMagic + 8);
   file.u32(o.version);
   file.u32(kFileHeaderSize);
   uint64_t total = kFileHeaderSize + meta_stored.size();
@@ -547,11 +524,11 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
     file.u32(uint32_t(meta_raw_size));
     file.u32(uint32_t(meta_comp));
   }
-  while (file.b.size() < kFileHeaderSize - 4) file.b.push_back(0);  // reserved, zero
-  file.u32(crc32c(file.b.data(), kFileHeaderSize - 4));
-  file.b.insert(file.b.end(), meta_stored.begin(), meta_stored.end());
-  for (const PageOut& p : pages) file.b.insert(file.b.end(), p.stored.begin(), p.stored.end());
-  assert(file.b.size() == total);
+  while (file.bytes.size() < kFileHeaderSize - 4) file.bytes.push_back(0);  // reserved, zero
+  file.u32(crc32c(file.bytes.data(), kFileHeaderSize - 4));
+  file.bytes.insert(file.bytes.end(), meta_stored.begin(), meta_stored.end());
+  for (const PageOut& p : pages) file.bytes.insert(file.bytes.end(), p.stored.begin(), p.stored.end());
+  assert(file.bytes.size() == total);
   if (report) {
     rep.file_bytes = total;
     rep.metadata_bytes = meta_stored.size();
@@ -559,40 +536,40 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
     for (const PageOut& p : pages) rep.pages_stored_bytes += p.stored.size();
     *report = std::move(rep);
   }
-  return std::move(file.b);
+  return std::move(file.bytes);
 }
 
 // ================================================================ decoder
 
 FormatContainer parse_container(const uint8_t* data, size_t size, const std::string& where) {
   if (size < 8) fail(kErrTruncated, where, "shorter than the file magic");
-  if (std::memcmp(data, kMagic, 8) != 0) fail(kErrBadMagic, where, "not a vgeo page file (magic VGEOPAGE)");
+  if (std::memcmp(data, kPageFileMagic, 8) != 0) fail(kErrBadMagic, where, "not a vgeo page file (magic VGEOPAGE)");
   if (size < kFileHeaderSize) fail(kErrTruncated, where, "shorter than the 64-byte header");
   FormatContainer fc;
-  fc.version = read_le32(data + 8);
+  fc.version = load_le32(data + kHeaderVersion);
   if (fc.version < kMinFormatVersion || fc.version > kFormatVersion)
     fail(kErrBadVersion, where, "version " + std::to_string(fc.version) + " (supported: 1, 2)");
   const uint32_t version = fc.version;
-  if (kCheckChecksums && crc32c(data, kFileHeaderSize - 4) != read_le32(data + 60))
+  if (kCheckChecksums && crc32c(data, kHeaderCrc) != load_le32(data + kHeaderCrc))
     fail(kErrChecksum, where, "header CRC-32C mismatch");
-  if (read_le32(data + 12) != kFileHeaderSize) fail(kErrInconsistent, where, "header size is not 64");
-  fc.file_size = read_le64(data + 16);
-  const uint32_t comp = read_le32(data + 24);
+  if (load_le32(data + kHeaderHeaderSize) != kFileHeaderSize) fail(kErrInconsistent, where, "header size is not 64");
+  fc.file_size = load_le64(data + kHeaderFileSize);
+  const uint32_t comp = load_le32(data + kHeaderCompression);
   if (comp > uint32_t(Compression::kLz4)) fail(kErrUnsupported, where, "unknown compression " + std::to_string(comp));
   fc.compression = Compression(comp);
-  fc.page_size = read_le32(data + 28);
+  fc.page_size = load_le32(data + kHeaderPageSize);
   if (!is_pow2(fc.page_size) || fc.page_size < kMinPageSize || fc.page_size > kMaxPageSize)
     fail(kErrOutOfRange, where, "page size not a power of two in [16 KiB, 16 MiB]");
-  const uint32_t page_count = read_le32(data + 32);
-  fc.metadata_size = read_le32(data + 36);
-  const uint32_t meta_crc = read_le32(data + 40);
+  const uint32_t page_count = load_le32(data + kHeaderPageCount);
+  fc.metadata_size = load_le32(data + kHeaderMetadataSize);
+  const uint32_t meta_crc = load_le32(data + kHeaderMetadataCrc);
   // Version 2: metadata_raw_size (44) and metadata_compression (48); reserved from 52.
   uint32_t meta_raw_size = fc.metadata_size, meta_comp = 0;
   if (version >= 2) {
-    meta_raw_size = read_le32(data + 44);
-    meta_comp = read_le32(data + 48);
+    meta_raw_size = load_le32(data + kHeaderMetadataRawSize);
+    meta_comp = load_le32(data + kHeaderMetadataCompression);
   }
-  for (uint32_t i = version >= 2 ? 52 : 44; i < 60; ++i)
+  for (size_t i = version >= 2 ? kHeaderReservedV2 : kHeaderReservedV1; i < kHeaderCrc; ++i)
     if (data[i] != 0) fail(kErrUnsupported, where, "reserved header bytes are not zero");
   if (meta_comp > uint32_t(Compression::kLz4)) fail(kErrUnsupported, where, "unknown metadata compression");
   if (meta_comp == 0 && meta_raw_size != fc.metadata_size)
@@ -613,17 +590,17 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
   }
   // Arrays of fixed-size records: version 2 stores them byte-transposed (put_records).
   std::vector<uint8_t> scratch;
-  auto records = [&](Reader& from, uint64_t n, uint32_t record_size) {
+  auto records = [&](ByteReader& from, uint64_t n, uint32_t record_size) {
     const uint8_t* src = from.take(size_t(n) * record_size);  // n bounded by the caller
-    if (version < 2) return Reader{src, size_t(n) * record_size, 0, where};
+    if (version < 2) return metadata_reader(src, size_t(n) * record_size, where);
     scratch.resize(size_t(n) * record_size);
     for (size_t i = 0; i < n; ++i)
       for (uint32_t j = 0; j < record_size; ++j) scratch[i * record_size + j] = src[j * n + i];
-    return Reader{scratch.data(), scratch.size(), 0, where};
+    return metadata_reader(scratch.data(), scratch.size(), where);
   };
 
-  Reader r{m, meta_raw_size, 0, where};
-  fc.materials.resize(r.count(kMaterialMinBytes, "material"));
+  ByteReader r = metadata_reader(m, meta_raw_size, where);
+  fc.materials.resize(read_count(r, kMaterialMinBytes, "material"));
   for (Material& mat : fc.materials) {
     const uint32_t len = r.u32();
     if (len > kMaxNameBytes) fail(kErrOutOfRange, where, "material name longer than 4096 bytes");
@@ -631,15 +608,15 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
     mat.name.assign(reinterpret_cast<const char*>(s), len);
     for (float& c : mat.base_color) c = r.f32();
   }
-  fc.instances.resize(r.count(kInstanceBytes, "instance"));
+  fc.instances.resize(read_count(r, kInstanceBytes, "instance"));
   {
-    Reader rr = records(r, fc.instances.size(), kInstanceBytes);
+    ByteReader rr = records(r, fc.instances.size(), kInstanceBytes);
     for (Instance& in : fc.instances) {
       in.mesh = rr.u32();
       for (float& t : in.transform) t = rr.f32();
     }
   }
-  fc.meshes.resize(r.count(kMeshHeaderBytes, "mesh"));
+  fc.meshes.resize(read_count(r, kMeshHeaderBytes, "mesh"));
   uint32_t next_page = 0;
   for (MeshMetadata& mm : fc.meshes) {
     const uint32_t flags = r.u32();
@@ -667,13 +644,13 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
     // Bound every count by the bytes left before allocating.
     const uint64_t need = uint64_t(nc) * (kClusterBytes + 4) + uint64_t(ng) * kGroupBytes + uint64_t(nge) * 4 +
                           uint64_t(nb) * kBvhNodeBytes;
-    if (need > r.size - r.pos) fail(kErrTruncated, where, "mesh record counts exceed the remaining metadata");
+    if (need > r.remaining()) fail(kErrTruncated, where, "mesh record counts exceed the remaining metadata");
     if (nc > 0 && mm.page_count == 0) fail(kErrInconsistent, where, "clusters but no pages");
     dag.clusters.resize(nc);
     uint32_t vsum = 0, tsum = 0;
-    Reader rc = records(r, nc, kClusterBytes);
+    ByteReader rc = records(r, nc, kClusterBytes);
     for (DagCluster& c : dag.clusters) {
-      Reader& r = rc;
+      ByteReader& r = rc;
       c.group = r.u32();
       c.generating_group = r.u32();
       c.level = r.u32();
@@ -684,20 +661,20 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
       if (c.vertex_count == 0 || c.vertex_count > kMaxClusterVertices || c.triangle_count == 0 ||
           c.triangle_count > kMaxClusterTriangles)
         fail(kErrOutOfRange, where, "cluster vertex/triangle count out of range");
-      c.bounds = r.sphere();
-      c.lod_bounds = r.sphere();
-      c.parent_bounds = r.sphere();
-      c.lod_error = r.error();
-      c.parent_error = r.error();
+      c.bounds = read_finite_sphere(r);
+      c.lod_bounds = read_finite_sphere(r);
+      c.parent_bounds = read_finite_sphere(r);
+      c.lod_error = read_lod_error(r);
+      c.parent_error = read_lod_error(r);
       c.vertex_offset = vsum;
       c.triangle_offset = c.material_offset = tsum;
       vsum += c.vertex_count;  // ≤ 255 · 2^32 / 80: counts bounded by metadata size, no wrap
       tsum += c.triangle_count;
     }
     dag.groups.resize(ng);
-    Reader rg = records(r, ng, kGroupBytes);
+    ByteReader rg = records(r, ng, kGroupBytes);
     for (DagGroup& g : dag.groups) {
-      Reader& r = rg;
+      ByteReader& r = rg;
       g.first_cluster = r.u32();
       g.cluster_count = r.u32();
       g.first_generated = r.u32();
@@ -707,24 +684,24 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
       if (uint64_t(g.first_cluster) + g.cluster_count > nc || uint64_t(g.first_generated) + g.generated_count > nge)
         fail(kErrOutOfRange, where, "group member/generated range out of range");
       if (g.flags & ~uint32_t(kGroupTerminal)) fail(kErrUnsupported, where, "unknown group flags");
-      g.bounds = r.sphere();
-      g.parent_bounds = r.sphere();
-      g.parent_error = r.error();
+      g.bounds = read_finite_sphere(r);
+      g.parent_bounds = read_finite_sphere(r);
+      g.parent_error = read_lod_error(r);
     }
     dag.generated_clusters.resize(nge);
-    Reader rge = records(r, nge, 4);
+    ByteReader rge = records(r, nge, 4);
     for (uint32_t& id : dag.generated_clusters) {
       id = rge.u32();
       if (id >= nc) fail(kErrOutOfRange, where, "generated cluster id out of range");
     }
     dag.bvh_nodes.resize(nb);
     std::vector<uint8_t> referenced(nb, 0);
-    Reader rb = records(r, nb, kBvhNodeBytes);
+    ByteReader rb = records(r, nb, kBvhNodeBytes);
     for (BvhNode& n : dag.bvh_nodes) {
-      Reader& r = rb;
-      n.bounds = r.sphere();
-      n.lod_bounds = r.sphere();
-      n.max_parent_error = r.error();
+      ByteReader& r = rb;
+      n.bounds = read_finite_sphere(r);
+      n.lod_bounds = read_finite_sphere(r);
+      n.max_parent_error = read_lod_error(r);
       n.child_count = r.u32();
       n.group_mask = r.u32();
       if (n.child_count > kBvhMaxChildren || (n.group_mask >> n.child_count) != 0)
@@ -746,7 +723,7 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
     }
     mm.page_clusters.resize(nc);
     std::vector<uint8_t> seen(nc, 0);
-    Reader rp = records(r, nc, 4);
+    ByteReader rp = records(r, nc, 4);
     for (uint32_t& c : mm.page_clusters) {
       c = rp.u32();
       if (c >= nc || seen[c]) fail(kErrInconsistent, where, "page cluster list is not a permutation");
@@ -757,13 +734,13 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
   for (const Instance& in : fc.instances)
     if (in.mesh >= fc.meshes.size()) fail(kErrOutOfRange, where, "instance mesh index out of range");
   if (r.u32() != page_count) fail(kErrInconsistent, where, "page table count differs from the header");
-  if (uint64_t(page_count) * kPageEntryBytes > r.size - r.pos) fail(kErrTruncated, where, "page table exceeds the metadata");
+  if (uint64_t(page_count) * kPageEntryBytes > r.remaining()) fail(kErrTruncated, where, "page table exceeds the metadata");
   fc.pages.resize(page_count);
   uint64_t offset = kFileHeaderSize + uint64_t(fc.metadata_size);
   const uint32_t max_raw = max_raw_page_size(fc.page_size);
-  Reader pr = records(r, page_count, kPageEntryBytes);
+  ByteReader pr = records(r, page_count, kPageEntryBytes);
   for (PageEntry& p : fc.pages) {
-    Reader& r = pr;
+    ByteReader& r = pr;
     p.mesh = r.u32();
     p.stored_size = r.u32();
     p.raw_size = r.u32();
@@ -779,7 +756,7 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
     p.file_offset = offset;
     offset += p.stored_size;
   }
-  if (r.pos != r.size) fail(kErrTrailingBytes, where, "bytes after the page table in the metadata");
+  if (r.remaining() != 0) fail(kErrTrailingBytes, where, "bytes after the page table in the metadata");
   if (offset != fc.file_size) fail(kErrInconsistent, where, "page sizes do not add up to the declared file size");
   // Per mesh: pages belong to it, their cluster counts tile page_clusters, groups' parts
   // occupy consecutive slots (hence consecutive pages).
@@ -819,6 +796,35 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
     }
   }
   return fc;
+}
+
+FormatContainer read_container_metadata(const std::string& path) {
+  const ReadOnlyFile file(path);
+  if (file.size() < kFileHeaderSize) fail(kErrTruncated, path, "file shorter than the 64-byte header");
+  std::vector<uint8_t> head(kFileHeaderSize);
+  file.read_exact(0, head.data(), head.size());
+  // Allocation bound: the metadata must lie inside the real file.
+  const uint64_t metadata_size = load_le32(&head[kHeaderMetadataSize]);
+  if (kFileHeaderSize + metadata_size > file.size()) fail(kErrTruncated, path, "metadata extends past the end of the file");
+  head.resize(size_t(kFileHeaderSize + metadata_size));
+  file.read_exact(kFileHeaderSize, head.data() + kFileHeaderSize, size_t(metadata_size));
+  FormatContainer container = parse_container(head.data(), head.size(), path);
+  if (container.file_size != file.size())
+    fail(kErrInconsistent, path, "file size " + std::to_string(file.size()) + " differs from the header's " +
+                                     std::to_string(container.file_size));
+  return container;
+}
+
+bool is_page_file(const std::string& path) {
+  try {
+    const ReadOnlyFile file(path);
+    char magic[sizeof kPageFileMagic] = {};
+    if (file.size() < sizeof magic) return false;
+    file.read_exact(0, magic, sizeof magic);
+    return std::memcmp(magic, kPageFileMagic, sizeof magic) == 0;
+  } catch (const VgeoError&) {
+    return false;  // unreadable: not a page file this caller can use
+  }
 }
 
 std::vector<uint32_t> transcode_page(const FormatContainer& fc, uint32_t page, const uint8_t* stored,

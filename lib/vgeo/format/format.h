@@ -37,6 +37,9 @@ inline constexpr const char* kErrUnsupported = "FORMAT_UNSUPPORTED";       // un
 inline constexpr const char* kErrNonCanonical = "FORMAT_NON_CANONICAL";    // decodable, but not the one encoding
 inline constexpr const char* kErrEncode = "FORMAT_ENCODE";                 // encoder cannot represent the input
 
+// The file's first 8 bytes (spec/format.md §1); told apart from VGEODAG1 files by it.
+inline constexpr char kPageFileMagic[8] = {'V', 'G', 'E', 'O', 'P', 'A', 'G', 'E'};
+
 // ---- limits (each justified in spec/format.md §Limits) ----
 inline constexpr uint32_t kFormatVersion = 2;     // written by default
 inline constexpr uint32_t kMinFormatVersion = 1;  // oldest version still decoded (and writable)
@@ -167,6 +170,14 @@ BuiltScene decode_format(const uint8_t* data, size_t size, const std::string& wh
 // pages need not be present. `file_size` is the full file size if known (0 = unknown: the
 // page table is then only checked against the header's declared size).
 FormatContainer parse_container(const uint8_t* data, size_t size, const std::string& where);
+
+// Reads and parses a page file's header + metadata only (positioned reads; no page is read).
+// Throws the FILE_* codes of lib/vgeo/core/file_io.h or those of parse_container; a file whose
+// size differs from the header's is FORMAT_INCONSISTENT; metadata past the end FORMAT_TRUNCATED.
+FormatContainer read_container_metadata(const std::string& path);
+// True when the file starts with kPageFileMagic; false when it cannot be read or holds
+// anything else.
+bool is_page_file(const std::string& path);
 
 // Checks the CRC, decompresses and transcodes one page's stored bytes into the memory
 // form (words). Output size == the page table's memory_size / 4.

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <unordered_map>
 
+#include "vgeo/core/byte_io.h"
 #include "vgeo/core/error.h"
 #include "vgeo/format/bitstream.h"
 
@@ -531,28 +532,6 @@ namespace vgeo::format_detail {
 
 // ---------------------------------------------------------------- disk form
 
-namespace {
-void put_u32(std::vector<uint8_t>& b, uint32_t v) {
-  for (int k = 0; k < 4; ++k) b.push_back(uint8_t(v >> (8 * k)));
-}
-
-struct Reader {
-  const uint8_t* p;
-  size_t size, pos = 0;
-  const std::string& where;
-  const uint8_t* take(size_t n) {
-    if (n > size - pos) fail(kErrTruncated, where, "disk page ends inside a field");
-    const uint8_t* r = p + pos;
-    pos += n;
-    return r;
-  }
-  uint8_t u8() { return *take(1); }
-  uint32_t u32() {
-    const uint8_t* b = take(4);
-    return uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24;
-  }
-};
-}  // namespace
 
 uint32_t disk_cluster_bytes(const CanonicalCluster& c, uint32_t channel_count, uint32_t version) {
   uint32_t b = 3 + 5 * channel_count + c.triangle_count + c.ref_count + 5 * c.run_count;
@@ -597,15 +576,15 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
   assert(version == 1 || version == 2);
   const uint32_t channels = q.channel_count();
   std::vector<uint8_t> b;
-  put_u32(b, version >= 2 ? kDiskPageMagicV2 : kDiskPageMagic);
-  put_u32(b, uint32_t(clusters.size()));
+  append_le32(b, version >= 2 ? kDiskPageMagicV2 : kDiskPageMagic);
+  append_le32(b, uint32_t(clusters.size()));
   for (const auto* c : clusters) b.push_back(uint8_t(c->vertex_count));
   for (const auto* c : clusters) b.push_back(uint8_t(c->triangle_count));
   for (const auto* c : clusters) b.push_back(uint8_t(c->run_count));
   for (const auto* c : clusters)
     for (uint32_t k = 0; k < channels; ++k) b.push_back(uint8_t(c->bits[k]));
   for (const auto* c : clusters)
-    for (uint32_t k = 0; k < channels; ++k) put_u32(b, uint32_t(c->min[k]));
+    for (uint32_t k = 0; k < channels; ++k) append_le32(b, uint32_t(c->min[k]));
   size_t mark = b.size();
   if (streams) streams->headers.insert(streams->headers.end(), b.begin(), b.end());
   auto section = [&](std::vector<uint8_t> DiskStreams::*s) {
@@ -618,12 +597,12 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
     b.insert(b.end(), c->ctl, c->ctl + c->triangle_count);
     refs += c->ref_count;
   }
-  put_u32(b, refs);
+  append_le32(b, refs);
   for (const auto* c : clusters) b.insert(b.end(), c->refs, c->refs + c->ref_count);
   section(&DiskStreams::topology);
   for (const auto* c : clusters) b.insert(b.end(), c->run_start, c->run_start + c->run_count);
   for (const auto* c : clusters)
-    for (uint32_t r = 0; r < c->run_count; ++r) put_u32(b, c->run_material[r]);
+    for (uint32_t r = 0; r < c->run_count; ++r) append_le32(b, c->run_material[r]);
   section(&DiskStreams::materials);
   if (version == 1) {
     // Vertices: per channel, per cluster, byte planes of zigzag deltas along first-use order.
@@ -726,7 +705,7 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
 void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q,
                      uint32_t expected_clusters, ClusterSink& sink, const std::string& where,
                      uint32_t version) {
-  Reader r{data, size, 0, where};
+  ByteReader r(data, size, where, kErrTruncated, "disk page");
   const uint32_t magic = version >= 2 ? kDiskPageMagicV2 : kDiskPageMagic;
   if (r.u32() != magic) fail(kErrBadMagic, where, version >= 2 ? "disk page magic is not VDP2" : "disk page magic is not VDPG");
   const uint32_t n = r.u32();
@@ -856,7 +835,7 @@ void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q
     for (uint32_t k = 0; k < c.run_count; ++k) {
       c.run_start[k] = data[h.run_start + k];
       const uint8_t* m = data + h.run_material + 4 * k;
-      c.run_material[k] = uint32_t(m[0]) | uint32_t(m[1]) << 8 | uint32_t(m[2]) << 16 | uint32_t(m[3]) << 24;
+      c.run_material[k] = load_le32(m);
       if (k == 0 ? c.run_start[0] != 0 : c.run_start[k] <= c.run_start[k - 1] || c.run_start[k] >= c.triangle_count)
         fail(kErrOutOfRange, where, "material runs not strictly increasing from 0");
       if (c.run_material[k] > kMaxMaterialId) fail(kErrOutOfRange, where, "material id beyond 2^24 - 1");

@@ -3,18 +3,13 @@
 // the mesh arrays (no second in-memory copy of a multi-GB file).
 #include "vgeo/mesh/export.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <bit>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
 #include <nlohmann/json.hpp>
+
+#include "vgeo/mesh/glb.h"
 
 namespace vgeo {
 
@@ -22,72 +17,12 @@ static_assert(std::endian::native == std::endian::little, "GLB/PLY writers assum
 
 namespace {
 
-// glTF constants (glTF 2.0 spec, section 5).
-constexpr uint32_t kGlbMagic = 0x46546C67;      // "glTF"
-constexpr uint32_t kGlbVersion = 2;
-constexpr uint32_t kChunkJson = 0x4E4F534A;     // "JSON"
-constexpr uint32_t kChunkBin = 0x004E4942;      // "BIN\0"
+// glTF constants (glTF 2.0 spec, section 5; the GLB container's in vgeo/mesh/glb.h).
 constexpr int kComponentFloat = 5126, kComponentUint = 5125;
 constexpr int kTargetArrayBuffer = 34962, kTargetElementArrayBuffer = 34963;
 constexpr int kModeTriangles = 4;
-// File write buffer: large sequential writes without a copy of the whole file.
-constexpr size_t kWriteBuffer = size_t(1) << 20;
 // Text formats are formatted into this many bytes before each write.
 constexpr size_t kTextFlush = size_t(1) << 20;
-
-// ---------------------------------------------------------------- sinks
-
-struct MemorySink final : ByteSink {
-  std::vector<uint8_t> bytes;
-  void write(const void* data, size_t size) override {
-    const auto* p = static_cast<const uint8_t*>(data);
-    bytes.insert(bytes.end(), p, p + size);
-  }
-};
-
-// Temp file next to `path`, renamed over it by commit(); removed if never committed.
-class AtomicFile final : public ByteSink {
- public:
-  AtomicFile(const std::string& path, const char* io_code) : path_(path), temp_(path + ".tmp-XXXXXX"), io_code_(io_code) {
-    int fd = mkstemp(temp_.data());
-    if (fd < 0) io_fail("cannot create temporary file " + temp_);
-    // mkstemp creates 0600; give the result the usual permissions of a new file.
-    fchmod(fd, 0644);
-    file_ = fdopen(fd, "wb");
-    if (!file_) {
-      ::close(fd);
-      ::unlink(temp_.c_str());
-      io_fail("cannot open temporary file");
-    }
-    std::setvbuf(file_, nullptr, _IOFBF, kWriteBuffer);
-  }
-  ~AtomicFile() override {
-    if (file_) std::fclose(file_);
-    if (!committed_) ::unlink(temp_.c_str());
-  }
-  AtomicFile(const AtomicFile&) = delete;
-  AtomicFile& operator=(const AtomicFile&) = delete;
-
-  void write(const void* data, size_t size) override {
-    if (size && std::fwrite(data, 1, size, file_) != size) io_fail("write failed");
-  }
-  void commit() {
-    int rc = std::fclose(file_);
-    file_ = nullptr;
-    if (rc != 0) io_fail("write failed");
-    if (std::rename(temp_.c_str(), path_.c_str()) != 0) io_fail("cannot rename temporary file into place");
-    committed_ = true;
-  }
-
- private:
-  [[noreturn]] void io_fail(const std::string& what) {
-    fail(io_code_, path_, what + ": " + std::strerror(errno), kExitIo);
-  }
-  std::string path_, temp_;
-  const char* io_code_;
-  std::FILE* file_ = nullptr;
-  bool committed_ = false;
-};
 
 // Buffered text formatting with locale-independent shortest round-trip floats.
 class TextWriter {
@@ -296,12 +231,12 @@ void encode_glb_to(const Scene& scene, ByteSink& sink, const std::string& where)
 
   std::string text = doc.dump();
   while (text.size() % 4) text.push_back(' ');  // JSON chunk is padded with spaces
-  const uint64_t total = 12 + 8 + text.size() + 8 + offset;
+  const uint64_t total = kGlbHeaderBytes + kGlbChunkHeaderBytes + text.size() + kGlbChunkHeaderBytes + offset;
   if (total > UINT32_MAX) fail("EXPORT_TOO_LARGE", where, "GLB would exceed 4 GiB (" + std::to_string(total) + " bytes)");
-  const uint32_t header[5] = {kGlbMagic, kGlbVersion, uint32_t(total), uint32_t(text.size()), kChunkJson};
+  const uint32_t header[5] = {kGlbMagic, kGlbVersion, uint32_t(total), uint32_t(text.size()), kGlbChunkJson};
   sink.write(header, sizeof header);
   sink.write(text.data(), text.size());
-  const uint32_t bin_header[2] = {uint32_t(offset), kChunkBin};
+  const uint32_t bin_header[2] = {uint32_t(offset), kGlbChunkBin};
   sink.write(bin_header, sizeof bin_header);
   for (size_t i = 0; i < scene.meshes.size(); ++i) {
     const Mesh& m = scene.meshes[i];
@@ -498,16 +433,6 @@ void write_scene_file(const Scene& scene, const std::string& path) {
     case MeshFormat::kPly: write_ply(bake_scene(scene), path); return;
     case MeshFormat::kOff: write_off(bake_scene(scene), path); return;
   }
-}
-
-void write_file_atomic(const std::string& path, const void* bytes, size_t size) {
-  write_file_atomic(path, [&](ByteSink& s) { s.write(bytes, size); });
-}
-
-void write_file_atomic(const std::string& path, const std::function<void(ByteSink&)>& encode, const char* io_code) {
-  AtomicFile file(path, io_code);
-  encode(file);
-  file.commit();
 }
 
 }  // namespace vgeo

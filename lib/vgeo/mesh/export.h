@@ -4,25 +4,23 @@
 // Contract:
 //  - byte-identical output for identical input (no timestamps, locale-independent
 //    shortest round-trip float text via std::to_chars, JSON keys in sorted order);
-//  - files are written atomically: bytes go to "<path>.tmp-XXXXXX" in the same directory,
-//    which is renamed over <path> only after every byte was written, so an existing file
-//    is never left half-written (atomic against process failure; no fsync, so not
-//    against power loss);
+//  - files are written atomically (write_file_atomic, lib/vgeo/core/file_io.h: temporary
+//    file, fsync, rename, directory fsync), so an existing file is never left half-written;
 //  - triangles are grouped by material (stable: original order within a material) in
 //    GLB (one primitive per used material, ascending) and OBJ (one `usemtl` run each);
 //    PLY and OFF keep the original triangle order.
 //  - invalid meshes are rejected with a stable code before anything is written:
 //    EXPORT_ATTRIBUTE_SIZE, EXPORT_INDEX_OUT_OF_RANGE, EXPORT_MATERIAL_OUT_OF_RANGE,
 //    EXPORT_NON_FINITE (positions), EXPORT_EMPTY_MESH, EXPORT_TOO_LARGE (GLB > 4 GiB),
-//    EXPORT_BAD_INSTANCE (mesh index); I/O failures are EXPORT_IO (kExitIo);
+//    EXPORT_BAD_INSTANCE (mesh index); I/O failures are IO_WRITE_FAILED (kExitIo);
 //    an unknown extension is EXPORT_UNKNOWN_FORMAT (kExitUsage).
 #include <cstdint>
 #include <optional>
-#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "vgeo/core/file_io.h"
 #include "vgeo/mesh/mesh.h"
 
 namespace vgeo {
@@ -58,18 +56,5 @@ Mesh bake_scene(const Scene& scene);
 // Writes `scene` in the format of `path`'s extension (GLB keeps the scene; the other
 // formats get bake_scene(scene)).
 void write_scene_file(const Scene& scene, const std::string& path);
-
-// Atomic whole-file write of `bytes` to `path` (same temp+rename rules as above).
-void write_file_atomic(const std::string& path, const void* bytes, size_t size);
-
-// Destination of the streaming writers: a file being written, or memory.
-struct ByteSink {
-  virtual ~ByteSink() = default;
-  virtual void write(const void* data, size_t size) = 0;
-};
-// Atomic whole-file write streamed by `encode` (no copy of the whole file in memory); I/O
-// failures are VgeoErrors with code `io_code` (kExitIo) and leave any previous file as it was.
-void write_file_atomic(const std::string& path, const std::function<void(ByteSink&)>& encode,
-                       const char* io_code = "EXPORT_IO");
 
 }  // namespace vgeo

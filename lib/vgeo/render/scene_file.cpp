@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
@@ -11,6 +10,7 @@
 
 #include "vgeo/format/asset_file.h"
 #include "vgeo/core/error.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/core/hash.h"
 #include "vgeo/mesh/generate.h"
 #include "vgeo/mesh/import.h"
@@ -574,27 +574,10 @@ SceneFile parse_scene_json(const std::string& text, const std::string& where, co
   return out;
 }
 
-namespace {
-// Whole small text file; the size is checked before allocating (SCENE_TOO_LARGE).
-std::string read_capped_text_file(const std::string& path, std::streamoff max_bytes, const char* too_large) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) fail("SCENE_READ_FAILED", path, "cannot open", kExitIo);
-  f.seekg(0, std::ios::end);
-  std::streamoff size = f.tellg();
-  if (size < 0) fail("SCENE_READ_FAILED", path, "cannot read", kExitIo);
-  if (size > max_bytes) fail("SCENE_TOO_LARGE", path, too_large);
-  f.seekg(0);
-  std::string text(size_t(size), '\0');
-  f.read(text.data(), size);
-  if (!f) fail("SCENE_READ_FAILED", path, "read failed", kExitIo);
-  return text;
-}
-}  // namespace
-
 std::vector<Camera> load_camera_path_file(const std::string& path, const Camera& base) {
   // A path of kMaxKeyframes keyframes is well below 4 MB of JSON.
-  constexpr std::streamoff kMaxPathBytes = 4 << 20;
-  std::string text = read_capped_text_file(path, kMaxPathBytes, "camera path file larger than 4 MB");
+  constexpr uint64_t kMaxPathBytes = 4 << 20;
+  std::string text = read_text_file(path, kMaxPathBytes);
   SceneLoadOptions options;
   Ctx c{path, "", &options};
   json doc = json::parse(text, nullptr, false);
@@ -604,8 +587,8 @@ std::vector<Camera> load_camera_path_file(const std::string& path, const Camera&
 
 SceneFile load_scene_file(const std::string& path, const SceneLoadOptions& options) {
   // Scene files are small descriptions; 64 MB is far beyond any hand-written or generated one.
-  constexpr std::streamoff kMaxSceneBytes = 64 << 20;
-  std::string text = read_capped_text_file(path, kMaxSceneBytes, "scene file larger than 64 MB");
+  constexpr uint64_t kMaxSceneBytes = 64 << 20;
+  std::string text = read_text_file(path, kMaxSceneBytes);
   std::string base = std::filesystem::path(path).parent_path().string();
   return parse_scene_json(text, path, base.empty() ? "." : base, options);
 }

@@ -57,8 +57,8 @@ struct SceneLoadOptions {
   std::optional<StreamOptions> stream;
 };
 
-// Throws VgeoError with a SCENE_* code (exit 3; SCENE_READ_FAILED exit 4) on any malformed
-// input; never allocates more than a bound derived from the input (procedural meshes are
+// Throws VgeoError with a SCENE_* code (exit 3) on any malformed input, or a FILE_* code of
+// read_text_file (lib/vgeo/core/file_io.h: missing/unreadable exit 4, over 64 MB exit 3); never allocates more than a bound derived from the input (procedural meshes are
 // capped by kMaxProceduralTriangles, camera paths by kMaxPathFrames).
 SceneFile load_scene_file(const std::string& path, const SceneLoadOptions& options);
 SceneFile parse_scene_json(const std::string& text, const std::string& where, const std::string& base_dir,

@@ -1,24 +1,34 @@
 #include <png.h>
 
 #include <csetjmp>
-#include <cstdio>
+#include <vector>
 
 #include "vgeo/core/error.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/shade/shade.h"
 
 namespace vgeo {
+namespace {
+
+// libpng writes into memory; the file is then written atomically (lib/vgeo/core/file_io.h),
+// so a failed or interrupted render never leaves a truncated PNG at the path.
+void append_to_buffer(png_structp png, png_bytep data, png_size_t size) {
+  auto* out = static_cast<std::vector<uint8_t>*>(png_get_io_ptr(png));
+  out->insert(out->end(), data, data + size);
+}
+void flush_nothing(png_structp) {}
+
+}  // namespace
 
 void write_png(const std::string& path, const Image& image) {
-  FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) fail("IO_WRITE_FAILED", path, "cannot open for writing", kExitIo);
+  std::vector<uint8_t> bytes;
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   if (!png || !info || setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
-    std::fclose(f);
-    fail("IO_WRITE_FAILED", path, "libpng failed to write the image", kExitIo);
+    fail(kErrFileWrite, path, "libpng failed to encode the image", kExitIo);
   }
-  png_init_io(png, f);
+  png_set_write_fn(png, &bytes, append_to_buffer, flush_nothing);
   png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_write_info(png, info);
@@ -26,7 +36,7 @@ void write_png(const std::string& path, const Image& image) {
     png_write_row(png, const_cast<png_bytep>(image.rgb.data() + size_t(y) * image.width * 3));
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
-  if (std::fclose(f) != 0) fail("IO_WRITE_FAILED", path, "close failed", kExitIo);
+  write_file_atomic(path, bytes.data(), bytes.size());
 }
 
 }  // namespace vgeo

@@ -1,8 +1,6 @@
 // Page streaming: residency, requests, eviction and the resident cut (spec/stream.md).
 #include "vgeo/stream/stream.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -17,6 +15,7 @@
 #include <thread>
 
 #include "vgeo/core/error.h"
+#include "vgeo/core/file_io.h"
 
 namespace vgeo {
 
@@ -26,14 +25,20 @@ namespace vgeo {
 std::vector<uint8_t> usable_groups(const MeshMetadata& mesh, const std::vector<uint8_t>& page_resident) {
   const ClusterDag& dag = mesh.dag;
   const uint32_t ng = uint32_t(dag.groups.size());
-  std::vector<uint8_t> usable(ng, 0);
+  std::vector<uint8_t> resident(ng, 0);
   for (uint32_t g = 0; g < ng; ++g) {
     if (mesh.group_first_page[g] == kNone) continue;  // empty group: nothing to draw
     bool all = true;
     for (uint32_t p = mesh.group_first_page[g]; p < mesh.group_first_page[g] + mesh.group_page_count[g]; ++p)
       all = all && page_resident[p - mesh.first_page];
-    usable[g] = all;
+    resident[g] = all;
   }
+  return usable_groups_of_resident(dag, std::move(resident));
+}
+
+std::vector<uint8_t> usable_groups_of_resident(const ClusterDag& dag, std::vector<uint8_t> usable) {
+  const uint32_t ng = uint32_t(dag.groups.size());
+  usable.resize(ng, 0);  // groups beyond the given mask are not resident
   // Greatest fixed point of usable[g] = resident(g) && usable[parent] for every parent.
   // Visiting coarse levels first settles a well-formed DAG in one sweep (+1 to confirm);
   // the loop only shrinks the set, so it terminates for any metadata.
@@ -86,8 +91,7 @@ struct Streamer::Completion {
 
 namespace {
 
-// Reads one page's stored bytes with pread (looping over partial reads), applying an
-// injected fault. Never throws.
+// Reads one page's stored bytes (read_at), applying an injected fault. Never throws.
 void read_page(int fd, const PageEntry& e, uint32_t page, uint32_t attempt, const LoaderOptions& lo,
                Streamer::Completion* out) {
   out->page = page;
@@ -104,18 +108,12 @@ void read_page(int fd, const PageEntry& e, uint32_t page, uint32_t attempt, cons
   out->bytes.resize(e.stored_size);
   size_t want = e.stored_size;
   if (fault == PageFault::kShortRead) want = e.stored_size / 2;
-  size_t got = 0;
-  while (got < want) {
-    const ssize_t n = pread(fd, out->bytes.data() + got, want - got, off_t(e.file_offset + got));
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) {
-      out->read_error = std::string("pread: ") + std::strerror(errno);
-      return;
-    }
-    if (n == 0) break;
-    got += size_t(n);
+  const int64_t got = read_at(fd, out->bytes.data(), want, e.file_offset);
+  if (got < 0) {
+    out->read_error = std::string("pread: ") + std::strerror(errno);
+    return;
   }
-  if (got != e.stored_size) {
+  if (uint64_t(got) != e.stored_size) {
     out->read_error = "short read: " + std::to_string(got) + " of " + std::to_string(e.stored_size) + " bytes";
     return;
   }
@@ -229,62 +227,10 @@ uint64_t pinned_page_bytes(const FormatContainer& container) {
 
 namespace {
 
-void read_exact(int fd, uint8_t* dst, size_t size, uint64_t offset, const std::string& where) {
-  size_t got = 0;
-  while (got < size) {
-    const ssize_t n = pread(fd, dst + got, size - got, off_t(offset + got));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) fail(kErrStreamIo, where, n < 0 ? std::string("pread: ") + std::strerror(errno) : "unexpected end of file", kExitIo);
-    got += size_t(n);
-  }
-}
-
-uint32_t get32(const uint8_t* p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24; }
-
-// The page format's magic (spec/format.md §1): told apart from VGEODAG1 files.
-constexpr char kPageFileMagic[8] = {'V', 'G', 'E', 'O', 'P', 'A', 'G', 'E'};
-
 // Projected errors are finite except for terminal groups; requests order by a finite key.
 constexpr float kMaxPriority = std::numeric_limits<float>::max();
 
 }  // namespace
-
-FormatContainer read_container_metadata(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) fail(kErrStreamIo, path, std::string("cannot open: ") + std::strerror(errno), kExitIo);
-  FormatContainer container;
-  try {
-    struct stat st{};
-    if (fstat(fd, &st) != 0) fail(kErrStreamIo, path, "cannot stat", kExitIo);
-    const uint64_t file_size = uint64_t(st.st_size);
-    if (file_size < kFileHeaderSize) fail(kErrTruncated, path, "file shorter than the 64-byte header");
-    std::vector<uint8_t> head(kFileHeaderSize);
-    read_exact(fd, head.data(), head.size(), 0, path);
-    // Allocation bound: the metadata must lie inside the real file.
-    const uint64_t metadata_size = get32(&head[36]);
-    if (kFileHeaderSize + metadata_size > file_size) fail(kErrTruncated, path, "metadata extends past the end of the file");
-    head.resize(size_t(kFileHeaderSize + metadata_size));
-    read_exact(fd, head.data() + kFileHeaderSize, size_t(metadata_size), kFileHeaderSize, path);
-    container = parse_container(head.data(), head.size(), path);
-    if (container.file_size != file_size)
-      fail(kErrInconsistent, path, "file size " + std::to_string(file_size) + " differs from the header's " +
-                                       std::to_string(container.file_size));
-  } catch (...) {
-    ::close(fd);
-    throw;
-  }
-  ::close(fd);
-  return container;
-}
-
-bool is_page_file(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return false;
-  char magic[8] = {};
-  const ssize_t n = pread(fd, magic, sizeof magic, 0);
-  ::close(fd);
-  return n == ssize_t(sizeof magic) && std::memcmp(magic, kPageFileMagic, sizeof magic) == 0;
-}
 
 Streamer::Streamer(const std::string& path, const StreamOptions& options)
     : Streamer(std::vector<std::string>{path}, options) {}
@@ -311,9 +257,7 @@ Streamer::Streamer(const std::vector<std::string>& paths, std::vector<FormatCont
   };
   try {
     for (const std::string& path : paths_) {
-      const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-      if (fd < 0) fail(kErrStreamIo, path, std::string("cannot open: ") + std::strerror(errno), kExitIo);
-      fds_.push_back(fd);
+      fds_.push_back(ReadOnlyFile(path).release());
     }
   } catch (...) {
     close_all();

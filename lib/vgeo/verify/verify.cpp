@@ -24,6 +24,12 @@ std::string fmt_sphere(const Sphere& s) {
          fmt_float(s.radius) + ")";
 }
 
+std::string miss_text(const ContainmentMiss& m) {
+  char buf[128];
+  std::snprintf(buf, sizeof buf, " (misses by %.3g = %.3g ulp, %.3g relative)", m.excess, m.ulps, m.relative);
+  return buf;
+}
+
 Distribution make_distribution(std::vector<double> v) {
   Distribution d;
   d.count = v.size();

@@ -1,8 +1,10 @@
 #pragma once
 // Internals shared by the lib/vgeo/verify sources (not part of the public API).
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -82,8 +84,34 @@ inline bool contains_tol(const Sphere& outer, const Sphere& inner) {
   double rhs = double(outer.radius);
   return lhs <= rhs + kContainmentRelTolerance * (lhs + rhs);
 }
-inline double containment_excess(const Sphere& outer, const Sphere& inner) {
-  return distance_d(outer.center, inner.center) + double(inner.radius) - double(outer.radius);
+// One float ulp at `magnitude` (at least the smallest normal float's ulp).
+inline double float_ulp(double magnitude) {
+  float m = float(std::max(std::fabs(magnitude), double(std::numeric_limits<float>::min())));
+  return double(std::nextafter(m, std::numeric_limits<float>::infinity())) - double(m);
+}
+
+// How far `inner` sticks out of `outer`: absolute, in float ulps and relative to the larger of
+// the two sides of the test (d + r_in vs r_out). Reported with every containment miss so a reader
+// can tell float rounding (a fraction of an ulp to a few ulps: spheres computed in float and not
+// rounded outward) from geometry (many ulps, relative 1e-3 and up). spec/invariants.md §Tolerances.
+struct ContainmentMiss {
+  double excess = 0;    // d + r_in − r_out (object units)
+  double ulps = 0;      // excess / ulp_f(max(d + r_in, r_out))
+  double relative = 0;  // excess / max(d + r_in, r_out)
+};
+inline ContainmentMiss containment_miss(const Sphere& outer, const Sphere& inner) {
+  double lhs = distance_d(outer.center, inner.center) + double(inner.radius);
+  double scale = std::max(lhs, double(outer.radius));
+  ContainmentMiss m;
+  m.excess = lhs - double(outer.radius);
+  m.ulps = m.excess / float_ulp(scale);
+  m.relative = scale > 0 ? m.excess / scale : std::numeric_limits<double>::infinity();
+  return m;
+}
+// " (misses by 1.2e-07 = 0.5 ulp, 3e-08 relative)"
+std::string miss_text(const ContainmentMiss& m);
+inline std::vector<VerifyValue> miss_values(const ContainmentMiss& m) {
+  return {{"excess", m.excess}, {"excess_ulps", m.ulps}, {"excess_relative", m.relative}};
 }
 
 std::string fmt_sphere(const Sphere& s);

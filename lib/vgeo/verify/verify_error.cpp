@@ -13,15 +13,6 @@
 #include "vgeo/verify/verify_detail.h"
 
 namespace vgeo::verify_detail {
-namespace {
-
-double float_ulp(double magnitude) {
-  float m = float(std::max(magnitude, double(std::numeric_limits<float>::min())));
-  return double(std::nextafter(m, std::numeric_limits<float>::infinity())) - double(m);
-}
-
-}  // namespace
-
 void check_error_bound(const ClusterDag& dag, const VerifyOptions& options, Sink& sink, ErrorBoundResult* result) {
   const size_t nc = dag.clusters.size();
   auto corner = [&](const DagCluster& k, uint32_t t, int j) {

@@ -103,15 +103,20 @@ void check_structure(const ClusterDag& dag, Sink& sink, CheckStats& stats, bool*
         }
       }
       if (finite(k.bounds) && k.bounds.radius >= 0) {
-        double worst = 0;
+        ContainmentMiss worst;
+        uint32_t worst_vertex = kNone;
         for (uint32_t v = 0; v < k.vertex_count; ++v) {
-          Vec3 p = dag.position(size_t(k.vertex_offset) + v);
-          if (!contains_tol(k.bounds, Sphere{p, 0.0f}))
-            worst = std::max(worst, containment_excess(k.bounds, Sphere{p, 0.0f}));
+          Sphere point{dag.position(size_t(k.vertex_offset) + v), 0.0f};
+          if (contains_tol(k.bounds, point)) continue;
+          ContainmentMiss m = containment_miss(k.bounds, point);
+          if (worst_vertex == kNone || m.excess > worst.excess) worst = m, worst_vertex = v;
         }
-        if (worst > 0)
+        if (worst_vertex != kNone) {
+          std::vector<VerifyValue> values = miss_values(worst);
+          values.push_back({"vertex", double(worst_vertex)});
           bad("STRUCT_CLUSTER_BOUNDS", "cluster", c, "bounds " + fmt_sphere(k.bounds) +
-              " do not enclose the cluster's vertices", {{"excess", worst}});
+              " do not enclose the cluster's vertex " + idx(worst_vertex) + miss_text(worst), values);
+        }
       }
     }
     for (const Sphere* s : {&k.bounds, &k.lod_bounds, &k.parent_bounds})
@@ -246,7 +251,8 @@ void check_structure(const ClusterDag& dag, Sink& sink, CheckStats& stats, bool*
     }
     if (!contains_tol(G.bounds, k.bounds))
       bad("STRUCT_GROUP_BOUNDS", "group", k.group, "bounds " + fmt_sphere(G.bounds) + " do not enclose member " +
-          idx(c) + "'s bounds " + fmt_sphere(k.bounds), {{"excess", containment_excess(G.bounds, k.bounds)}});
+          idx(c) + "'s bounds " + fmt_sphere(k.bounds) + miss_text(containment_miss(G.bounds, k.bounds)),
+          miss_values(containment_miss(G.bounds, k.bounds)));
   }
 
   // ---- BVH: a tree from node 0 reaching every group once; conservative bounds/errors ----
@@ -278,11 +284,11 @@ void check_structure(const ClusterDag& dag, Sink& sink, CheckStats& stats, bool*
           ++group_seen[ch];
           const DagGroup& G = dag.groups[ch];
           if (!contains_tol(N.bounds, G.bounds))
-            bad("STRUCT_BVH_BOUNDS", "bvh_node", n, "bounds do not enclose group " + idx(ch) + "'s bounds",
-                {{"excess", containment_excess(N.bounds, G.bounds)}});
+            bad("STRUCT_BVH_BOUNDS", "bvh_node", n, "bounds do not enclose group " + idx(ch) + "'s bounds" +
+                miss_text(containment_miss(N.bounds, G.bounds)), miss_values(containment_miss(N.bounds, G.bounds)));
           if (!contains_tol(N.lod_bounds, G.parent_bounds))
-            bad("STRUCT_BVH_BOUNDS", "bvh_node", n, "lod_bounds do not enclose group " + idx(ch) + "'s parent_bounds",
-                {{"excess", containment_excess(N.lod_bounds, G.parent_bounds)}});
+            bad("STRUCT_BVH_BOUNDS", "bvh_node", n, "lod_bounds do not enclose group " + idx(ch) + "'s parent_bounds" +
+                miss_text(containment_miss(N.lod_bounds, G.parent_bounds)), miss_values(containment_miss(N.lod_bounds, G.parent_bounds)));
           if (!(N.max_parent_error >= G.parent_error))
             bad("STRUCT_BVH_BOUNDS", "bvh_node", n, "max_parent_error " + fmt_float(N.max_parent_error) +
                 " < group " + idx(ch) + "'s parent_error " + fmt_float(G.parent_error));
@@ -298,11 +304,11 @@ void check_structure(const ClusterDag& dag, Sink& sink, CheckStats& stats, bool*
           stack.push_back(ch);
           const BvhNode& C = dag.bvh_nodes[ch];
           if (!contains_tol(N.bounds, C.bounds))
-            bad("STRUCT_BVH_BOUNDS", "bvh_node", n, "bounds do not enclose child node " + idx(ch) + "'s bounds",
-                {{"excess", containment_excess(N.bounds, C.bounds)}});
+            bad("STRUCT_BVH_BOUNDS", "bvh_node", n, "bounds do not enclose child node " + idx(ch) + "'s bounds" +
+                miss_text(containment_miss(N.bounds, C.bounds)), miss_values(containment_miss(N.bounds, C.bounds)));
           if (!contains_tol(N.lod_bounds, C.lod_bounds))
-            bad("STRUCT_BVH_BOUNDS", "bvh_node", n, "lod_bounds do not enclose child node " + idx(ch) + "'s lod_bounds",
-                {{"excess", containment_excess(N.lod_bounds, C.lod_bounds)}});
+            bad("STRUCT_BVH_BOUNDS", "bvh_node", n, "lod_bounds do not enclose child node " + idx(ch) + "'s lod_bounds" +
+                miss_text(containment_miss(N.lod_bounds, C.lod_bounds)), miss_values(containment_miss(N.lod_bounds, C.lod_bounds)));
           if (!(N.max_parent_error >= C.max_parent_error))
             bad("STRUCT_BVH_BOUNDS", "bvh_node", n, "max_parent_error below child node " + idx(ch) + "'s");
         }

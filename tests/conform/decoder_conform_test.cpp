@@ -1,0 +1,101 @@
+// `vgeo conform decoder -- CMD` (spec/conform.md §5): vgeo's own decoder behind the protocol
+// agrees with itself on every vector and on seeded mutants; a deliberately broken decoder
+// (tests/conform/broken_decoder.sh) is caught — verdict and hash disagreements fail the run, code
+// disagreements are reported apart — with reproducers that replay to the same verdict.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "conform/junit_check.h"
+#include "support/paths.h"
+#include "support/run_command.h"
+
+namespace fs = std::filesystem;
+using vgeo::test::run_cli;
+
+namespace {
+
+// 40 mutants (+ the 48 vectors): a few seconds; `--mutants 10000` is the on-demand run.
+constexpr int kTestMutants = 40;
+
+struct TempDir {
+  fs::path path = fs::temp_directory_path() / ("vgeo_conform_decoder_" + std::to_string(::getpid()));
+  TempDir() { fs::create_directories(path); }
+  ~TempDir() { fs::remove_all(path); }
+};
+
+std::string vectors() { return (vgeo::test::source_dir() / "spec" / "vectors").string(); }
+
+TEST(ConformDecoder, OwnDecoderAgreesEverywhere) {
+  TempDir tmp;
+  const std::string xml = (tmp.path / "own.xml").string();
+  auto r = run_cli("conform decoder --vectors '" + vectors() + "' --mutants " + std::to_string(kTestMutants) +
+                   " --seed 3 --out '" + (tmp.path / "own").string() + "' --junit '" + xml + "' -- '" +
+                   vgeo::test::cli_path() + "' conform hash");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("0 verdict, 0 hash, 0 protocol, 0 code disagreements"), std::string::npos) << r.output;
+  std::string cases = vgeo::test::checked_junit(xml);
+  EXPECT_NE(cases.find("vgeo.conform.decoder.v1_valid_sphere_zstd.vgp: passed"), std::string::npos) << cases;
+  EXPECT_EQ(cases.find("failed"), std::string::npos) << cases;
+}
+
+TEST(ConformDecoder, BrokenDecoderIsCaughtWithReproducers) {
+  TempDir tmp;
+  const fs::path out = tmp.path / "broken";
+  const std::string xml = (tmp.path / "broken.xml").string();
+  const std::string broken = (vgeo::test::source_dir() / "tests" / "conform" / "broken_decoder.sh").string();
+  auto r = run_cli("conform decoder --vectors '" + vectors() + "' --mutants " + std::to_string(kTestMutants) +
+                   " --seed 3 --out '" + out.string() + "' --junit '" + xml + "' -- sh '" + broken + "' '" +
+                   vgeo::test::cli_path() + "'");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  // The planted faults on the vectors themselves.
+  EXPECT_NE(r.output.find("verdict v1_truncated.vgp: vgeo error[FORMAT_TRUNCATED], decoder 0123456789abcdef"),
+            std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("code v1_header_checksum.vgp: vgeo error[FORMAT_CHECKSUM], decoder error[BAD_CRC]"),
+            std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("hash v1_valid_grid_uv_lz4.vgp: vgeo 305dd628287a70b4, decoder 305dd628287a70b5"),
+            std::string::npos) << r.output;
+  std::string cases = vgeo::test::checked_junit(xml);
+  EXPECT_NE(cases.find("vgeo.conform.decoder.v1_valid_grid_uv_lz4.vgp: failed CONFORM_DECODER_HASH"), std::string::npos) << cases;
+  EXPECT_NE(cases.find("vgeo.conform.decoder.v1_truncated.vgp: failed CONFORM_DECODER_VERDICT"), std::string::npos) << cases;
+  EXPECT_NE(cases.find("vgeo.conform.decoder.v1_header_checksum.vgp: skipped"), std::string::npos) << cases;
+  EXPECT_NE(cases.find("failed CONFORM_DECODER_DISAGREEMENT"), std::string::npos) << cases;
+  // Reproducers replay: our decoder still rejects the saved truncated file the same way.
+  ASSERT_TRUE(fs::exists(out / "v1_truncated.vgp"));
+  auto replay = run_cli("conform hash '" + (out / "v1_truncated.vgp").string() + "'");
+  EXPECT_NE(replay.output.find("error[FORMAT_TRUNCATED]"), std::string::npos) << replay.output;
+  std::ifstream log(out / "disagreements.txt");
+  std::stringstream text;
+  text << log.rdbuf();
+  EXPECT_NE(text.str().find("mutant-"), std::string::npos) << "no mutant disagreement among " << kTestMutants << "\n" << text.str();
+  // --strict-codes turns the code disagreements into failures too (on a two-vector folder).
+  const fs::path small = tmp.path / "small";
+  fs::create_directories(small);
+  for (const char* name : {"v1_header_checksum.vgp", "v1_valid_sphere_zstd.vgp"})
+    fs::copy_file(fs::path(vectors()) / name, small / name);
+  std::ofstream(small / "manifest.txt") << "v1_header_checksum.vgp FORMAT_CHECKSUM\nv1_valid_sphere_zstd.vgp OK 6a5afe8c33593de5\n";
+  const std::string small_run = "conform decoder --vectors '" + small.string() + "' --mutants 0 --quiet --out '" +
+                                (tmp.path / "strict").string() + "' --junit '" + xml + "' -- sh '" + broken + "' '" +
+                                vgeo::test::cli_path() + "'";
+  EXPECT_EQ(run_cli(small_run).exit_code, 0);  // a code disagreement alone does not fail by default
+  auto strict = run_cli("conform decoder --strict-codes" + small_run.substr(std::string("conform decoder").size()));
+  EXPECT_EQ(strict.exit_code, 1) << strict.output;
+  cases = vgeo::test::checked_junit(xml);
+  EXPECT_NE(cases.find("vgeo.conform.decoder.v1_header_checksum.vgp: failed CONFORM_DECODER_CODE"), std::string::npos) << cases;
+}
+
+TEST(ConformDecoder, ProtocolFailuresAndUsage) {
+  TempDir tmp;
+  auto none = run_cli("conform decoder --vectors '" + vectors() + "' --mutants 0");
+  EXPECT_EQ(none.exit_code, 2) << none.output;
+  EXPECT_NE(none.output.find("error[CONFORM_USAGE]"), std::string::npos) << none.output;
+  // A decoder that prints nothing useful is a protocol failure on every input.
+  auto silent = run_cli("conform decoder --vectors '" + vectors() + "' --mutants 0 --quiet --out '" +
+                        (tmp.path / "silent").string() + "' -- echo hello");
+  EXPECT_EQ(silent.exit_code, 1) << silent.output;
+}
+
+}  // namespace
