@@ -18,9 +18,19 @@ namespace {
 
 using test::stream_fixture;
 
-SceneFile load(const std::string& json, std::optional<uint64_t> budget) {
+// The deterministic loader (each read completes at the next frame) unless `stream` says otherwise.
+StreamOptions sync_stream() {
+  StreamOptions so;
+  so.loader.asynchronous = false;
+  return so;
+}
+
+SceneFile load(const std::string& json, std::optional<uint64_t> budget, StreamOptions stream = sync_stream()) {
   SceneLoadOptions o;
-  o.stream_budget = budget;
+  if (budget) {
+    stream.budget_bytes = *budget;
+    o.stream = stream;
+  }
   return parse_scene_json(json, "<test>", "", o);
 }
 
@@ -67,6 +77,36 @@ TEST(StreamRender, FixtureNeedsStreaming) {
   EXPECT_LT(f.pinned, f.total / 3);
 }
 
+// Streaming is decided once, at load, from the one budget (SceneLoadOptions::stream), and the
+// render follows it; each page file's metadata is read once, at load, and handed to the Streamer.
+TEST(StreamRender, LoadDecidesStreamingAndTheRenderFollowsIt) {
+  const test::StreamFixture& f = stream_fixture();
+  const std::string json = test::stream_scene_json(f.path, 3, 10, 3, true);
+  for (const uint64_t budget : {f.total - 1, f.total}) {
+    const SceneFile file = load(json, budget);
+    const bool on = budget < f.total;  // both meshes of the one file are used
+    EXPECT_EQ(file.streaming, on) << budget;
+    EXPECT_EQ(file.page_files.size(), on ? 1u : 0u);  // two scene meshes, one file: read once
+    if (on) {
+      EXPECT_EQ(file.page_files[0].metadata.pages.size(), f.pages);
+    }
+    RenderRequest req;
+    req.threads = 2;
+    req.frames = 2;
+    const RenderReport r = render_scene(file, req);
+    EXPECT_EQ(r.stream.active, on);
+    EXPECT_EQ(r.stream.note, file.stream_note());
+    EXPECT_EQ(r.stream.budget_bytes, budget);
+    for (const FrameStats& s : r.frames) {
+      EXPECT_EQ(s.streamed, on);
+      std::string reason;
+      for (const auto& [name, why] : s.skipped)
+        if (name == "stream") reason = why;
+      EXPECT_EQ(reason, on ? "" : file.stream_reason);
+    }
+  }
+}
+
 // Property over seeded random cases: scenes of 1-4 instances, camera paths far→near, budgets
 // from roots only to everything but one byte, τ, occlusion on/off.
 TEST(StreamRender, EveryFrameCutValidWithinBudgetAndConverges) {
@@ -86,9 +126,7 @@ TEST(StreamRender, EveryFrameCutValidWithinBudgetAndConverges) {
     RenderRequest req;
     req.threads = 2;
     req.threshold_px = k % 3 == 0 ? 0.5f : k % 3 == 1 ? 1.0f : 4.0f;
-    req.stream.budget_bytes = budget;
-    req.stream.loader.asynchronous = false;
-    const uint32_t settle = f.pages / req.stream.max_issues_per_frame + 4;
+    const uint32_t settle = f.pages / file.stream->max_issues_per_frame + 4;
     req.frames = uint32_t(file.path.size()) + settle;
     FrameChecker check;
     check.file = &file;
@@ -132,13 +170,9 @@ TEST(StreamRender, ConvergedFrameEqualsTheUnstreamedFrame) {
   RenderRequest req;
   req.threads = 2;
   req.frames = 30;
-  req.stream.budget_bytes = f.total - 1;
-  req.stream.loader.asynchronous = false;
   RenderReport a = render_scene(streamed, req);
   ASSERT_TRUE(a.frames.back().stream.cut_is_ideal);
-  RenderRequest plain_req = req;
-  plain_req.stream = {};
-  RenderReport b = render_scene(plain, plain_req);
+  RenderReport b = render_scene(plain, req);
   EXPECT_EQ(a.vis_hash, b.vis_hash);
   EXPECT_EQ(a.image_hash, b.image_hash);
   // Pacing changes wall time only (synchronous loader: the same frames, the same reads).
@@ -167,11 +201,8 @@ TEST(StreamRender, DataWithinBudgetMeansNoStreamPass) {
   EXPECT_EQ(fits.page_bytes, f.total);
   RenderRequest req;
   req.threads = 2;
-  req.stream.budget_bytes = f.total;
   RenderReport a = render_scene(fits, req);
-  RenderRequest plain_req = req;
-  plain_req.stream = {};
-  RenderReport b = render_scene(plain, plain_req);
+  RenderReport b = render_scene(plain, req);
   EXPECT_EQ(a.vis_hash, b.vis_hash);
   EXPECT_EQ(a.image_hash, b.image_hash);
   for (const FrameStats& s : a.frames) {
@@ -189,18 +220,17 @@ TEST(StreamRender, FaultsNeverProduceAnInvalidCut) {
   for (PageFault kind : {PageFault::kIoError, PageFault::kShortRead, PageFault::kCorrupt, PageFault::kSlow})
     for (bool always : {false, true}) {
       const uint64_t budget = f.pinned + (f.total - f.pinned) / 2;
-      SceneFile file = load(json, budget);
+      StreamOptions so = sync_stream();
+      so.loader.slow_read_extra_ms = 0.2;
+      // Non-pinned pages fail their first attempt (then load), or every attempt (marked bad).
+      const std::vector<uint8_t> pinned = pinned_pages(read_container_metadata(f.path));
+      so.loader.fault = [kind, pinned, always](uint32_t page, uint32_t attempt) {
+        return !pinned[page] && (always || attempt == 0) ? kind : PageFault::kNone;
+      };
+      SceneFile file = load(json, budget, so);
       RenderRequest req;
       req.threads = 2;
       req.frames = 32;  // back-off 2+4+8 frames (+1 per read): the 4th failure marks a page bad
-      req.stream.budget_bytes = budget;
-      req.stream.loader.asynchronous = false;
-      req.stream.loader.slow_read_extra_ms = 0.2;
-      // Non-pinned pages fail their first attempt (then load), or every attempt (marked bad).
-      const std::vector<uint8_t> pinned = pinned_pages(read_container_metadata(f.path));
-      req.stream.loader.fault = [kind, pinned, always](uint32_t page, uint32_t attempt) {
-        return !pinned[page] && (always || attempt == 0) ? kind : PageFault::kNone;
-      };
       FrameChecker check;
       check.file = &file;
       check.budget = budget;

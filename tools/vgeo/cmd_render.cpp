@@ -141,8 +141,8 @@ void add_render_command(CLI::App& app, Context& ctx) {
         fail("RENDER_STREAM_BUDGET", "vgeo render",
              "--stream-budget '" + args->stream_budget + "' is not a positive size like 64MiB, 512KiB, 1GB or 4096",
              kExitUsage);
-      options.stream_budget = budget;
-      request.stream.budget_bytes = budget;
+      options.stream.emplace();
+      options.stream->budget_bytes = budget;
     }
     if (!std::isfinite(args->disk_latency_ms) || args->disk_latency_ms < 0 || args->disk_latency_ms > 1e4)
       bad_stream_option("--disk-latency-ms must be in [0, 10000]");
@@ -153,11 +153,13 @@ void add_render_command(CLI::App& app, Context& ctx) {
       bad_stream_option("--frame-ms must be in [0, 10000]");
     request.frame_interval_ms = args->frame_ms;
     if (args->save_every > 0 && args->out_dir.empty()) bad_stream_option("--save-every needs --out-dir");
-    request.stream.loader.latency_ms = args->disk_latency_ms;
-    request.stream.loader.bandwidth_mb_s = args->disk_bandwidth_mbs;
-    request.stream.loader.asynchronous = !args->stream_sync;
-    request.stream.max_issues_per_frame = args->stream_issues;
-    request.stream.max_in_flight = std::max<uint32_t>(16, 2 * args->stream_issues);
+    if (options.stream) {
+      options.stream->loader.latency_ms = args->disk_latency_ms;
+      options.stream->loader.bandwidth_mb_s = args->disk_bandwidth_mbs;
+      options.stream->loader.asynchronous = !args->stream_sync;
+      options.stream->max_issues_per_frame = args->stream_issues;
+      options.stream->max_in_flight = std::max<uint32_t>(16, 2 * args->stream_issues);
+    }
     request.out_dir = args->out_dir;
     request.save_every = args->save_every;
     if (!args->out_dir.empty()) create_output_directory(args->out_dir);

@@ -61,10 +61,11 @@ RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
 
   RenderReport report;
   StreamSummary& sum = report.stream;
-  sum.requested = request.stream.budget_bytes > 0;
-  sum.budget_bytes = request.stream.budget_bytes;
+  sum.requested = file.stream.has_value();
+  sum.budget_bytes = file.stream ? file.stream->budget_bytes : 0;
   sum.page_bytes = file.page_bytes;
   sum.stop_frame = file.path.empty() ? 0 : uint32_t(file.path.size() - 1);
+  if (sum.requested) sum.note = file.stream_note();
 
   // Streaming state: a private copy of the scene (in-memory meshes move into the geometry).
   std::optional<RenderScene> streamed_scene;
@@ -73,35 +74,30 @@ RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
   if (file.streaming) {
     streamed_scene = file.scene;
     std::vector<std::string> paths;
-    std::vector<uint32_t> mesh_base, stream_mesh(file.scene.meshes.size(), kNone), material_offset(file.scene.meshes.size(), 0);
-    for (const ScenePageMesh& pm : file.page_meshes)
-      if (!pm.file.empty() && std::find(paths.begin(), paths.end(), pm.file) == paths.end()) paths.push_back(pm.file);
-    StreamOptions so = request.stream;
-    so.threshold_px = settings.threshold_px;
-    streamer = std::make_unique<Streamer>(paths, so);
+    std::vector<FormatContainer> metadata;
     // Mesh k of file j is streamer mesh (meshes of files < j) + k.
-    std::vector<uint32_t> base(paths.size(), 0);
-    for (size_t j = 1; j < paths.size(); ++j)
-      base[j] = base[j - 1] + uint32_t(read_container_metadata(paths[j - 1]).meshes.size());
+    std::vector<uint32_t> base;
+    for (const ScenePageFile& pf : file.page_files) {
+      base.push_back(metadata.empty() ? 0 : base.back() + uint32_t(metadata.back().meshes.size()));
+      paths.push_back(pf.path);
+      metadata.push_back(pf.metadata);
+    }
+    std::vector<uint32_t> stream_mesh(file.scene.meshes.size(), kNone), material_offset(file.scene.meshes.size(), 0);
     for (size_t m = 0; m < file.page_meshes.size(); ++m) {
       const ScenePageMesh& pm = file.page_meshes[m];
-      if (pm.file.empty()) continue;
-      const size_t j = size_t(std::find(paths.begin(), paths.end(), pm.file) - paths.begin());
-      stream_mesh[m] = base[j] + pm.index;
+      if (pm.file == kNone) continue;
+      stream_mesh[m] = base[pm.file] + pm.index;
       material_offset[m] = pm.material_offset;
     }
+    StreamOptions so = *file.stream;
+    so.threshold_px = settings.threshold_px;
+    streamer = std::make_unique<Streamer>(paths, std::move(metadata), so);
+    // The scene decided: its used pages alone exceed the budget, and the files hold at least those.
+    if (!streamer->active())
+      fail("RENDER_PLAN_MISMATCH", "render", "the streamer found the data within the budget the scene exceeds", kExitInternal);
     init_frame_streaming(&*streamed_scene, streamer.get(), stream_mesh, material_offset, &streaming);
-    sum.active = streamer->active();
+    sum.active = true;
     sum.file_bytes = streamer->container().file_size;
-    uint32_t in_memory = 0;
-    for (uint32_t sm : stream_mesh) in_memory += sm == kNone;
-    sum.note = "streaming: on (data " + format_bytes(file.page_bytes) + " > budget " + format_bytes(sum.budget_bytes) +
-               ", " + std::to_string(paths.size()) + " page file(s)" +
-               (in_memory ? ", " + std::to_string(in_memory) + " mesh(es) not from page files stay in memory" : "") + ")";
-  } else if (sum.requested && file.page_bytes == 0) {
-    sum.note = "streaming: off (no mesh of the scene comes from a page file)";
-  } else if (sum.requested) {
-    sum.note = "streaming: off (data " + format_bytes(file.page_bytes) + " <= budget " + format_bytes(sum.budget_bytes) + ")";
   }
   const RenderScene& scene = streamed_scene ? *streamed_scene : file.scene;
 
@@ -117,7 +113,9 @@ RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
     RenderSettings s = settings;
     // Only images that are kept are shaded; other frames stop at the visibility buffer.
     s.shade = last || save;
-    render_frame(scene, cam, s, pool, &history, &frame, !last, streamer ? &streaming : nullptr);
+    FrameStreaming* fs = streamer ? &streaming : nullptr;
+    const FramePlan plan = plan_frame(scene, s, frame_context(scene, cam, &history, !last, fs, file.stream_reason));
+    render_planned_frame(plan, scene, cam, s, pool, &history, &frame, fs);
     report.frames.push_back(frame.stats);
     if (save) {
       char name[32];

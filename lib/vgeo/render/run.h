@@ -19,10 +19,8 @@ struct RenderRequest {
   std::optional<float> threshold_px;      // overrides settings.tau_px
   std::optional<ShadeView> view;          // default lit
   std::optional<bool> occlusion;          // overrides settings.occlusion
-  // Streaming (spec/stream.md §Renderer). Active only when the scene was loaded with a
-  // stream budget and its page bytes exceed it (SceneFile::streaming); `stream.budget_bytes`
-  // must equal that budget. threshold_px is taken from the settings.
-  StreamOptions stream;
+  // Streaming (spec/stream.md §Renderer) is the scene's: its options are given once, in
+  // SceneLoadOptions::stream, and decided at load (SceneFile::streaming).
   // Frame pacing: when > 0, frame f+1 starts no earlier than this many ms after frame f started
   // (a display's refresh interval, e.g. 16.7). Only wall time changes, never the output; with
   // the asynchronous loader it fixes how many simulated reads fit in a frame.

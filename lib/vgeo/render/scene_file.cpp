@@ -1,5 +1,6 @@
 #include "vgeo/render/scene_file.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -7,13 +8,13 @@
 #include <set>
 #include <sstream>
 
-#include "vgeo/dag/dag_io.h"
 #include "vgeo/format/asset_file.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/file_io.h"
 #include "vgeo/core/hash.h"
 #include "vgeo/mesh/generate.h"
 #include "vgeo/mesh/import.h"
+#include "vgeo/render/run.h"
 #include "vgeo/stream/stream.h"
 
 namespace vgeo {
@@ -22,8 +23,9 @@ namespace {
 
 using json = nlohmann::json;
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
-// Identity of the DAG producer in cache keys: bump when build output changes meaning.
-constexpr const char* kCacheKeyVersion = "vgeo-dag-cache-1";
+// Identity of the cached memory form's producer (builder + page encoder) in cache keys: bump
+// when either's output changes meaning.
+constexpr const char* kCacheKeyVersion = "vgeo-memory-form-cache-1";
 // Limits on untrusted list sizes (memory bound before anything is generated).
 constexpr size_t kMaxSceneMeshes = 4096, kMaxSceneInstances = 1u << 20, kMaxSceneMaterials = 1u << 16,
                  kMaxSceneCameras = 1024, kMaxKeyframes = 10000;
@@ -107,26 +109,45 @@ const json& get_array(const Ctx& c, const json& obj, const std::string& path, co
 
 // ---- meshes ----
 
+// What both backends draw of a built (float) DAG: its page-format memory form, decoded
+// (spec/raster.md §Geometry): quantized positions and normals, canonical cluster order and the
+// conservative metadata of spec/format.md §2.1, exactly as if read from a page file written with
+// memory_form_options().
+ClusterDag decoded_memory_form(const Ctx& c, ClusterDag dag, const std::string& path) {
+  BuiltScene one;
+  one.meshes.push_back(std::move(dag));
+  try {
+    const std::vector<uint8_t> bytes = encode_format(one, memory_form_options());
+    BuiltScene decoded = decode_format(bytes.data(), bytes.size(), path);
+    return std::move(decoded.meshes[0]);
+  } catch (const VgeoError& e) {
+    bad(c, "SCENE_MESH_BUILD", path + ": memory form: " + e.error().line());
+  }
+}
+
+// A mesh's DAG in its decoded memory form. The cache holds that page file (the page encoder
+// costs more than decoding: measured ~3 s per 131k-triangle mesh on the loaded 2 cores).
 ClusterDag build_cached(const Ctx& c, const Mesh& mesh, const std::string& path) {
   const SceneLoadOptions& o = *c.options;
   std::string cache_file;
   if (!o.cache_dir.empty()) {
     char name[32];
-    std::snprintf(name, sizeof name, "%016llx.vgeodag", (unsigned long long)mesh_content_hash(mesh, o.build));
+    std::snprintf(name, sizeof name, "%016llx.vgeo", (unsigned long long)mesh_content_hash(mesh, o.build));
     cache_file = (std::filesystem::path(o.cache_dir) / name).string();
     std::error_code ec;
     if (std::filesystem::exists(cache_file, ec)) {
       try {
-        BuiltScene cached = read_dag_file(cache_file);
+        BuiltScene cached = read_asset_file(cache_file);
         if (cached.meshes.size() == 1) return std::move(cached.meshes[0]);
       } catch (const VgeoError&) {
         // A corrupt or foreign cache entry is rebuilt and overwritten below.
       }
     }
   }
-  ClusterDag dag;
+  BuiltScene one;
+  one.meshes.resize(1);
   try {
-    dag = build_dag(mesh, o.build);
+    one.meshes[0] = build_dag(mesh, o.build);
   } catch (const VgeoError& e) {
     bad(c, "SCENE_MESH_BUILD", path + ": " + e.error().line());
   }
@@ -134,14 +155,14 @@ ClusterDag build_cached(const Ctx& c, const Mesh& mesh, const std::string& path)
     try {
       std::error_code ec;
       std::filesystem::create_directories(o.cache_dir, ec);
-      BuiltScene one;
-      one.meshes.push_back(dag);
-      write_dag_file(cache_file, one);  // atomic: a reader sees the old entry or the new one
+      write_asset_file(cache_file, one, AssetFileKind::kPages, memory_form_options());
+      BuiltScene cached = read_asset_file(cache_file);
+      if (cached.meshes.size() == 1) return std::move(cached.meshes[0]);
     } catch (const VgeoError&) {
       // The cache is an optimization: a failed write leaves the scene usable.
     }
   }
-  return dag;
+  return decoded_memory_form(c, std::move(one.meshes[0]), path);
 }
 
 // A generated mesh (lib/vgeo/mesh/generate.h): the scene's `shape`, `triangles` and `seed` are
@@ -187,29 +208,36 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
       std::string file = get_string(c, m, path, "dag", "");
       std::filesystem::path fp(file);
       if (fp.is_relative()) fp = std::filesystem::path(c.base_dir) / fp;
-      if (c.options->stream_budget && is_page_file(fp.string())) {
-        // Metadata only (header + metadata read; no page): decided after all meshes.
-        FormatContainer fc;
-        try {
-          fc = read_container_metadata(fp.string());
-        } catch (const VgeoError& e) {
-          bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
+      if (c.options->stream && is_page_file(fp.string())) {
+        // Metadata only (header + metadata read once per file; no page): decided after all meshes.
+        const std::string canonical = std::filesystem::weakly_canonical(fp).string();
+        ScenePageMesh pm;
+        pm.file = 0;
+        while (pm.file < out->page_files.size() && out->page_files[pm.file].path != canonical) ++pm.file;
+        if (pm.file == out->page_files.size()) {
+          ScenePageFile pf;
+          pf.path = canonical;
+          try {
+            pf.metadata = read_container_metadata(canonical);
+          } catch (const VgeoError& e) {
+            bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
+          }
+          out->page_files.push_back(std::move(pf));
         }
+        const FormatContainer& fc = out->page_files[pm.file].metadata;
         double index = get_number(c, m, path, "index", 0, 0, 1e9);
         if (index >= double(fc.meshes.size())) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh in " + file);
-        ScenePageMesh pm;
-        pm.file = std::filesystem::weakly_canonical(fp).string();
         pm.index = uint32_t(index);
         pm.material_offset = uint32_t(out->scene.materials.size());
         if (out->scene.materials.size() + fc.materials.size() > kMaxSceneMaterials)
           bad(c, "SCENE_TOO_LARGE", path + ": too many materials");
         out->scene.materials.insert(out->scene.materials.end(), fc.materials.begin(), fc.materials.end());
-        MeshMetadata& mm = fc.meshes[pm.index];
+        const MeshMetadata& mm = fc.meshes[pm.index];
         for (uint32_t p = mm.first_page; p < mm.first_page + mm.page_count; ++p) pm.page_bytes += fc.pages[p].memory_size;
         if (!bvh_is_tree(mm.dag)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
         out->page_meshes.resize(out->scene.meshes.size());
         out->page_meshes.push_back(pm);
-        out->scene.meshes.push_back(std::move(mm.dag));
+        out->scene.meshes.push_back(mm.dag);
         continue;
       }
       BuiltScene built;
@@ -227,6 +255,8 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
       out->scene.materials.insert(out->scene.materials.end(), built.materials.begin(), built.materials.end());
       ClusterDag dag = std::move(built.meshes[size_t(index)]);
       if (!bvh_is_tree(dag)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
+      // A page file is already the memory form; a VGEODAG1 file holds float positions.
+      if (!is_page_file(fp.string())) dag = decoded_memory_form(c, std::move(dag), path);
       for (uint32_t& t : dag.triangle_materials) t += offset;
       out->scene.meshes.push_back(std::move(dag));
       continue;
@@ -272,34 +302,52 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
   }
 }
 
-// With a stream budget: page-file meshes stay metadata-only when their pages exceed it,
-// else they are decoded exactly as read_asset_file does without a budget.
+// With a stream budget: the one decision whether the scene streams (spec/stream.md §Renderer).
+// Page-file meshes stay metadata-only when their pages exceed the budget, else they are decoded
+// exactly as read_asset_file does without a budget (each file read once).
 void resolve_page_meshes(const Ctx& c, SceneFile* out) {
-  if (!c.options->stream_budget) return;
+  if (!c.options->stream) return;
+  out->stream = c.options->stream;
+  const uint64_t budget = out->stream->budget_bytes;
   out->page_meshes.resize(out->scene.meshes.size());
-  std::set<std::pair<std::string, uint32_t>> counted;
+  std::set<std::pair<uint32_t, uint32_t>> counted;
   for (const ScenePageMesh& pm : out->page_meshes)
-    if (!pm.file.empty() && counted.insert({pm.file, pm.index}).second) out->page_bytes += pm.page_bytes;
-  if (counted.empty()) return;
-  out->streaming = out->page_bytes > *c.options->stream_budget;
-  if (out->streaming) return;
+    if (pm.file != kNone && counted.insert({pm.file, pm.index}).second) out->page_bytes += pm.page_bytes;
+  if (counted.empty()) {
+    out->stream_reason = "no mesh of the scene comes from a page file";
+    return;
+  }
+  out->streaming = out->page_bytes > budget;
+  if (out->streaming) {
+    size_t in_memory = out->page_meshes.size() - std::count_if(out->page_meshes.begin(), out->page_meshes.end(),
+                                                               [](const ScenePageMesh& pm) { return pm.file != kNone; });
+    out->stream_reason = "data " + format_bytes(out->page_bytes) + " > budget " + format_bytes(budget) + ", " +
+                         std::to_string(out->page_files.size()) + " page file(s)" +
+                         (in_memory ? ", " + std::to_string(in_memory) + " mesh(es) not from page files stay in memory" : "");
+    return;
+  }
+  out->stream_reason = "data " + format_bytes(out->page_bytes) + " <= budget " + format_bytes(budget);
+  std::vector<std::optional<BuiltScene>> decoded(out->page_files.size());
   for (size_t i = 0; i < out->page_meshes.size(); ++i) {
     ScenePageMesh& pm = out->page_meshes[i];
-    if (pm.file.empty()) continue;
+    if (pm.file == kNone) continue;
     const std::string path = "meshes[" + std::to_string(i) + "]";
-    BuiltScene built;
-    try {
-      built = read_asset_file(pm.file);
-    } catch (const VgeoError& e) {
-      bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
+    std::optional<BuiltScene>& built = decoded[pm.file];
+    if (!built) {
+      try {
+        built = read_asset_file(out->page_files[pm.file].path);
+      } catch (const VgeoError& e) {
+        bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
+      }
     }
-    if (pm.index >= built.meshes.size()) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh");
-    ClusterDag dag = std::move(built.meshes[pm.index]);
+    if (pm.index >= built->meshes.size()) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh");
+    ClusterDag dag = built->meshes[pm.index];
     if (!bvh_is_tree(dag)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
     for (uint32_t& t : dag.triangle_materials) t += pm.material_offset;
     out->scene.meshes[i] = std::move(dag);
-    pm.file.clear();
+    pm.file = kNone;
   }
+  out->page_files.clear();  // nothing streams
 }
 
 // ---- transforms and cameras ----
@@ -427,6 +475,17 @@ std::vector<Camera> expand_path(const Ctx& c, const json& j, const Camera& base)
 }
 
 }  // namespace
+
+std::string SceneFile::stream_note() const {
+  return std::string("streaming: ") + (streaming ? "on" : "off") + " (" + stream_reason + ")";
+}
+
+FormatOptions memory_form_options() {
+  FormatOptions o;  // the defaults of `vgeo build`: the same grid, so the same memory form
+  // The disk form's compression does not change the memory form; none is the fastest.
+  o.compression = Compression::kNone;
+  return o;
+}
 
 uint64_t mesh_content_hash(const Mesh& mesh, const BuildOptions& options) {
   uint64_t h = fnv1a64(kCacheKeyVersion);

@@ -235,15 +235,28 @@ constexpr float kMaxPriority = std::numeric_limits<float>::max();
 Streamer::Streamer(const std::string& path, const StreamOptions& options)
     : Streamer(std::vector<std::string>{path}, options) {}
 
+namespace {
+std::vector<FormatContainer> read_all_metadata(const std::vector<std::string>& paths) {
+  std::vector<FormatContainer> out;
+  for (const std::string& path : paths) out.push_back(read_container_metadata(path));
+  return out;
+}
+}  // namespace
+
 Streamer::Streamer(const std::vector<std::string>& paths, const StreamOptions& options)
-    : options_(options), paths_(paths) {
+    : Streamer(paths, read_all_metadata(paths), options) {}
+
+Streamer::Streamer(const std::vector<std::string>& paths, std::vector<FormatContainer> metadata,
+                   const StreamOptions& options)
+    : options_(options), paths_(paths), files_(std::move(metadata)) {
+  if (files_.size() != paths_.size())
+    fail("INTERNAL_SIZE_MISMATCH", "stream", "one metadata per page file expected", kExitInternal);
   auto close_all = [this] {
     for (int fd : fds_) ::close(fd);
     fds_.clear();
   };
   try {
     for (const std::string& path : paths_) {
-      files_.push_back(read_container_metadata(path));
       fds_.push_back(ReadOnlyFile(path).release());
     }
   } catch (...) {

@@ -164,6 +164,9 @@ class Streamer {
   // Several page files sharing one pool: their meshes and pages are concatenated in file
   // order (container().meshes[k] is mesh k of the concatenation; page indices likewise).
   Streamer(const std::vector<std::string>& paths, const StreamOptions& options);
+  // The same, with each file's header + metadata already read by the caller
+  // (read_container_metadata(paths[k]) == metadata[k]): not read again.
+  Streamer(const std::vector<std::string>& paths, std::vector<FormatContainer> metadata, const StreamOptions& options);
   ~Streamer();
   Streamer(const Streamer&) = delete;
   Streamer& operator=(const Streamer&) = delete;
