@@ -2,6 +2,8 @@
 // (validation, degenerate removal, optional weld). Format readers live in import_*.cpp.
 #include "vgeo/mesh/import.h"
 
+#include "vgeo/core/file_io.h"
+
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -19,22 +21,6 @@ std::string lower_extension(const std::string& path) {
   if (!ext.empty() && ext[0] == '.') ext.erase(0, 1);
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   return ext;
-}
-
-// The one place the importer reads a file: the whole file, at most 4 GiB.
-std::vector<uint8_t> read_file(const std::string& path) {
-  std::error_code ec;
-  const uint64_t size = std::filesystem::file_size(path, ec);
-  if (ec) fail("FILE_READ_ERROR", path, "cannot stat file: " + ec.message(), kExitIo);
-  if (size > std::numeric_limits<uint32_t>::max())
-    fail("FILE_TOO_LARGE", path, "file larger than 4 GiB is not supported");
-  std::vector<uint8_t> bytes(size);
-  FILE* f = std::fopen(path.c_str(), "rb");
-  if (f == nullptr) fail("FILE_READ_ERROR", path, "cannot open file", kExitIo);
-  const size_t got = size == 0 ? 0 : std::fread(bytes.data(), 1, size, f);
-  std::fclose(f);
-  if (got != size) fail("FILE_READ_ERROR", path, "short read", kExitIo);
-  return bytes;
 }
 
 // Shared post-processing: validate, remove degenerates, weld, drop meshes left empty.

@@ -87,11 +87,11 @@ std::string get_string(const Ctx& c, const json& obj, const std::string& path, c
 
 std::vector<double> get_vector(const Ctx& c, const json& obj, const std::string& path, const char* key, size_t n,
                                double limit = 1e12) {
-  const json& v = obj[key];
   std::string p = path + "." + key;
-  if (!v.is_array() || v.size() != n) bad(c, "SCENE_FIELD_TYPE", p + ": expected an array of " + std::to_string(n) + " numbers");
+  const auto it = obj.find(key);  // not const operator[]: undefined on a missing key
+  if (it == obj.end() || !it->is_array() || it->size() != n) bad(c, "SCENE_FIELD_TYPE", p + ": expected an array of " + std::to_string(n) + " numbers");
   std::vector<double> out;
-  for (const json& e : v) {
+  for (const json& e : *it) {
     if (!e.is_number()) bad(c, "SCENE_FIELD_TYPE", p + ": expected numbers");
     double d = e.get<double>();
     if (!std::isfinite(d) || std::abs(d) > limit) bad(c, "SCENE_BAD_VALUE", p + ": value not finite or beyond ±1e12");
@@ -101,8 +101,11 @@ std::vector<double> get_vector(const Ctx& c, const json& obj, const std::string&
 }
 
 const json& get_array(const Ctx& c, const json& obj, const std::string& path, const char* key, size_t max) {
-  const json& v = obj[key];
-  if (!v.is_array()) bad(c, "SCENE_FIELD_TYPE", path + key + ": expected an array");
+  // find, not operator[]: a const json's operator[] on a missing key is undefined behaviour
+  // (fuzz_camera_path: heap overflow on a path with "frames" but no "keyframes").
+  const auto it = obj.find(key);
+  if (it == obj.end() || !it->is_array()) bad(c, "SCENE_FIELD_TYPE", path + key + ": expected an array");
+  const json& v = *it;
   if (v.size() > max) bad(c, "SCENE_TOO_LARGE", path + key + ": more than " + std::to_string(max) + " entries");
   return v;
 }
