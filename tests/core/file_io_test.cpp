@@ -182,7 +182,8 @@ TEST(AtomicWrite, StreamedAndWholeWritesProduceTheSameBytes) {
   EXPECT_EQ(fs::status(dir.file("whole.bin")).permissions() & fs::perms::all,
             fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
   // Little-endian whatever the host, and the checked reader gives the fields back.
-  ByteReader r(expected.data(), expected.size(), dir.path.string(), "TEST_TRUNCATED", "test data");
+  const std::string where = dir.path.string();  // outlives the reader, which keeps a pointer
+  ByteReader r(expected.data(), expected.size(), where, "TEST_TRUNCATED", "test data");
   EXPECT_EQ(r.u32(), 0u);
   EXPECT_EQ(r.u32(), 2654435761u);
   EXPECT_EQ(expected[4], 0xB1);

@@ -88,6 +88,9 @@ struct ByteReader {
 
   ByteReader(const uint8_t* d, size_t n, const std::string& w, const char* code, const char* reg)
       : data(d), size(n), where(&w), truncated_code(code), region(reg) {}
+  // `where` is kept by pointer (error messages only): a temporary would dangle (found by
+  // ASan in AtomicWrite.StreamedAndWholeWritesProduceTheSameBytes).
+  ByteReader(const uint8_t*, size_t, const std::string&&, const char*, const char*) = delete;
 
   size_t remaining() const { return size - pos; }
   void need(uint64_t n, const char* what) const {
