@@ -1,5 +1,6 @@
 // Procedural generation and GLB writing at 1M and 10M triangles (single thread unless
 // the benchmark name says otherwise). Run: vgeo_microbench --benchmark_filter=Gen
+#include <filesystem>
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
@@ -42,7 +43,7 @@ void BM_WriteGlb(benchmark::State& state) {
   vgeo::GenerateOptions o;
   o.target_triangles = uint64_t(state.range(0));
   vgeo::Scene scene = vgeo::generate_scene(o);
-  const std::string path = "/tmp/vgeo_generate_bench_" + std::to_string(getpid()) + ".glb";
+  const std::string path = (std::filesystem::temp_directory_path() / ("vgeo_generate_bench_" + std::to_string(getpid()) + ".glb")).string();
   for (auto _ : state) vgeo::write_glb(scene, path);
   std::remove(path.c_str());
   state.counters["triangles"] = double(scene.meshes[0].triangle_count());
@@ -53,7 +54,7 @@ void BM_GenerateAndWriteGlb(benchmark::State& state, vgeo::GenShape shape) {
   vgeo::GenerateOptions o;
   o.shape = shape;
   o.target_triangles = uint64_t(state.range(0));
-  const std::string path = "/tmp/vgeo_generate_bench_" + std::to_string(getpid()) + ".glb";
+  const std::string path = (std::filesystem::temp_directory_path() / ("vgeo_generate_bench_" + std::to_string(getpid()) + ".glb")).string();
   for (auto _ : state) vgeo::write_glb(vgeo::generate_scene(o), path);
   std::remove(path.c_str());
 }

@@ -2,6 +2,7 @@
 // then stops. Reported per (budget, disk speed): bytes read / file size, pop-in frames
 // (drawn cut coarser than the ideal one), frames to converge after the stop.
 // Run: vgeo_microbench --benchmark_filter=StreamFlyThrough
+#include <filesystem>
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 
@@ -33,7 +34,7 @@ const std::string& scene_file() {
     fo.page_size = vgeo::kMinPageSize;
     fo.zstd_level = 3;
     const std::vector<uint8_t> bytes = vgeo::encode_format(scene, fo);
-    std::string p = "/tmp/vgeo_stream_bench_" + std::to_string(getpid()) + ".vgp";
+    std::string p = (std::filesystem::temp_directory_path() / ("vgeo_stream_bench_" + std::to_string(getpid()) + ".vgp")).string();
     std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
     return p;
   }();
