@@ -89,6 +89,8 @@ void raster_pass(const RenderScene& scene, const std::vector<ClusterDag>& geomet
   stats->pixels_written = total.pixels_written;
 }
 
+}  // namespace
+
 // Overdraw: each drawn cluster rasterized alone into a per-task scratch buffer; the count
 // buffer gets +1 for every pixel the cluster covers (overdraw at cluster granularity:
 // triangles of one cluster overlapping each other count once).
@@ -131,8 +133,6 @@ void overdraw_pass(const RenderScene& scene, const std::vector<ClusterDag>& geom
     }
   });
 }
-
-}  // namespace
 
 void analyze_render_scene(RenderScene* scene) {
   scene->single_convex_object =

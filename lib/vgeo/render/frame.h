@@ -74,6 +74,14 @@ void render_frame(const RenderScene& scene, const Camera& camera, const RenderSe
                   ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame = true,
                   FrameStreaming* streaming = nullptr);
 
+// Overdraw view: per-pixel count of the drawn clusters covering it (each cluster rasterized
+// alone; `geometry`: the scene's meshes or the streamed frame's). The CPU step `overdraw`; the
+// Vulkan executor runs it on the host too.
+void overdraw_pass(const RenderScene& scene, const std::vector<ClusterDag>& geometry,
+                   const std::vector<VisibleCluster>& visible, const std::vector<Mat4>& object_to_clip,
+                   const std::vector<InstanceView>& views, const ViewParams& view, ThreadPool& pool,
+                   std::vector<uint32_t>* counts);
+
 // The plan's context from the history and streaming state (`no_stream_reason`: the stream pass's
 // skip reason when `streaming` is null).
 FrameContext frame_context(const RenderScene& scene, const Camera& camera, const FrameHistory* history,
