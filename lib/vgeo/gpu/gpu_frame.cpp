@@ -248,19 +248,9 @@ class VulkanFrameExecutor final : public FrameExecutor {
                       const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out)
       : r_(r), scene_(scene), camera_(camera), settings_(settings), pool_(pool), history_(history), out_(out) {
     GpuContext& gpu = *r.gpu;
-    out->view = make_view(camera);
-    out->instance_views = make_instance_views(scene.instances, out->view);
-    out->vis.resize(camera.width, camera.height);
-    out->visible.clear();
-    out->overdraw.clear();
-    out->pass1_visible = 0;
-    // Per-instance object→clip matrices exactly as frame.cpp (float, from double products).
-    const Mat4d view_to_clip =
-        perspective_reversed_z(camera.fov_y, double(camera.width) / double(camera.height), camera.z_near);
+    object_to_clip_ = begin_frame(scene, camera, out);  // the CPU executor's matrices, bit for bit
     std::vector<GpuInstance> instances(scene.instances.size());
-    object_to_clip_.resize(scene.instances.size());
     for (size_t i = 0; i < instances.size(); ++i) {
-      object_to_clip_[i] = to_float(view_to_clip * out->instance_views[i].object_to_view);
       std::memcpy(instances[i].object_to_clip, object_to_clip_[i].m, sizeof(instances[i].object_to_clip));
       instances[i].mesh = scene.instances[i].mesh;
     }
@@ -382,21 +372,6 @@ class VulkanFrameExecutor final : public FrameExecutor {
     return history_ ? history_->view : none;
   }
   static uint32_t list_count(const GpuBuffer& list) { return list.data<uint32_t>()[0]; }
-  static void add_instance_counters(const CullCounters& c, PassStats* p) {
-    p->instances_in += c.instances_in;
-    p->instances_out += c.instances_out;
-  }
-  // frame.cpp's CpuFrameExecutor counts the same members.
-  static void add_cull_counters(const CullCounters& c, PassStats* p) {
-    p->nodes_visited += c.nodes_visited;
-    p->groups_visited += c.groups_visited;
-    p->cluster_candidates += c.cluster_candidates;
-    p->clusters_occluded += c.clusters_occluded;
-  }
-  static void check_visible_count(size_t n) {
-    if (n > kMaxVisibleClusters)
-      fail("RENDER_TOO_MANY_VISIBLE_CLUSTERS", "render", "more than 2^25 visible clusters in one view", kExitBadInput);
-  }
   // Rasterizes visible[first, n) (frame.cpp raster_pass's counters; the time is the step's).
   void raster(uint32_t first, PassStats* p) {
     static_assert(sizeof(VisibleCluster) == sizeof(GpuVisibleCluster));
