@@ -11,6 +11,7 @@
 #include "vgeo/core/error.h"
 #include "vgeo/core/hash.h"
 #include "vgeo/gpu/gpu_frame.h"
+#include "vgeo/render/run.h"
 
 namespace vgeo {
 
@@ -119,19 +120,12 @@ uint64_t cluster_set_hash(const std::vector<VisibleCluster>& visible) {
 }
 
 BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& request) {
-  RenderSettings settings = file.settings;
-  if (request.threshold_px) settings.threshold_px = *request.threshold_px;
-  if (request.view) settings.view = *request.view;
-  if (request.occlusion) settings.occlusion = *request.occlusion;
-  if (!(settings.threshold_px > 0) || !std::isfinite(settings.threshold_px))
-    fail("RENDER_BAD_OPTION", "render", "--tau must be a positive finite number of pixels", kExitUsage);
-  if (request.camera >= file.cameras.size())
-    fail("RENDER_BAD_CAMERA", "render", "camera " + std::to_string(request.camera) + " does not exist", kExitUsage);
+  uint32_t frames = 0;
+  const RenderSettings settings = resolve_render_options(
+      file, {request.threshold_px, request.view, request.occlusion, request.camera, request.frames}, &frames);
   if (file.streaming)
     fail("GPU_STREAMING_UNSUPPORTED", "render",
          "--backend/--compare render fully resident scenes only (the scene's pages exceed the stream budget)", kExitUsage);
-  const uint32_t frames = request.frames ? request.frames : (file.path.empty() ? 1 : uint32_t(file.path.size()));
-  if (frames > kMaxPathFrames) fail("RENDER_BAD_OPTION", "render", "--frames at most 100000", kExitUsage);
   const bool vulkan = request.backend == Backend::kVulkan;
   const bool compare = vulkan && request.compare_cpu;
 
@@ -140,7 +134,7 @@ BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& req
   GpuRendererPtr renderer;
   if (vulkan) {
     gpu = create_gpu_context(request.gpu);
-    renderer = create_gpu_renderer(*gpu, scene);
+    renderer = create_gpu_renderer(*gpu, scene, request.traversal);
   }
   BackendRunReport report;
   report.backend = request.backend;

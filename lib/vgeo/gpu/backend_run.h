@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "vgeo/gpu/context.h"
+#include "vgeo/gpu/gpu_cull.h"
 #include "vgeo/render/scene_file.h"
 
 namespace vgeo {
@@ -20,6 +21,7 @@ struct BackendRunRequest {
   Backend backend = Backend::kCpu;
   bool compare_cpu = false;          // render every frame on the CPU too and compare
   GpuOptions gpu;
+  GpuTraversal traversal = kDefaultGpuTraversal;  // the Vulkan cull's BVH traversal
   unsigned threads = 0;
   uint32_t frames = 0;               // 0: the camera path's length if any, else 1
   uint32_t camera = 0;
