@@ -23,6 +23,8 @@ layout(std430, binding = 9) coherent buffer BitsBuf { uint32_t bits[]; };
 layout(std430, binding = 10) buffer CounterBuf { uint64_t counters[]; };
 layout(std430, binding = 11) readonly buffer ListInBuf { uint32_t list_in[]; };
 layout(std430, binding = 12) buffer ListOutBuf { uint32_t list_out[]; };
+// Streaming words per mesh (GpuCullMesh::stream_base): streams flag, usable, requests.
+layout(std430, binding = 13) coherent buffer StreamBuf { uint32_t stream_words[]; };
 
 layout(push_constant) uniform Push { GpuCullPush push; };
 

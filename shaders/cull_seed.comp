@@ -14,7 +14,7 @@ void main() {
     item = pack_cull_item(list_in[kListHeaderWords + k], 0u, kItemNode);
   } else {
     uint r = kListHeaderWords + 3u * k;
-    item = pack_cull_item(list_in[r], list_in[r + 1u], list_in[r + 2u]);
+    item = pack_cull_item(list_in[r], list_in[r + 1u], list_in[r + 2u]) | (uint64_t(kItemSeededBit) << 32);
   }
   uint slot = atomicAdd(queue.write_head, 1u);
   atomicAdd(queue.pending, 1u);

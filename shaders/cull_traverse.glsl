@@ -39,15 +39,47 @@ uint item_key(uint instance, uint index, uint kind) {
   return instances[instance].item_key_base + index * kItemKinds + kind;
 }
 
-void test_cluster(uint instance, uint ci) {
-  GpuCullInstance iv = instances[instance];
-  GpuCluster c = clusters[meshes[iv.mesh].first_cluster + ci];
-  count(kCounterClusterCandidates);
-  if (!cluster_lod_selects(c, iv, params.view, params.threshold_px)) return;
-  count(kCounterClustersSelectedLod);
+bool usable_group(GpuCullMesh mesh, uint group) { return stream_words[mesh.stream_base + 1u + group] != 0u; }
+
+// cull.cpp resident_cluster_test: stream.h resident_lod_test (the residency rule of
+// spec/stream.md §Cut, on lod.h cut_selects), then frustum; an ideal-cut cluster in view
+// requests its group with priority proj(parent) (atomicMax on the float bits: priorities
+// are > τ ≥ 0, whose bits order as the floats; the max over clusters is cull.cpp's dedup).
+bool resident_cluster_test(GpuCullMesh mesh, GpuCluster c, GpuCullInstance iv, float tau,
+                           bool from_group) {
+  float parent_px = projected_error(sphere_to_view(iv, sphere_of(c.parent_bounds)), error_to_view(c.parent_error, iv.scale), params.view);
+  float lod_px = projected_error(sphere_to_view(iv, sphere_of(c.lod_bounds)), error_to_view(c.lod_error, iv.scale), params.view);
+  bool ideal = parent_px > tau && lod_px <= tau;  // lod.h cut_selects
+  bool finer_unusable = c.generating_group != kGpuNone && !usable_group(mesh, c.generating_group);
+  bool drawn = usable_group(mesh, c.group) && parent_px > tau && (ideal || finer_unusable);
+  if (!drawn && !ideal) return false;
   if ((params.flags & kGpuCullFrustum) != 0u && sphere_outside_frustum(culling_sphere(iv, c.bounds), params.view)) {
-    count(kCounterClustersFrustumCulled);
-    return;
+    if (drawn) count(kCounterClustersFrustumCulled);
+    return false;
+  }
+  if (ideal && from_group) {
+    count(kCounterClustersIdeal);
+    if (!usable_group(mesh, c.group)) count(kCounterClustersCoarser);
+    atomicMax(stream_words[mesh.stream_base + 1u + mesh.group_count + c.group], floatBitsToUint(parent_px));
+  }
+  return drawn;
+}
+
+void test_cluster(uint instance, uint ci, bool from_group) {
+  GpuCullInstance iv = instances[instance];
+  GpuCullMesh mesh = meshes[iv.mesh];
+  GpuCluster c = clusters[mesh.first_cluster + ci];
+  count(kCounterClusterCandidates);
+  if (stream_words[mesh.stream_base] != 0u) {
+    if (!resident_cluster_test(mesh, c, iv, params.threshold_px, from_group)) return;
+    count(kCounterClustersSelectedLod);
+  } else {
+    if (!cluster_lod_selects(c, iv, params.view, params.threshold_px)) return;
+    count(kCounterClustersSelectedLod);
+    if ((params.flags & kGpuCullFrustum) != 0u && sphere_outside_frustum(culling_sphere(iv, c.bounds), params.view)) {
+      count(kCounterClustersFrustumCulled);
+      return;
+    }
   }
   if (occluded(instance, c.bounds)) {
     count(kCounterClustersOccluded);
@@ -84,7 +116,8 @@ uint push_clusters(uint instance, GpuGroup g) {
 
 // Processes one packed item; returns the number of children pushed.
 uint process_item(uint64_t packed) {
-  uint instance = uint(packed >> 32);
+  uint instance = uint(packed >> 32) & kItemInstanceMask;
+  bool seeded = (uint(packed >> 32) & kItemSeededBit) != 0u;
   uint kind = (uint(packed) >> kItemIndexBits) - 1u;
   uint index = uint(packed) & kItemIndexMask;
   GpuCullInstance iv = instances[instance];
@@ -115,6 +148,6 @@ uint process_item(uint64_t packed) {
     }
     return push_clusters(instance, g);
   }
-  test_cluster(instance, index);
+  test_cluster(instance, index, !seeded);
   return 0u;
 }

@@ -143,7 +143,7 @@ vec3 shade_lit(uint32_t x, uint32_t y, GpuVisibleCluster v, uint32_t tri) {
   }
   precise double nl = sqrt(wn[0] * wn[0] + wn[1] * wn[1] + wn[2] * wn[2]);
   precise double lambert = nl > 0.0 ? max(0.0, (wn[0] * params.light[0] + wn[1] * params.light[1] + wn[2] * params.light[2]) / nl) : 0.0;
-  uint32_t mat = memory_material(c, tri);
+  uint32_t mat = memory_material(c, tri) + mesh.material_offset;  // uint32 wrap, as the CPU's sum
   vec4 base = vec4(0.8, 0.8, 0.8, 1.0);
   if (mat < params.material_count) {
     GpuMaterial m = materials[mat];

@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "render/stream_fixture.h"
 #include "vgeo/gpu/backend_run.h"
 
 namespace vgeo {
@@ -25,7 +26,12 @@ struct Golden {
   ShadeView view = ShadeView::kLit;
   uint32_t width = 0, height = 0;  // 0: the scene's resolution
   uint32_t frames = 0;             // 0: the scene's camera path, else 1
+  bool streamed = false;           // scene = the stream fixture's fly-through at kStreamBudgetShare
 };
+
+// The streamed fly-through's budget: the pinned pages plus this share of the rest (pages are
+// loaded and evicted along the path; the cut is coarser than ideal on some frames).
+constexpr uint64_t kStreamBudgetShareInverse = 4;
 
 // Small resolutions keep the whole test at seconds (CI budget, DEVELOPERS.md).
 const Golden kGoldens[] = {
@@ -43,11 +49,21 @@ const Golden kGoldens[] = {
     {"view_lod", "tests/scenes/spheres.json", ShadeView::kLod, 160, 90},
     {"view_error", "tests/scenes/spheres.json", ShadeView::kError, 160, 90},
     {"view_overdraw", "tests/scenes/spheres.json", ShadeView::kOverdraw, 160, 90},
+    {"stream_flythrough", "", ShadeView::kLit, 0, 0, 0, true},
 };
 
 SceneFile load_golden_scene(const Golden& g) {
   SceneLoadOptions options;
   options.cache_dir = std::string(VGEO_BINARY_DIR) + "/cache/vgeo-golden";
+  if (g.streamed) {
+    // The streaming tests' page file (16 KiB pages, deterministic build) and fly-through
+    // (3 instances, 9 frames from far to near, then sideways), with the deterministic loader.
+    const test::StreamFixture& f = test::stream_fixture();
+    options.stream.emplace();
+    options.stream->budget_bytes = f.pinned + (f.total - f.pinned) / kStreamBudgetShareInverse;
+    options.stream->loader.asynchronous = false;
+    return parse_scene_json(test::stream_scene_json("meshes.vgeo", 3, 12, 2, true), "<golden stream>", f.dir, options);
+  }
   if (!*g.scene) return make_default_scene(g.width, g.height, 1, options);
   SceneFile sf = load_scene_file(std::string(VGEO_SOURCE_DIR) + "/" + g.scene, options);
   if (g.width)
@@ -114,6 +130,21 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
                                                << " validation message(s), first: "
                                                << (got.validation_messages.empty() ? "" : got.validation_messages[0]);
   ASSERT_EQ(got.comparisons.size(), ref.frames.size());
+  if (g.streamed) {
+    // Streaming really ran on both, with pages installed along the path and the pool in use.
+    ASSERT_TRUE(sf.streaming) << sf.stream_reason;
+    uint64_t loaded = 0;
+    for (size_t f = 0; f < got.frames.size(); ++f) {
+      EXPECT_TRUE(got.frames[f].streamed);
+      EXPECT_EQ(got.frames[f].stream.pages_loaded, ref.frames[f].stream.pages_loaded) << "frame " << f;
+      EXPECT_EQ(got.frames[f].stream.resident_bytes, ref.frames[f].stream.resident_bytes) << "frame " << f;
+      EXPECT_EQ(got.frames[f].stream.clusters_coarser, ref.frames[f].stream.clusters_coarser) << "frame " << f;
+      loaded += got.frames[f].stream.pages_loaded;
+    }
+    EXPECT_GT(loaded, 0u);
+    EXPECT_GT(got.pool.pages_uploaded, 0u);
+    EXPECT_LE(got.pool.pages_uploaded, got.pool.pages_freed + got.pool.slots);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, GoldenTest, ::testing::ValuesIn(kGoldens),

@@ -31,7 +31,8 @@ struct RenderArgs {
 };
 
 // --backend / --compare: render the decoded memory form on the chosen backend (and the CPU).
-void run_backend_command(const RenderArgs& args, const RenderRequest& request, const std::string& cache, Context& ctx) {
+void run_backend_command(const RenderArgs& args, const RenderRequest& request, SceneLoadOptions options,
+                         const std::string& cache, Context& ctx) {
   BackendRunRequest br;
   br.backend = args.compare.empty() ? Backend::kCpu : Backend::kVulkan;
   if (!args.backend.empty() && !parse_backend(args.backend, &br.backend))
@@ -56,7 +57,6 @@ void run_backend_command(const RenderArgs& args, const RenderRequest& request, c
   br.occlusion = request.occlusion;
   br.output_png = request.output_png;
   br.diff_png = args.diff_png;
-  SceneLoadOptions options;
   options.cache_dir = cache;
   options.build.threads = request.threads;
   SceneFile scene = args.scene.empty() ? make_default_scene(1280, 720, std::max<uint32_t>(request.frames, 1), options)
@@ -173,8 +173,8 @@ void add_render_command(CLI::App& app, Context& ctx) {
     if (!args->traversal.empty() && args->backend.empty() && args->compare.empty())
       fail("RENDER_BAD_OPTION", "vgeo render", "--traversal needs --backend vulkan", kExitUsage);
     if (!args->backend.empty() || !args->compare.empty()) {
-      if (!args->stream_budget.empty()) bad_stream_option("--stream-budget is not supported with --backend/--compare");
-      run_backend_command(*args, request, cache, ctx);
+      if (args->scene.empty() && options.stream) bad_stream_option("--stream-budget needs a scene file");
+      run_backend_command(*args, request, options, cache, ctx);
       return;
     }
     RenderReport report;

@@ -60,9 +60,14 @@ struct GpuBvhNode {
 
 // Where one mesh's records start in the concatenated arrays (indices in a mesh's records
 // stay mesh-local, as in ClusterDag).
+// `stream_base`: where the mesh's streaming words start in the stream buffer
+// (cull_common.glsl binding 13, spec/raster.md §12 "Streaming"): word stream_base is 1 when
+// the mesh streams this frame (CullOptions::usable_groups non-empty for it), then
+// group_count usable flags (resident_lod_test's `usable`), then group_count request words
+// (the float bits of the highest priority requested for that group this pass, 0 = none).
 struct GpuCullMesh {
   uint32_t first_cluster, cluster_count, first_group, group_count;
-  uint32_t first_node, node_count, pad0, pad1;
+  uint32_t first_node, node_count, stream_base, pad0;
 };
 
 // One instance in one view (== InstanceView + its mesh): the double object-to-view matrix
@@ -124,6 +129,10 @@ VGEO_CONSTANT uint32_t kItemNode = 0u, kItemGroup = 1u, kItemCluster = 2u;
 VGEO_CONSTANT uint32_t kItemKinds = 3u;
 VGEO_CONSTANT uint32_t kItemIndexBits = 30u;
 VGEO_CONSTANT uint32_t kItemIndexMask = (1u << kItemIndexBits) - 1u;
+// Bit 63 marks a cluster item seeded from pass 1's occluded list (cull.cpp test_cluster's
+// from_group == false: its stream request was emitted in pass 1); instances stay < 2^31.
+VGEO_CONSTANT uint32_t kItemSeededBit = 0x80000000u;  // in the instance word (bits 63..32)
+VGEO_CONSTANT uint32_t kItemInstanceMask = 0x7FFFFFFFu;
 VGEO_FUNCTION uint64_t pack_cull_item(uint32_t instance, uint32_t index, uint32_t kind) {
   return (uint64_t(instance) << 32) | (uint64_t(kind + 1u) << kItemIndexBits) | uint64_t(index);
 }

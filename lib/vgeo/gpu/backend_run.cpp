@@ -2,9 +2,11 @@
 #include "vgeo/gpu/backend_run.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -123,18 +125,28 @@ BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& req
   uint32_t frames = 0;
   const RenderSettings settings = resolve_render_options(
       file, {request.threshold_px, request.view, request.occlusion, request.camera, request.frames}, &frames);
-  if (file.streaming)
-    fail("GPU_STREAMING_UNSUPPORTED", "render",
-         "--backend/--compare render fully resident scenes only (the scene's pages exceed the stream budget)", kExitUsage);
   const bool vulkan = request.backend == Backend::kVulkan;
   const bool compare = vulkan && request.compare_cpu;
 
-  const MemoryFormScene scene = make_memory_form_scene(file.scene);
+  // Streamed (spec/gpu.md §Streaming): each renderer has its own Streamer over the scene's
+  // page files and draws from its resident pages (the memory form as it is). A comparison
+  // forces the deterministic loader on both, so both install the same pages in the same frame.
+  std::unique_ptr<SceneStreaming> gpu_stream, cpu_stream;
+  std::optional<MemoryFormScene> memory_form;
+  if (file.streaming) {
+    if (vulkan) gpu_stream = start_scene_streaming(file, settings.threshold_px, compare);
+    if (!vulkan || compare) cpu_stream = start_scene_streaming(file, settings.threshold_px, compare);
+  } else {
+    memory_form = make_memory_form_scene(file.scene);
+  }
+  const RenderScene& gpu_scene = gpu_stream ? gpu_stream->scene : memory_form ? memory_form->scene : file.scene;
+  const RenderScene& cpu_scene = cpu_stream ? cpu_stream->scene : memory_form ? memory_form->scene : file.scene;
   std::unique_ptr<GpuContext> gpu;
   GpuRendererPtr renderer;
   if (vulkan) {
     gpu = create_gpu_context(request.gpu);
-    renderer = create_gpu_renderer(*gpu, scene, request.traversal);
+    renderer = gpu_stream ? create_gpu_renderer_streamed(*gpu, gpu_stream->scene, gpu_stream->frame, request.traversal)
+                          : create_gpu_renderer(*gpu, *memory_form, request.traversal);
   }
   BackendRunReport report;
   report.backend = request.backend;
@@ -142,22 +154,34 @@ BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& req
   ThreadPool pool(request.threads);
   FrameHistory history, cpu_history;
   Frame frame, cpu_frame;
+  // The CPU reference's frame (render_frame's plan and executor, with streaming when streamed).
+  auto render_cpu = [&](const Camera& cam, const RenderSettings& s, FrameHistory* h, Frame* out, bool next) {
+    FrameStreaming* fs = cpu_stream ? &cpu_stream->frame : nullptr;
+    const FramePlan plan = plan_frame(cpu_scene, s, frame_context(cpu_scene, cam, h, next, fs, file.stream_reason));
+    const auto start = std::chrono::steady_clock::now();
+    render_planned_frame(plan, cpu_scene, cam, s, pool, h, out, fs);
+    out->stats.total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  };
   for (uint32_t f = 0; f < frames; ++f) {
     const Camera& cam = file.path.empty() ? file.cameras[request.camera] : file.path[std::min<size_t>(f, file.path.size() - 1)];
     const bool last = f + 1 == frames;
     RenderSettings s = settings;
     s.shade = last;  // as render_scene: only the kept image is shaded
-    if (vulkan) render_frame_vulkan(*renderer, scene, cam, s, pool, &history, &frame, !last);
-    else render_frame(scene.scene, cam, s, pool, &history, &frame, !last);
+    if (vulkan)
+      render_frame_vulkan(*renderer, gpu_scene, cam, s, pool, &history, &frame, !last,
+                          gpu_stream ? &gpu_stream->frame : nullptr, file.stream_reason);
+    else
+      render_cpu(cam, s, &history, &frame, !last);
     report.frames.push_back(frame.stats);
     if (compare) {
-      render_frame(scene.scene, cam, s, pool, &cpu_history, &cpu_frame, !last);
+      render_cpu(cam, s, &cpu_history, &cpu_frame, !last);
       report.comparisons.push_back(compare_frames(cpu_frame, frame, last));
       report.rule_holds = report.rule_holds && report.comparisons.back().holds();
       if (!report.comparisons.back().holds() && !request.failure_dir.empty())
         write_failure(request.failure_dir, f, cpu_frame, frame);
     }
   }
+  if (renderer && gpu_stream) report.pool = gpu_pool_stats(*renderer);
   report.width = frame.vis.width;
   report.height = frame.vis.height;
   report.vis_hash = vis_buffer_hash(frame.vis, frame.visible);
@@ -176,6 +200,13 @@ std::string BackendRunReport::table() const {
   std::string out = "backend: " + std::string(backend_name(backend)) + (device.empty() ? "" : " (" + device + ")") + "\n";
   if (!frames.empty()) out += frame_stats_table(frames.back());
   out += "vis_hash " + hex64(vis_hash) + "  cluster_set_hash " + hex64(cluster_set_hash) + "\n";
+  if (pool.slots) {
+    char line[200];
+    std::snprintf(line, sizeof line, "gpu page pool: %u slots (%llu bytes), %llu pages uploaded (%llu bytes), %llu freed\n",
+                  pool.slots, (unsigned long long)pool.pool_bytes, (unsigned long long)pool.pages_uploaded,
+                  (unsigned long long)pool.bytes_uploaded, (unsigned long long)pool.pages_freed);
+    out += line;
+  }
   if (!comparisons.empty()) {
     uint64_t vis_diff = 0, over = 0;
     int max_diff = 0;
@@ -222,6 +253,15 @@ std::string BackendRunReport::json() const {
     }
     j["compare_cpu"] = c;
     j["rule_holds"] = rule_holds;
+  }
+  if (pool.slots) {
+    nlohmann::ordered_json p;
+    p["slots"] = pool.slots;
+    p["pool_bytes"] = pool.pool_bytes;
+    p["pages_uploaded"] = pool.pages_uploaded;
+    p["bytes_uploaded"] = pool.bytes_uploaded;
+    p["pages_freed"] = pool.pages_freed;
+    j["gpu_page_pool"] = p;
   }
   j["validation_messages"] = validation_messages.size();
   return j.dump(2);

@@ -9,6 +9,7 @@
 
 #include "vgeo/gpu/context.h"
 #include "vgeo/gpu/gpu_cull.h"
+#include "vgeo/gpu/gpu_frame.h"
 #include "vgeo/render/scene_file.h"
 
 namespace vgeo {
@@ -54,12 +55,14 @@ struct BackendRunReport {
   std::vector<FrameComparison> comparisons;  // per frame, with compare_cpu
   bool rule_holds = true;
   std::vector<std::string> validation_messages;
+  GpuPoolStats pool;                 // streamed Vulkan runs: the GPU page pool
   std::string table() const;
   std::string json() const;
 };
 
 // Throws VgeoError: GPU_* (gpu.md), RENDER_BAD_OPTION / RENDER_BAD_CAMERA as render_scene,
-// GPU_STREAMING_UNSUPPORTED when the scene streams (Vulkan streaming is not implemented).
+// the Streamer's errors for a streamed scene, GPU_STREAMING_UNSUPPORTED when a streamed
+// scene has a mesh not from a page file (Vulkan).
 BackendRunReport run_backend(const SceneFile& scene, const BackendRunRequest& request);
 
 // spec/raster.md §Hashes. Both are independent of the visible-cluster list's order.

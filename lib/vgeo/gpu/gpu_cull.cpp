@@ -49,7 +49,7 @@ constexpr uint32_t kItemLoopOverhead = 64;
 // Part of kGpuLoopBudget an invocation may plan to use: the rest is margin for the few
 // loops outside the per-item bound (counter clear/flush: kCounterCount each).
 constexpr uint32_t kPlannedLoopBudget = kGpuLoopBudget - 1024;
-constexpr uint32_t kCullBindings = 13;  // cull_common.glsl bindings 0..12
+constexpr uint32_t kCullBindings = 14;  // cull_common.glsl bindings 0..13
 constexpr uint32_t kHzbBindings = 3;
 constexpr VkDeviceSize kQueueDispatchOffset = offsetof(GpuQueueHeader, dispatch_x);
 
@@ -103,13 +103,13 @@ GpuCullView gpu_view(const ViewParams& v) {
   return g;
 }
 
-// The 13 bindings of cull_common.glsl for pass `pass`.
+// The 14 bindings of cull_common.glsl for pass `pass`.
 std::vector<const GpuBuffer*> cull_bindings(const GpuCullMeshes& m, GpuCullFrame& f, uint32_t pass, bool previous,
                                             const GpuBuffer& counters, const GpuBuffer& list_in,
                                             const GpuBuffer& list_out) {
   return {&f.params[pass], &m.meshes, &m.clusters, &m.groups, &m.nodes, &f.instances,
           previous ? &f.previous_instances : &f.instances, previous ? &f.previous_hzb : &f.hzb,
-          &f.queue, &f.bits, &counters, &list_in, &list_out};
+          &f.queue, &f.bits, &counters, &list_in, &list_out, &m.stream};
 }
 
 // The most loop back edges one HZB test of `params` runs (cull_common.glsl): the 4x4 / 2x2
@@ -177,6 +177,7 @@ GpuCullMeshes upload_cull_meshes(GpuContext& gpu, const std::vector<ClusterDag>&
   std::vector<DagGroup> groups;
   std::vector<BvhNode> nodes;
   uint32_t deepest = 0;
+  uint64_t stream_words = 0;
   for (const ClusterDag& dag : meshes) {
     GpuCullMesh g{};
     g.first_cluster = uint32_t(clusters.size());
@@ -185,6 +186,8 @@ GpuCullMeshes upload_cull_meshes(GpuContext& gpu, const std::vector<ClusterDag>&
     g.group_count = uint32_t(dag.groups.size());
     g.first_node = uint32_t(nodes.size());
     g.node_count = uint32_t(dag.bvh_nodes.size());
+    g.stream_base = uint32_t(stream_words);
+    stream_words += 1 + 2ull * dag.groups.size();
     m.table.push_back(g);
     clusters.insert(clusters.end(), dag.clusters.begin(), dag.clusters.end());
     groups.insert(groups.end(), dag.groups.begin(), dag.groups.end());
@@ -197,12 +200,44 @@ GpuCullMeshes upload_cull_meshes(GpuContext& gpu, const std::vector<ClusterDag>&
   m.clusters = upload(gpu, clusters, "clusters");
   m.groups = upload(gpu, groups, "groups");
   m.nodes = upload(gpu, nodes, "BVH nodes");
+  m.stream = make_buffer(gpu, stream_words * 4, "stream words");
+  std::memset(m.stream.mapped, 0, stream_words * 4);  // no mesh streams until write_cull_usable
   return m;
+}
+
+void write_cull_usable(GpuCullMeshes& m, const std::vector<std::vector<uint8_t>>& usable) {
+  uint32_t* w = m.stream.data<uint32_t>();
+  for (size_t k = 0; k < m.table.size(); ++k) {
+    const GpuCullMesh& g = m.table[k];
+    const bool streams = k < usable.size() && !usable[k].empty();
+    w[g.stream_base] = streams ? 1u : 0u;
+    for (uint32_t i = 0; i < g.group_count; ++i) w[g.stream_base + 1 + i] = streams && usable[k][i] ? 1u : 0u;
+  }
+}
+
+std::vector<GroupRequest> take_cull_requests(GpuCullMeshes& m) {
+  std::vector<GroupRequest> out;
+  uint32_t* w = m.stream.data<uint32_t>();
+  for (uint32_t k = 0; k < m.table.size(); ++k) {
+    const GpuCullMesh& g = m.table[k];
+    if (w[g.stream_base] == 0) continue;
+    uint32_t* request = w + g.stream_base + 1 + g.group_count;
+    for (uint32_t i = 0; i < g.group_count; ++i) {
+      if (request[i] == 0) continue;
+      float priority;
+      std::memcpy(&priority, &request[i], 4);
+      out.push_back({k, i, priority});
+      request[i] = 0;
+    }
+  }
+  return out;
 }
 
 GpuCullLayout make_cull_layout(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances) {
   GpuCullLayout l;
   uint64_t cluster_keys = 0, item_keys = 0, capacity = 0;
+  if (instances.size() > kItemInstanceMask)
+    fail("GPU_SCENE_TOO_LARGE", "vulkan", "more than 2^31 instances in one scene", kExitUsage);
   for (const CullInstance& inst : instances) {
     const ClusterDag& dag = meshes[inst.mesh];
     l.cluster_key_base.push_back(uint32_t(cluster_keys));

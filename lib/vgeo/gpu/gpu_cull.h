@@ -35,11 +35,21 @@ GpuCullPipelines create_cull_pipelines(GpuContext& gpu);
 // The scene's DAG records, concatenated (DagCluster/DagGroup/BvhNode uploaded as they are).
 struct GpuCullMeshes {
   GpuBuffer meshes, clusters, groups, nodes;
+  GpuBuffer stream;  // per mesh at GpuCullMesh::stream_base: streams flag, usable flags, requests
   std::vector<GpuCullMesh> table;
   uint32_t levels = 0;  // dispatches the level-by-level traversal needs: deepest BVH node + 3
   uint32_t max_group_clusters = 0;  // a group's push loop (the per-item loop bound)
 };
 GpuCullMeshes upload_cull_meshes(GpuContext& gpu, const std::vector<ClusterDag>& meshes);
+
+// Streaming (CullOptions::usable_groups, spec/stream.md §Cut): the usable groups per mesh
+// for the next cull passes (an empty vector, or no entry: the mesh does not stream and its
+// clusters take the lod_selects test).
+void write_cull_usable(GpuCullMeshes& meshes, const std::vector<std::vector<uint8_t>>& usable);
+// After a cluster cull pass (submit_and_wait): the pass's requests, one per (mesh, group)
+// with the highest priority, sorted by (mesh, group) as cull_clusters' CullResult::requests;
+// clears them for the next pass.
+std::vector<GroupRequest> take_cull_requests(GpuCullMeshes& meshes);
 
 // Per-scene key layout of the output bit sets (gpu/cull_shared.h): fixed by the scene.
 struct GpuCullLayout {

@@ -6,9 +6,11 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <functional>
 
 #include "vgeo/core/error.h"
 #include "vgeo/core/lod.h"
+#include "vgeo/render/streaming.h"
 #include "vgeo/gpu/shader_records.h"
 #include "vgeo/gpu/shaders.h"
 
@@ -62,6 +64,12 @@ struct GpuRenderer {
   GpuCullPipelines cull;
   GpuCullMeshes cull_meshes;
   std::unique_ptr<GpuCullFrame> cull_frame;
+  // Streaming: `pages` is a fixed pool of slots of slot_words words (spec/gpu.md §Streaming).
+  bool streamed = false;
+  uint32_t slot_words = 0;
+  std::vector<uint32_t> slot_of_page;  // per container page: its slot, kNone when not in the pool
+  std::vector<uint32_t> free_slots;    // descending, so slots are taken lowest first
+  GpuPoolStats pool_stats;
 };
 
 void GpuRendererDeleter::operator()(GpuRenderer* r) const { delete r; }
@@ -192,16 +200,93 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
 
 }  // namespace
 
-GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene, GpuTraversal traversal) {
+namespace {
+
+// What every renderer has: pipelines, the scene's cull records and its materials.
+GpuRendererPtr create_renderer_common(GpuContext& gpu, const RenderScene& scene, GpuTraversal traversal) {
   GpuRendererPtr r(new GpuRenderer);
   r->gpu = &gpu;
   r->traversal = traversal;
   r->cull = create_cull_pipelines(gpu);
-  r->cull_meshes = upload_cull_meshes(gpu, scene.scene.meshes);
+  r->cull_meshes = upload_cull_meshes(gpu, scene.meshes);
   r->recorder = create_gpu_recorder(gpu);
   r->raster = create_compute_pipeline(gpu, kShaderRaster, kRasterBindings, sizeof(GpuRasterParams));
   r->shade = create_compute_pipeline(gpu, kShaderShade, kShadeBindings, sizeof(GpuShadeParams));
+  r->counters = create_gpu_buffer(gpu, 64);
+  std::vector<GpuMaterial> materials(scene.materials.size());
+  for (size_t i = 0; i < materials.size(); ++i)
+    std::copy(scene.materials[i].base_color.begin(), scene.materials[i].base_color.end(), materials[i].base_color);
+  r->materials = upload(gpu, materials);
+  return r;
+}
 
+GpuMesh gpu_mesh(const MeshQuantization& q, uint32_t first_location, uint32_t material_offset) {
+  GpuMesh g{};
+  g.first_location = first_location;
+  g.position_step_log2 = q.position_step_log2;
+  g.channel_count = q.channel_count();
+  g.normal_bits = q.has_normals ? q.normal_bits : 0;
+  g.material_offset = material_offset;
+  return g;
+}
+
+// The most pages `budget` bytes can hold at once: the count of the smallest pages whose
+// sizes sum to ≤ budget (the Streamer keeps resident + in-flight bytes ≤ budget).
+uint32_t max_resident_pages(const FormatContainer& c, uint64_t budget) {
+  std::vector<uint32_t> sizes;
+  for (const PageEntry& e : c.pages) sizes.push_back(e.memory_size);
+  std::sort(sizes.begin(), sizes.end());
+  uint64_t sum = 0;
+  uint32_t n = 0;
+  while (n < sizes.size() && sum + sizes[n] <= budget) sum += sizes[n++];
+  return n;
+}
+
+// Frees the slots of pages evicted since the last call, then uploads every newly installed
+// page into a free slot and points its clusters' locations there. Called at stream_begin,
+// after the Streamer installed this frame's reads (residency only grows until stream_end).
+void sync_page_pool(GpuRenderer& r, const FrameStreaming& s) {
+  const Streamer& streamer = *s.streamer;
+  const FormatContainer& c = streamer.container();
+  for (uint32_t p = 0; p < c.pages.size(); ++p)
+    if (r.slot_of_page[p] != kNone && streamer.page_state(p) != PageState::kResident) {
+      r.free_slots.push_back(r.slot_of_page[p]);
+      r.slot_of_page[p] = kNone;
+      ++r.pool_stats.pages_freed;
+    }
+  std::sort(r.free_slots.begin(), r.free_slots.end(), std::greater<>());
+  GpuClusterLocation* locations = r.locations.data<GpuClusterLocation>();
+  const GpuMesh* meshes = r.meshes.data<GpuMesh>();
+  for (uint32_t p = 0; p < c.pages.size(); ++p) {
+    if (r.slot_of_page[p] != kNone || streamer.page_state(p) != PageState::kResident) continue;
+    if (r.free_slots.empty())
+      fail("GPU_ERROR", "vulkan", "GPU page pool full: the Streamer holds more pages than its budget allows",
+           kExitInternal);
+    const uint32_t slot = r.free_slots.back();
+    r.free_slots.pop_back();
+    r.slot_of_page[p] = slot;
+    const std::vector<uint32_t>& words = streamer.page_words(p);
+    assert(words.size() <= r.slot_words);
+    const uint32_t page_word = slot * r.slot_words;
+    std::memcpy(r.pages.data<uint32_t>() + page_word, words.data(), words.size() * 4);
+    ++r.pool_stats.pages_uploaded;
+    r.pool_stats.bytes_uploaded += words.size() * 4;
+    const PageEntry& e = c.pages[p];
+    const MeshMetadata& mm = c.meshes[e.mesh];
+    for (uint32_t m = 0; m < s.stream_mesh.size(); ++m) {
+      if (s.stream_mesh[m] != e.mesh) continue;
+      for (uint32_t k = 0; k < e.cluster_count; ++k) {
+        const uint32_t cluster = mm.page_clusters[e.first_cluster_slot + k];
+        locations[meshes[m].first_location + cluster] = {page_word, k};
+      }
+    }
+  }
+}
+
+}  // namespace
+
+GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene, GpuTraversal traversal) {
+  GpuRendererPtr r = create_renderer_common(gpu, scene.scene, traversal);
   std::vector<uint32_t> page_word(scene.pages.size());
   uint64_t words = 0;
   for (size_t p = 0; p < scene.pages.size(); ++p) {
@@ -217,21 +302,49 @@ GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene
   std::vector<GpuClusterLocation> locations;
   std::vector<GpuMesh> meshes(scene.cluster_page.size());
   for (size_t m = 0; m < scene.cluster_page.size(); ++m) {
-    meshes[m].first_location = uint32_t(locations.size());
-    meshes[m].position_step_log2 = scene.quantization[m].position_step_log2;
-    meshes[m].channel_count = scene.quantization[m].channel_count();
-    meshes[m].normal_bits = scene.quantization[m].has_normals ? scene.quantization[m].normal_bits : 0;
+    meshes[m] = gpu_mesh(scene.quantization[m], uint32_t(locations.size()), 0);
     for (const auto& [page, index] : scene.cluster_page[m]) locations.push_back({page_word[page], index});
   }
   r->locations = upload(gpu, locations);
   r->meshes = upload(gpu, meshes);
-  r->counters = create_gpu_buffer(gpu, 64);
-  std::vector<GpuMaterial> materials(scene.scene.materials.size());
-  for (size_t i = 0; i < materials.size(); ++i)
-    std::copy(scene.scene.materials[i].base_color.begin(), scene.scene.materials[i].base_color.end(), materials[i].base_color);
-  r->materials = upload(gpu, materials);
   return r;
 }
+
+GpuRendererPtr create_gpu_renderer_streamed(GpuContext& gpu, const RenderScene& scene, const FrameStreaming& s,
+                                            GpuTraversal traversal) {
+  const FormatContainer& c = s.streamer->container();
+  for (uint32_t m = 0; m < s.stream_mesh.size(); ++m)
+    if (s.stream_mesh[m] == kNone)
+      fail("GPU_STREAMING_UNSUPPORTED", "vulkan",
+           "scene mesh " + std::to_string(m) + " is not from a page file: Vulkan streaming needs every mesh streamed",
+           kExitUsage);
+  GpuRendererPtr r = create_renderer_common(gpu, scene, traversal);
+  r->streamed = true;
+  uint32_t max_page = 0;
+  for (const PageEntry& e : c.pages) max_page = std::max(max_page, e.memory_size);
+  r->slot_words = (max_page + 3) / 4;
+  const uint32_t slots = max_resident_pages(c, s.streamer->budget_bytes());
+  const uint64_t pool_bytes = uint64_t(slots) * r->slot_words * 4;
+  check_buffer_range(gpu, pool_bytes, "the GPU page pool");
+  r->pages = create_gpu_buffer(gpu, std::max<uint64_t>(pool_bytes, 4));
+  r->slot_of_page.assign(c.pages.size(), kNone);
+  for (uint32_t k = slots; k-- > 0;) r->free_slots.push_back(k);
+  r->pool_stats.slots = slots;
+  r->pool_stats.pool_bytes = pool_bytes;
+
+  std::vector<GpuMesh> meshes(scene.meshes.size());
+  uint64_t locations = 0;
+  for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
+    meshes[m] = gpu_mesh(c.meshes[s.stream_mesh[m]].quantization, uint32_t(locations), s.material_offset[m]);
+    locations += scene.meshes[m].clusters.size();
+  }
+  r->meshes = upload(gpu, meshes);
+  r->locations = create_gpu_buffer(gpu, std::max<uint64_t>(locations * sizeof(GpuClusterLocation), 4));
+  std::memset(r->locations.mapped, 0, locations * sizeof(GpuClusterLocation));  // read only once resident
+  return r;
+}
+
+const GpuPoolStats& gpu_pool_stats(const GpuRenderer& r) { return r.pool_stats; }
 
 namespace {
 
@@ -245,8 +358,10 @@ namespace {
 class VulkanFrameExecutor final : public FrameExecutor {
  public:
   VulkanFrameExecutor(GpuRenderer& r, const FramePlan& plan, const RenderScene& scene, const Camera& camera,
-                      const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out)
-      : r_(r), scene_(scene), camera_(camera), settings_(settings), pool_(pool), history_(history), out_(out) {
+                      const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
+                      FrameStreaming* streaming)
+      : r_(r), scene_(scene), camera_(camera), settings_(settings), pool_(pool), history_(history), out_(out),
+        streaming_(streaming) {
     GpuContext& gpu = *r.gpu;
     object_to_clip_ = begin_frame(scene, camera, out);  // the CPU executor's matrices, bit for bit
     std::vector<GpuInstance> instances(scene.instances.size());
@@ -282,13 +397,24 @@ class VulkanFrameExecutor final : public FrameExecutor {
     GpuRecorder& rec = *r_.recorder;
     GpuCullFrame& f = *r_.cull_frame;
     const GpuCullPipelines& cp = r_.cull;
-    const GpuCullMeshes& m = r_.cull_meshes;
+    GpuCullMeshes& m = r_.cull_meshes;
     switch (step) {
       case FrameStep::kStreamBegin:
+        // The Streamer installs completed reads; the pool mirrors its residency; the cull
+        // passes get the usable masks (the same ones the CPU executor's traversal reads).
+        begin_streamed_frame(scene_, streaming_);
+        sync_page_pool(r_, *streaming_);
+        write_cull_usable(m, streaming_->usable);
+        break;
       case FrameStep::kStreamBind:
+        check_bound(0);
+        break;
       case FrameStep::kStreamBindPost:
+        check_bound(out_->pass1_visible);
+        break;
       case FrameStep::kStreamEnd:
-        fail("GPU_STREAMING_UNSUPPORTED", "vulkan", "GPU streaming is not implemented", kExitUsage);
+        end_streamed_frame(streaming_, requests_, clusters_coarser_, out_->visible.size());
+        break;
       case FrameStep::kInstanceCull: {
         begin_commands(rec);
         cmd_cull_instances(rec, cp, m, f, 0, f.candidates, f.visible_instances, &f.occluded_instances, f.counters[0]);
@@ -302,7 +428,10 @@ class VulkanFrameExecutor final : public FrameExecutor {
         cmd_cull_clusters(rec, cp, m, f, 0, r_.traversal, f.visible_instances, nullptr, f.visible[0], false,
                           &f.occluded_items, f.counters[1]);
         submit_and_wait(rec);
-        add_cull_counters(read_cull_counters(f.counters[1]), p);
+        const CullCounters cc = read_cull_counters(f.counters[1]);
+        add_cull_counters(cc, p);
+        requests_ = take_cull_requests(m);
+        clusters_coarser_ = cc.clusters_coarser;
         out_->visible = read_visible_list(f.visible[0]);
         out_->pass1_visible = uint32_t(std::min<size_t>(out_->visible.size(), kMaxVisibleClusters));
         check_visible_count(out_->visible.size());
@@ -329,7 +458,11 @@ class VulkanFrameExecutor final : public FrameExecutor {
         cmd_cull_clusters(rec, cp, m, f, 1, r_.traversal, f.post_instances, &f.occluded_items, f.visible[1], false,
                           nullptr, f.counters[3]);
         submit_and_wait(rec);
-        add_cull_counters(read_cull_counters(f.counters[3]), p);
+        const CullCounters cc = read_cull_counters(f.counters[3]);
+        add_cull_counters(cc, p);
+        const std::vector<GroupRequest> requests = take_cull_requests(m);
+        requests_.insert(requests_.end(), requests.begin(), requests.end());
+        clusters_coarser_ += cc.clusters_coarser;
         const std::vector<VisibleCluster> pass2 = read_visible_list(f.visible[1]);
         check_visible_count(out_->visible.size() + pass2.size());
         out_->visible.insert(out_->visible.end(), pass2.begin(), pass2.end());
@@ -352,8 +485,10 @@ class VulkanFrameExecutor final : public FrameExecutor {
         history_->valid = true;
         break;
       case FrameStep::kOverdraw:
-        overdraw_pass(scene_, scene_.meshes, out_->visible, object_to_clip_, out_->instance_views, out_->view, pool_,
-                      &out_->overdraw);
+        // On the host, as frame.cpp; a streamed frame's geometry is decoded from its pages here.
+        if (streaming_) bind_streamed_geometry(streaming_, scene_, out_->visible, 0, pool_);
+        overdraw_pass(scene_, streaming_ ? streaming_->geometry : scene_.meshes, out_->visible, object_to_clip_,
+                      out_->instance_views, out_->view, pool_, &out_->overdraw);
         break;
       case FrameStep::kShade:
         shade_pass(r_, scene_, settings_, camera_, out_);
@@ -364,9 +499,22 @@ class VulkanFrameExecutor final : public FrameExecutor {
   void finish(FrameStats* stats) override {
     std::memcpy(out_->vis.keys.data(), r_.vis.mapped, out_->vis.keys.size() * sizeof(uint64_t));
     for (uint64_t k : out_->vis.keys) stats->pixels_covered += k != 0;
+    if (streaming_) stats->stream = streaming_->stats;
   }
 
  private:
+  // Every streamed visible[first..] cluster's page is in the GPU pool (it is resident: its
+  // group is usable), so the raster and shade passes read installed pages only.
+  void check_bound(uint32_t first) const {
+    const FormatContainer& c = streaming_->streamer->container();
+    for (size_t i = first; i < out_->visible.size(); ++i) {
+      const uint32_t m = scene_.instances[out_->visible[i].instance].mesh;
+      const uint32_t page = c.meshes[streaming_->stream_mesh[m]].cluster_page[out_->visible[i].cluster];
+      if (r_.slot_of_page[page] == kNone)
+        fail("GPU_ERROR", "vulkan", "visible cluster " + std::to_string(out_->visible[i].cluster) +
+                                        " of a page not in the GPU pool", kExitInternal);
+    }
+  }
   const ViewParams& history_view() const {
     static const ViewParams none;
     return history_ ? history_->view : none;
@@ -395,8 +543,11 @@ class VulkanFrameExecutor final : public FrameExecutor {
   ThreadPool& pool_;
   FrameHistory* history_;
   Frame* out_;
+  FrameStreaming* streaming_;
   std::vector<Mat4> object_to_clip_;
   bool hzb_is_complete_ = false;  // f.hzb is the HZB of the complete frame
+  std::vector<GroupRequest> requests_;  // both cull passes' (scene mesh ids), as frame.cpp's
+  uint64_t clusters_coarser_ = 0;
 };
 
 }  // namespace
@@ -404,10 +555,18 @@ class VulkanFrameExecutor final : public FrameExecutor {
 void render_frame_vulkan(GpuRenderer& r, const MemoryFormScene& mscene, const Camera& camera,
                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
                          bool has_next_frame) {
-  const RenderScene& scene = mscene.scene;
-  const FramePlan plan = plan_frame(scene, settings, frame_context(scene, camera, history, has_next_frame, nullptr));
+  render_frame_vulkan(r, mscene.scene, camera, settings, pool, history, out, has_next_frame, nullptr);
+}
+
+void render_frame_vulkan(GpuRenderer& r, const RenderScene& scene, const Camera& camera,
+                         const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
+                         bool has_next_frame, FrameStreaming* streaming, const std::string& no_stream_reason) {
+  if ((streaming != nullptr) != r.streamed)
+    fail("GPU_ERROR", "vulkan", "a streamed frame needs a streamed renderer and only it", kExitInternal);
+  const FramePlan plan =
+      plan_frame(scene, settings, frame_context(scene, camera, history, has_next_frame, streaming, no_stream_reason));
   const auto frame_start = std::chrono::steady_clock::now();
-  VulkanFrameExecutor executor(r, plan, scene, camera, settings, pool, history, out);
+  VulkanFrameExecutor executor(r, plan, scene, camera, settings, pool, history, out, streaming);
   execute_frame_plan(plan, executor, scene.instances.size(), uint64_t(camera.width) * camera.height, &out->stats);
   out->stats.total_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame_start).count();

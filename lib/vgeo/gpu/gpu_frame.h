@@ -13,6 +13,7 @@
 #include "vgeo/gpu/context.h"
 #include "vgeo/gpu/gpu_cull.h"
 #include "vgeo/render/frame.h"
+#include "vgeo/render/streaming.h"
 
 namespace vgeo {
 
@@ -41,10 +42,29 @@ using GpuRendererPtr = std::unique_ptr<GpuRenderer, GpuRendererDeleter>;
 GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene,
                                    GpuTraversal traversal = kDefaultGpuTraversal);
 
+// Streaming (spec/gpu.md §Streaming): the renderer of a streamed scene (`scene`: its
+// metadata-only meshes, as init_frame_streaming leaves them; every mesh from a page file, else
+// GPU_STREAMING_UNSUPPORTED). `pages` is a fixed pool of slots, each the size of the largest
+// memory-form page, as many as the budget can hold pages at once; pages are uploaded when the
+// Streamer installs them and their slots freed when it evicts them.
+GpuRendererPtr create_gpu_renderer_streamed(GpuContext& gpu, const RenderScene& scene, const FrameStreaming& streaming,
+                                            GpuTraversal traversal = kDefaultGpuTraversal);
+struct GpuPoolStats {
+  uint32_t slots = 0;
+  uint64_t pool_bytes = 0, pages_uploaded = 0, pages_freed = 0, bytes_uploaded = 0;  // since creation
+};
+const GpuPoolStats& gpu_pool_stats(const GpuRenderer& renderer);
+
 // Renders one frame of `scene.scene` (as render_frame: plan_frame, then the Vulkan executor).
-// Streaming is not implemented on the GPU (callers refuse streamed scenes).
 void render_frame_vulkan(GpuRenderer& renderer, const MemoryFormScene& scene, const Camera& camera,
                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
                          bool has_next_frame = true);
+// The same for any scene the renderer was made for; `streaming` non-null exactly for a
+// streamed renderer: the traversal reads its usable masks and writes its requests into a
+// buffer read back after each cull pass, handed to its Streamer at stream_end (as the CPU).
+void render_frame_vulkan(GpuRenderer& renderer, const RenderScene& scene, const Camera& camera,
+                         const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
+                         bool has_next_frame, FrameStreaming* streaming,
+                         const std::string& no_stream_reason = "no stream budget");
 
 }  // namespace vgeo

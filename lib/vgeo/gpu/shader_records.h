@@ -21,6 +21,10 @@ struct GpuMesh {
   int32_t position_step_log2;    // MeshQuantization::position_step_log2
   uint32_t channel_count;        // MeshQuantization::channel_count()
   uint32_t normal_bits;          // 0: no normals
+  // Added to the page's per-triangle material ids (a page file's ids are the file's own; a
+  // streamed scene mesh's materials start at this offset, FrameStreaming::material_offset).
+  uint32_t material_offset;
+  uint32_t reserved[3];
 };
 
 // Per instance and frame: the float object→clip matrix the CPU rasterizer gets
@@ -93,7 +97,7 @@ VGEO_CONSTANT uint32_t kGpuMaxGroupsX = 65535u;
 
 #ifdef __cplusplus
 static_assert(sizeof(GpuClusterLocation) == 8);
-static_assert(sizeof(GpuMesh) == 16);
+static_assert(sizeof(GpuMesh) == 32 && offsetof(GpuMesh, material_offset) == 16);
 static_assert(sizeof(GpuInstance) == 80 && offsetof(GpuInstance, mesh) == 64);
 static_assert(sizeof(GpuVisibleCluster) == 8);
 static_assert(sizeof(GpuRasterParams) == 32 && offsetof(GpuRasterParams, z_near) == 24);

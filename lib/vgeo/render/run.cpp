@@ -60,6 +60,36 @@ RenderSettings resolve_render_options(const SceneFile& file, const RenderOverrid
   return settings;
 }
 
+std::unique_ptr<SceneStreaming> start_scene_streaming(const SceneFile& file, float threshold_px, bool synchronous) {
+  auto out = std::make_unique<SceneStreaming>();
+  out->scene = file.scene;
+  std::vector<std::string> paths;
+  std::vector<FormatContainer> metadata;
+  // Mesh k of file j is streamer mesh (meshes of files < j) + k.
+  std::vector<uint32_t> base;
+  for (const ScenePageFile& pf : file.page_files) {
+    base.push_back(metadata.empty() ? 0 : base.back() + uint32_t(metadata.back().meshes.size()));
+    paths.push_back(pf.path);
+    metadata.push_back(pf.metadata);
+  }
+  std::vector<uint32_t> stream_mesh(file.scene.meshes.size(), kNone), material_offset(file.scene.meshes.size(), 0);
+  for (size_t m = 0; m < file.page_meshes.size(); ++m) {
+    const ScenePageMesh& pm = file.page_meshes[m];
+    if (pm.file == kNone) continue;
+    stream_mesh[m] = base[pm.file] + pm.index;
+    material_offset[m] = pm.material_offset;
+  }
+  StreamOptions so = *file.stream;
+  so.threshold_px = threshold_px;
+  if (synchronous) so.loader.asynchronous = false;
+  out->streamer = std::make_unique<Streamer>(paths, std::move(metadata), so);
+  // The scene decided: its used pages alone exceed the budget, and the files hold at least those.
+  if (!out->streamer->active())
+    fail("RENDER_PLAN_MISMATCH", "render", "the streamer found the data within the budget the scene exceeds", kExitInternal);
+  init_frame_streaming(&out->scene, out->streamer.get(), stream_mesh, material_offset, &out->frame);
+  return out;
+}
+
 RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
                           const std::function<void(uint32_t, const Frame&, const FrameStreaming*)>& on_frame) {
   uint32_t frames = 0;
@@ -74,39 +104,14 @@ RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
   sum.stop_frame = file.path.empty() ? 0 : uint32_t(file.path.size() - 1);
   if (sum.requested) sum.note = file.stream_note();
 
-  // Streaming state: a private copy of the scene (in-memory meshes move into the geometry).
-  std::optional<RenderScene> streamed_scene;
-  std::unique_ptr<Streamer> streamer;
-  FrameStreaming streaming;
+  std::unique_ptr<SceneStreaming> streaming;
   if (file.streaming) {
-    streamed_scene = file.scene;
-    std::vector<std::string> paths;
-    std::vector<FormatContainer> metadata;
-    // Mesh k of file j is streamer mesh (meshes of files < j) + k.
-    std::vector<uint32_t> base;
-    for (const ScenePageFile& pf : file.page_files) {
-      base.push_back(metadata.empty() ? 0 : base.back() + uint32_t(metadata.back().meshes.size()));
-      paths.push_back(pf.path);
-      metadata.push_back(pf.metadata);
-    }
-    std::vector<uint32_t> stream_mesh(file.scene.meshes.size(), kNone), material_offset(file.scene.meshes.size(), 0);
-    for (size_t m = 0; m < file.page_meshes.size(); ++m) {
-      const ScenePageMesh& pm = file.page_meshes[m];
-      if (pm.file == kNone) continue;
-      stream_mesh[m] = base[pm.file] + pm.index;
-      material_offset[m] = pm.material_offset;
-    }
-    StreamOptions so = *file.stream;
-    so.threshold_px = settings.threshold_px;
-    streamer = std::make_unique<Streamer>(paths, std::move(metadata), so);
-    // The scene decided: its used pages alone exceed the budget, and the files hold at least those.
-    if (!streamer->active())
-      fail("RENDER_PLAN_MISMATCH", "render", "the streamer found the data within the budget the scene exceeds", kExitInternal);
-    init_frame_streaming(&*streamed_scene, streamer.get(), stream_mesh, material_offset, &streaming);
+    streaming = start_scene_streaming(file, settings.threshold_px, false);
     sum.active = true;
-    sum.file_bytes = streamer->container().file_size;
+    sum.file_bytes = streaming->streamer->container().file_size;
   }
-  const RenderScene& scene = streamed_scene ? *streamed_scene : file.scene;
+  Streamer* streamer = streaming ? streaming->streamer.get() : nullptr;
+  const RenderScene& scene = streaming ? streaming->scene : file.scene;
 
   ThreadPool pool(request.threads);
   FrameHistory history;
@@ -120,7 +125,7 @@ RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
     RenderSettings s = settings;
     // Only images that are kept are shaded; other frames stop at the visibility buffer.
     s.shade = last || save;
-    FrameStreaming* fs = streamer ? &streaming : nullptr;
+    FrameStreaming* fs = streaming ? &streaming->frame : nullptr;
     const FramePlan plan = plan_frame(scene, s, frame_context(scene, cam, &history, !last, fs, file.stream_reason));
     render_planned_frame(plan, scene, cam, s, pool, &history, &frame, fs);
     report.frames.push_back(frame.stats);
@@ -131,7 +136,7 @@ RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
       write_png(png, frame.image);
       report.saved_pngs.push_back(png);
     }
-    if (on_frame) on_frame(f, frame, streamer ? &streaming : nullptr);
+    if (on_frame) on_frame(f, frame, fs);
     if (request.frame_interval_ms > 0 && !last)
       std::this_thread::sleep_until(frame_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                       std::chrono::duration<double, std::milli>(request.frame_interval_ms)));

@@ -3,11 +3,13 @@
 // `vgeo render` and `vgeo demo` run.
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "vgeo/render/scene_file.h"
+#include "vgeo/render/streaming.h"
 
 namespace vgeo {
 
@@ -43,6 +45,20 @@ struct RenderOverrides {
 // RENDER_BAD_OPTION (τ not positive and finite, more than kMaxPathFrames frames) and
 // RENDER_BAD_CAMERA (no such camera).
 RenderSettings resolve_render_options(const SceneFile& file, const RenderOverrides& overrides, uint32_t* frames);
+
+// One renderer's streaming state for a streamed scene (SceneFile::streaming): a private copy
+// of the scene (metadata-only page-file meshes; in-memory meshes move into the geometry), its
+// own Streamer over the scene's page files and the FrameStreaming the frames use. Each
+// renderer of a comparison has its own (spec/gpu.md §Streaming). Not movable (the
+// FrameStreaming points at the Streamer). `synchronous`: force the deterministic loader.
+struct SceneStreaming {
+  RenderScene scene;
+  std::unique_ptr<Streamer> streamer;
+  FrameStreaming frame;
+};
+// Throws as the Streamer's constructor, and RENDER_PLAN_MISMATCH when the streamer finds the
+// data within the budget the scene exceeds.
+std::unique_ptr<SceneStreaming> start_scene_streaming(const SceneFile& file, float threshold_px, bool synchronous);
 
 // Streaming summary over all frames.
 struct StreamSummary {

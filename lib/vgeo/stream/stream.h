@@ -173,6 +173,7 @@ class Streamer {
 
   const FormatContainer& container() const { return container_; }
   bool active() const { return active_; }  // false: everything resident, no streaming pass
+  uint64_t budget_bytes() const { return options_.budget_bytes; }
 
   // One frame: install completed reads, request/issue/evict, select the drawn cut per view
   // (cuts[i] = ascending cluster ids of views[i]'s mesh).
