@@ -3,6 +3,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <fstream>
+
+#include "render/stream_fixture.h"
 #include "support/run_command.h"
 
 namespace vgeo {
@@ -37,6 +40,25 @@ TEST(GpuCli, CompareNeedsTheVulkanBackend) {
   test::CliResult r = test::run_cli("render '" + kScene + "' --backend cpu --compare cpu --no-cache");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("error[RENDER_BAD_OPTION]"), std::string::npos) << r.output;
+}
+
+// Streaming on the Vulkan backend (spec/gpu.md §Streaming): the fly-through streams on both
+// backends (--compare forces the deterministic loader), pages go through the GPU pool and the
+// rule holds on every frame.
+TEST(GpuCli, StreamBudgetCompareHoldsTheRule) {
+  const test::StreamFixture& f = test::stream_fixture();
+  const std::string scene = f.dir + "/gpu_cli_stream.json";
+  std::ofstream(scene) << test::stream_scene_json("meshes.vgeo", 3, 12, 2, true);
+  const uint64_t budget = f.pinned + (f.total - f.pinned) / 4;
+  test::CliResult r = test::run_cli("render '" + scene + "' --stream-budget " + std::to_string(budget) +
+                                    " --backend vulkan --compare cpu --validate --json --threads 2");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  nlohmann::json j = nlohmann::json::parse(r.output);
+  EXPECT_TRUE(j["rule_holds"].get<bool>());
+  ASSERT_EQ(j["frames"].size(), 9u);
+  for (const auto& fr : j["frames"]) EXPECT_LE(fr["stream"]["resident_bytes"].get<uint64_t>(), budget);
+  EXPECT_GT(j["gpu_page_pool"]["pages_uploaded"].get<uint64_t>(), 0u);
+  EXPECT_EQ(j["validation_messages"].get<int>(), 0);
 }
 
 }  // namespace
