@@ -14,6 +14,7 @@
 #include "support/paths.h"
 #include "vgeo/gpu/gpu_cull.h"
 #include "vgeo/render/scene_file.h"
+#include "vgeo/stream/stream.h"
 
 namespace vgeo {
 namespace {
@@ -70,6 +71,8 @@ struct CullCase {
   std::vector<CullInstance> previous_instances;
   HzbMipPolicy policy = HzbMipPolicy::k4x4;
   std::vector<uint64_t> vis;  // view.width * view.height keys, or empty: no pass 2
+  // Streaming residency (CullOptions::usable_groups) per mesh, or empty: no streaming.
+  std::vector<std::vector<uint8_t>> usable;
 };
 
 CullRun run_cpu(const CullCase& c) {
@@ -80,6 +83,7 @@ CullRun run_cpu(const CullCase& c) {
   CullOptions options;
   options.threshold_px = c.threshold_px;
   options.frustum = c.frustum;
+  if (!c.usable.empty()) options.usable_groups = &c.usable;
   if (!c.previous_hzb.empty()) {
     options.occlusion.hzb = &c.previous_hzb;
     options.occlusion.view = &c.previous_view;
@@ -127,11 +131,17 @@ CullRun run_gpu(const CullCase& c, GpuTraversal traversal) {
   write_cull_params(f, 1, c.view, c.threshold_px, c.frustum, &current);
   GpuBuffer vis = create_gpu_buffer(gpu, std::max<size_t>(c.vis.size() * 8, 8));
   if (!c.vis.empty()) std::memcpy(vis.mapped, c.vis.data(), c.vis.size() * 8);
+  write_cull_usable(m, c.usable);
 
+  CullRun r;
   begin_commands(rec);
   cmd_cull_instances(rec, p, m, f, 0, f.candidates, f.visible_instances, &f.occluded_instances, f.counters[0]);
   cmd_cull_clusters(rec, p, m, f, 0, traversal, f.visible_instances, nullptr, f.visible[0], false, &f.occluded_items,
                     f.counters[1]);
+  // Each pass's requests are read after it (as the Vulkan executor does).
+  submit_and_wait(rec);
+  r.pass1.requests = take_cull_requests(m);
+  begin_commands(rec);
   if (!c.vis.empty()) {
     cmd_build_hzb(rec, p, f, vis, f.hzb);
     cmd_cull_instances(rec, p, m, f, 1, f.occluded_instances, f.post_instances, nullptr, f.counters[2]);
@@ -142,8 +152,8 @@ CullRun run_gpu(const CullCase& c, GpuTraversal traversal) {
                       f.counters[3]);
   }
   submit_and_wait(rec);
+  r.pass2.requests = take_cull_requests(m);
 
-  CullRun r;
   r.persistent_dispatches = f.persistent_dispatches;
   r.visible_instances = read_instance_list(f.visible_instances);
   r.occluded_instances = read_instance_list(f.occluded_instances);
@@ -204,6 +214,18 @@ std::string compare(const CullRun& cpu, const CullRun& gpu) {
     return "pass 2 counters: CPU " + counters_text(cpu.pass2.counters) + "GPU " + counters_text(gpu.pass2.counters);
   if (cpu.frame_visible != gpu.frame_visible)
     return list_diff("frame visible clusters (pass 2 appended)", cpu.frame_visible.size(), gpu.frame_visible.size());
+  // Stream requests: the same (mesh, group) lists per pass with bit-identical priorities.
+  auto same_requests = [](const std::vector<GroupRequest>& a, const std::vector<GroupRequest>& b) {
+    if (a.size() != b.size()) return false;
+    for (size_t i = 0; i < a.size(); ++i)
+      if (a[i].mesh != b[i].mesh || a[i].group != b[i].group || std::memcmp(&a[i].priority, &b[i].priority, 4) != 0)
+        return false;
+    return true;
+  };
+  if (!same_requests(cpu.pass1.requests, gpu.pass1.requests))
+    return list_diff("pass 1 stream requests", cpu.pass1.requests.size(), gpu.pass1.requests.size());
+  if (!same_requests(cpu.pass2.requests, gpu.pass2.requests))
+    return list_diff("pass 2 stream requests", cpu.pass2.requests.size(), gpu.pass2.requests.size());
   return "";
 }
 
@@ -253,6 +275,20 @@ CullCase gen_case() {
   c.threshold_px = *rc::gen::element(0.25f, 1.0f, 4.0f, 100.0f);
   c.frustum = *rc::gen::element(true, true, false);
   c.policy = *rc::gen::element(HzbMipPolicy::k4x4, HzbMipPolicy::k2x2, HzbMipPolicy::kFinest);
+  // Half the cases stream: per mesh either not streamed (empty mask) or a random residency
+  // closed to the usable groups (spec/stream.md §Cut), from none to all groups resident.
+  if (*rc::gen::arbitrary<bool>()) {
+    for (const ClusterDag& dag : c.meshes) {
+      if (*rc::gen::element(0, 1, 1) == 0) {
+        c.usable.emplace_back();
+        continue;
+      }
+      const uint32_t percent = *rc::gen::element(0u, 30u, 70u, 100u);
+      std::vector<uint8_t> resident(dag.groups.size());
+      for (uint8_t& g : resident) g = *rc::gen::inRange<uint32_t>(0, 100) < percent;
+      c.usable.push_back(usable_groups_of_resident(dag, resident));
+    }
+  }
   return c;
 }
 
@@ -287,6 +323,7 @@ void check_case(const CullCase& c, GpuTraversal t) {
   }
   RC_TAG(cpu.pass1.visible.empty() ? "nothing visible" : "something visible");
   RC_TAG(cpu.pass1.occluded.empty() ? "nothing occluded" : "something occluded");
+  RC_TAG(c.usable.empty() ? "no streaming" : cpu.pass1.requests.empty() ? "streaming, no request" : "streaming, requests");
 }
 
 void check_lod_and_frustum(GpuTraversal t) {
