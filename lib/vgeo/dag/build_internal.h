@@ -62,6 +62,14 @@ struct TriangleSet {
   size_t triangle_count() const { return materials.size(); }
 };
 
+// Degenerate triangle (spec/dag.md §2.2): two corners share a welded position, or its height
+// over its longest edge is below kDegenerateRelativeHeight (collinear up to the float rounding
+// of its coordinates: 2^-20 is 16 ulps). It has no area and no direction: the clusterizer
+// places such triangles badly and the simplifier misreads them (a repeated-corner triangle
+// closes a border edge, a sliver's vertex copies look like seams).
+inline constexpr double kDegenerateRelativeHeight = 1.0 / (1 << 20);
+bool is_degenerate(const WeldedMesh& welded, const uint32_t* corners);
+
 // Splits triangles into clusters of ≤ kMaxClusterTriangles triangles and
 // ≤ kMaxClusterVertices original vertices. Deterministic. `scratch` must have
 // weld.size() entries, all kNone, and is returned in that state.

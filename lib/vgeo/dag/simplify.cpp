@@ -341,8 +341,30 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
 
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
                               const std::vector<uint8_t>& locked, Simplifier simplifier) {
-  if (simplifier == Simplifier::kOpenMesh) return simplify_openmesh(welded, group, locked);
-  return simplify_meshopt(welded, group);
+  // Triangles with a repeated welded position are left out (they cover no area and use each
+  // of their edges twice, so no edge's parity and no open edge changes): to meshopt such a
+  // triangle is the far side of a border edge, so locked border vertices would move, and
+  // OpenMesh refuses it and locks its corners. Each one lies in a cluster whose proper
+  // triangles use its positions (split_into_clusters), so leaving it out loses no locked
+  // position. Collinear slivers stay: dropping one would open its edges (spec/dag.md §2.3).
+  auto repeats_position = [&](size_t t) {
+    const uint32_t a = welded.weld[group.corners[3 * t]], b = welded.weld[group.corners[3 * t + 1]],
+                   c = welded.weld[group.corners[3 * t + 2]];
+    return a == b || b == c || c == a;
+  };
+  TriangleSet proper;
+  bool any_degenerate = false;
+  for (size_t t = 0; t < group.triangle_count() && !any_degenerate; ++t) any_degenerate = repeats_position(t);
+  if (any_degenerate)
+    for (size_t t = 0; t < group.triangle_count(); ++t)
+      if (!repeats_position(t)) {
+        proper.corners.insert(proper.corners.end(), &group.corners[3 * t], &group.corners[3 * t] + 3);
+        proper.materials.push_back(group.materials[t]);
+      }
+  const TriangleSet& input = any_degenerate ? proper : group;
+  if (input.triangle_count() == 0) return SimplifyResult{};
+  if (simplifier == Simplifier::kOpenMesh) return simplify_openmesh(welded, input, locked);
+  return simplify_meshopt(welded, input);
 }
 
 bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
