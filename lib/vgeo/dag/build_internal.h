@@ -1,6 +1,8 @@
 #pragma once
 // Internal pieces of the DAG builder (lib/vgeo/dag), shared by its .cpp files and its tests.
 // Not a public API: names and signatures may change with the builder.
+#include <metis.h>
+
 #include <cstdint>
 #include <mutex>
 #include <vector>
@@ -137,6 +139,12 @@ void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, u
 // Every METIS call holds this lock: GKlib's random state is process-global, so concurrent
 // calls would make results depend on timing (and would race).
 std::mutex& metis_mutex();
+// The options of every METIS call: defaults, the fixed seed (determinism), C numbering.
+inline void set_metis_options(idx_t (&options)[METIS_NOPTIONS]) {
+  METIS_SetDefaultOptions(options);
+  options[METIS_OPTION_SEED] = kMetisSeed;
+  options[METIS_OPTION_NUMBERING] = 0;
+}
 
 inline uint64_t edge_key(uint32_t a, uint32_t b) {
   return a < b ? (uint64_t(a) << 32) | b : (uint64_t(b) << 32) | a;

@@ -315,9 +315,7 @@ void bisect_metis(const TriangleSet& tris, const std::vector<uint32_t>& local, s
   std::vector<idx_t> part(n, 0);
   idx_t nvtxs = idx_t(n), ncon = 1, nparts = 2, objval = 0;
   idx_t options[METIS_NOPTIONS];
-  METIS_SetDefaultOptions(options);
-  options[METIS_OPTION_SEED] = kMetisSeed;
-  options[METIS_OPTION_NUMBERING] = 0;
+  set_metis_options(options);
   int rc;
   {
     std::lock_guard<std::mutex> lock(metis_mutex());
