@@ -120,6 +120,11 @@ float simplification_error(const Mesh& mesh, const TriangleSet& input, const Tri
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
                               const std::vector<uint8_t>& locked, Simplifier simplifier);
 
+// True when `after` uses some welded edge more than twice (three or more of its triangles on
+// one edge: a fold) and an odd number of times more or fewer than `before` does: a change of
+// that edge's parity, a crack to `vgeo verify` (spec/dag.md §2.3).
+bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after);
+
 // True when every locked welded vertex of `before` is used by `after` and every welded edge
 // of `before` listed in `shared_edges` (sorted edge keys of edges also used outside the
 // group) is an edge of `after`.
