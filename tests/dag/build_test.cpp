@@ -391,5 +391,24 @@ TEST(Build, DegenerateTrianglesDoNotStallSimplification) {
 }
 
 
+// spec/dag.md §2.3 fold check: three triangles on an edge where the input had two change its
+// parity (a crack); four pair up.
+TEST(Build, FoldCheckFlagsOddParityChangesOnly) {
+  Mesh m;
+  m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1};  // edge 0-1 plus four apexes
+  build_detail::WeldedMesh w = build_detail::weld_positions(m);
+  auto set = [](std::vector<uint32_t> corners) {
+    build_detail::TriangleSet t;
+    t.corners = std::move(corners);
+    t.materials.assign(t.corners.size() / 3, 0);
+    return t;
+  };
+  const build_detail::TriangleSet two = set({0, 1, 2, 1, 0, 3});
+  EXPECT_FALSE(build_detail::simplification_folds(w, two, two));
+  EXPECT_TRUE(build_detail::simplification_folds(w, two, set({0, 1, 2, 1, 0, 3, 0, 1, 4})));
+  EXPECT_FALSE(build_detail::simplification_folds(w, two, set({0, 1, 2, 1, 0, 3, 0, 1, 4, 1, 0, 5})));
+  EXPECT_FALSE(build_detail::simplification_folds(w, set({0, 1, 2, 1, 0, 3, 0, 1, 4}), set({0, 1, 2, 1, 0, 3, 0, 1, 4})));
+}
+
 }  // namespace
 }  // namespace vgeo::test
