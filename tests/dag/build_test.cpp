@@ -364,5 +364,51 @@ TEST(Build, PerCornerMeshSimplifiesWithMeshopt) {
 }
 
 
+// Issue 15 §1: degenerate triangles handed to build_dag directly (no importer cleanup) do not
+// stall simplification: leaves are clustered from the proper triangles and each degenerate
+// one joins a cluster it shares a position with (spec/dag.md §2.2), so it locks nothing.
+TEST(Build, DegenerateTrianglesDoNotStallSimplification) {
+  Mesh clean = make_sphere(24, 48);
+  Mesh m = make_with_degenerates(clean);
+  ASSERT_GT(m.triangle_count(), clean.triangle_count() + clean.triangle_count() / 3);
+  for (Simplifier s : {Simplifier::kMeshopt, Simplifier::kOpenMesh}) {
+    BuildReport r, rc;
+    ClusterDag d = build(m, s, 2, &r);
+    ClusterDag dc = build(clean, s, 2, &rc);
+    expect_dag_properties(d, m.triangle_count());
+    expect_borders_preserved(d, false);
+    // The levels above the leaves hold about what the clean twin's do (the degenerate
+    // triangles themselves need not survive simplification).
+    EXPECT_GE(double(d.triangle_count() - m.triangle_count()),
+              0.9 * double(dc.triangle_count() - clean.triangle_count())) << "simplifier " << int(s);
+    EXPECT_LE(r.root_clusters, 4u) << "simplifier " << int(s);
+    EXPECT_EQ(r.levels.size(), rc.levels.size()) << "simplifier " << int(s);
+  }
+  BuiltScene a, b;
+  a.meshes.push_back(build(m, Simplifier::kMeshopt, 1));
+  b.meshes.push_back(build(m, Simplifier::kMeshopt, 3));
+  EXPECT_EQ(encode_dag_file(a), encode_dag_file(b));
+}
+
+
+// spec/dag.md §2.3 fold check: three triangles on an edge where the input had two change its
+// parity (a crack); four pair up.
+TEST(Build, FoldCheckFlagsOddParityChangesOnly) {
+  Mesh m;
+  m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1};  // edge 0-1 plus four apexes
+  build_detail::WeldedMesh w = build_detail::weld_positions(m);
+  auto set = [](std::vector<uint32_t> corners) {
+    build_detail::TriangleSet t;
+    t.corners = std::move(corners);
+    t.materials.assign(t.corners.size() / 3, 0);
+    return t;
+  };
+  const build_detail::TriangleSet two = set({0, 1, 2, 1, 0, 3});
+  EXPECT_FALSE(build_detail::simplification_folds(w, two, two));
+  EXPECT_TRUE(build_detail::simplification_folds(w, two, set({0, 1, 2, 1, 0, 3, 0, 1, 4})));
+  EXPECT_FALSE(build_detail::simplification_folds(w, two, set({0, 1, 2, 1, 0, 3, 0, 1, 4, 1, 0, 5})));
+  EXPECT_FALSE(build_detail::simplification_folds(w, set({0, 1, 2, 1, 0, 3, 0, 1, 4}), set({0, 1, 2, 1, 0, 3, 0, 1, 4})));
+}
+
 }  // namespace
 }  // namespace vgeo::test

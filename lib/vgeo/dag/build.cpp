@@ -526,7 +526,8 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   size_t before = merged.triangle_count(), after = simplified.triangles.triangle_count();
   bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
   bool sealed = enough && locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked,
-                                                  blk.shared_edges);
+                                                  blk.shared_edges) &&
+                !simplification_folds(s.welded, merged, simplified.triangles);
   const double tm = now_seconds();
   r.seconds_simplify = tm - ts;
   if (!sealed) return;

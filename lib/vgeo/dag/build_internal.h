@@ -1,6 +1,8 @@
 #pragma once
 // Internal pieces of the DAG builder (lib/vgeo/dag), shared by its .cpp files and its tests.
 // Not a public API: names and signatures may change with the builder.
+#include <metis.h>
+
 #include <cstdint>
 #include <mutex>
 #include <vector>
@@ -62,6 +64,14 @@ struct TriangleSet {
   size_t triangle_count() const { return materials.size(); }
 };
 
+// Degenerate triangle (spec/dag.md §2.2): two corners share a welded position, or its height
+// over its longest edge is below kDegenerateRelativeHeight (collinear up to the float rounding
+// of its coordinates: 2^-20 is 16 ulps). It has no area and no direction: the clusterizer
+// places such triangles badly and the simplifier misreads them (a repeated-corner triangle
+// closes a border edge, a sliver's vertex copies look like seams).
+inline constexpr double kDegenerateRelativeHeight = 1.0 / (1 << 20);
+bool is_degenerate(const WeldedMesh& welded, const uint32_t* corners);
+
 // Splits triangles into clusters of ≤ kMaxClusterTriangles triangles and
 // ≤ kMaxClusterVertices original vertices. Deterministic. `scratch` must have
 // weld.size() entries, all kNone, and is returned in that state.
@@ -110,6 +120,11 @@ float simplification_error(const Mesh& mesh, const TriangleSet& input, const Tri
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
                               const std::vector<uint8_t>& locked, Simplifier simplifier);
 
+// True when `after` uses some welded edge more than twice (three or more of its triangles on
+// one edge: a fold) and an odd number of times more or fewer than `before` does: a change of
+// that edge's parity, a crack to `vgeo verify` (spec/dag.md §2.3).
+bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after);
+
 // True when every locked welded vertex of `before` is used by `after` and every welded edge
 // of `before` listed in `shared_edges` (sorted edge keys of edges also used outside the
 // group) is an edge of `after`.
@@ -129,6 +144,12 @@ void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, u
 // Every METIS call holds this lock: GKlib's random state is process-global, so concurrent
 // calls would make results depend on timing (and would race).
 std::mutex& metis_mutex();
+// The options of every METIS call: defaults, the fixed seed (determinism), C numbering.
+inline void set_metis_options(idx_t (&options)[METIS_NOPTIONS]) {
+  METIS_SetDefaultOptions(options);
+  options[METIS_OPTION_SEED] = kMetisSeed;
+  options[METIS_OPTION_NUMBERING] = 0;
+}
 
 inline uint64_t edge_key(uint32_t a, uint32_t b) {
   return a < b ? (uint64_t(a) << 32) | b : (uint64_t(b) << 32) | a;
