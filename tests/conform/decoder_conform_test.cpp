@@ -18,7 +18,7 @@ using vgeo::test::run_cli;
 
 namespace {
 
-// 40 mutants (+ the 48 vectors): a few seconds; `--mutants 10000` is the on-demand run.
+// 40 mutants (+ the 21 version 1 vectors): a few seconds; `--mutants 10000` is the on-demand run.
 constexpr int kTestMutants = 40;
 
 struct TempDir {
@@ -27,12 +27,30 @@ struct TempDir {
   ~TempDir() { fs::remove_all(path); }
 };
 
-std::string vectors() { return (vgeo::test::source_dir() / "spec" / "vectors").string(); }
+std::string all_vectors() { return (vgeo::test::source_dir() / "spec" / "vectors").string(); }
+
+// The protocol tests run over the version 1 vectors (21 files, both verdict kinds) so that each
+// stays a few seconds; every vector's verdict is checked in-process by FormatVectors.*.
+std::string v1_vectors(const TempDir& tmp) {
+  const fs::path dir = tmp.path / "v1_vectors";
+  fs::create_directories(dir);
+  std::ifstream in(fs::path(all_vectors()) / "manifest.txt");
+  std::ofstream out(dir / "manifest.txt");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("v1_", 0) != 0) continue;
+    const std::string name = line.substr(0, line.find(' '));
+    fs::copy_file(fs::path(all_vectors()) / name, dir / name);
+    out << line << "\n";
+  }
+  return dir.string();
+}
 
 TEST(ConformDecoder, OwnDecoderAgreesEverywhere) {
   TempDir tmp;
+  const std::string vectors = v1_vectors(tmp);
   const std::string xml = (tmp.path / "own.xml").string();
-  auto r = run_cli("conform decoder --vectors '" + vectors() + "' --mutants " + std::to_string(kTestMutants) +
+  auto r = run_cli("conform decoder --vectors '" + vectors + "' --mutants " + std::to_string(kTestMutants) +
                    " --seed 3 --out '" + (tmp.path / "own").string() + "' --junit '" + xml + "' -- '" +
                    vgeo::test::cli_path() + "' conform hash");
   EXPECT_EQ(r.exit_code, 0) << r.output;
@@ -44,10 +62,11 @@ TEST(ConformDecoder, OwnDecoderAgreesEverywhere) {
 
 TEST(ConformDecoder, BrokenDecoderIsCaughtWithReproducers) {
   TempDir tmp;
+  const std::string vectors = v1_vectors(tmp);
   const fs::path out = tmp.path / "broken";
   const std::string xml = (tmp.path / "broken.xml").string();
   const std::string broken = (vgeo::test::source_dir() / "tests" / "conform" / "broken_decoder.sh").string();
-  auto r = run_cli("conform decoder --vectors '" + vectors() + "' --mutants " + std::to_string(kTestMutants) +
+  auto r = run_cli("conform decoder --vectors '" + vectors + "' --mutants " + std::to_string(kTestMutants) +
                    " --seed 3 --out '" + out.string() + "' --junit '" + xml + "' -- sh '" + broken + "' '" +
                    vgeo::test::cli_path() + "'");
   EXPECT_EQ(r.exit_code, 1) << r.output;
@@ -75,7 +94,7 @@ TEST(ConformDecoder, BrokenDecoderIsCaughtWithReproducers) {
   const fs::path small = tmp.path / "small";
   fs::create_directories(small);
   for (const char* name : {"v1_header_checksum.vgp", "v1_valid_sphere_zstd.vgp"})
-    fs::copy_file(fs::path(vectors()) / name, small / name);
+    fs::copy_file(fs::path(vectors) / name, small / name);
   std::ofstream(small / "manifest.txt") << "v1_header_checksum.vgp FORMAT_CHECKSUM\nv1_valid_sphere_zstd.vgp OK 6a5afe8c33593de5\n";
   const std::string small_run = "conform decoder --vectors '" + small.string() + "' --mutants 0 --quiet --out '" +
                                 (tmp.path / "strict").string() + "' --junit '" + xml + "' -- sh '" + broken + "' '" +
@@ -89,11 +108,12 @@ TEST(ConformDecoder, BrokenDecoderIsCaughtWithReproducers) {
 
 TEST(ConformDecoder, ProtocolFailuresAndUsage) {
   TempDir tmp;
-  auto none = run_cli("conform decoder --vectors '" + vectors() + "' --mutants 0");
+  const std::string vectors = v1_vectors(tmp);
+  auto none = run_cli("conform decoder --vectors '" + vectors + "' --mutants 0");
   EXPECT_EQ(none.exit_code, 2) << none.output;
   EXPECT_NE(none.output.find("error[CONFORM_USAGE]"), std::string::npos) << none.output;
   // A decoder that prints nothing useful is a protocol failure on every input.
-  auto silent = run_cli("conform decoder --vectors '" + vectors() + "' --mutants 0 --quiet --out '" +
+  auto silent = run_cli("conform decoder --vectors '" + vectors + "' --mutants 0 --quiet --out '" +
                         (tmp.path / "silent").string() + "' -- echo hello");
   EXPECT_EQ(silent.exit_code, 1) << silent.output;
 }

@@ -14,7 +14,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
+#include <sstream>
 #include <map>
 #include <memory>
 #include <string>
@@ -178,11 +178,7 @@ std::vector<uint8_t> mutate(const std::vector<std::vector<uint8_t>>& sources, Rn
   return m;
 }
 
-std::vector<uint8_t> read_bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) fail("CONFORM_IO", path, "cannot read", kExitIo);
-  return std::vector<uint8_t>(std::istreambuf_iterator<char>(f), {});
-}
+std::vector<uint8_t> read_bytes(const std::string& path) { return read_conform_file(path, kAnyFileSize, "a vector"); }
 
 struct DecoderArgs {
   std::string vectors = "spec/vectors", out = "conform-decoder-out", junit_path;
@@ -206,8 +202,7 @@ int run_conform_decoder(const DecoderArgs& a) {
   std::vector<std::vector<uint8_t>> valid;
   {
     const std::string manifest = a.vectors + "/manifest.txt";
-    std::ifstream f(manifest);
-    if (!f) fail("CONFORM_IO", manifest, "cannot read the vector manifest", kExitIo);
+    std::istringstream f(read_conform_text(manifest, "the vector manifest"));
     std::string line;
     while (std::getline(f, line)) {
       if (line.empty() || line[0] == '#') continue;
@@ -305,13 +300,14 @@ void add_conform_decoder_command(CLI::App& conform, Context& ctx) {
   auto* hash = conform.add_subcommand("hash", "vgeo's decoder behind the protocol: print FILE's decode hash or error[CODE]");
   hash->add_option("file", *file, "page-format file")->required();
   hash->callback([file, &ctx] {
-    std::ifstream f(*file, std::ios::binary);
-    if (!f) {
+    std::vector<uint8_t> bytes;
+    try {
+      bytes = read_file(*file, kAnyFileSize);
+    } catch (const VgeoError& e) {
       std::printf("error[CONFORM_IO]\n");
-      ctx.exit_code = kExitIo;
+      ctx.exit_code = e.error().exit_code;
       return;
     }
-    std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), {});
     Verdict v = our_verdict(bytes);
     std::printf("%s\n", v.text().c_str());
     ctx.exit_code = v.kind == Verdict::kAccept ? kExitOk : kExitBadInput;

@@ -107,5 +107,8 @@ void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q
 // Channel kind limits.
 uint32_t channel_max_bits(const MeshQuantization& q, uint32_t channel);
 bool channel_is_normal(const MeshQuantization& q, uint32_t channel);
+// The quantized values a channel may hold (spec/format.md §2.1): normals [0, 2^normal_bits − 1],
+// positions ±2^24, UVs ±uv_quantized_limit(uv_step_log2).
+void channel_value_range(const MeshQuantization& q, uint32_t channel, int64_t* lo, int64_t* hi);
 
 }  // namespace vgeo::format_detail
