@@ -94,7 +94,7 @@ void add_rule_vectors(std::vector<Vector>& v, const std::vector<uint8_t>& sphere
     edit(f);
     v.push_back({name, std::move(f), code, base, ""});
   };
-  auto meta = [](const MetadataEdit& e) { return [e](std::vector<uint8_t>& f) { edit_metadata(f, e); }; };
+  auto meta = [](const MetadataEdit& e) { return [e](std::vector<uint8_t>& f) { edit_meta(f, e); }; };
   auto header = [](size_t at, uint32_t value) {
     return [at, value](std::vector<uint8_t>& f) {
       file_put32(&f[at], value);
@@ -179,7 +179,7 @@ void add_rule_vectors(std::vector<Vector>& v, const std::vector<uint8_t>& sphere
   }));
   invalid("clusters_without_pages.vgp", two_meshes_none, kErrInconsistent, [&](auto& f) {
     // Mesh 1 claims no page (tiling still holds: header and metadata page counts follow).
-    edit_metadata(f, [](auto& m, const MetaLayout& L) {
+    edit_meta(f, [](auto& m, const MetaLayout& L) {
       file_put32(&m[L.meshes[1].header_at + 64], 0);
       file_put32(&m[L.page_count_at], file_le32(&m[L.page_count_at]) - 1);
     });
@@ -284,19 +284,19 @@ void add_rule_vectors(std::vector<Vector>& v, const std::vector<uint8_t>& sphere
 
   // ---- compression (§5.1) ----
   invalid("zstd_bytes_after_frame.vgp", sphere_zstd, kErrTrailingBytes,
-          [](auto& f) { edit_raw_page(f, 0, [](auto& p) { p.push_back(0); }, false); });
+          [](auto& f) { edit_page(f, 0, [](auto& p) { p.push_back(0); }, false); });
   invalid("zstd_skippable_frame.vgp", sphere_zstd, kErrDecompress, [](auto& f) {
-    edit_raw_page(f, 0, [](auto& p) { p.insert(p.begin(), {0x50, 0x2A, 0x4D, 0x18, 0, 0, 0, 0}); }, false);
+    edit_page(f, 0, [](auto& p) { p.insert(p.begin(), {0x50, 0x2A, 0x4D, 0x18, 0, 0, 0, 0}); }, false);
   });
   invalid("zstd_content_size_mismatch.vgp", sphere_zstd, kErrDecompress, meta([](auto& m, const MetaLayout& L) {
     meta_put32(m, L.pages, 0, 8, meta_get32(m, L.pages, 0, 8) + 1);
   }));
-  invalid("lz4_block_cut.vgp", grid_lz4, kErrDecompress, [](auto& f) { edit_raw_page(f, 0, [](auto& p) { p.pop_back(); }, false); });
+  invalid("lz4_block_cut.vgp", grid_lz4, kErrDecompress, [](auto& f) { edit_page(f, 0, [](auto& p) { p.pop_back(); }, false); });
   invalid("lz4_output_longer_than_raw_size.vgp", grid_lz4, kErrDecompress, [](auto& f) {
-    edit_metadata(f, [](auto& m, const MetaLayout& L) { meta_put32(m, L.pages, 0, 8, meta_get32(m, L.pages, 0, 8) - 1); });
+    edit_meta(f, [](auto& m, const MetaLayout& L) { meta_put32(m, L.pages, 0, 8, meta_get32(m, L.pages, 0, 8) - 1); });
   });
   invalid("lz4_output_shorter_than_raw_size.vgp", grid_lz4, kErrDecompress, [](auto& f) {
-    edit_metadata(f, [](auto& m, const MetaLayout& L) { meta_put32(m, L.pages, 0, 8, meta_get32(m, L.pages, 0, 8) + 1); });
+    edit_meta(f, [](auto& m, const MetaLayout& L) { meta_put32(m, L.pages, 0, 8, meta_get32(m, L.pages, 0, 8) + 1); });
   });
 
   // ---- raw page (§5.2), first page of grid_none ----
@@ -306,7 +306,7 @@ void add_rule_vectors(std::vector<Vector>& v, const std::vector<uint8_t>& sphere
                   const std::vector<uint8_t>& base = {}) {
     const std::vector<uint8_t>& b = base.empty() ? grid_none : base;
     invalid(name, b, code, [&](auto& f) {
-      edit_raw_page(f, 0, [&](std::vector<uint8_t>& p) { edit(p, raw_page_layout(p, C)); });
+      edit_page(f, 0, [&](std::vector<uint8_t>& p) { edit(p, page_layout(p, C)); });
     });
   };
   page("page_vertex_count_zero.vgp", kErrOutOfRange, [](auto& p, const RawPageLayout& L) { p[L.counts] = 0; });
@@ -396,7 +396,7 @@ void add_rule_vectors(std::vector<Vector>& v, const std::vector<uint8_t>& sphere
     meta_put32(m, L.pages, 0, 12, 402);
   }));
   invalid("multi_metadata_trailing_before_file_size.vgp", grid_none, kErrTrailingBytes, [](auto& f) {
-    edit_metadata(f, [](auto& m, const MetaLayout&) { m.push_back(0); });
+    edit_meta(f, [](auto& m, const MetaLayout&) { m.push_back(0); });
     file_put32(&f[16], file_le32(&f[16]) + 1);
     file_put32(&f[60], crc32c(f.data(), 60));
   });
@@ -406,15 +406,15 @@ void add_rule_vectors(std::vector<Vector>& v, const std::vector<uint8_t>& sphere
   });
   invalid("multi_page_crc_before_page_magic.vgp", grid_none, kErrChecksum, [&](auto& f) { f[gc.pages[0].file_offset] ^= 1; });
   invalid("multi_topology_before_vertices.vgp", grid_none, kErrOutOfRange, [&](auto& f) {
-    edit_raw_page(f, 0, [&](std::vector<uint8_t>& p) {
-      const RawPageLayout L = raw_page_layout(p, C);
+    edit_page(f, 0, [&](std::vector<uint8_t>& p) {
+      const RawPageLayout L = page_layout(p, C);
       p[L.ctl] |= 0x80;  // reserved strip bit: OUT_OF_RANGE
       p[L.bits] += 1;    // wider than needed, same planes: NON_CANONICAL (later)
     });
   });
   invalid("multi_runs_before_vertices.vgp", grid_none, kErrNonCanonical, [&](auto& f) {
-    edit_raw_page(f, 0, [&](std::vector<uint8_t>& p) {
-      const RawPageLayout L = raw_page_layout(p, C);
+    edit_page(f, 0, [&](std::vector<uint8_t>& p) {
+      const RawPageLayout L = page_layout(p, C);
       size_t r = 0;
       first_multi_run(p, L, &r);
       file_put32(&p[L.run_material + 4 * (r + 1)], file_le32(&p[L.run_material + 4 * r]));  // NON_CANONICAL
@@ -422,16 +422,16 @@ void add_rule_vectors(std::vector<Vector>& v, const std::vector<uint8_t>& sphere
     });
   });
   invalid("multi_first_page_wins.vgp", pages_zstd, kErrChecksum, [&](auto& f) {
-    edit_raw_page(f, 1, [](std::vector<uint8_t>& p) { p.push_back(0); }, false);  // page 1: TRAILING_BYTES
-    f[page_offset(f, 0) + 5] ^= 1;                                                // page 0: CHECKSUM
+    edit_page(f, 1, [](std::vector<uint8_t>& p) { p.push_back(0); }, false);  // page 1: TRAILING_BYTES
+    f[page_at(f, 0) + 5] ^= 1;                                                // page 0: CHECKSUM
   });
   invalid("multi_unused_refs_after_clusters.vgp", grid_none, kErrNonCanonical, [&](auto& f) {
-    edit_raw_page(f, 0, [&](std::vector<uint8_t>& p) {
-      const RawPageLayout L = raw_page_layout(p, C);
+    edit_page(f, 0, [&](std::vector<uint8_t>& p) {
+      const RawPageLayout L = page_layout(p, C);
       const uint32_t n = file_le32(&p[L.ref_total]);
       p.insert(p.begin() + long(L.refs + n), 0);  // an unused reference: INCONSISTENT after the last cluster
       file_put32(&p[L.ref_total], n + 1);
-      const RawPageLayout M = raw_page_layout(p, C);
+      const RawPageLayout M = page_layout(p, C);
       size_t r = 0;
       first_multi_run(p, M, &r);
       file_put32(&p[M.run_material + 4 * (r + 1)], file_le32(&p[M.run_material + 4 * r]));  // NON_CANONICAL first

@@ -70,7 +70,10 @@ constexpr size_t kHeaderVersion = 8, kHeaderHeaderSize = 12, kHeaderFileSize = 1
 
 bool is_pow2(uint32_t v) { return v && !(v & (v - 1)); }
 
-// ---- compression ----
+}  // namespace
+
+// ---- compression (declared in page_codec.h: the encoder, the decoder and format_edit.h) ----
+namespace format_detail {
 std::vector<uint8_t> compress(const std::vector<uint8_t>& raw, Compression c, int level) {
   std::vector<uint8_t> out;
   if (c == Compression::kNone) return raw;
@@ -115,6 +118,10 @@ void decompress(const uint8_t* src, size_t src_size, Compression c, uint8_t* dst
   if (n < 0) fail(kErrDecompress, where, "lz4 block invalid");
   if (size_t(n) != raw_size) fail(kErrDecompress, where, "lz4 output shorter than declared");
 }
+
+}  // namespace format_detail
+
+namespace {
 
 int32_t choose_position_step(const ClusterDag& dag, const FormatOptions& o) {
   if (o.position_step_log2) return *o.position_step_log2;
