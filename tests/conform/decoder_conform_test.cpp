@@ -55,6 +55,8 @@ TEST(ConformDecoder, OwnDecoderAgreesEverywhere) {
                    vgeo::test::cli_path() + "' conform hash");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("0 verdict, 0 hash, 0 protocol, 0 code disagreements"), std::string::npos) << r.output;
+  // Structure-aware mutants keep the checksums valid and reach the rules behind them.
+  EXPECT_NE(r.output.find("  page-field: FORMAT_NON_CANONICAL 1 FORMAT_OUT_OF_RANGE 4"), std::string::npos) << r.output;
   std::string cases = vgeo::test::checked_junit(xml);
   EXPECT_NE(cases.find("vgeo.conform.decoder.v1_valid_sphere_zstd.vgp: passed"), std::string::npos) << cases;
   EXPECT_EQ(cases.find("failed"), std::string::npos) << cases;
@@ -104,6 +106,31 @@ TEST(ConformDecoder, BrokenDecoderIsCaughtWithReproducers) {
   EXPECT_EQ(strict.exit_code, 1) << strict.output;
   cases = vgeo::test::checked_junit(xml);
   EXPECT_NE(cases.find("vgeo.conform.decoder.v1_header_checksum.vgp: failed CONFORM_DECODER_CODE"), std::string::npos) << cases;
+}
+
+// --minimize shrinks a reproducer while the disagreement stays: the broken decoder accepts
+// every truncated file, so halving v1_truncated.vgp keeps the verdict disagreement. Eight
+// decoder runs keep the test cheap (1167 bytes -> 146).
+TEST(ConformDecoder, MinimizeShrinksAReproducer) {
+  TempDir tmp;
+  const fs::path dir = tmp.path / "one";
+  fs::create_directories(dir);
+  fs::copy_file(fs::path(all_vectors()) / "v1_truncated.vgp", dir / "v1_truncated.vgp");
+  std::ofstream(dir / "manifest.txt") << "v1_truncated.vgp FORMAT_TRUNCATED\n";
+  const fs::path out = tmp.path / "min";
+  const std::string broken = (vgeo::test::source_dir() / "tests" / "conform" / "broken_decoder.sh").string();
+  auto r = run_cli("conform decoder --vectors '" + dir.string() + "' --mutants 0 --minimize --minimize-runs 8 --out '" +
+                   out.string() + "' -- sh '" + broken + "' '" + vgeo::test::cli_path() + "'");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  const auto original = fs::file_size(dir / "v1_truncated.vgp");
+  ASSERT_TRUE(fs::exists(out / "v1_truncated.min.vgp")) << r.output;
+  const auto minimized = fs::file_size(out / "v1_truncated.min.vgp");
+  EXPECT_LT(minimized, original / 4) << r.output;
+  EXPECT_NE(r.output.find("minimized " + std::to_string(original) + " -> " + std::to_string(minimized) + " bytes in 8 runs"),
+            std::string::npos) << r.output;
+  // The minimized file still disagrees: vgeo rejects it as truncated.
+  auto replay = run_cli("conform hash '" + (out / "v1_truncated.min.vgp").string() + "'");
+  EXPECT_NE(replay.output.find("error[FORMAT_TRUNCATED]"), std::string::npos) << replay.output;
 }
 
 TEST(ConformDecoder, ProtocolFailuresAndUsage) {
