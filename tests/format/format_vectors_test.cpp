@@ -606,6 +606,7 @@ TEST(FormatVectors, ManifestMatches) {
 TEST(FormatVectors, GeneratorReproducesStoredFiles) {
   for (const Vector& v : all_vectors()) {
     const std::vector<uint8_t> stored = read_file(vector_dir() / v.name);
+    if (stored == v.bytes) continue;  // (the usual case: no decode needed)
     if (v.bytes.size() >= 28 && le32(&v.bytes[24]) == uint32_t(Compression::kNone))
       EXPECT_TRUE(stored == v.bytes) << v.name;
     else
@@ -632,9 +633,16 @@ TEST(FormatVectors, EveryDecoderCodeHasAnInvalidVector) {
   std::set<std::string> codes = errors_md_codes("Page format", "FORMAT_");
   ASSERT_TRUE(codes.count(kErrEncode)) << "spec/errors.md §Page format not parsed";
   codes.erase(kErrEncode);
+  // From the committed manifest (ManifestMatches ties it to the generator): no generation here.
   std::set<std::string> covered;
-  for (const Vector& v : all_vectors())
-    if (v.expected != "OK") covered.insert(v.expected);
+  std::ifstream manifest(vector_dir() / "manifest.txt");
+  for (std::string line; std::getline(manifest, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream words(line);
+    std::string name, expected;
+    words >> name >> expected;
+    if (expected != "OK") covered.insert(expected);
+  }
   for (const std::string& c : codes) EXPECT_TRUE(covered.count(c)) << c << " has no invalid vector";
   for (const std::string& c : covered) EXPECT_TRUE(codes.count(c)) << c << " is not a code of spec/errors.md";
 }
