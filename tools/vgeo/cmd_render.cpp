@@ -63,11 +63,7 @@ void run_backend_command(const RenderArgs& args, const RenderRequest& request, c
                                        : load_scene_file(args.scene, options);
   if (!args.camera_path.empty()) scene.path = load_camera_path_file(args.camera_path, scene.cameras[0]);
   BackendRunReport report = run_backend(scene, br);
-  if (!args.json_file.empty()) {
-    std::ofstream f(args.json_file, std::ios::binary | std::ios::trunc);
-    f << report.json() << "\n";
-    if (!f) fail("IO_WRITE_FAILED", args.json_file, "cannot write", kExitIo);
-  }
+  if (!args.json_file.empty()) write_file_atomic(args.json_file, report.json() + "\n");
   std::printf("%s", (args.json ? report.json() + "\n" : report.table()).c_str());
   if (!report.validation_messages.empty())
     fail("GPU_VALIDATION", "vulkan",

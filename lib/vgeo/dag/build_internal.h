@@ -9,6 +9,7 @@
 
 #include "vgeo/dag/build.h"
 #include "vgeo/core/math.h"
+#include "vgeo/core/thread_pool.h"
 #include "vgeo/mesh/mesh.h"
 
 namespace vgeo::build_detail {
@@ -92,6 +93,14 @@ std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const Triang
 // recursive median split along the largest extent, ties by index. Each block's indices are
 // ascending; blocks are in split order (lower half first). Deterministic.
 std::vector<std::vector<uint32_t>> spatial_blocks(const std::vector<Vec3>& centres, size_t max_items);
+
+// The locks of a level with several spatial blocks, before any block task runs: locks
+// (locked[w] = 1) every welded vertex used by clusters of two blocks (block_of[i] = block of
+// clusters[i]) and returns the sorted welded edges used by two blocks. `owner` (weld.size()
+// entries, all kNone) is scratch, returned all kNone. Same result for any thread count.
+std::vector<uint64_t> lock_cross_block_vertices(const WeldedMesh& welded, const std::vector<const TriangleSet*>& clusters,
+                                                const std::vector<uint32_t>& block_of, ThreadPool& pool,
+                                                std::vector<uint32_t>& owner, std::vector<uint8_t>& locked);
 
 // Knobs for measuring alternatives (benchmarks, tests); build_dag uses the defaults.
 struct InternalBuildOptions {

@@ -16,6 +16,7 @@
 #include "vgeo/dag/build_internal.h"
 #include "vgeo/dag/cluster_dag.h"
 #include "vgeo/core/surface_distance.h"
+#include "vgeo/mesh/openmesh_streams.h"
 
 namespace vgeo::build_detail {
 
@@ -203,6 +204,7 @@ double point_triangle_distance(const OpenMesh::Vec3d& p, const OpenMesh::Vec3d& 
 // Hausdorff distance at the input vertices), in object units.
 SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& group,
                                  const std::vector<uint8_t>& locked) {
+  silence_openmesh_streams();  // add_face reports complex edges on omerr
   const Mesh& mesh = *welded.mesh;
   size_t n = group.triangle_count();
   // Welded ids of the group, compacted in order of first use.
