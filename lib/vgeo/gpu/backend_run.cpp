@@ -4,11 +4,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
 #include "vgeo/core/error.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/core/hash.h"
 #include "vgeo/gpu/gpu_frame.h"
 #include "vgeo/render/run.h"
@@ -84,7 +85,7 @@ void write_failure(const std::string& dir, uint32_t f, const Frame& cpu, const F
   char stem[32];
   std::snprintf(stem, sizeof stem, "/frame_%05u", f);
   write_png(dir + stem + "_diff.png", diff_image(cpu, gpu));
-  std::ofstream out(dir + stem + "_pixels.txt");
+  std::ostringstream out;
   out << "# x y | cpu: depth_bits instance cluster triangle | vulkan: depth_bits instance cluster triangle\n";
   for (uint32_t y = 0; y < cpu.vis.height; ++y)
     for (uint32_t x = 0; x < cpu.vis.width; ++x) {
@@ -94,6 +95,7 @@ void write_failure(const std::string& dir, uint32_t f, const Frame& cpu, const F
       out << x << ' ' << y << " | " << a.depth_bits << ' ' << a.instance << ' ' << a.cluster << ' ' << a.triangle
           << " | " << b.depth_bits << ' ' << b.instance << ' ' << b.cluster << ' ' << b.triangle << '\n';
     }
+  write_file_atomic(dir + stem + "_pixels.txt", out.str());
 }
 
 }  // namespace
