@@ -141,6 +141,13 @@ void require_features(VkPhysicalDevice d) {
   if (!f12.shaderBufferInt64Atomics) missing += " shaderBufferInt64Atomics";
   if (!f13.synchronization2) missing += " synchronization2";
   if (!f13.maintenance4) missing += " maintenance4";
+  // The hardware raster path (hw_raster.h): atomics from fragment shaders, dynamic
+  // rendering without attachments, draws from a GPU-written command list and count.
+  if (!f.features.fragmentStoresAndAtomics) missing += " fragmentStoresAndAtomics";
+  if (!f.features.multiDrawIndirect) missing += " multiDrawIndirect";
+  if (!f.features.drawIndirectFirstInstance) missing += " drawIndirectFirstInstance";
+  if (!f12.drawIndirectCount) missing += " drawIndirectCount";
+  if (!f13.dynamicRendering) missing += " dynamicRendering";
   if (!missing.empty())
     fail("GPU_FEATURE_MISSING", device_name(d), "required features missing:" + missing, kExitUsage);
 }
@@ -215,13 +222,18 @@ std::unique_ptr<GpuContext> create_gpu_context(const GpuOptions& options) {
   VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
   f13.synchronization2 = VK_TRUE;
   f13.maintenance4 = VK_TRUE;  // glslc --target-env=vulkan1.3 declares workgroup sizes with LocalSizeId
+  f13.dynamicRendering = VK_TRUE;  // hw_raster.h: a render pass with no attachments
   VkPhysicalDeviceVulkan12Features f12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
   f12.pNext = &f13;
   f12.shaderBufferInt64Atomics = VK_TRUE;
+  f12.drawIndirectCount = VK_TRUE;
   VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   features.pNext = &f12;
   features.features.shaderInt64 = VK_TRUE;
   features.features.shaderFloat64 = VK_TRUE;
+  features.features.fragmentStoresAndAtomics = VK_TRUE;
+  features.features.multiDrawIndirect = VK_TRUE;
+  features.features.drawIndirectFirstInstance = VK_TRUE;
   VkDeviceCreateInfo info{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   info.pNext = &features;
   info.queueCreateInfoCount = 1;

@@ -54,8 +54,9 @@ struct GpuContext {
 
 // Throws VgeoError: GPU_NO_DEVICE (no Vulkan driver or no physical device),
 // GPU_DEVICE_NOT_FOUND (the requested device does not exist), GPU_FEATURE_MISSING
-// (a required feature: Vulkan 1.3 with synchronization2 and maintenance4, shaderInt64,
-// shaderFloat64, shaderBufferInt64Atomics),
+// (a required feature: Vulkan 1.3 with synchronization2, maintenance4 and dynamicRendering,
+// shaderInt64, shaderFloat64, shaderBufferInt64Atomics, and for the hardware raster path
+// fragmentStoresAndAtomics, multiDrawIndirect, drawIndirectFirstInstance, drawIndirectCount),
 // GPU_VALIDATION_UNAVAILABLE (validation requested, layer not installed), GPU_ERROR.
 std::unique_ptr<GpuContext> create_gpu_context(const GpuOptions& options);
 

@@ -52,7 +52,9 @@ MemoryFormScene make_memory_form_scene(const RenderScene& scene) {
 struct GpuRenderer {
   GpuContext* gpu = nullptr;
   std::unique_ptr<GpuRecorder> recorder;
-  ComputePipeline raster, shade;
+  std::unique_ptr<GpuRasterPasses> raster;
+  GpuRendererOptions options;
+  ComputePipeline shade;
   GpuBuffer pages, locations, meshes, materials;
   // Per frame, grown on demand.
   GpuBuffer instances, visible, vis, counters, shade_instances, shade_clusters, overdraw, image;
@@ -62,8 +64,6 @@ void GpuRendererDeleter::operator()(GpuRenderer* r) const { delete r; }
 
 namespace {
 
-// Raster shader bindings: pages, locations, meshes, instances, visible, vis, counters.
-constexpr uint32_t kRasterBindings = 7;
 // Shade shader bindings: the raster ones less counters, then shade instances, shade clusters,
 // materials, overdraw, image.
 constexpr uint32_t kShadeBindings = 11;
@@ -89,28 +89,53 @@ void check_buffer_range(const GpuContext& gpu, uint64_t bytes, const char* what)
          kExitUsage);
 }
 
-// Dispatches the raster shader over visible[first, first + count) into the vis buffer;
-// returns the GPU time and the pixels written.
-void raster_range(GpuRenderer& r, const Camera& camera, uint32_t first, uint32_t count, PassStats* stats) {
+// Rasterizes visible[first, first + count) into the vis buffer by the renderer's raster mode
+// (hw_raster.h); returns the GPU time and the pixels written, adds the split to `split`.
+void raster_range(GpuRenderer& r, uint32_t width, uint32_t height, float z_near, float pixels_per_unit_at_1,
+                  bool cull_backfaces, uint32_t first, uint32_t count, PassStats* stats, RasterSplitStats* split) {
   GpuRecorder& rec = *r.recorder;
   begin_commands(rec);
   cmd_fill(rec, r.counters, 0);
-  GpuRasterParams params{};
-  params.width = camera.width;
-  params.height = camera.height;
-  params.first_visible = first;
-  params.visible_count = count;
-  params.groups_x = std::min(count, kGpuMaxGroupsX);
-  params.cull_backfaces = RasterOptions{}.cull_backfaces ? 1u : 0u;
-  params.z_near = float(camera.z_near);  // frame.cpp raster_pass: RasterOptions::z_near = float(z_near)
-  const uint32_t groups_y = params.groups_x ? (count + params.groups_x - 1) / params.groups_x : 0;
+  GpuRasterRequest request;
+  request.mode = r.options.raster;
+  request.first_visible = first;
+  request.visible_count = count;
+  request.width = width;
+  request.height = height;
+  request.z_near = z_near;
+  request.pixels_per_unit_at_1 = pixels_per_unit_at_1;
+  request.hw_min_triangle_area_px = r.options.hw_min_triangle_area_px;
+  request.cull_backfaces = cull_backfaces;
   uint32_t t0 = cmd_timestamp(rec);
-  cmd_dispatch(rec, r.raster, {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.counters},
-               &params, params.groups_x, groups_y);
+  record_gpu_raster(rec, *r.raster, {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.counters},
+                    request);
   uint32_t t1 = cmd_timestamp(rec);
   submit_and_wait(rec);
   stats->ms = timestamp_ms(rec, t0, t1);
   stats->pixels_written = r.counters.data<uint64_t>()[0];
+  split->add(read_gpu_raster_split(*r.raster));
+}
+
+// Uploads the per-frame raster inputs and clears the visibility buffer.
+void upload_raster_inputs(GpuRenderer& r, const std::vector<Mat4>& object_to_clip, const std::vector<uint32_t>& mesh,
+                          const std::vector<float>& instance_scale, const std::vector<VisibleCluster>& visible,
+                          uint32_t width, uint32_t height) {
+  GpuContext& gpu = *r.gpu;
+  std::vector<GpuInstance> instances(object_to_clip.size());
+  for (size_t i = 0; i < instances.size(); ++i) {
+    std::memcpy(instances[i].object_to_clip, object_to_clip[i].m, sizeof(instances[i].object_to_clip));
+    instances[i].mesh = mesh[i];
+  }
+  ensure_size(gpu, r.instances, instances.size() * sizeof(GpuInstance));
+  if (!instances.empty()) std::memcpy(r.instances.mapped, instances.data(), instances.size() * sizeof(GpuInstance));
+  static_assert(sizeof(VisibleCluster) == sizeof(GpuVisibleCluster));
+  ensure_size(gpu, r.visible, visible.size() * sizeof(GpuVisibleCluster));
+  if (!visible.empty()) std::memcpy(r.visible.mapped, visible.data(), visible.size() * sizeof(GpuVisibleCluster));
+  prepare_gpu_raster(*r.raster, instance_scale, uint32_t(visible.size()));
+  const uint64_t vis_bytes = uint64_t(width) * height * 8;
+  check_buffer_range(gpu, vis_bytes, "the visibility buffer");
+  ensure_size(gpu, r.vis, vis_bytes);
+  std::memset(r.vis.mapped, 0, vis_bytes);
 }
 
 // shade.cpp shade_frame on the GPU: every view, from the visibility buffer now in r.vis.
@@ -194,11 +219,27 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
 
 }  // namespace
 
-GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene) {
+std::vector<GpuClusterRasterInfo> cluster_raster_infos(const MemoryFormScene& scene) {
+  std::vector<GpuClusterRasterInfo> infos;
+  for (const ClusterDag& dag : scene.scene.meshes)
+    for (const DagCluster& c : dag.clusters) {
+      GpuClusterRasterInfo info{};
+      info.center[0] = c.bounds.center.x;
+      info.center[1] = c.bounds.center.y;
+      info.center[2] = c.bounds.center.z;
+      info.radius = c.bounds.radius;
+      info.triangle_count = c.triangle_count;
+      infos.push_back(info);
+    }
+  return infos;
+}
+
+GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene, const GpuRendererOptions& options) {
   GpuRendererPtr r(new GpuRenderer);
   r->gpu = &gpu;
+  r->options = options;
   r->recorder = create_gpu_recorder(gpu);
-  r->raster = create_compute_pipeline(gpu, kShaderRaster, kRasterBindings, sizeof(GpuRasterParams));
+  r->raster = create_gpu_raster_passes(gpu, cluster_raster_infos(scene));
   r->shade = create_compute_pipeline(gpu, kShaderShade, kShadeBindings, sizeof(GpuShadeParams));
 
   std::vector<uint32_t> page_word(scene.pages.size());
@@ -234,7 +275,7 @@ GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene
 
 void render_frame_vulkan(GpuRenderer& r, const MemoryFormScene& mscene, const Camera& camera,
                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                         bool has_next_frame) {
+                         bool has_next_frame, RasterSplitStats* split) {
   GpuContext& gpu = *r.gpu;
   const RenderScene& scene = mscene.scene;
   // Host cull (the CPU reference's passes) decides the visible clusters; its raster output
@@ -249,28 +290,32 @@ void render_frame_vulkan(GpuRenderer& r, const MemoryFormScene& mscene, const Ca
   // Per-instance object→clip matrices exactly as frame.cpp (float, from double products).
   const Mat4d view_to_clip =
       perspective_reversed_z(camera.fov_y, double(camera.width) / double(camera.height), camera.z_near);
-  std::vector<GpuInstance> instances(scene.instances.size());
-  for (size_t i = 0; i < instances.size(); ++i) {
-    const Mat4 m = to_float(view_to_clip * out->instance_views[i].object_to_view);
-    std::memcpy(instances[i].object_to_clip, m.m, sizeof(instances[i].object_to_clip));
-    instances[i].mesh = scene.instances[i].mesh;
+  std::vector<Mat4> object_to_clip(scene.instances.size());
+  std::vector<uint32_t> mesh(scene.instances.size());
+  std::vector<float> scale(scene.instances.size());
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    object_to_clip[i] = to_float(view_to_clip * out->instance_views[i].object_to_view);
+    mesh[i] = scene.instances[i].mesh;
+    scale[i] = float(out->instance_views[i].scale);
   }
-  ensure_size(gpu, r.instances, instances.size() * sizeof(GpuInstance));
-  std::memcpy(r.instances.mapped, instances.data(), instances.size() * sizeof(GpuInstance));
-  static_assert(sizeof(VisibleCluster) == sizeof(GpuVisibleCluster));
-  ensure_size(gpu, r.visible, out->visible.size() * sizeof(GpuVisibleCluster));
-  if (!out->visible.empty()) std::memcpy(r.visible.mapped, out->visible.data(), out->visible.size() * sizeof(GpuVisibleCluster));
-  const uint64_t vis_bytes = uint64_t(camera.width) * camera.height * 8;
-  check_buffer_range(gpu, vis_bytes, "the visibility buffer");
-  ensure_size(gpu, r.vis, vis_bytes);
-  std::memset(r.vis.mapped, 0, vis_bytes);
+  upload_raster_inputs(r, object_to_clip, mesh, scale, out->visible, camera.width, camera.height);
 
   FrameStats& stats = out->stats;
   const uint32_t n = uint32_t(out->visible.size()), n1 = out->pass1_visible;
+  // frame.cpp raster_pass: RasterOptions::z_near = float(z_near), default back-face culling.
+  const float z_near = float(camera.z_near);
+  const bool cull_backfaces = RasterOptions{}.cull_backfaces;
+  RasterSplitStats frame_split;
   for (PassStats& p : stats.passes) {
-    if (p.name == "raster") raster_range(r, camera, 0, n1, &p);
-    if (p.name == "raster_post") raster_range(r, camera, n1, n - n1, &p);
+    if (p.name == "raster")
+      raster_range(r, camera.width, camera.height, z_near, out->view.pixels_per_unit_at_1, cull_backfaces, 0, n1, &p,
+                   &frame_split);
+    if (p.name == "raster_post")
+      raster_range(r, camera.width, camera.height, z_near, out->view.pixels_per_unit_at_1, cull_backfaces, n1, n - n1,
+                   &p, &frame_split);
   }
+  if (split) *split = frame_split;
+  const uint64_t vis_bytes = uint64_t(camera.width) * camera.height * 8;
   std::memcpy(out->vis.keys.data(), r.vis.mapped, vis_bytes);
   uint64_t covered = 0;
   for (uint64_t k : out->vis.keys) covered += k != 0;
@@ -281,6 +326,20 @@ void render_frame_vulkan(GpuRenderer& r, const MemoryFormScene& mscene, const Ca
   // raster, which render_frame also ran, is not part of this backend's frame.
   stats.total_ms = 0;
   for (const PassStats& p : stats.passes) stats.total_ms += p.ms;
+}
+
+void raster_visible_vulkan(GpuRenderer& r, const GpuRasterInput& in, GpuRasterOutput* out) {
+  upload_raster_inputs(r, in.object_to_clip, in.instance_mesh, in.instance_scale, in.visible, in.width, in.height);
+  PassStats pass;
+  out->split = {};
+  raster_range(r, in.width, in.height, in.z_near, in.pixels_per_unit_at_1, in.cull_backfaces, 0,
+               uint32_t(in.visible.size()), &pass, &out->split);
+  out->ms = pass.ms;
+  out->pixels_written = pass.pixels_written;
+  out->vis.width = in.width;
+  out->vis.height = in.height;
+  out->vis.keys.resize(size_t(in.width) * in.height);
+  std::memcpy(out->vis.keys.data(), r.vis.mapped, out->vis.keys.size() * 8);
 }
 
 }  // namespace vgeo
