@@ -173,6 +173,11 @@ uint64_t cluster_set_hash(const std::vector<VisibleCluster>& visible) {
 }
 
 BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& request) {
+  return run_backend(file, make_memory_form_scene(file.scene), request);
+}
+
+BackendRunReport run_backend(const SceneFile& file, const MemoryFormScene& scene, const BackendRunRequest& request,
+                             GpuContext* shared_gpu) {
   RenderSettings settings = file.settings;
   if (request.threshold_px) settings.threshold_px = *request.threshold_px;
   if (request.view) settings.view = *request.view;
@@ -189,11 +194,19 @@ BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& req
   const bool vulkan = request.backend == Backend::kVulkan;
   const bool compare = vulkan && request.compare_cpu;
 
-  const MemoryFormScene scene = make_memory_form_scene(file.scene);
-  std::unique_ptr<GpuContext> gpu;
+  std::unique_ptr<GpuContext> own_gpu;
+  GpuContext* gpu = shared_gpu;
   GpuRendererPtr renderer;
+  size_t first_message = 0;
   if (vulkan) {
-    gpu = create_gpu_context(request.gpu);
+    if (!gpu) {
+      own_gpu = create_gpu_context(request.gpu);
+      gpu = own_gpu.get();
+    }
+    std::lock_guard<std::mutex> lock(gpu->messages_mutex);
+    first_message = gpu->validation_messages.size();
+  }
+  if (vulkan) {
     GpuRendererOptions options;
     options.raster = request.raster;
     renderer = create_gpu_renderer(*gpu, scene, options);
@@ -231,9 +244,10 @@ BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& req
   report.image_hash = fnv1a64(frame.image.rgb.data(), frame.image.rgb.size());
   if (!request.output_png.empty()) write_png(request.output_png, frame.image);
   if (compare && !request.diff_png.empty()) write_png(request.diff_png, diff_image(cpu_frame, frame));
+  renderer.reset();
   if (gpu) {
     std::lock_guard<std::mutex> lock(gpu->messages_mutex);
-    report.validation_messages = gpu->validation_messages;
+    report.validation_messages.assign(gpu->validation_messages.begin() + first_message, gpu->validation_messages.end());
   }
   return report;
 }

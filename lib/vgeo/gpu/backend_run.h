@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "vgeo/gpu/context.h"
+#include "vgeo/gpu/gpu_frame.h"
 #include "vgeo/gpu/hw_raster.h"
 #include "vgeo/raster/hw_rule.h"
 #include "vgeo/render/scene_file.h"
@@ -69,6 +70,11 @@ struct BackendRunReport {
 // Throws VgeoError: GPU_* (gpu.md), RENDER_BAD_OPTION / RENDER_BAD_CAMERA as render_scene,
 // GPU_STREAMING_UNSUPPORTED when the scene streams (Vulkan streaming is not implemented).
 BackendRunReport run_backend(const SceneFile& scene, const BackendRunRequest& request);
+// The same with the scene's memory form already made (make_memory_form_scene(scene.scene))
+// and, when `gpu` is given, an existing context instead of one from request.gpu (the golden
+// test renders each scene under several --raster modes).
+BackendRunReport run_backend(const SceneFile& scene, const MemoryFormScene& memory_form, const BackendRunRequest& request,
+                             GpuContext* gpu = nullptr);
 
 // spec/raster.md §Hashes. Both are independent of the visible-cluster list's order.
 uint64_t vis_buffer_hash(const VisBuffer& vis, const std::vector<VisibleCluster>& visible);

@@ -113,14 +113,13 @@ void create_hw_pipeline(GpuContext& c, GpuRasterPasses& p) {
   check_vk(r, "hw_raster pipeline");
 }
 
-// Writes of `src` stages become visible to `dst` stages (shader and indirect reads, writes).
-void barrier(GpuRecorder& rec, VkPipelineStageFlags2 src, VkPipelineStageFlags2 dst) {
+// Shader writes of `src` stages become visible to the `dst` stages' `access`.
+void barrier(GpuRecorder& rec, VkPipelineStageFlags2 src, VkPipelineStageFlags2 dst, VkAccessFlags2 access) {
   VkMemoryBarrier2 b{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
   b.srcStageMask = src;
   b.srcAccessMask = VK_ACCESS_2_SHADER_WRITE_BIT;
   b.dstStageMask = dst;
-  b.dstAccessMask = VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT |
-                    VK_ACCESS_2_HOST_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT;
+  b.dstAccessMask = access;
   VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
   dep.memoryBarrierCount = 1;
   dep.pMemoryBarriers = &b;
@@ -235,13 +234,18 @@ void record_gpu_raster(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuff
                  params.groups_x, groups_y);
   }
   if (q.mode != GpuRasterMode::kSw && q.visible_count) {
+    // The split's commands, count and paths, and the compute raster's keys, before the draw.
     barrier(rec, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
             VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
-                VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT);
+                VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+            VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT);
     record_hw_draw(rec, p, b, params, q.visible_count);
+    // The fragment stage's keys and counter, before later passes and the host read-back.
     barrier(rec, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
             VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT |
-                VK_PIPELINE_STAGE_2_TRANSFER_BIT | VK_PIPELINE_STAGE_2_HOST_BIT);
+                VK_PIPELINE_STAGE_2_TRANSFER_BIT | VK_PIPELINE_STAGE_2_HOST_BIT,
+            VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT |
+                VK_ACCESS_2_HOST_READ_BIT);
   }
 }
 
