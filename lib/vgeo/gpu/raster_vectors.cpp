@@ -210,9 +210,11 @@ RasterVector make_guard_band() {
 
 }  // namespace
 
-RenderScene raster_vector_scene(const RasterVector& v) {
+RenderScene raster_vector_scene(const RasterVector& v) { return flat_cluster_scene(v.clusters, v.name); }
+
+RenderScene flat_cluster_scene(const std::vector<RasterVectorCluster>& clusters, const std::string& where) {
   ClusterDag dag;
-  for (const RasterVectorCluster& c : v.clusters) {
+  for (const RasterVectorCluster& c : clusters) {
     DagCluster dc;
     dc.vertex_offset = uint32_t(dag.vertex_count());
     dc.vertex_count = uint32_t(c.positions.size() / 3);
@@ -242,18 +244,33 @@ RenderScene raster_vector_scene(const RasterVector& v) {
     dag.bounds.extend(box.min);
     dag.bounds.extend(box.max);
   }
-  // One BVH node over the groups (vectors hold at most kBvhMaxChildren clusters).
-  if (dag.groups.size() > kBvhMaxChildren)
-    fail("RASTER_VECTOR_PARSE", v.name, "more than " + std::to_string(kBvhMaxChildren) + " clusters", kExitUsage);
-  BvhNode node;
-  for (uint32_t g = 0; g < dag.groups.size(); ++g) {
-    node.children[node.child_count] = g;
-    node.group_mask |= 1u << node.child_count++;
-    node.bounds = merge_spheres(node.bounds, dag.groups[g].bounds);
-    node.lod_bounds = merge_spheres(node.lod_bounds, dag.groups[g].parent_bounds);
+  // A two-level BVH8: the root over leaf nodes of up to kBvhMaxChildren groups each.
+  const uint32_t groups = uint32_t(dag.groups.size());
+  if (groups > kBvhMaxChildren * kBvhMaxChildren)
+    fail("RASTER_VECTOR_PARSE", where, "more than " + std::to_string(kBvhMaxChildren * kBvhMaxChildren) + " clusters",
+         kExitUsage);
+  if (groups) dag.bvh_nodes.emplace_back();
+  BvhNode root;
+  root.max_parent_error = kTerminalError;
+  for (uint32_t first = 0; first < groups; first += kBvhMaxChildren) {
+    BvhNode node;
     node.max_parent_error = kTerminalError;
+    for (uint32_t g = first; g < std::min(groups, first + kBvhMaxChildren); ++g) {
+      node.children[node.child_count] = g;
+      node.group_mask |= 1u << node.child_count++;
+      node.bounds = merge_spheres(node.bounds, dag.groups[g].bounds);
+      node.lod_bounds = merge_spheres(node.lod_bounds, dag.groups[g].parent_bounds);
+    }
+    if (groups <= kBvhMaxChildren) {
+      root = node;
+      break;
+    }
+    root.children[root.child_count++] = uint32_t(dag.bvh_nodes.size());
+    root.bounds = merge_spheres(root.bounds, node.bounds);
+    root.lod_bounds = merge_spheres(root.lod_bounds, node.lod_bounds);
+    dag.bvh_nodes.push_back(node);
   }
-  if (!dag.groups.empty()) dag.bvh_nodes.push_back(node);
+  if (groups) dag.bvh_nodes[0] = root;
   dag.level_count = 1;
   RenderScene scene;
   scene.meshes.push_back(std::move(dag));

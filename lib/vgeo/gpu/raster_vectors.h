@@ -45,6 +45,8 @@ std::vector<RasterVector> make_raster_vectors();
 // The vector's geometry as a one-mesh, one-instance scene (flat DAG: every cluster a leaf
 // root) and its memory form; `canonicalize` replaces the clusters by their decoded form.
 RenderScene raster_vector_scene(const RasterVector& v);
+// The same for any clusters (at most 64; `vgeo bench raster` draws its GPU samples from it).
+RenderScene flat_cluster_scene(const std::vector<RasterVectorCluster>& clusters, const std::string& where);
 void canonicalize_raster_vector(RasterVector* v);
 // CPU reference keys (kReference loop) and the mask.
 void compute_raster_vector_expected(RasterVector* v);
