@@ -31,8 +31,9 @@ const char* gpu_raster_mode_name(GpuRasterMode mode);
 
 // The auto rule's threshold: a cluster whose estimated projected triangle area
 // (π r_px² / triangles, spec/raster.md §12.2) is at least this goes to the hardware path.
-// From `vgeo bench raster`'s crossover of compute SW and HW time per triangle on lavapipe
-// (docs/bench/raster.md).
+// Where `vgeo bench raster`'s compute-SW and hardware curves cross on lavapipe: SW/HW 1.01×
+// at 8-px legs (32 px²), 0.83× at 16 px (128 px²); 64 px² is the geometric middle
+// (docs/bench/report.md §raster; on lavapipe the sides are inverted, see spec §12.4).
 inline constexpr float kAutoHwMinTriangleAreaPx = 64.0f;
 
 struct RasterSplitStats {
