@@ -314,6 +314,10 @@ GpuBuffer create_gpu_buffer(GpuContext& c, VkDeviceSize size) {
   return b;
 }
 
+void ensure_gpu_buffer(GpuContext& c, GpuBuffer& buffer, VkDeviceSize size) {
+  if (buffer.buffer == VK_NULL_HANDLE || buffer.size < size) buffer = create_gpu_buffer(c, size);
+}
+
 // ---- compute pipelines ----
 
 ComputePipeline& ComputePipeline::operator=(ComputePipeline&& o) noexcept {
@@ -456,14 +460,13 @@ void cmd_fill(GpuRecorder& rec, const GpuBuffer& buffer, uint32_t value) {
   full_barrier(rec.commands);
 }
 
-void cmd_dispatch(GpuRecorder& rec, const ComputePipeline& pipeline, const std::vector<const GpuBuffer*>& buffers,
-                  const void* push_constants, uint32_t gx, uint32_t gy, uint32_t gz) {
-  assert(rec.recording && buffers.size() == pipeline.storage_buffers);
+VkDescriptorSet storage_buffer_set(GpuRecorder& rec, VkDescriptorSetLayout layout,
+                                   const std::vector<const GpuBuffer*>& buffers) {
   VkDevice d = rec.context->device;
   VkDescriptorSetAllocateInfo alloc{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
   alloc.descriptorPool = rec.descriptors;
   alloc.descriptorSetCount = 1;
-  alloc.pSetLayouts = &pipeline.set_layout;
+  alloc.pSetLayouts = &layout;
   VkDescriptorSet set = VK_NULL_HANDLE;
   check_vk(vkAllocateDescriptorSets(d, &alloc, &set), "vkAllocateDescriptorSets");
   std::vector<VkDescriptorBufferInfo> infos(buffers.size());
@@ -478,6 +481,13 @@ void cmd_dispatch(GpuRecorder& rec, const ComputePipeline& pipeline, const std::
     writes[i].pBufferInfo = &infos[i];
   }
   vkUpdateDescriptorSets(d, uint32_t(writes.size()), writes.data(), 0, nullptr);
+  return set;
+}
+
+void cmd_dispatch(GpuRecorder& rec, const ComputePipeline& pipeline, const std::vector<const GpuBuffer*>& buffers,
+                  const void* push_constants, uint32_t gx, uint32_t gy, uint32_t gz) {
+  assert(rec.recording && buffers.size() == pipeline.storage_buffers);
+  VkDescriptorSet set = storage_buffer_set(rec, pipeline.set_layout, buffers);
   vkCmdBindPipeline(rec.commands, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
   vkCmdBindDescriptorSets(rec.commands, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout, 0, 1, &set, 0, nullptr);
   if (pipeline.push_constant_bytes)

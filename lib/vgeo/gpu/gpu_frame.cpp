@@ -77,9 +77,7 @@ GpuBuffer upload(GpuContext& gpu, const std::vector<T>& data) {
 }
 
 // Keeps `buffer` at least `bytes` long (contents not preserved).
-void ensure_size(GpuContext& gpu, GpuBuffer& buffer, uint64_t bytes) {
-  if (buffer.buffer == VK_NULL_HANDLE || buffer.size < bytes) buffer = create_gpu_buffer(gpu, bytes);
-}
+void ensure_size(GpuContext& gpu, GpuBuffer& buffer, uint64_t bytes) { ensure_gpu_buffer(gpu, buffer, bytes); }
 
 void check_buffer_range(const GpuContext& gpu, uint64_t bytes, const char* what) {
   if (bytes > gpu.properties.limits.maxStorageBufferRange)
@@ -276,7 +274,6 @@ GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene
 void render_frame_vulkan(GpuRenderer& r, const MemoryFormScene& mscene, const Camera& camera,
                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
                          bool has_next_frame, RasterSplitStats* split) {
-  GpuContext& gpu = *r.gpu;
   const RenderScene& scene = mscene.scene;
   // Host cull (the CPU reference's passes) decides the visible clusters; its raster output
   // is replaced below by the GPU's.

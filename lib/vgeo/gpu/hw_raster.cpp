@@ -126,33 +126,11 @@ void barrier(GpuRecorder& rec, VkPipelineStageFlags2 src, VkPipelineStageFlags2 
   vkCmdPipelineBarrier2(rec.commands, &dep);
 }
 
-void ensure_size(GpuContext& gpu, GpuBuffer& buffer, uint64_t bytes) {
-  if (buffer.buffer == VK_NULL_HANDLE || buffer.size < bytes) buffer = create_gpu_buffer(gpu, bytes);
-}
-
 // The hardware draw: one dynamic-rendering pass with no attachments over the viewport.
 void record_hw_draw(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuffers& b, const GpuRasterParams& params,
                     uint32_t max_draws) {
-  VkDevice d = rec.context->device;
-  VkDescriptorSetAllocateInfo alloc{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-  alloc.descriptorPool = rec.descriptors;
-  alloc.descriptorSetCount = 1;
-  alloc.pSetLayouts = &p.hw_set_layout;
-  VkDescriptorSet set = VK_NULL_HANDLE;
-  check_vk(vkAllocateDescriptorSets(d, &alloc, &set), "vkAllocateDescriptorSets");
-  const GpuBuffer* buffers[kHwBindings] = {b.pages, b.locations, b.meshes, b.instances, b.visible, b.vis, b.counters};
-  VkDescriptorBufferInfo infos[kHwBindings];
-  VkWriteDescriptorSet writes[kHwBindings];
-  for (uint32_t i = 0; i < kHwBindings; ++i) {
-    infos[i] = {buffers[i]->buffer, 0, VK_WHOLE_SIZE};
-    writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-    writes[i].dstSet = set;
-    writes[i].dstBinding = i;
-    writes[i].descriptorCount = 1;
-    writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    writes[i].pBufferInfo = &infos[i];
-  }
-  vkUpdateDescriptorSets(d, kHwBindings, writes, 0, nullptr);
+  VkDescriptorSet set = storage_buffer_set(
+      rec, p.hw_set_layout, {b.pages, b.locations, b.meshes, b.instances, b.visible, b.vis, b.counters});
 
   VkRenderingInfo rendering{VK_STRUCTURE_TYPE_RENDERING_INFO};
   rendering.renderArea = {{0, 0}, {params.width, params.height}};
@@ -197,11 +175,11 @@ std::unique_ptr<GpuRasterPasses> create_gpu_raster_passes(GpuContext& gpu,
 
 void prepare_gpu_raster(GpuRasterPasses& p, const std::vector<float>& instance_scale, uint32_t visible_total) {
   GpuContext& gpu = *p.context;
-  ensure_size(gpu, p.raster_instances, instance_scale.size() * sizeof(GpuRasterInstance));
+  ensure_gpu_buffer(gpu, p.raster_instances, instance_scale.size() * sizeof(GpuRasterInstance));
   if (!instance_scale.empty())
     std::memcpy(p.raster_instances.mapped, instance_scale.data(), instance_scale.size() * sizeof(float));
-  ensure_size(gpu, p.paths, uint64_t(visible_total) * 4);
-  ensure_size(gpu, p.commands, uint64_t(visible_total) * sizeof(GpuDrawCommand));
+  ensure_gpu_buffer(gpu, p.paths, uint64_t(visible_total) * 4);
+  ensure_gpu_buffer(gpu, p.commands, uint64_t(visible_total) * sizeof(GpuDrawCommand));
 }
 
 void record_gpu_raster(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuffers& b, const GpuRasterRequest& q) {
