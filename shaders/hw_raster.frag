@@ -1,5 +1,5 @@
 #version 460
-// Hardware raster path, fragment stage (spec/raster.md §12): the same 64-bit key and
+// Hardware raster path, fragment stage (spec/raster.md §13): the same 64-bit key and
 // atomicMax into the storage-buffer visibility buffer as shaders/raster.comp (layout:
 // core/vis_key.h). Depth is the fixed-function interpolated z/w (reversed Z), clamped as
 // raster.cpp clamps (§6: [FLT_MIN, 1], NaN → FLT_MIN). No attachments: this is the only output.

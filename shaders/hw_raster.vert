@@ -1,5 +1,5 @@
 #version 460
-// Hardware raster path, vertex stage (spec/raster.md §12): one non-indexed draw per visible
+// Hardware raster path, vertex stage (spec/raster.md §13): one non-indexed draw per visible
 // cluster (firstInstance = visible-cluster index), three vertices per triangle. Decodes the
 // cluster's memory form through the same reader as the compute rasterizer
 // (shaders/memory_page.glsl) and transforms in double as raster.cpp does

@@ -1,5 +1,5 @@
 #version 460
-// The per-cluster SW/HW split (spec/raster.md §12): one invocation per visible cluster of the
+// The per-cluster SW/HW split (spec/raster.md §13): one invocation per visible cluster of the
 // range decides its path, writes it into the path buffer (shaders/raster.comp skips the
 // clusters it does not own) and appends a draw command for hardware-rastered clusters, so
 // the draw (vkCmdDrawIndirectCount) follows the cull output with no CPU round trip.
@@ -22,7 +22,7 @@ layout(push_constant) uniform Push { GpuRasterSplitParams params; };
 
 const float kPi = 3.14159265358979;
 
-// The auto rule (hw_raster.h choose_raster_path, spec/raster.md §12.2).
+// The auto rule (hw_raster.h choose_raster_path, spec/raster.md §13.2).
 bool choose_hw(GpuInstance inst, GpuClusterRasterInfo info, float scale) {
   // View depth of the sphere centre: clip.w (= −z_view for perspective_reversed_z), in double
   // from the float matrix as the rasterizers transform vertices.

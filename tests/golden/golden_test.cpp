@@ -2,7 +2,7 @@
 // cluster_set_hash and image must equal the committed ones (tests/golden/expected/, written
 // only by tools/update-goldens), and the Vulkan backend on lavapipe, with the validation layer
 // on, must keep the rule against the CPU on every frame; under --raster hw and auto the
-// hardware rule of spec/raster.md §12.3. A failure leaves the diff PNG and
+// hardware rule of spec/raster.md §13.3. A failure leaves the diff PNG and
 // the differing pixels in <build>/golden-out/NAME/.
 #include <gtest/gtest.h>
 
@@ -120,7 +120,7 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
                                                << (got.validation_messages.empty() ? "" : got.validation_messages[0]);
   ASSERT_EQ(got.comparisons.size(), ref.frames.size());
 
-  // The hardware raster path and the per-cluster split (spec/raster.md §12.3): coverage and
+  // The hardware raster path and the per-cluster split (spec/raster.md §13.3): coverage and
   // triangle ids as the CPU outside the ambiguity mask, depth within tolerance; the pixels
   // inside the mask are reported.
   for (GpuRasterMode mode : {GpuRasterMode::kHw, GpuRasterMode::kAuto}) {

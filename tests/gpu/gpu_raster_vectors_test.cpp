@@ -1,7 +1,7 @@
-// Raster conformance vectors (spec/raster.md §13, spec/vectors/raster/): the committed files
+// Raster conformance vectors (spec/raster.md §14, spec/vectors/raster/): the committed files
 // are what `vgeo vectors raster` writes (CPU reference unchanged, geometry canonical), every
 // CPU pixel loop and the compute rasterizer reproduce every key bit for bit, and the hardware
-// pipeline keeps the hardware rule (§12.3) with every ambiguous pixel inside the file's mask.
+// pipeline keeps the hardware rule (§13.3) with every ambiguous pixel inside the file's mask.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -105,8 +105,8 @@ TEST(RasterVectors, ComputeBitIdenticalAndHardwareKeepsTheRule) {
   GpuRendererOptions sw_options, hw_options;
   sw_options.raster = GpuRasterMode::kSw;
   hw_options.raster = GpuRasterMode::kHw;
-  GpuRendererPtr sw = create_gpu_renderer(*gpu, ms, sw_options);
-  GpuRendererPtr hw = create_gpu_renderer(*gpu, ms, hw_options);
+  GpuRendererPtr sw = create_gpu_renderer(*gpu, ms, kDefaultGpuTraversal, sw_options);
+  GpuRendererPtr hw = create_gpu_renderer(*gpu, ms, kDefaultGpuTraversal, hw_options);
   for (uint32_t i = 0; i < vectors.size(); ++i) {
     const RasterVector& v = vectors[i];
     const std::string& name = names[i];

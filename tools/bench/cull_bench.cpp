@@ -1,6 +1,10 @@
 // Culling and frame-pipeline micro-benchmarks (lib/vgeo/cull, lib/vgeo/render).
 //   BM_CullTraversal/K/threads   persistent-thread LOD + cluster culling of K instances
+//   BM_GpuCullTraversal/K/variant the same traversal on the Vulkan device (lavapipe), variant
+//                                0 = persistent threads, 1 = level by level (GPU time of the
+//                                pass: seeding, traversal, compaction; timestamps)
 //   BM_HzbBuild/threads          HZB of a 1280x720 visibility buffer
+//   BM_GpuHzbBuild               the same on the Vulkan device
 //   BM_DefaultSceneFrame/threads the embedded default scene at 1280x720, whole frame
 //   BM_Scaling/K                 K instances of one big mesh (only with VGEO_BENCH_SCALING=1;
 //                                mesh size VGEO_SCALING_RINGS, default 512 → ~0.5M triangles):
@@ -12,8 +16,10 @@
 #include <map>
 #include <memory>
 
+#include "vgeo/core/error.h"
 #include "vgeo/dag/build.h"
 #include "vgeo/cull/cull.h"
+#include "vgeo/gpu/gpu_cull.h"
 #include "vgeo/mesh/generate.h"
 #include "vgeo/render/frame.h"
 #include "vgeo/render/scene_file.h"
@@ -82,6 +88,58 @@ void BM_CullTraversal(benchmark::State& state) {
 }
 BENCHMARK(BM_CullTraversal)->Args({1, 1})->Args({100, 1})->Args({100, 2})->Args({1000, 2})->Unit(benchmark::kMillisecond);
 
+// One Vulkan context for the whole run (null without a device: the GPU benchmarks report
+// an error instead of a time).
+struct BenchGpu {
+  std::unique_ptr<GpuContext> context;
+  GpuCullPipelines pipelines;
+  std::unique_ptr<GpuRecorder> recorder;
+};
+BenchGpu* bench_gpu() {
+  static BenchGpu* g = [] {
+    auto* b = new BenchGpu;
+    try {
+      b->context = create_gpu_context({});
+      b->pipelines = create_cull_pipelines(*b->context);
+      b->recorder = create_gpu_recorder(*b->context);
+    } catch (const VgeoError&) {
+      b->context.reset();
+    }
+    return b;
+  }();
+  return g->context ? g : nullptr;
+}
+
+void BM_GpuCullTraversal(benchmark::State& state) {
+  BenchGpu* g = bench_gpu();
+  if (!g) return state.SkipWithError("no Vulkan device");
+  uint32_t k = uint32_t(state.range(0));
+  GpuTraversal traversal = state.range(1) == 0 ? GpuTraversal::kPersistent : GpuTraversal::kLevel;
+  std::vector<ClusterDag> meshes{sphere_dag(128)};
+  std::vector<CullInstance> instances = grid_instances(k, 3.0);
+  ViewParams view = make_view(grid_camera(k, 3.0));
+  GpuCullMeshes m = upload_cull_meshes(*g->context, meshes);
+  GpuCullFrame f = create_cull_frame(*g->context, meshes, instances, view.width, view.height);
+  write_cull_instances(f, instances, make_instance_views(instances, view), false);
+  write_cull_params(f, 0, view, 1.0f, true, nullptr);
+  GpuRecorder& rec = *g->recorder;
+  for (auto _ : state) {
+    begin_commands(rec);
+    uint32_t t0 = cmd_timestamp(rec);
+    cmd_cull_clusters(rec, g->pipelines, m, f, 0, traversal, f.candidates, nullptr, f.visible[0], false, nullptr,
+                      f.counters[1]);
+    uint32_t t1 = cmd_timestamp(rec);
+    submit_and_wait(rec);
+    state.SetIterationTime(timestamp_ms(rec, t0, t1) * 1e-3);
+  }
+  CullCounters c = read_cull_counters(f.counters[1]);
+  state.counters["nodes"] = double(c.nodes_visited);
+  state.counters["candidates"] = double(c.cluster_candidates);
+  state.counters["visible"] = double(read_visible_list(f.visible[0]).size());
+}
+BENCHMARK(BM_GpuCullTraversal)->Args({1, 0})->Args({1, 1})->Args({100, 0})->Args({100, 1})->Args({1000, 0})
+    ->Args({1000, 1})->UseManualTime()->Unit(benchmark::kMillisecond);
+
 void BM_HzbBuild(benchmark::State& state) {
   std::vector<uint64_t> keys(1280 * 720);
   for (size_t i = 0; i < keys.size(); ++i) keys[i] = uint64_t(0x3c000000u + (i * 2654435761u) % 0x1000000u) << 32;
@@ -90,6 +148,29 @@ void BM_HzbBuild(benchmark::State& state) {
   for (auto _ : state) build_hzb(keys.data(), 1280, 720, pool, &hzb);
 }
 BENCHMARK(BM_HzbBuild)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+
+void BM_GpuHzbBuild(benchmark::State& state) {
+  BenchGpu* g = bench_gpu();
+  if (!g) return state.SkipWithError("no Vulkan device");
+  std::vector<ClusterDag> meshes;
+  std::vector<CullInstance> instances;
+  GpuCullFrame f = create_cull_frame(*g->context, meshes, instances, 1280, 720);
+  Camera camera;
+  write_cull_params(f, 0, make_view(camera), 1.0f, true, nullptr);
+  GpuBuffer vis = create_gpu_buffer(*g->context, 1280 * 720 * 8);
+  uint64_t* keys = vis.data<uint64_t>();
+  for (size_t i = 0; i < 1280 * 720; ++i) keys[i] = uint64_t(0x3c000000u + (i * 2654435761u) % 0x1000000u) << 32;
+  GpuRecorder& rec = *g->recorder;
+  for (auto _ : state) {
+    begin_commands(rec);
+    uint32_t t0 = cmd_timestamp(rec);
+    cmd_build_hzb(rec, g->pipelines, f, vis, f.hzb);
+    uint32_t t1 = cmd_timestamp(rec);
+    submit_and_wait(rec);
+    state.SetIterationTime(timestamp_ms(rec, t0, t1) * 1e-3);
+  }
+}
+BENCHMARK(BM_GpuHzbBuild)->UseManualTime()->Unit(benchmark::kMillisecond);
 
 void BM_DefaultSceneFrame(benchmark::State& state) {
   static std::unique_ptr<SceneFile> scene;

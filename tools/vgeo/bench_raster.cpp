@@ -85,7 +85,7 @@ void draw(VisBuffer& vb, const ClusterSet& set, uint32_t cluster_count, RasterPa
                       m, c, opt, stats);
 }
 
-// GPU paths (spec/raster.md §12): the compute rasterizer and the hardware pipeline draw the
+// GPU paths (spec/raster.md §13): the compute rasterizer and the hardware pipeline draw the
 // same clusters (their decoded memory form) on the default Vulkan device, interleaved.
 // Clusters per GPU sample: 16 × 85 triangles keep the largest size's SW sample well under a
 // second on lavapipe.
@@ -119,7 +119,7 @@ GpuSizeResult measure_gpu(GpuBench& bench, const ClusterSet& set, int reps) {
   for (int m = 0; m < kGpuModes; ++m) {
     GpuRendererOptions o;
     o.raster = m == 0 ? GpuRasterMode::kSw : GpuRasterMode::kHw;
-    renderer[m] = create_gpu_renderer(*bench.gpu, ms, o);
+    renderer[m] = create_gpu_renderer(*bench.gpu, ms, kDefaultGpuTraversal, o);
   }
   GpuRasterOutput out[kGpuModes];
   for (int m = 0; m < kGpuModes; ++m) raster_visible_vulkan(*renderer[m], in, &out[m]);  // warm-up: LLVM compiles on first use

@@ -24,6 +24,7 @@ void run_occlusion_suite(const BenchConfig& cfg, SuiteReport& out);
 void run_scaling_suite(const BenchConfig& cfg, SuiteReport& out);
 void run_stability_suite(const BenchConfig& cfg, SuiteReport& out);
 void run_dagquality_suite(const BenchConfig& cfg, SuiteReport& out);
+void run_backend_suite(const BenchConfig& cfg, SuiteReport& out);
 
 // In report order.
 inline std::vector<SuiteDef> suite_list() {
@@ -35,6 +36,7 @@ inline std::vector<SuiteDef> suite_list() {
       {"occlusion", "HZB occlusion off / coarse / fine mip: clusters culled, time saved", run_occlusion_suite},
       {"scaling", "instances and triangles per mesh vs triangles drawn and frame time", run_scaling_suite},
       {"stability", "far instances, extreme scales, camera inside/near plane, slivers", run_stability_suite},
+      {"backend", "CPU reference vs Vulkan (lavapipe) per pass, level-by-level vs persistent GPU traversal", run_backend_suite},
       {"dagquality", "cut triangles at equal measured error (1e-3, 1e-2 of the diagonal), measured/stored error", run_dagquality_suite},
   };
 }

@@ -3,7 +3,8 @@
 //   2. build its cluster DAG and print the per-level report;
 //   3. check the DAG against every invariant (lib/vgeo/verify) and print the verdict;
 //   4. render the embedded default scene (the same kind of asset, instanced, on a ground)
-//      through the CPU reference pipeline, write the PNG and print the pass table.
+//      through the CPU reference pipeline (or, with --backend vulkan, the Vulkan executor on the
+//      decoded memory form), write the PNG and print the pass table.
 // Exit 0 only when every invariant holds and the frame rendered.
 #include <cstdio>
 #include <filesystem>
@@ -17,6 +18,7 @@
 #include "vgeo/core/progress.h"
 #include "vgeo/mesh/generate.h"
 #include "vgeo/mesh/validate.h"
+#include "vgeo/gpu/backend_run.h"
 #include "vgeo/render/run.h"
 #include "vgeo/verify/verify.h"
 
@@ -32,6 +34,7 @@ struct DemoArgs {
   uint32_t width = 1280, height = 720;
   unsigned threads = 0;
   uint64_t triangles = kDefaultAssetTriangles;
+  std::string backend = "cpu";
 };
 
 }  // namespace
@@ -45,7 +48,11 @@ void add_demo_command(CLI::App& app, Context& ctx) {
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)");
   cmd->add_option("--triangles", args->triangles, "triangles of the default asset")
       ->check(CLI::Range(uint64_t(1000), uint64_t(20'000'000)));
+  cmd->add_option("--backend", args->backend, "cpu|vulkan: renderer of step 4 (vulkan: the decoded memory form, spec/gpu.md)");
   cmd->callback([args, &ctx] {
+    Backend backend = Backend::kCpu;
+    if (!parse_backend(args->backend, &backend))
+      fail("RENDER_BAD_OPTION", "vgeo demo", "--backend must be cpu or vulkan", kExitUsage);
     create_output_directory(args->out_dir);
 
     // 1. The default asset.
@@ -83,9 +90,21 @@ void add_demo_command(CLI::App& app, Context& ctx) {
     RenderRequest request;
     request.output_png = (std::filesystem::path(args->out_dir) / "frame.png").string();
     request.threads = args->threads;
-    RenderReport frame = render_default_scene(request, args->width, args->height);
-    std::printf("\n== 4. frame %ux%u -> %s\n%s", frame.width, frame.height, request.output_png.c_str(),
-                frame.table().c_str());
+    if (backend == Backend::kVulkan) {
+      BackendRunRequest br;
+      br.backend = Backend::kVulkan;
+      br.threads = args->threads;
+      br.output_png = request.output_png;
+      SceneLoadOptions options;
+      options.build.threads = args->threads;
+      BackendRunReport frame = run_backend(make_default_scene(args->width, args->height, 1, options), br);
+      std::printf("\n== 4. frame %ux%u -> %s\n%s", frame.width, frame.height, request.output_png.c_str(),
+                  frame.table().c_str());
+    } else {
+      RenderReport frame = render_default_scene(request, args->width, args->height);
+      std::printf("\n== 4. frame %ux%u -> %s\n%s", frame.width, frame.height, request.output_png.c_str(),
+                  frame.table().c_str());
+    }
     std::printf("\ndemo: %s\n", verdict.ok() ? "all invariants hold" : "INVARIANT VIOLATIONS (see verify.json)");
     ctx.exit_code = verdict.ok() ? kExitOk : kExitInvariantViolation;
   });

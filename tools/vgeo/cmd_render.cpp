@@ -26,7 +26,7 @@ struct RenderArgs {
   uint32_t save_every = 0, stream_issues = 8;
   bool stream_sync = false;
   // Backends (spec/gpu.md): any of these selects the backend runner (decoded memory form).
-  std::string backend, compare, device, diff_png, raster;
+  std::string backend, compare, device, diff_png, traversal, raster;
   bool validate = false;
 };
 
@@ -42,6 +42,10 @@ void run_backend_command(const RenderArgs& args, const RenderRequest& request, c
       fail("RENDER_BAD_OPTION", "vgeo render", "--compare cpu needs --backend vulkan", kExitUsage);
     br.compare_cpu = true;
   }
+  if (args.traversal == "level") br.traversal = GpuTraversal::kLevel;
+  else if (args.traversal == "persistent") br.traversal = GpuTraversal::kPersistent;
+  else if (!args.traversal.empty())
+    fail("RENDER_BAD_OPTION", "vgeo render", "--traversal must be level or persistent", kExitUsage);
   if (!args.raster.empty()) {
     if (!parse_gpu_raster_mode(args.raster, &br.raster))
       fail("RENDER_BAD_OPTION", "vgeo render", "--raster must be sw, hw or auto", kExitUsage);
@@ -124,9 +128,11 @@ void add_render_command(CLI::App& app, Context& ctx) {
   cmd->add_option("--backend", args->backend, "cpu|vulkan: render the decoded memory form on this backend (spec/gpu.md)");
   cmd->add_option("--compare", args->compare, "cpu: with --backend vulkan, render every frame on the CPU too and compare "
                                               "(spec/raster.md; exit 1 when the rule fails)");
+  cmd->add_option("--traversal", args->traversal,
+                  "level|persistent: the Vulkan cull's BVH traversal (default: level, spec/raster.md §12)");
   cmd->add_option("--raster", args->raster,
                   "sw|hw|auto: with --backend vulkan, the compute rasterizer, the hardware pipeline, or per cluster by "
-                  "projected triangle size (spec/raster.md §12; default sw)");
+                  "projected triangle size (spec/raster.md §13; default sw)");
   cmd->add_option("--diff-png", args->diff_png, "with --compare: PNG of the last frame's differences");
   cmd->add_option("--device", args->device, "Vulkan device: index or name substring (default: lavapipe; env VGEO_VK_DEVICE)");
   cmd->add_flag("--validate", args->validate, "enable the Vulkan validation layer; any message fails (env VGEO_VK_VALIDATE=1)");
@@ -173,6 +179,8 @@ void add_render_command(CLI::App& app, Context& ctx) {
     request.save_every = args->save_every;
     if (!args->out_dir.empty()) create_output_directory(args->out_dir);
     std::string cache = args->no_cache ? "" : (args->cache_dir.empty() ? default_cache_dir() : args->cache_dir);
+    if (!args->traversal.empty() && args->backend.empty() && args->compare.empty())
+      fail("RENDER_BAD_OPTION", "vgeo render", "--traversal needs --backend vulkan", kExitUsage);
     if (!args->backend.empty() || !args->compare.empty() || !args->raster.empty()) {
       if (!args->stream_budget.empty()) bad_stream_option("--stream-budget is not supported with --backend/--compare");
       run_backend_command(*args, request, cache, ctx);

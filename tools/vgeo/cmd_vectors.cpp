@@ -1,4 +1,4 @@
-// `vgeo vectors raster [-o DIR]`: writes the raster conformance vectors (spec/raster.md §13,
+// `vgeo vectors raster [-o DIR]`: writes the raster conformance vectors (spec/raster.md §14,
 // lib/vgeo/gpu/raster_vectors.h) as DIR/NAME.txt plus DIR/manifest.txt. Deterministic: the
 // committed spec/vectors/raster/ is this command's output.
 #include <cstdio>
@@ -18,7 +18,7 @@ void add_vectors_command(CLI::App& app, Context& ctx) {
   raster->add_option("-o,--out", *out, "output folder (default spec/vectors/raster)");
   raster->callback([out, &ctx] {
     std::filesystem::create_directories(*out);
-    std::string manifest = "# Raster conformance vectors (spec/raster.md §13); written by `vgeo vectors raster`.\n";
+    std::string manifest = "# Raster conformance vectors (spec/raster.md §14); written by `vgeo vectors raster`.\n";
     for (const RasterVector& v : make_raster_vectors()) {
       const std::string text = write_raster_vector(v);
       write_file_atomic(*out + "/" + v.name + ".txt", std::string_view(text));

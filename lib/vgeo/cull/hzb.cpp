@@ -7,13 +7,11 @@
 
 namespace vgeo {
 
-namespace {
-// Relative depth margin: an object is occluded only if its nearest depth is below the
-// HZB depth by more than this. Covers the rasterizer's float depth interpolation
-// (a few ulps) and the float view-space sphere (kConservativeRelativeSlack is larger
-// than both). Equal depths are never culled: ties in the visibility buffer resolve by id.
-constexpr double kDepthMargin = 1.0 / (1 << 14);
-}  // namespace
+// kHzbDepthMargin (vgeo/core/cull_shared.h, shared with the shaders): relative depth margin:
+// an object is occluded only if its nearest depth is below the HZB depth by more than this.
+// Covers the rasterizer's float depth interpolation (a few ulps) and the float view-space
+// sphere (kConservativeRelativeSlack is larger than both). Equal depths are never culled:
+// ties in the visibility buffer resolve by id.
 
 void build_hzb(const uint64_t* keys, uint32_t width, uint32_t height, ThreadPool& pool, Hzb* out) {
   out->width = width;
@@ -73,7 +71,7 @@ bool hzb_occludes(const Hzb& hzb, const Sphere& s, const ViewParams& view, HzbMi
   for (uint32_t y = uint32_t(rect.y0) >> level; y <= (uint32_t(rect.y1) >> level); ++y)
     for (uint32_t x = uint32_t(rect.x0) >> level; x <= (uint32_t(rect.x1) >> level); ++x)
       farthest = std::min(farthest, mip[size_t(y) * w + x]);
-  return nearest * (1 + kDepthMargin) < double(farthest);
+  return nearest * (1 + kHzbDepthMargin) < double(farthest);
 }
 
 }  // namespace vgeo

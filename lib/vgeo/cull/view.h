@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "vgeo/core/cull_shared.h"
 #include "vgeo/core/math.h"
 
 namespace vgeo {
@@ -60,8 +61,7 @@ inline Sphere sphere_to_view(const Mat4d& object_to_view, double scale, const Sp
 // sphere_to_view (a few ulps of centre and radius), far below any visible LOD change.
 // Bounding volumes of *subtrees* (BVH nodes, groups, instances) are inflated by it before
 // the conservative tests, so a subtree is pruned only if every member would also fail.
-inline constexpr double kConservativeRelativeSlack = 1.0 / (1 << 16);
-inline constexpr double kConservativeCentreSlack = 1.0 / (1 << 20);
+// kConservativeRelativeSlack, kConservativeCentreSlack: vgeo/core/cull_shared.h (shared with the shaders).
 inline Sphere inflate_for_subtree_test(Sphere s) {
   if (s.radius < 0) return s;
   double c = std::sqrt(double(s.center.x) * s.center.x + double(s.center.y) * s.center.y +

@@ -13,6 +13,7 @@
 #include "vgeo/core/error.h"
 #include "vgeo/core/hash.h"
 #include "vgeo/gpu/gpu_frame.h"
+#include "vgeo/render/run.h"
 
 namespace vgeo {
 
@@ -69,7 +70,7 @@ struct TriangleModels {
   }
 };
 
-// spec/raster.md §12.3 over one frame: every pixel classified (hw_rule.h).
+// spec/raster.md §13.3 over one frame: every pixel classified (hw_rule.h).
 HwRasterAgreement compare_hw_frame(const RenderScene& scene, const Camera& camera, const Frame& cpu, const Frame& gpu) {
   HwRasterAgreement agreement;
   TriangleModels models{scene, camera, cpu, {}};
@@ -178,19 +179,12 @@ BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& req
 
 BackendRunReport run_backend(const SceneFile& file, const MemoryFormScene& scene, const BackendRunRequest& request,
                              GpuContext* shared_gpu) {
-  RenderSettings settings = file.settings;
-  if (request.threshold_px) settings.threshold_px = *request.threshold_px;
-  if (request.view) settings.view = *request.view;
-  if (request.occlusion) settings.occlusion = *request.occlusion;
-  if (!(settings.threshold_px > 0) || !std::isfinite(settings.threshold_px))
-    fail("RENDER_BAD_OPTION", "render", "--tau must be a positive finite number of pixels", kExitUsage);
-  if (request.camera >= file.cameras.size())
-    fail("RENDER_BAD_CAMERA", "render", "camera " + std::to_string(request.camera) + " does not exist", kExitUsage);
+  uint32_t frames = 0;
+  const RenderSettings settings = resolve_render_options(
+      file, {request.threshold_px, request.view, request.occlusion, request.camera, request.frames}, &frames);
   if (file.streaming)
     fail("GPU_STREAMING_UNSUPPORTED", "render",
          "--backend/--compare render fully resident scenes only (the scene's pages exceed the stream budget)", kExitUsage);
-  const uint32_t frames = request.frames ? request.frames : (file.path.empty() ? 1 : uint32_t(file.path.size()));
-  if (frames > kMaxPathFrames) fail("RENDER_BAD_OPTION", "render", "--frames at most 100000", kExitUsage);
   const bool vulkan = request.backend == Backend::kVulkan;
   const bool compare = vulkan && request.compare_cpu;
 
@@ -209,7 +203,7 @@ BackendRunReport run_backend(const SceneFile& file, const MemoryFormScene& scene
   if (vulkan) {
     GpuRendererOptions options;
     options.raster = request.raster;
-    renderer = create_gpu_renderer(*gpu, scene, options);
+    renderer = create_gpu_renderer(*gpu, scene, request.traversal, options);
   }
   BackendRunReport report;
   report.backend = request.backend;
@@ -290,7 +284,7 @@ std::string BackendRunReport::table() const {
         any_hw = true;
       }
     if (any_hw) {
-      out += "hardware rule (spec/raster.md §12.3), pixels over all frames:";
+      out += "hardware rule (spec/raster.md §13.3), pixels over all frames:";
       for (int k = 0; k < kHwPixelKinds; ++k)
         out += std::string(" ") + hw_pixel_name(HwPixel(k)) + " " + std::to_string(hw.pixels[k]);
       char ratio[64];

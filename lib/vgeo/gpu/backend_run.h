@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "vgeo/gpu/context.h"
+#include "vgeo/gpu/gpu_cull.h"
 #include "vgeo/gpu/gpu_frame.h"
 #include "vgeo/gpu/hw_raster.h"
 #include "vgeo/raster/hw_rule.h"
@@ -24,6 +25,7 @@ struct BackendRunRequest {
   bool compare_cpu = false;          // render every frame on the CPU too and compare
   GpuRasterMode raster = GpuRasterMode::kSw;  // Vulkan: which GPU rasterizer draws each cluster
   GpuOptions gpu;
+  GpuTraversal traversal = kDefaultGpuTraversal;  // the Vulkan cull's BVH traversal
   unsigned threads = 0;
   uint32_t frames = 0;               // 0: the camera path's length if any, else 1
   uint32_t camera = 0;
@@ -38,7 +40,7 @@ struct BackendRunRequest {
 };
 
 // One frame of a comparison (spec/raster.md §Backends agree; with a hardware-rastered
-// cluster in the frame, the hardware rule of §12.3 instead of bit identity).
+// cluster in the frame, the hardware rule of §13.3 instead of bit identity).
 struct FrameComparison {
   bool clusters_equal = true;        // same selected (instance, cluster) set
   uint64_t vis_pixels_differing = 0; // pixels whose key denotes a different (depth, instance, cluster, triangle)

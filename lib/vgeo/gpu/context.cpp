@@ -484,8 +484,10 @@ VkDescriptorSet storage_buffer_set(GpuRecorder& rec, VkDescriptorSetLayout layou
   return set;
 }
 
-void cmd_dispatch(GpuRecorder& rec, const ComputePipeline& pipeline, const std::vector<const GpuBuffer*>& buffers,
-                  const void* push_constants, uint32_t gx, uint32_t gy, uint32_t gz) {
+namespace {
+// Binds `pipeline` with `buffers` at bindings 0..n-1 and pushes the constants.
+void bind_compute(GpuRecorder& rec, const ComputePipeline& pipeline, const std::vector<const GpuBuffer*>& buffers,
+                  const void* push_constants) {
   assert(rec.recording && buffers.size() == pipeline.storage_buffers);
   VkDescriptorSet set = storage_buffer_set(rec, pipeline.set_layout, buffers);
   vkCmdBindPipeline(rec.commands, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
@@ -493,7 +495,21 @@ void cmd_dispatch(GpuRecorder& rec, const ComputePipeline& pipeline, const std::
   if (pipeline.push_constant_bytes)
     vkCmdPushConstants(rec.commands, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pipeline.push_constant_bytes,
                        push_constants);
+}
+}  // namespace
+
+void cmd_dispatch(GpuRecorder& rec, const ComputePipeline& pipeline, const std::vector<const GpuBuffer*>& buffers,
+                  const void* push_constants, uint32_t gx, uint32_t gy, uint32_t gz) {
+  bind_compute(rec, pipeline, buffers, push_constants);
   if (gx && gy && gz) vkCmdDispatch(rec.commands, gx, gy, gz);
+  full_barrier(rec.commands);
+}
+
+void cmd_dispatch_indirect(GpuRecorder& rec, const ComputePipeline& pipeline,
+                           const std::vector<const GpuBuffer*>& buffers, const void* push_constants,
+                           const GpuBuffer& args, VkDeviceSize offset) {
+  bind_compute(rec, pipeline, buffers, push_constants);
+  vkCmdDispatchIndirect(rec.commands, args.buffer, offset);
   full_barrier(rec.commands);
 }
 
@@ -515,6 +531,18 @@ void submit_and_wait(GpuRecorder& rec) {
   check_vk(vkResetFences(d, 1, &rec.fence), "vkResetFences");
   check_vk(vkQueueSubmit(rec.context->queue, 1, &submit, rec.fence), "vkQueueSubmit");
   check_vk(vkWaitForFences(d, 1, &rec.fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+}
+
+void continue_commands(GpuRecorder& rec) {
+  uint32_t timestamps_used = rec.timestamps_used;
+  submit_and_wait(rec);
+  check_vk(vkResetDescriptorPool(rec.context->device, rec.descriptors, 0), "vkResetDescriptorPool");
+  check_vk(vkResetCommandBuffer(rec.commands, 0), "vkResetCommandBuffer");
+  VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  check_vk(vkBeginCommandBuffer(rec.commands, &begin), "vkBeginCommandBuffer");
+  rec.timestamps_used = timestamps_used;  // the query pool is not reset: earlier slots stay valid
+  rec.recording = true;
 }
 
 double timestamp_ms(GpuRecorder& rec, uint32_t from, uint32_t to) {

@@ -149,9 +149,18 @@ VkDescriptorSet storage_buffer_set(GpuRecorder& rec, VkDescriptorSetLayout layou
 void cmd_dispatch(GpuRecorder& rec, const ComputePipeline& pipeline,
                   const std::vector<const GpuBuffer*>& buffers, const void* push_constants,
                   uint32_t groups_x, uint32_t groups_y = 1, uint32_t groups_z = 1);
+// The same with the group counts read by the GPU from `args` at `offset` (VkDispatchIndirectCommand).
+void cmd_dispatch_indirect(GpuRecorder& rec, const ComputePipeline& pipeline,
+                           const std::vector<const GpuBuffer*>& buffers, const void* push_constants,
+                           const GpuBuffer& args, VkDeviceSize offset);
 // Writes a GPU timestamp; returns its slot (read with read_timestamps_ms after submit).
 uint32_t cmd_timestamp(GpuRecorder& rec);
 void submit_and_wait(GpuRecorder& rec);
+// Submits what is recorded, waits, and begins a new command buffer that continues the
+// same recording: timestamp slots keep counting (timestamp_ms may span the two), so a
+// pass that must read a GPU result on the host to decide its next dispatch (the
+// persistent cull traversal) can sit between other recorded passes.
+void continue_commands(GpuRecorder& rec);
 // Milliseconds between timestamp slots `from` and `to` of the last submission.
 double timestamp_ms(GpuRecorder& rec, uint32_t from, uint32_t to);
 

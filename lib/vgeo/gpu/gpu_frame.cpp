@@ -2,6 +2,7 @@
 #include "vgeo/gpu/gpu_frame.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cassert>
 #include <cmath>
 #include <cstring>
@@ -58,12 +59,18 @@ struct GpuRenderer {
   GpuBuffer pages, locations, meshes, materials;
   // Per frame, grown on demand.
   GpuBuffer instances, visible, vis, counters, shade_instances, shade_clusters, overdraw, image;
+  // The cull passes (gpu_cull.h): DAG records once, a working set per view size.
+  GpuTraversal traversal = kDefaultGpuTraversal;
+  GpuCullPipelines cull;
+  GpuCullMeshes cull_meshes;
+  std::unique_ptr<GpuCullFrame> cull_frame;
 };
 
 void GpuRendererDeleter::operator()(GpuRenderer* r) const { delete r; }
 
 namespace {
 
+// Raster shader bindings: pages, locations, meshes, instances, visible, vis, counters.
 // Shade shader bindings: the raster ones less counters, then shade instances, shade clusters,
 // materials, overdraw, image.
 constexpr uint32_t kShadeBindings = 11;
@@ -77,7 +84,9 @@ GpuBuffer upload(GpuContext& gpu, const std::vector<T>& data) {
 }
 
 // Keeps `buffer` at least `bytes` long (contents not preserved).
-void ensure_size(GpuContext& gpu, GpuBuffer& buffer, uint64_t bytes) { ensure_gpu_buffer(gpu, buffer, bytes); }
+void ensure_size(GpuContext& gpu, GpuBuffer& buffer, uint64_t bytes) {
+  if (buffer.buffer == VK_NULL_HANDLE || buffer.size < bytes) buffer = create_gpu_buffer(gpu, bytes);
+}
 
 void check_buffer_range(const GpuContext& gpu, uint64_t bytes, const char* what) {
   if (bytes > gpu.properties.limits.maxStorageBufferRange)
@@ -193,12 +202,10 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
   params.max_overdraw = max_overdraw;
   GpuRecorder& rec = *r.recorder;
   begin_commands(rec);
-  uint32_t t0 = cmd_timestamp(rec);
   cmd_dispatch(rec, r.shade,
                {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.shade_instances,
                 &r.shade_clusters, &r.materials, &r.overdraw, &r.image},
                &params, uint32_t((pixels + kShadeGroupSize - 1) / kShadeGroupSize));
-  uint32_t t1 = cmd_timestamp(rec);
   submit_and_wait(rec);
 
   out->image.width = camera.width;
@@ -207,12 +214,6 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
   const uint32_t* rgba = r.image.data<uint32_t>();
   for (uint64_t p = 0; p < pixels; ++p)
     for (int k = 0; k < 3; ++k) out->image.rgb[3 * p + k] = uint8_t(rgba[p] >> (8 * k));
-  FrameStats& stats = out->stats;
-  std::erase_if(stats.skipped, [](const auto& s) { return s.first == "shade"; });
-  PassStats pass;
-  pass.name = "shade";
-  pass.ms = timestamp_ms(rec, t0, t1);
-  stats.passes.push_back(pass);
 }
 
 }  // namespace
@@ -232,10 +233,14 @@ std::vector<GpuClusterRasterInfo> cluster_raster_infos(const MemoryFormScene& sc
   return infos;
 }
 
-GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene, const GpuRendererOptions& options) {
+GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene, GpuTraversal traversal,
+                                   const GpuRendererOptions& options) {
   GpuRendererPtr r(new GpuRenderer);
   r->gpu = &gpu;
+  r->traversal = traversal;
   r->options = options;
+  r->cull = create_cull_pipelines(gpu);
+  r->cull_meshes = upload_cull_meshes(gpu, scene.scene.meshes);
   r->recorder = create_gpu_recorder(gpu);
   r->raster = create_gpu_raster_passes(gpu, cluster_raster_infos(scene));
   r->shade = create_compute_pipeline(gpu, kShaderShade, kShadeBindings, sizeof(GpuShadeParams));
@@ -271,58 +276,194 @@ GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene
   return r;
 }
 
+namespace {
+
+// The Vulkan executor of the frame plan (frame_plan.h): every step on the device, each
+// submitted and waited for on its own, so execute_frame_plan's per-step wall time is the
+// device's time per pass (plus the host's small uploads and readbacks). The visible lists
+// are read back after each cull pass (Frame::visible, and the raster's input buffer); the
+// HZB of a kept history is read back into FrameHistory and uploaded again as the next
+// frame's previous HZB (lavapipe's memory is host memory: both are copies, no cull).
+// Overdraw (only for the overdraw view) is counted on the host, as frame.cpp does.
+class VulkanFrameExecutor final : public FrameExecutor {
+ public:
+  VulkanFrameExecutor(GpuRenderer& r, const FramePlan& plan, const RenderScene& scene, const Camera& camera,
+                      const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
+                      RasterSplitStats* split)
+      : r_(r), scene_(scene), camera_(camera), settings_(settings), pool_(pool), history_(history), out_(out),
+        split_(split) {
+    GpuContext& gpu = *r.gpu;
+    object_to_clip_ = begin_frame(scene, camera, out);  // the CPU executor's matrices, bit for bit
+    std::vector<GpuInstance> instances(scene.instances.size());
+    for (size_t i = 0; i < instances.size(); ++i) {
+      std::memcpy(instances[i].object_to_clip, object_to_clip_[i].m, sizeof(instances[i].object_to_clip));
+      instances[i].mesh = scene.instances[i].mesh;
+    }
+    ensure_size(gpu, r.instances, instances.size() * sizeof(GpuInstance));
+    if (!instances.empty()) std::memcpy(r.instances.mapped, instances.data(), instances.size() * sizeof(GpuInstance));
+    const uint64_t vis_bytes = uint64_t(camera.width) * camera.height * 8;
+    check_buffer_range(gpu, vis_bytes, "the visibility buffer");
+    ensure_size(gpu, r.vis, vis_bytes);
+    std::memset(r.vis.mapped, 0, vis_bytes);
+
+    if (!r.cull_frame || r.cull_frame->hzb_layout.width != camera.width ||
+        r.cull_frame->hzb_layout.height != camera.height)
+      r.cull_frame = std::make_unique<GpuCullFrame>(
+          create_cull_frame(gpu, scene.meshes, scene.instances, camera.width, camera.height));
+    GpuCullFrame& f = *r.cull_frame;
+    write_cull_instances(f, scene.instances, out->instance_views, false);
+    const GpuOcclusion previous{&history_view(), true, settings.hzb_policy};
+    if (plan.previous_hzb) {
+      write_cull_instances(f, scene.instances, history->instance_views, true);
+      write_previous_hzb(f, history->hzb);
+    }
+    const CullOptions defaults;
+    write_cull_params(f, 0, out->view, settings.threshold_px, defaults.frustum, plan.previous_hzb ? &previous : nullptr);
+    const GpuOcclusion current{&out->view, false, settings.hzb_policy};
+    write_cull_params(f, 1, out->view, settings.threshold_px, defaults.frustum, &current);
+  }
+
+  void run(FrameStep step, PassStats* p, FrameFacts* facts) override {
+    GpuRecorder& rec = *r_.recorder;
+    GpuCullFrame& f = *r_.cull_frame;
+    const GpuCullPipelines& cp = r_.cull;
+    const GpuCullMeshes& m = r_.cull_meshes;
+    switch (step) {
+      case FrameStep::kStreamBegin:
+      case FrameStep::kStreamBind:
+      case FrameStep::kStreamBindPost:
+      case FrameStep::kStreamEnd:
+        fail("GPU_STREAMING_UNSUPPORTED", "vulkan", "GPU streaming is not implemented", kExitUsage);
+      case FrameStep::kInstanceCull: {
+        begin_commands(rec);
+        cmd_cull_instances(rec, cp, m, f, 0, f.candidates, f.visible_instances, &f.occluded_instances, f.counters[0]);
+        submit_and_wait(rec);
+        add_instance_counters(read_cull_counters(f.counters[0]), p);
+        facts->pass1_occluded |= list_count(f.occluded_instances) != 0;
+        break;
+      }
+      case FrameStep::kClusterCull: {
+        begin_commands(rec);
+        cmd_cull_clusters(rec, cp, m, f, 0, r_.traversal, f.visible_instances, nullptr, f.visible[0], false,
+                          &f.occluded_items, f.counters[1]);
+        submit_and_wait(rec);
+        add_cull_counters(read_cull_counters(f.counters[1]), p);
+        out_->visible = read_visible_list(f.visible[0]);
+        out_->pass1_visible = uint32_t(std::min<size_t>(out_->visible.size(), kMaxVisibleClusters));
+        check_visible_count(out_->visible.size());
+        facts->pass1_occluded |= list_count(f.occluded_items) != 0;
+        break;
+      }
+      case FrameStep::kRaster:
+        raster(0, p);
+        break;
+      case FrameStep::kHzb:
+        begin_commands(rec);
+        cmd_build_hzb(rec, cp, f, r_.vis, f.hzb);
+        submit_and_wait(rec);
+        hzb_is_complete_ = true;
+        break;
+      case FrameStep::kInstanceCullPost:
+        begin_commands(rec);
+        cmd_cull_instances(rec, cp, m, f, 1, f.occluded_instances, f.post_instances, nullptr, f.counters[2]);
+        submit_and_wait(rec);
+        add_instance_counters(read_cull_counters(f.counters[2]), p);
+        break;
+      case FrameStep::kClusterCullPost: {
+        begin_commands(rec);
+        cmd_cull_clusters(rec, cp, m, f, 1, r_.traversal, f.post_instances, &f.occluded_items, f.visible[1], false,
+                          nullptr, f.counters[3]);
+        submit_and_wait(rec);
+        add_cull_counters(read_cull_counters(f.counters[3]), p);
+        const std::vector<VisibleCluster> pass2 = read_visible_list(f.visible[1]);
+        check_visible_count(out_->visible.size() + pass2.size());
+        out_->visible.insert(out_->visible.end(), pass2.begin(), pass2.end());
+        facts->pass2_found_visible = !pass2.empty();
+        break;
+      }
+      case FrameStep::kRasterPost:
+        raster(out_->pass1_visible, p);
+        hzb_is_complete_ = false;  // drawn after the pass-1 HZB
+        break;
+      case FrameStep::kHzbNext:
+        if (!hzb_is_complete_) {
+          begin_commands(rec);
+          cmd_build_hzb(rec, cp, f, r_.vis, f.hzb);
+          submit_and_wait(rec);
+        }
+        history_->hzb = read_hzb(f, f.hzb);
+        history_->view = out_->view;
+        history_->instance_views = out_->instance_views;
+        history_->valid = true;
+        break;
+      case FrameStep::kOverdraw:
+        overdraw_pass(scene_, scene_.meshes, out_->visible, object_to_clip_, out_->instance_views, out_->view, pool_,
+                      &out_->overdraw);
+        break;
+      case FrameStep::kShade:
+        shade_pass(r_, scene_, settings_, camera_, out_);
+        break;
+    }
+  }
+
+  void finish(FrameStats* stats) override {
+    std::memcpy(out_->vis.keys.data(), r_.vis.mapped, out_->vis.keys.size() * sizeof(uint64_t));
+    for (uint64_t k : out_->vis.keys) stats->pixels_covered += k != 0;
+  }
+
+ private:
+  const ViewParams& history_view() const {
+    static const ViewParams none;
+    return history_ ? history_->view : none;
+  }
+  static uint32_t list_count(const GpuBuffer& list) { return list.data<uint32_t>()[0]; }
+  // Rasterizes visible[first, n) (frame.cpp raster_pass's counters; the time is the step's).
+  void raster(uint32_t first, PassStats* p) {
+    static_assert(sizeof(VisibleCluster) == sizeof(GpuVisibleCluster));
+    const std::vector<VisibleCluster>& visible = out_->visible;
+    const uint32_t n = uint32_t(visible.size());
+    ensure_size(*r_.gpu, r_.visible, visible.size() * sizeof(GpuVisibleCluster));
+    if (!visible.empty()) std::memcpy(r_.visible.mapped, visible.data(), visible.size() * sizeof(GpuVisibleCluster));
+    std::vector<float> scale(scene_.instances.size());
+    for (size_t i = 0; i < scale.size(); ++i) scale[i] = float(out_->instance_views[i].scale);
+    prepare_gpu_raster(*r_.raster, scale, n);
+    PassStats gpu;
+    // frame.cpp raster_pass: RasterOptions::z_near = float(z_near), default back-face culling.
+    raster_range(r_, camera_.width, camera_.height, float(camera_.z_near), out_->view.pixels_per_unit_at_1,
+                 RasterOptions{}.cull_backfaces, first, n - first, &gpu, split_);
+    p->pixels_written += gpu.pixels_written;
+    p->clusters_drawn += n - first;
+    for (uint32_t i = first; i < n; ++i)
+      p->triangles_drawn +=
+          scene_.meshes[scene_.instances[visible[i].instance].mesh].clusters[visible[i].cluster].triangle_count;
+  }
+
+  GpuRenderer& r_;
+  const RenderScene& scene_;
+  const Camera& camera_;
+  const RenderSettings& settings_;
+  ThreadPool& pool_;
+  FrameHistory* history_;
+  Frame* out_;
+  RasterSplitStats* split_;  // clusters and triangles per raster path, summed over the passes
+  std::vector<Mat4> object_to_clip_;
+  bool hzb_is_complete_ = false;  // f.hzb is the HZB of the complete frame
+};
+
+}  // namespace
+
 void render_frame_vulkan(GpuRenderer& r, const MemoryFormScene& mscene, const Camera& camera,
                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
                          bool has_next_frame, RasterSplitStats* split) {
   const RenderScene& scene = mscene.scene;
-  // Host cull (the CPU reference's passes) decides the visible clusters; its raster output
-  // is replaced below by the GPU's.
-  // The overdraw counts are still computed on the host: frame.cpp runs that pass only
-  // together with its own shading, whose image and "shade" pass are replaced below.
-  RenderSettings host = settings;
-  host.shade = settings.shade && settings.view == ShadeView::kOverdraw;
-  render_frame(scene, camera, host, pool, history, out, has_next_frame);
-  std::erase_if(out->stats.passes, [](const PassStats& p) { return p.name == "shade"; });
-
-  // Per-instance object→clip matrices exactly as frame.cpp (float, from double products).
-  const Mat4d view_to_clip =
-      perspective_reversed_z(camera.fov_y, double(camera.width) / double(camera.height), camera.z_near);
-  std::vector<Mat4> object_to_clip(scene.instances.size());
-  std::vector<uint32_t> mesh(scene.instances.size());
-  std::vector<float> scale(scene.instances.size());
-  for (size_t i = 0; i < scene.instances.size(); ++i) {
-    object_to_clip[i] = to_float(view_to_clip * out->instance_views[i].object_to_view);
-    mesh[i] = scene.instances[i].mesh;
-    scale[i] = float(out->instance_views[i].scale);
-  }
-  upload_raster_inputs(r, object_to_clip, mesh, scale, out->visible, camera.width, camera.height);
-
-  FrameStats& stats = out->stats;
-  const uint32_t n = uint32_t(out->visible.size()), n1 = out->pass1_visible;
-  // frame.cpp raster_pass: RasterOptions::z_near = float(z_near), default back-face culling.
-  const float z_near = float(camera.z_near);
-  const bool cull_backfaces = RasterOptions{}.cull_backfaces;
   RasterSplitStats frame_split;
-  for (PassStats& p : stats.passes) {
-    if (p.name == "raster")
-      raster_range(r, camera.width, camera.height, z_near, out->view.pixels_per_unit_at_1, cull_backfaces, 0, n1, &p,
-                   &frame_split);
-    if (p.name == "raster_post")
-      raster_range(r, camera.width, camera.height, z_near, out->view.pixels_per_unit_at_1, cull_backfaces, n1, n - n1,
-                   &p, &frame_split);
-  }
+  const FramePlan plan = plan_frame(scene, settings, frame_context(scene, camera, history, has_next_frame, nullptr));
+  const auto frame_start = std::chrono::steady_clock::now();
+  VulkanFrameExecutor executor(r, plan, scene, camera, settings, pool, history, out, &frame_split);
+  execute_frame_plan(plan, executor, scene.instances.size(), uint64_t(camera.width) * camera.height, &out->stats);
+  out->stats.total_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame_start).count();
   if (split) *split = frame_split;
-  const uint64_t vis_bytes = uint64_t(camera.width) * camera.height * 8;
-  std::memcpy(out->vis.keys.data(), r.vis.mapped, vis_bytes);
-  uint64_t covered = 0;
-  for (uint64_t k : out->vis.keys) covered += k != 0;
-  stats.pixels_covered = covered;
-
-  if (settings.shade) shade_pass(r, scene, settings, camera, out);
-  // Frame time: the passes' own times (host cull + GPU raster/shade); the host reference's
-  // raster, which render_frame also ran, is not part of this backend's frame.
-  stats.total_ms = 0;
-  for (const PassStats& p : stats.passes) stats.total_ms += p.ms;
 }
 
 void raster_visible_vulkan(GpuRenderer& r, const GpuRasterInput& in, GpuRasterOutput* out) {

@@ -1,15 +1,17 @@
 #pragma once
-// The Vulkan frame executor (spec/gpu.md §Frame): the frame's passes as lib/vgeo/render
-// runs them, with the same pass names, PassStats and Frame result. Today the cull passes
-// (instance cull, hierarchical LOD + cluster cull, HZB, pass 2) run on the host through the
-// CPU reference; raster (compute, 64-bit atomicMax) and shade run on the GPU, reading the
-// memory-form pages as they are. The GPU cull passes replace the host ones when they land.
+// The Vulkan frame executor (spec/gpu.md §Frame): executes the same FramePlan as the CPU
+// reference (lib/vgeo/render/frame_plan.h), with the same pass names, PassStats and Frame
+// result. Every pass runs on the device: instance cull, hierarchical LOD + cluster cull
+// (gpu_cull.h, persistent or level-by-level traversal), raster (compute, 64-bit
+// atomicMax), HZB, pass 2, shade, reading the memory-form pages as they are. Only the
+// overdraw view's per-pixel counts are computed on the host.
 #include <cstdint>
 #include <memory>
 #include <vector>
 
 #include "vgeo/format/format.h"
 #include "vgeo/gpu/context.h"
+#include "vgeo/gpu/gpu_cull.h"
 #include "vgeo/gpu/hw_raster.h"
 #include "vgeo/render/frame.h"
 
@@ -43,6 +45,7 @@ struct GpuRendererOptions {
 // Uploads the pages once. Throws GPU_SCENE_TOO_LARGE when the pages exceed one storage
 // buffer (maxStorageBufferRange).
 GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene,
+                                   GpuTraversal traversal = kDefaultGpuTraversal,
                                    const GpuRendererOptions& options = {});
 
 // Per (mesh, cluster) in location order: the bounds and triangle count the split rule reads.
@@ -69,8 +72,8 @@ struct GpuRasterOutput {
 };
 void raster_visible_vulkan(GpuRenderer& renderer, const GpuRasterInput& input, GpuRasterOutput* out);
 
-// Renders one frame of `scene.scene` (as render_frame). `out->vis`, `out->image` and the
-// raster/shade PassStats come from the GPU; the other passes ran on the host. `split`, when
+// Renders one frame of `scene.scene` (as render_frame: plan_frame, then the Vulkan executor).
+// Streaming is not implemented on the GPU (callers refuse streamed scenes). `split`, when
 // given, receives the frame's clusters and triangles per raster path.
 void render_frame_vulkan(GpuRenderer& renderer, const MemoryFormScene& scene, const Camera& camera,
                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,

@@ -1,5 +1,5 @@
 // GPU raster passes: compute SW, hardware pipeline, per-cluster split (hw_raster.h,
-// spec/raster.md §12).
+// spec/raster.md §13).
 #include "vgeo/gpu/hw_raster.h"
 
 #include <algorithm>

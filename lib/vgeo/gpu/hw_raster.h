@@ -1,5 +1,5 @@
 #pragma once
-// The GPU raster passes (spec/raster.md §12): the compute software rasterizer
+// The GPU raster passes (spec/raster.md §13): the compute software rasterizer
 // (shaders/raster.comp, bit-identical to the CPU), the hardware raster pipeline (a graphics
 // pipeline with no attachments, dynamic rendering: shaders/hw_raster.vert decodes the
 // cluster's memory form, shaders/hw_raster.frag does the same 64-bit atomicMax), and the
@@ -24,16 +24,16 @@ namespace vgeo {
 enum class GpuRasterMode : uint8_t {
   kSw = 0,    // every cluster by the compute rasterizer (bit-identical to the CPU reference)
   kHw = 1,    // every cluster by the hardware pipeline
-  kAuto = 2,  // per cluster by the rule of spec/raster.md §12.2
+  kAuto = 2,  // per cluster by the rule of spec/raster.md §13.2
 };
 bool parse_gpu_raster_mode(const std::string& name, GpuRasterMode* out);
 const char* gpu_raster_mode_name(GpuRasterMode mode);
 
 // The auto rule's threshold: a cluster whose estimated projected triangle area
-// (π r_px² / triangles, spec/raster.md §12.2) is at least this goes to the hardware path.
+// (π r_px² / triangles, spec/raster.md §13.2) is at least this goes to the hardware path.
 // Where `vgeo bench raster`'s compute-SW and hardware curves cross on lavapipe: SW/HW 1.01×
 // at 8-px legs (32 px²), 0.83× at 16 px (128 px²); 64 px² is the geometric middle
-// (docs/bench/report.md §raster; on lavapipe the sides are inverted, see spec §12.4).
+// (docs/bench/report.md §raster; on lavapipe the sides are inverted, see spec §13.4).
 inline constexpr float kAutoHwMinTriangleAreaPx = 64.0f;
 
 struct RasterSplitStats {

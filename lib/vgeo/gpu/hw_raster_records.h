@@ -1,7 +1,7 @@
 #ifndef VGEO_GPU_HW_RASTER_RECORDS_H
 #define VGEO_GPU_HW_RASTER_RECORDS_H
 // Records of the hardware raster path and the per-cluster SW/HW split (hw_raster.h,
-// spec/raster.md §12), written once in the common C++/GLSL subset (core/shared_glsl.h).
+// spec/raster.md §13), written once in the common C++/GLSL subset (core/shared_glsl.h).
 // 32-bit scalars only, so std430 and the C++ layout agree (checked below).
 #include "vgeo/core/shared_glsl.h"
 

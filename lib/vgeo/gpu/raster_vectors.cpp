@@ -1,4 +1,4 @@
-// Raster conformance vectors (raster_vectors.h, spec/raster.md §13).
+// Raster conformance vectors (raster_vectors.h, spec/raster.md §14).
 #include "vgeo/gpu/raster_vectors.h"
 
 #include <algorithm>

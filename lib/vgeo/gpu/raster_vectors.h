@@ -1,5 +1,5 @@
 #pragma once
-// Raster conformance vectors (spec/raster.md §13, spec/vectors/raster/): small triangle
+// Raster conformance vectors (spec/raster.md §14, spec/vectors/raster/): small triangle
 // sets with the expected visibility key of every pixel (8 sub-pixel bits, top-left rule, the
 // CPU reference's kReference loop) and a per-pixel ambiguity mask for hardware rasterizers.
 // The triangles are stored in their decoded memory form (canonical vertex/triangle order,

@@ -1,4 +1,4 @@
-// Hardware raster rule (hw_rule.h, spec/raster.md §12.3).
+// Hardware raster rule (hw_rule.h, spec/raster.md §13.3).
 #include "vgeo/raster/hw_rule.h"
 
 #include <algorithm>

@@ -1,5 +1,5 @@
 #pragma once
-// The rule a hardware rasterizer is held to against this rasterizer (spec/raster.md §12.3),
+// The rule a hardware rasterizer is held to against this rasterizer (spec/raster.md §13.3),
 // per pixel, on top of the exact model of §10 (raster_model.h): coverage equal for every
 // triangle that is not clipped; depth may differ (fixed-function interpolation) within the
 // §10 tolerance; the triangle id may differ only inside the depth-ambiguity mask (two

@@ -89,6 +89,8 @@ void raster_pass(const RenderScene& scene, const std::vector<ClusterDag>& geomet
   stats->pixels_written = total.pixels_written;
 }
 
+}  // namespace
+
 // Overdraw: each drawn cluster rasterized alone into a per-task scratch buffer; the count
 // buffer gets +1 for every pixel the cluster covers (overdraw at cluster granularity:
 // triangles of one cluster overlapping each other count once).
@@ -132,7 +134,34 @@ void overdraw_pass(const RenderScene& scene, const std::vector<ClusterDag>& geom
   });
 }
 
-}  // namespace
+std::vector<Mat4> begin_frame(const RenderScene& scene, const Camera& camera, Frame* out) {
+  out->view = make_view(camera);
+  out->instance_views = make_instance_views(scene.instances, out->view);
+  out->vis.resize(camera.width, camera.height);
+  out->visible.clear();
+  out->overdraw.clear();
+  out->pass1_visible = 0;
+  const Mat4d view_to_clip =
+      perspective_reversed_z(camera.fov_y, double(camera.width) / double(camera.height), camera.z_near);
+  return clip_matrices(out->instance_views, view_to_clip);
+}
+
+void add_instance_counters(const CullCounters& c, PassStats* p) {
+  p->instances_in += c.instances_in;
+  p->instances_out += c.instances_out;
+}
+
+void add_cull_counters(const CullCounters& c, PassStats* p) {
+  p->nodes_visited += c.nodes_visited;
+  p->groups_visited += c.groups_visited;
+  p->cluster_candidates += c.cluster_candidates;
+  p->clusters_occluded += c.clusters_occluded;
+}
+
+void check_visible_count(size_t n) {
+  if (n > kMaxVisibleClusters)
+    fail("RENDER_TOO_MANY_VISIBLE_CLUSTERS", "render", "more than 2^25 visible clusters in one view", kExitBadInput);
+}
 
 void analyze_render_scene(RenderScene* scene) {
   scene->single_convex_object =
@@ -149,15 +178,7 @@ class CpuFrameExecutor final : public FrameExecutor {
                    FrameStreaming* streaming)
       : scene_(scene), camera_(camera), settings_(settings), pool_(pool), history_(history), out_(out),
         streaming_(streaming), geometry_(streaming ? streaming->geometry : scene.meshes) {
-    out->view = make_view(camera);
-    out->instance_views = make_instance_views(scene.instances, out->view);
-    out->vis.resize(camera.width, camera.height);
-    out->visible.clear();
-    out->overdraw.clear();
-    out->pass1_visible = 0;
-    const Mat4d view_to_clip =
-        perspective_reversed_z(camera.fov_y, double(camera.width) / double(camera.height), camera.z_near);
-    object_to_clip_ = clip_matrices(out->instance_views, view_to_clip);
+    object_to_clip_ = begin_frame(scene, camera, out);
     options_.threshold_px = settings.threshold_px;
     if (streaming) options_.usable_groups = &streaming->usable;
     if (plan.previous_hzb) {
@@ -180,8 +201,7 @@ class CpuFrameExecutor final : public FrameExecutor {
         CullCounters cc;
         cull_instances(scene_.meshes, scene_.instances, out_->instance_views, all, view, options_,
                        &visible_instances_, &occluded_instances_, &cc);
-        p->instances_in += cc.instances_in;
-        p->instances_out += cc.instances_out;
+        add_instance_counters(cc, p);
         facts->pass1_occluded |= !occluded_instances_.empty();
         break;
       }
@@ -212,8 +232,7 @@ class CpuFrameExecutor final : public FrameExecutor {
         CullCounters cc;
         cull_instances(scene_.meshes, scene_.instances, out_->instance_views, occluded_instances_, view, post_options(),
                        &post_instances_, nullptr, &cc);
-        p->instances_in += cc.instances_in;
-        p->instances_out += cc.instances_out;
+        add_instance_counters(cc, p);
         break;
       }
       case FrameStep::kClusterCullPost: {
@@ -275,16 +294,6 @@ class CpuFrameExecutor final : public FrameExecutor {
   }
 
  private:
-  static void add_cull_counters(const CullCounters& c, PassStats* p) {
-    p->nodes_visited += c.nodes_visited;
-    p->groups_visited += c.groups_visited;
-    p->cluster_candidates += c.cluster_candidates;
-    p->clusters_occluded += c.clusters_occluded;
-  }
-  static void check_visible_count(size_t n) {
-    if (n > kMaxVisibleClusters)
-      fail("RENDER_TOO_MANY_VISIBLE_CLUSTERS", "render", "more than 2^25 visible clusters in one view", kExitBadInput);
-  }
   // Pass 2 tests against this frame's pass-1 HZB with this frame's view and transforms.
   CullOptions post_options() const {
     CullOptions post = options_;

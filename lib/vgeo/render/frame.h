@@ -74,6 +74,24 @@ void render_frame(const RenderScene& scene, const Camera& camera, const RenderSe
                   ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame = true,
                   FrameStreaming* streaming = nullptr);
 
+// What every frame executor does first and shares (CPU: frame.cpp; Vulkan: gpu_frame.cpp):
+// resets `out` for `camera` (view, instance views, an empty visibility buffer, no visible
+// clusters) and returns the per-instance object→clip matrices (float, from double products).
+std::vector<Mat4> begin_frame(const RenderScene& scene, const Camera& camera, Frame* out);
+// A cull pass's counters into its PassStats (the members the statistics table shows).
+void add_instance_counters(const CullCounters& c, PassStats* p);
+void add_cull_counters(const CullCounters& c, PassStats* p);
+// Throws RENDER_TOO_MANY_VISIBLE_CLUSTERS when `n` visible clusters overflow the key's id space.
+void check_visible_count(size_t n);
+
+// Overdraw view: per-pixel count of the drawn clusters covering it (each cluster rasterized
+// alone; `geometry`: the scene's meshes or the streamed frame's). The CPU step `overdraw`; the
+// Vulkan executor runs it on the host too.
+void overdraw_pass(const RenderScene& scene, const std::vector<ClusterDag>& geometry,
+                   const std::vector<VisibleCluster>& visible, const std::vector<Mat4>& object_to_clip,
+                   const std::vector<InstanceView>& views, const ViewParams& view, ThreadPool& pool,
+                   std::vector<uint32_t>* counts);
+
 // The plan's context from the history and streaming state (`no_stream_reason`: the stream pass's
 // skip reason when `streaming` is null).
 FrameContext frame_context(const RenderScene& scene, const Camera& camera, const FrameHistory* history,

@@ -46,18 +46,25 @@ std::string format_bytes(uint64_t bytes) {
   return buf;
 }
 
-RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
-                          const std::function<void(uint32_t, const Frame&, const FrameStreaming*)>& on_frame) {
+RenderSettings resolve_render_options(const SceneFile& file, const RenderOverrides& o, uint32_t* frames) {
   RenderSettings settings = file.settings;
-  if (request.threshold_px) settings.threshold_px = *request.threshold_px;
-  if (request.view) settings.view = *request.view;
-  if (request.occlusion) settings.occlusion = *request.occlusion;
+  if (o.threshold_px) settings.threshold_px = *o.threshold_px;
+  if (o.view) settings.view = *o.view;
+  if (o.occlusion) settings.occlusion = *o.occlusion;
   if (!(settings.threshold_px > 0) || !std::isfinite(settings.threshold_px))
     fail("RENDER_BAD_OPTION", "render", "--tau must be a positive finite number of pixels", kExitUsage);
-  if (request.camera >= file.cameras.size())
-    fail("RENDER_BAD_CAMERA", "render", "camera " + std::to_string(request.camera) + " does not exist", kExitUsage);
-  uint32_t frames = request.frames ? request.frames : (file.path.empty() ? 1 : uint32_t(file.path.size()));
-  if (frames > kMaxPathFrames) fail("RENDER_BAD_OPTION", "render", "--frames at most 100000", kExitUsage);
+  if (o.camera >= file.cameras.size())
+    fail("RENDER_BAD_CAMERA", "render", "camera " + std::to_string(o.camera) + " does not exist", kExitUsage);
+  *frames = o.frames ? o.frames : (file.path.empty() ? 1 : uint32_t(file.path.size()));
+  if (*frames > kMaxPathFrames) fail("RENDER_BAD_OPTION", "render", "--frames at most 100000", kExitUsage);
+  return settings;
+}
+
+RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
+                          const std::function<void(uint32_t, const Frame&, const FrameStreaming*)>& on_frame) {
+  uint32_t frames = 0;
+  const RenderSettings settings = resolve_render_options(
+      file, {request.threshold_px, request.view, request.occlusion, request.camera, request.frames}, &frames);
 
   RenderReport report;
   StreamSummary& sum = report.stream;

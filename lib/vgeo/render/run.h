@@ -31,6 +31,19 @@ struct RenderRequest {
   uint32_t save_every = 0;
 };
 
+// What a request may override of the scene's settings, and which frames it renders.
+struct RenderOverrides {
+  std::optional<float> threshold_px;
+  std::optional<ShadeView> view;
+  std::optional<bool> occlusion;
+  uint32_t camera = 0, frames = 0;
+};
+// The scene's settings with the overrides applied, and the frame count (`*frames`): the one
+// check of render options for every renderer (render_scene, run_backend). Throws
+// RENDER_BAD_OPTION (τ not positive and finite, more than kMaxPathFrames frames) and
+// RENDER_BAD_CAMERA (no such camera).
+RenderSettings resolve_render_options(const SceneFile& file, const RenderOverrides& overrides, uint32_t* frames);
+
 // Streaming summary over all frames.
 struct StreamSummary {
   bool requested = false;        // a budget was given

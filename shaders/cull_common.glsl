@@ -1,0 +1,191 @@
+// Bindings and the cull arithmetic shared by the cull passes (cull_instances.comp,
+// cull_traverse_*.comp, cull_seed.comp, cull_compact.comp). Every function below is the GLSL
+// of one function of lib/vgeo/core/lod.h, lib/vgeo/cull/view.h/.cpp or lib/vgeo/cull/hzb.cpp,
+// operation for operation (spec/raster.md §12): double where the CPU computes in double,
+// `precise` so no multiply-add is contracted, the same comparisons in the same order
+// (a NaN takes the same branch), std::min/std::max written as their ternaries.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_explicit_arithmetic_types : require
+#extension GL_EXT_shader_atomic_int64 : require
+
+#include "vgeo/core/cull_shared.h"
+
+layout(std430, binding = 0) readonly buffer ParamsBuf { GpuCullParams params; };
+layout(std430, binding = 1) readonly buffer MeshBuf { GpuCullMesh meshes[]; };
+layout(std430, binding = 2) readonly buffer ClusterBuf { GpuCluster clusters[]; };
+layout(std430, binding = 3) readonly buffer GroupBuf { GpuGroup groups[]; };
+layout(std430, binding = 4) readonly buffer NodeBuf { GpuBvhNode nodes[]; };
+layout(std430, binding = 5) readonly buffer InstanceBuf { GpuCullInstance instances[]; };
+layout(std430, binding = 6) readonly buffer OcclusionInstanceBuf { GpuCullInstance occlusion_instances[]; };
+layout(std430, binding = 7) readonly buffer HzbBuf { uint32_t hzb[]; };  // float bits, all mips
+layout(std430, binding = 8) coherent buffer QueueBuf { GpuQueueHeader queue; uint64_t slots[]; };
+layout(std430, binding = 9) coherent buffer BitsBuf { uint32_t bits[]; };
+layout(std430, binding = 10) buffer CounterBuf { uint64_t counters[]; };
+layout(std430, binding = 11) readonly buffer ListInBuf { uint32_t list_in[]; };
+layout(std430, binding = 12) buffer ListOutBuf { uint32_t list_out[]; };
+
+layout(push_constant) uniform Push { GpuCullPush push; };
+
+struct Sphere {
+  float x, y, z, radius;
+};
+Sphere sphere_of(GpuSphere s) { return Sphere(s.x, s.y, s.z, s.radius); }
+
+// view.h sphere_to_view: centre transformed in double (((m0·x + m4·y) + m8·z) + m12 per row),
+// rounded to float; radius scaled in double.
+Sphere sphere_to_view(GpuCullInstance iv, Sphere s) {
+  precise double x = double(s.x), y = double(s.y), z = double(s.z);
+  precise double cx = iv.object_to_view[0] * x + iv.object_to_view[4] * y + iv.object_to_view[8] * z + iv.object_to_view[12];
+  precise double cy = iv.object_to_view[1] * x + iv.object_to_view[5] * y + iv.object_to_view[9] * z + iv.object_to_view[13];
+  precise double cz = iv.object_to_view[2] * x + iv.object_to_view[6] * y + iv.object_to_view[10] * z + iv.object_to_view[14];
+  precise double r = double(s.radius) * iv.scale;
+  return Sphere(float(cx), float(cy), float(cz), s.radius < 0.0 ? s.radius : float(r));
+}
+
+// view.h inflate_for_subtree_test.
+Sphere inflate_for_subtree_test(Sphere s) {
+  if (s.radius < 0.0) return s;
+  precise double c = sqrt(double(s.x) * double(s.x) + double(s.y) * double(s.y) + double(s.z) * double(s.z));
+  precise double r = double(s.radius) * (1.0lf + kConservativeRelativeSlack) + c * kConservativeCentreSlack;
+  s.radius = float(r);
+  return s;
+}
+float error_to_view(float error, double scale) {
+  precise double e = double(error) * scale;
+  return float(e);
+}
+float inflate_error_for_subtree_test(float error) {
+  precise double e = double(error) * (1.0lf + kConservativeRelativeSlack);
+  return float(e);
+}
+
+// lod.h projected_error with the eye at the view-space origin (distance_d(c, 0)).
+float projected_error(Sphere s, float error, GpuCullView v) {
+  if (error == 0.0) return 0.0;
+  precise double dx = double(s.x) - 0.0lf, dy = double(s.y) - 0.0lf, dz = double(s.z) - 0.0lf;
+  precise double d = sqrt(dx * dx + dy * dy + dz * dz) - double(s.radius);
+  if (!(d > double(v.lod_z_near))) d = double(v.lod_z_near);
+  precise double p = double(error) * double(v.pixels_per_unit_at_1) / d;
+  return float(p);
+}
+
+// view.cpp sphere_outside_frustum.
+bool sphere_outside_frustum(Sphere s, GpuCullView v) {
+  if (s.radius < 0.0) return true;
+  precise double x = double(s.x), y = double(s.y), d = -double(s.z), r = double(s.radius);
+  if (d + r < v.z_near) return true;
+  precise double nx = 1.0lf / sqrt(1.0lf + v.tan_half_x * v.tan_half_x);
+  precise double ny = 1.0lf / sqrt(1.0lf + v.tan_half_y * v.tan_half_y);
+  if ((x - d * v.tan_half_x) * nx > r) return true;
+  if ((-x - d * v.tan_half_x) * nx > r) return true;
+  if ((y - d * v.tan_half_y) * ny > r) return true;
+  if ((-y - d * v.tan_half_y) * ny > r) return true;
+  return false;
+}
+
+// cull.cpp culling_sphere.
+Sphere culling_sphere(GpuCullInstance iv, GpuSphere s) { return inflate_for_subtree_test(sphere_to_view(iv, sphere_of(s))); }
+
+double min_d(double a, double b) { return (b < a) ? b : a; }  // std::min
+double max_d(double a, double b) { return (a < b) ? b : a; }  // std::max
+
+// view.cpp sphere_screen_rect → (x0, y0, x1, y1); empty when x1 < x0.
+ivec4 sphere_screen_rect(Sphere s, GpuCullView v) {
+  precise double d = -double(s.z), r = double(s.radius);
+  double min_sx = 1e300lf, max_sx = -1e300lf, min_sy = 1e300lf, max_sy = -1e300lf;
+  for (int i = 0; i < 8; ++i) {
+    precise double x = double(s.x) + (((i & 1) != 0) ? r : -r);
+    precise double y = double(s.y) + (((i & 2) != 0) ? r : -r);
+    precise double depth = d + (((i & 4) != 0) ? r : -r);
+    precise double ndc_x = x / (depth * v.tan_half_x), ndc_y = y / (depth * v.tan_half_y);
+    precise double sx = (ndc_x * 0.5lf + 0.5lf) * double(v.width), sy = (0.5lf - ndc_y * 0.5lf) * double(v.height);
+    min_sx = min_d(min_sx, sx); max_sx = max_d(max_sx, sx);
+    min_sy = min_d(min_sy, sy); max_sy = max_d(max_sy, sy);
+  }
+  precise double x0 = floor(min_sx) - 1.0lf, x1 = floor(max_sx) + 1.0lf;
+  precise double y0 = floor(min_sy) - 1.0lf, y1 = floor(max_sy) + 1.0lf;
+  x0 = max_d(x0, 0.0lf); y0 = max_d(y0, 0.0lf);
+  x1 = min_d(x1, double(v.width) - 1.0lf); y1 = min_d(y1, double(v.height) - 1.0lf);
+  if (!(x0 <= x1) || !(y0 <= y1)) return ivec4(0, 0, -1, -1);
+  return ivec4(int(x0), int(y0), int(x1), int(y1));
+}
+
+// hzb.cpp's k4x4 / k2x2 read: the first mip where the rectangle spans at most max_span
+// texels per axis, then its ≤ 4×4 texels (≤ 16 + 20 loop back edges).
+float coarse_rect_min(uvec4 r) {
+  uint max_span = params.hzb_policy == kHzbPolicy4x4 ? 4u : 2u;
+  uint level = 0u;
+  while (level + 1u < params.hzb_levels &&
+         (((r.z >> level) - (r.x >> level) + 1u > max_span) || ((r.w >> level) - (r.y >> level) + 1u > max_span)))
+    ++level;
+  uint w = params.hzb_mip_width[level], base = params.hzb_mip_offset[level];
+  float farthest = 1e30;
+  for (uint y = r.y >> level; y <= (r.w >> level); ++y)
+    for (uint x = r.x >> level; x <= (r.z >> level); ++x) {
+      float t = uintBitsToFloat(hzb[base + y * w + x]);
+      farthest = (t < farthest) ? t : farthest;
+    }
+  return farthest;
+}
+
+// The level of the largest aligned block [a, a + 2^k) inside [a, b] (a 1D dyadic
+// decomposition step), capped at the coarsest mip.
+uint block_level(uint a, uint b) {
+  uint by_alignment = (a == 0u) ? 31u : uint(findLSB(a));
+  uint by_length = uint(findMSB(b - a + 1u));
+  uint k = by_alignment < by_length ? by_alignment : by_length;
+  return k < params.hzb_levels - 1u ? k : params.hzb_levels - 1u;
+}
+
+// hzb.cpp's kFinest read, the minimum of every finest texel of the rectangle, computed
+// exactly from fewer texels: [x0, x1] and [y0, y1] split into aligned blocks (1D dyadic
+// decompositions, at most 2 per level), and each pair of blocks (levels kx, ky) is read from
+// mip min(kx, ky), whose texels are exactly the minima of the finest texels they cover
+// (build_hzb: 2×2 min, edge clamped). The float minimum is exact and order-free, so the
+// value is the CPU's. Reads ≤ 4·(w + h) (spec/raster.md §12), one per loop iteration:
+// a single loop, so a vector of invocations costs the maximum of its lanes, not the sum.
+float finest_rect_min(uvec4 r) {
+  uint xa = r.x, ya = r.y, t = 0u;
+  uint kx = block_level(xa, r.z), ky = block_level(ya, r.w);
+  float farthest = 1e30;
+  while (ya <= r.w) {
+    uint k = kx < ky ? kx : ky;
+    uint n = 1u << ((kx < ky ? ky : kx) - k);  // texels of mip k in this pair of blocks
+    uint x = (xa >> k) + (kx > ky ? t : 0u), y = (ya >> k) + (ky > kx ? t : 0u);
+    float v = uintBitsToFloat(hzb[params.hzb_mip_offset[k] + y * params.hzb_mip_width[k] + x]);
+    farthest = (v < farthest) ? v : farthest;
+    if (++t == n) {
+      t = 0u;
+      xa += 1u << kx;
+      if (xa > r.z) {
+        xa = r.x;
+        ya += 1u << ky;
+        if (ya <= r.w) ky = block_level(ya, r.w);
+      }
+      kx = block_level(xa, r.z);
+    }
+  }
+  return farthest;
+}
+
+// hzb.cpp hzb_occludes (the HZB's size equals the view's: checked on the host).
+bool hzb_occludes(Sphere s, GpuCullView v) {
+  if (s.radius < 0.0) return false;
+  if (double(-s.z) - double(s.radius) <= v.z_near) return false;  // sphere_crosses_near
+  ivec4 rect = sphere_screen_rect(s, v);
+  if (rect.z < rect.x || rect.w < rect.y) return false;
+  precise double nearest = v.z_near / (double(-s.z) - double(s.radius));  // sphere_nearest_depth
+  if (!(nearest > 0.0lf) || isinf(nearest) || isnan(nearest)) return false;
+  uvec4 r = uvec4(rect);
+  float farthest = (params.hzb_policy == kHzbPolicyFinest) ? finest_rect_min(r) : coarse_rect_min(r);
+  precise double lhs = nearest * (1.0lf + kHzbDepthMargin);
+  return lhs < double(farthest);
+}
+
+// cull.cpp occluded(): against the occlusion view and its instance placement.
+bool occluded(uint instance, GpuSphere bounds) {
+  if ((params.flags & kGpuCullOcclusion) == 0u) return false;
+  return hzb_occludes(culling_sphere(occlusion_instances[instance], bounds), params.occlusion_view);
+}
+
+void set_bit(uint region, uint key) { atomicOr(bits[region + (key >> 5)], 1u << (key & 31u)); }
