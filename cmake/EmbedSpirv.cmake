@@ -1,4 +1,4 @@
-# cmake -DSPV=in.spv -DOUT=out.cpp -DNAME=kShaderFoo -DLABEL=foo -P EmbedSpirv.cmake
+# cmake -DSPV=in.spv -DOUT=out.cpp -DNAME=kShaderFoo -DLABEL=foo -DSOURCE=foo.comp -P EmbedSpirv.cmake
 # Turns one SPIR-V binary into a C++ array (lib/vgeo/gpu/context.h ShaderBinary), so the
 # library never looks shaders up on disk at run time.
 file(READ ${SPV} hex HEX)
@@ -20,6 +20,6 @@ while(i LESS n)
     string(APPEND body "\n")
   endif()
 endwhile()
-file(WRITE ${OUT} "// Generated from ${LABEL}.comp by cmake/EmbedSpirv.cmake. Do not edit.\n"
+file(WRITE ${OUT} "// Generated from ${SOURCE} by cmake/EmbedSpirv.cmake. Do not edit.\n"
   "#include \"vgeo/gpu/shaders.h\"\nnamespace vgeo {\nnamespace {\nconst uint32_t kWords[] = {\n${body}};\n}  // namespace\n"
   "const ShaderBinary ${NAME} = {\"${LABEL}\", kWords, ${words}};\n}  // namespace vgeo\n")

@@ -10,6 +10,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "vgeo/core/vis_key.h"
 #include "vgeo/gpu/shader_records.h"
+#include "vgeo/gpu/hw_raster_records.h"
 
 layout(local_size_x = 128) in;  // kGpuRasterGroupSize = kMaxClusterTriangles
 
@@ -20,6 +21,7 @@ layout(std430, binding = 3) readonly buffer Instances { GpuInstance instances[];
 layout(std430, binding = 4) readonly buffer Visible { GpuVisibleCluster visible[]; };
 layout(std430, binding = 5) buffer Vis { uint64_t vis[]; };
 layout(std430, binding = 6) buffer Counters { uint64_t pixels_written; };
+layout(std430, binding = 7) readonly buffer Paths { uint32_t path_of_visible[]; };
 layout(push_constant) uniform Push { GpuRasterParams params; };
 
 #define VGEO_PAGE_WORD(i) page_words[i]
@@ -211,6 +213,7 @@ void main() {
   uint32_t group = gl_WorkGroupID.y * params.groups_x + gl_WorkGroupID.x;
   if (group >= params.visible_count) return;
   uint32_t visible_index = params.first_visible + group;
+  if (params.select_path != 0u && path_of_visible[visible_index] != kGpuRasterPathSw) return;  // drawn by hw_raster
   GpuVisibleCluster vc = visible[visible_index];
   GpuInstance inst = instances[vc.instance];
   GpuMesh mesh = meshes[inst.mesh];

@@ -1,7 +1,8 @@
 /* vgeodag_writer.h — write a cluster DAG as a VGEODAG1 file (spec/dag.md §7) from plain arrays.
  *
  * Single file, C99, no dependencies beyond the C standard library (libm: sqrt, nextafterf).
- * Part of vgeo and distributed under the vgeo project's license.
+ * Part of vgeo. License: the vgeo repository states none yet (it has no LICENSE file); this
+ * header carries whatever license the project adopts for the repository.
  *
  * Use: in ONE C or C++ file
  *     #define VGEODAG_WRITER_IMPLEMENTATION

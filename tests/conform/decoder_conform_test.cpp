@@ -18,7 +18,7 @@ using vgeo::test::run_cli;
 
 namespace {
 
-// 40 mutants (+ the 48 vectors): a few seconds; `--mutants 10000` is the on-demand run.
+// 40 mutants (+ the 21 version 1 vectors): a few seconds; `--mutants 10000` is the on-demand run.
 constexpr int kTestMutants = 40;
 
 struct TempDir {
@@ -27,16 +27,36 @@ struct TempDir {
   ~TempDir() { fs::remove_all(path); }
 };
 
-std::string vectors() { return (vgeo::test::source_dir() / "spec" / "vectors").string(); }
+std::string all_vectors() { return (vgeo::test::source_dir() / "spec" / "vectors").string(); }
+
+// The protocol tests run over the version 1 vectors (21 files, both verdict kinds) so that each
+// stays a few seconds; every vector's verdict is checked in-process by FormatVectors.*.
+std::string v1_vectors(const TempDir& tmp) {
+  const fs::path dir = tmp.path / "v1_vectors";
+  fs::create_directories(dir);
+  std::ifstream in(fs::path(all_vectors()) / "manifest.txt");
+  std::ofstream out(dir / "manifest.txt");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("v1_", 0) != 0) continue;
+    const std::string name = line.substr(0, line.find(' '));
+    fs::copy_file(fs::path(all_vectors()) / name, dir / name);
+    out << line << "\n";
+  }
+  return dir.string();
+}
 
 TEST(ConformDecoder, OwnDecoderAgreesEverywhere) {
   TempDir tmp;
+  const std::string vectors = v1_vectors(tmp);
   const std::string xml = (tmp.path / "own.xml").string();
-  auto r = run_cli("conform decoder --vectors '" + vectors() + "' --mutants " + std::to_string(kTestMutants) +
+  auto r = run_cli("conform decoder --vectors '" + vectors + "' --mutants " + std::to_string(kTestMutants) +
                    " --seed 3 --out '" + (tmp.path / "own").string() + "' --junit '" + xml + "' -- '" +
                    vgeo::test::cli_path() + "' conform hash");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("0 verdict, 0 hash, 0 protocol, 0 code disagreements"), std::string::npos) << r.output;
+  // Structure-aware mutants keep the checksums valid and reach the rules behind them.
+  EXPECT_NE(r.output.find("  page-field: FORMAT_NON_CANONICAL 1 FORMAT_OUT_OF_RANGE 4"), std::string::npos) << r.output;
   std::string cases = vgeo::test::checked_junit(xml);
   EXPECT_NE(cases.find("vgeo.conform.decoder.v1_valid_sphere_zstd.vgp: passed"), std::string::npos) << cases;
   EXPECT_EQ(cases.find("failed"), std::string::npos) << cases;
@@ -44,10 +64,11 @@ TEST(ConformDecoder, OwnDecoderAgreesEverywhere) {
 
 TEST(ConformDecoder, BrokenDecoderIsCaughtWithReproducers) {
   TempDir tmp;
+  const std::string vectors = v1_vectors(tmp);
   const fs::path out = tmp.path / "broken";
   const std::string xml = (tmp.path / "broken.xml").string();
   const std::string broken = (vgeo::test::source_dir() / "tests" / "conform" / "broken_decoder.sh").string();
-  auto r = run_cli("conform decoder --vectors '" + vectors() + "' --mutants " + std::to_string(kTestMutants) +
+  auto r = run_cli("conform decoder --vectors '" + vectors + "' --mutants " + std::to_string(kTestMutants) +
                    " --seed 3 --out '" + out.string() + "' --junit '" + xml + "' -- sh '" + broken + "' '" +
                    vgeo::test::cli_path() + "'");
   EXPECT_EQ(r.exit_code, 1) << r.output;
@@ -75,7 +96,7 @@ TEST(ConformDecoder, BrokenDecoderIsCaughtWithReproducers) {
   const fs::path small = tmp.path / "small";
   fs::create_directories(small);
   for (const char* name : {"v1_header_checksum.vgp", "v1_valid_sphere_zstd.vgp"})
-    fs::copy_file(fs::path(vectors()) / name, small / name);
+    fs::copy_file(fs::path(vectors) / name, small / name);
   std::ofstream(small / "manifest.txt") << "v1_header_checksum.vgp FORMAT_CHECKSUM\nv1_valid_sphere_zstd.vgp OK 6a5afe8c33593de5\n";
   const std::string small_run = "conform decoder --vectors '" + small.string() + "' --mutants 0 --quiet --out '" +
                                 (tmp.path / "strict").string() + "' --junit '" + xml + "' -- sh '" + broken + "' '" +
@@ -87,13 +108,39 @@ TEST(ConformDecoder, BrokenDecoderIsCaughtWithReproducers) {
   EXPECT_NE(cases.find("vgeo.conform.decoder.v1_header_checksum.vgp: failed CONFORM_DECODER_CODE"), std::string::npos) << cases;
 }
 
+// --minimize shrinks a reproducer while the disagreement stays: the broken decoder accepts
+// every truncated file, so halving v1_truncated.vgp keeps the verdict disagreement. Eight
+// decoder runs keep the test cheap (1167 bytes -> 146).
+TEST(ConformDecoder, MinimizeShrinksAReproducer) {
+  TempDir tmp;
+  const fs::path dir = tmp.path / "one";
+  fs::create_directories(dir);
+  fs::copy_file(fs::path(all_vectors()) / "v1_truncated.vgp", dir / "v1_truncated.vgp");
+  std::ofstream(dir / "manifest.txt") << "v1_truncated.vgp FORMAT_TRUNCATED\n";
+  const fs::path out = tmp.path / "min";
+  const std::string broken = (vgeo::test::source_dir() / "tests" / "conform" / "broken_decoder.sh").string();
+  auto r = run_cli("conform decoder --vectors '" + dir.string() + "' --mutants 0 --minimize --minimize-runs 8 --out '" +
+                   out.string() + "' -- sh '" + broken + "' '" + vgeo::test::cli_path() + "'");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  const auto original = fs::file_size(dir / "v1_truncated.vgp");
+  ASSERT_TRUE(fs::exists(out / "v1_truncated.min.vgp")) << r.output;
+  const auto minimized = fs::file_size(out / "v1_truncated.min.vgp");
+  EXPECT_LT(minimized, original / 4) << r.output;
+  EXPECT_NE(r.output.find("minimized " + std::to_string(original) + " -> " + std::to_string(minimized) + " bytes in 8 runs"),
+            std::string::npos) << r.output;
+  // The minimized file still disagrees: vgeo rejects it as truncated.
+  auto replay = run_cli("conform hash '" + (out / "v1_truncated.min.vgp").string() + "'");
+  EXPECT_NE(replay.output.find("error[FORMAT_TRUNCATED]"), std::string::npos) << replay.output;
+}
+
 TEST(ConformDecoder, ProtocolFailuresAndUsage) {
   TempDir tmp;
-  auto none = run_cli("conform decoder --vectors '" + vectors() + "' --mutants 0");
+  const std::string vectors = v1_vectors(tmp);
+  auto none = run_cli("conform decoder --vectors '" + vectors + "' --mutants 0");
   EXPECT_EQ(none.exit_code, 2) << none.output;
   EXPECT_NE(none.output.find("error[CONFORM_USAGE]"), std::string::npos) << none.output;
   // A decoder that prints nothing useful is a protocol failure on every input.
-  auto silent = run_cli("conform decoder --vectors '" + vectors() + "' --mutants 0 --quiet --out '" +
+  auto silent = run_cli("conform decoder --vectors '" + vectors + "' --mutants 0 --quiet --out '" +
                         (tmp.path / "silent").string() + "' -- echo hello");
   EXPECT_EQ(silent.exit_code, 1) << silent.output;
 }

@@ -7,7 +7,9 @@
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstring>
 #include <random>
 
@@ -230,6 +232,46 @@ TEST(FormatRoundTrip, BuiltDagsRoundTripExactly) {
     uint32_t top = 0;
     for (const DagCluster& c : mm.dag.clusters) top = std::max(top, c.level);
     EXPECT_EQ(mm.dag.clusters[mm.page_clusters[0]].level, top);
+  }
+}
+
+}  // namespace
+}  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+// Issue 15: every finite UV encodes. UVs of a few units keep the 1/4096 step; tiling UVs of
+// ±1e6 and ±FLT_MAX get a coarser per-mesh step (spec/format.md §2); the decoded UV is within
+// half a step of the source and FormatReport::meshes reports that step and the measured error.
+TEST(FormatRoundTrip, EveryFiniteUvEncodes) {
+  struct Case { float scale, offset; bool float_max; int32_t expected_step; };
+  const Case cases[] = {{4.0f, -1.0f, false, -12}, {3.0e6f, -1.0e6f, false, -3}, {1.0f, 0.0f, true, 104}};
+  for (const Case& c : cases) {
+    ClusterDag d = test::make_leaf_dag(test::make_grid(3));
+    for (float& u : d.uvs) u = u * c.scale + c.offset;
+    if (c.float_max) d.uvs[0] = std::numeric_limits<float>::max(), d.uvs[1] = -std::numeric_limits<float>::max();
+    FormatReport report;
+    const std::vector<uint8_t> f = encode_format(test::scene_of({d}), FormatOptions{}, &report);
+    ASSERT_EQ(report.meshes.size(), 1u);
+    const int32_t step = report.meshes[0].quantization.uv_step_log2;
+    EXPECT_EQ(step, c.expected_step) << c.scale;
+    const BuiltScene s = decode_format(f.data(), f.size(), "<uv>");
+    // Decoded vertices are in canonical order: compare each with the source vertex nearest
+    // to its (quantized) position (grid positions are distinct).
+    const ClusterDag& out = s.meshes[0];
+    double worst = 0;
+    for (size_t v = 0; v < out.vertex_count(); ++v) {
+      size_t src = 0;
+      for (size_t w = 1; w < d.vertex_count(); ++w)
+        if (distance_d(d.position(w), out.position(v)) < distance_d(d.position(src), out.position(v))) src = w;
+      for (int k = 0; k < 2; ++k) {
+        ASSERT_TRUE(std::isfinite(out.uvs[2 * v + k]));
+        worst = std::max(worst, std::fabs(double(out.uvs[2 * v + k]) - double(d.uvs[2 * src + k])));
+      }
+    }
+    EXPECT_LE(worst, std::ldexp(1.0, step - 1)) << c.scale;
+    EXPECT_EQ(report.meshes[0].uv_max_error, worst) << c.scale;
   }
 }
 

@@ -61,5 +61,27 @@ TEST(GpuCli, StreamBudgetCompareHoldsTheRule) {
   EXPECT_EQ(j["validation_messages"].get<int>(), 0);
 }
 
+TEST(GpuCli, RasterHwKeepsTheHardwareRuleAndCountsItsClusters) {
+  test::CliResult r = test::run_cli("render '" + kScene + "' --compare cpu --raster hw --validate --json --no-cache");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  nlohmann::json j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["raster"], "hw");
+  EXPECT_TRUE(j["rule_holds"].get<bool>());
+  const nlohmann::json& split = j["frames"].back()["raster_split"];
+  EXPECT_EQ(split["sw_clusters"].get<int>(), 0);
+  EXPECT_EQ(split["hw_clusters"].get<uint64_t>(), j["frames"].back()["clusters_drawn"].get<uint64_t>());
+  const nlohmann::json& rule = j["compare_cpu"][0]["hw_rule"];
+  EXPECT_EQ(rule["violation"].get<int>(), 0);
+  EXPECT_EQ(rule["depth_beyond_tolerance"].get<int>(), 0);
+}
+
+TEST(GpuCli, BadRasterModeIsACodedError) {
+  for (const char* args : {" --backend vulkan --raster fast", " --backend cpu --raster hw"}) {
+    test::CliResult r = test::run_cli("render '" + kScene + "'" + args + " --no-cache");
+    EXPECT_EQ(r.exit_code, 2) << args << ": " << r.output;
+    EXPECT_NE(r.output.find("error[RENDER_BAD_OPTION]"), std::string::npos) << r.output;
+  }
+}
+
 }  // namespace
 }  // namespace vgeo

@@ -67,6 +67,31 @@ TEST(RenderFrame, OcclusionCullingNeverChangesTheVisibilityBufferAlongACameraPat
   EXPECT_GT(pass2_frames, 0u);
 }
 
+TEST(RenderFrame, ClustersPostponedByAStaleHzbAreDrawnByPass2) {
+  // Pass 1 tests clusters against the previous frame's HZB. Here that HZB is stale: the
+  // sphere in front has left the view since, so the ground and the sphere behind it are
+  // partly hidden in the old HZB only. Their clusters there are postponed by pass 1 (their
+  // instances are partly visible, so this is the clusters' pass-2 path, not the instances')
+  // and pass 2 must draw every one of them: the frame equals the one without occlusion.
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 2);  // ground, spheres at z = 0 and z = -3
+  const Camera cam = look_camera({0.8, 1.4, 4}, {0, 1.2, -3});
+  ThreadPool pool(2);
+  RenderSettings on, off;
+  off.occlusion = false;
+  FrameHistory history;
+  Frame previous, with, without;
+  render_frame(scene, cam, on, pool, &history, &previous);
+  ASSERT_TRUE(history.valid);
+  scene.instances[1].object_to_world = test::translate_scale(0, 100, 0, 1.0);  // out of view
+  render_frame(scene, cam, on, pool, &history, &with);
+  render_frame(scene, cam, off, pool, nullptr, &without);
+  EXPECT_TRUE(decode(with) == decode(without));
+  const PassStats* pass1 = with.stats.find("cluster_cull");
+  ASSERT_NE(pass1, nullptr);
+  EXPECT_GT(pass1->clusters_occluded, 0u) << "not vacuous: pass 1 postponed clusters";
+  EXPECT_GT(with.visible.size(), size_t(with.pass1_visible)) << "pass 2 drew clusters";
+}
+
 TEST(RenderFrame, SkippedPassesAreAbsentWithAReason) {
   RenderScene scene = test::make_row_scene();
   Camera cam = look_camera({4, 3, 6}, {0, 1, -4});

@@ -63,4 +63,27 @@ inline Mesh make_per_corner(const Mesh& src, bool uv_seams = true) {
   return m;
 }
 
+// `src` plus, after every `every`-th triangle (a, b, c), degenerate triangles as messy exports
+// carry them: a repeated-corner triangle (a, a, b), one with a repeated position on a fresh
+// copy a' of a (a', a, c), and a repeated-corner triangle (c, b, c).
+inline Mesh make_with_degenerates(const Mesh& src, uint32_t every = 5) {
+  Mesh m = src;
+  m.name = src.name + "-degenerates";
+  m.indices.clear();
+  m.materials.clear();
+  for (size_t t = 0; t < src.triangle_count(); ++t) {
+    const uint32_t a = src.indices[3 * t], b = src.indices[3 * t + 1], c = src.indices[3 * t + 2];
+    m.indices.insert(m.indices.end(), &src.indices[3 * t], &src.indices[3 * t] + 3);
+    if (!src.materials.empty()) m.materials.push_back(src.materials[t]);
+    if (t % every != 0) continue;
+    m.positions.insert(m.positions.end(), &src.positions[3 * a], &src.positions[3 * a] + 3);
+    if (!src.normals.empty()) m.normals.insert(m.normals.end(), &src.normals[3 * a], &src.normals[3 * a] + 3);
+    if (!src.uvs.empty()) m.uvs.insert(m.uvs.end(), &src.uvs[2 * a], &src.uvs[2 * a] + 2);
+    const uint32_t a2 = uint32_t(m.positions.size() / 3 - 1);
+    m.indices.insert(m.indices.end(), {a, a, b, a2, a, c, c, b, c});
+    if (!src.materials.empty()) m.materials.insert(m.materials.end(), 3, src.materials[t]);
+  }
+  return m;
+}
+
 }  // namespace vgeo::test

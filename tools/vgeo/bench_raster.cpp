@@ -6,7 +6,9 @@
 
 #include "bench_shapes.h"
 #include "bench_suites.h"
+#include "vgeo/core/error.h"
 #include "vgeo/core/progress.h"
+#include "vgeo/gpu/raster_vectors.h"
 #include "vgeo/raster/raster.h"
 
 namespace vgeo::bench {
@@ -83,6 +85,64 @@ void draw(VisBuffer& vb, const ClusterSet& set, uint32_t cluster_count, RasterPa
                       m, c, opt, stats);
 }
 
+// GPU paths (spec/raster.md §13): the compute rasterizer and the hardware pipeline draw the
+// same clusters (their decoded memory form) on the default Vulkan device, interleaved.
+// Clusters per GPU sample: 16 × 85 triangles keep the largest size's SW sample well under a
+// second on lavapipe.
+constexpr uint32_t kGpuClusters = 16;
+constexpr int kGpuModes = 2;  // 0: compute SW, 1: hardware
+struct GpuBench {
+  std::unique_ptr<GpuContext> gpu;
+  std::string unavailable;  // why the GPU rows are missing
+};
+
+struct GpuSizeResult {
+  Stats per_tri[kGpuModes];
+  Stats sw_over_hw;
+  uint64_t hw_rule_failures = 0, hw_pixels_differing = 0;
+};
+
+GpuSizeResult measure_gpu(GpuBench& bench, const ClusterSet& set, int reps) {
+  const uint32_t count = std::min<uint32_t>(kGpuClusters, uint32_t(set.positions.size()));
+  std::vector<RasterVectorCluster> clusters(count);
+  for (uint32_t c = 0; c < count; ++c) clusters[c] = {set.positions[c], set.indices};
+  const MemoryFormScene ms = make_memory_form_scene(flat_cluster_scene(clusters, "bench raster"));
+  GpuRasterInput in;
+  in.object_to_clip = {clip_matrix()};
+  in.instance_mesh = {0};
+  in.instance_scale = {1.0f};
+  for (uint32_t c = 0; c < count; ++c) in.visible.push_back({0, c});
+  in.width = in.height = kViewport;
+  in.z_near = kZNear;
+  in.cull_backfaces = false;
+  GpuRendererPtr renderer[kGpuModes];
+  for (int m = 0; m < kGpuModes; ++m) {
+    GpuRendererOptions o;
+    o.raster = m == 0 ? GpuRasterMode::kSw : GpuRasterMode::kHw;
+    renderer[m] = create_gpu_renderer(*bench.gpu, ms, kDefaultGpuTraversal, o);
+  }
+  GpuRasterOutput out[kGpuModes];
+  for (int m = 0; m < kGpuModes; ++m) raster_visible_vulkan(*renderer[m], in, &out[m]);  // warm-up: LLVM compiles on first use
+  std::vector<double> samples[kGpuModes];
+  const double triangles = double(count) * kTrianglesPerCluster;
+  for (int r = 0; r < reps; ++r)
+    for (int m = 0; m < kGpuModes; ++m) {
+      raster_visible_vulkan(*renderer[m], in, &out[m]);
+      samples[m].push_back(out[m].ms * 1e-3 / triangles);
+    }
+  GpuSizeResult result;
+  for (int m = 0; m < kGpuModes; ++m) result.per_tri[m] = summarize(samples[m]);
+  result.sw_over_hw = ratio_stats(samples[0], samples[1]);
+  // The hardware rule against the compute path (bit-identical to the CPU reference).
+  for (size_t p = 0; p < out[0].vis.keys.size(); ++p) {
+    const uint64_t a = out[0].vis.keys[p], b = out[1].vis.keys[p];
+    if (a == b) continue;
+    ++result.hw_pixels_differing;
+    if (!a || !b || uint32_t(a) != uint32_t(b)) ++result.hw_rule_failures;  // ids differ (depth-only is allowed)
+  }
+  return result;
+}
+
 }  // namespace
 
 void run_raster_suite(const BenchConfig& cfg, SuiteReport& out) {
@@ -116,6 +176,24 @@ void run_raster_suite(const BenchConfig& cfg, SuiteReport& out) {
   nlohmann::json rows = nlohmann::json::array();
   double crossover = -1;
   std::vector<double> scan_over_micro;  // per size: median of per-repetition scanline/micropoly ratios
+
+  GpuBench gpu;
+  try {
+    gpu.gpu = create_gpu_context(GpuOptions{});
+  } catch (const VgeoError& e) {
+    gpu.unavailable = e.what();
+  }
+  Table gt{"GPU paths on " + (gpu.gpu ? gpu.gpu->device_name : std::string("(no device)")) +
+               ": time per triangle (median [min, max]), SW/HW ratio, CPU reference (auto path) for scale",
+           {"size px", "px/tri", "compute SW /tri", "hardware /tri", "SW / HW", "CPU auto /tri", "ids differing px"},
+           {}};
+  std::vector<Series> gpu_series(3);
+  gpu_series[0].name = "compute SW (GPU)";
+  gpu_series[1].name = "hardware (GPU)";
+  gpu_series[2].name = "CPU auto";
+  nlohmann::json gpu_rows = nlohmann::json::array();
+  std::vector<double> hw_over_sw;  // per size: median per-repetition hw/sw
+  double sw_over_hw_at_1px = -1;
 
   Progress progress("bench raster", sizes.size(), cfg.progress);
   VisBuffer vb;
@@ -186,6 +264,30 @@ void run_raster_suite(const BenchConfig& cfg, SuiteReport& out) {
     row.push_back(fmt(100 * micro_share) + "%");
     t.rows.push_back(row);
     rows.push_back(jr);
+    if (gpu.gpu) {
+      const GpuSizeResult g = measure_gpu(gpu, set, reps);
+      gt.rows.push_back({fmt(size), fmt(px_per_tri), fmt_stats_time(g.per_tri[0]), fmt_stats_time(g.per_tri[1]),
+                         fmt_ratio(g.sw_over_hw), fmt_stats_time(per_tri[2]), std::to_string(g.hw_rule_failures)});
+      gpu_rows.push_back({{"size_px", size},
+                          {"compute_sw_seconds_per_triangle", to_json(g.per_tri[0])},
+                          {"hardware_seconds_per_triangle", to_json(g.per_tri[1])},
+                          {"sw_over_hw", to_json(g.sw_over_hw)},
+                          {"cpu_auto_seconds_per_triangle", to_json(per_tri[2])},
+                          {"ids_differing_pixels", g.hw_rule_failures},
+                          {"depth_or_id_differing_pixels", g.hw_pixels_differing}});
+      for (int m = 0; m < kGpuModes; ++m) {
+        gpu_series[m].x.push_back(size);
+        gpu_series[m].y.push_back(g.per_tri[m].median);
+        gpu_series[m].y_low.push_back(g.per_tri[m].min);
+        gpu_series[m].y_high.push_back(g.per_tri[m].max);
+      }
+      gpu_series[2].x.push_back(size);
+      gpu_series[2].y.push_back(per_tri[2].median);
+      gpu_series[2].y_low.push_back(per_tri[2].min);
+      gpu_series[2].y_high.push_back(per_tri[2].max);
+      hw_over_sw.push_back(1.0 / g.sw_over_hw.median);
+      if (size == 1) sw_over_hw_at_1px = g.sw_over_hw.median;
+    }
     progress.advance();
   }
   // The knee: the smallest size from which scanline stays clearly faster at every larger size
@@ -203,6 +305,38 @@ void run_raster_suite(const BenchConfig& cfg, SuiteReport& out) {
                                       "at this and every larger size) from triangle legs of " + fmt(crossover) + " px."
                                     : "Scanline was not faster than the micropoly loop at any measured size.");
 
+  if (gpu.gpu) {
+    // Crossover: the smallest size from which the hardware path is clearly faster (median
+    // per-repetition HW/SW < 0.95) at this and every larger size; the auto rule's threshold
+    // is the area of that right triangle (leg² / 2).
+    constexpr double kClearlyFasterGpu = 0.95;
+    double hw_from = -1;
+    for (size_t i = hw_over_sw.size(); i-- > 0;) {
+      if (!(hw_over_sw[i] < kClearlyFasterGpu)) break;
+      hw_from = sizes[i];
+    }
+    out.tables.push_back(gt);
+    out.data["gpu"] = {{"device", gpu.gpu->device_name}, {"clusters_per_sample", kGpuClusters},
+                       {"rows", gpu_rows}, {"hardware_faster_from_size_px", hw_from},
+                       {"sw_over_hw_at_1px", sw_over_hw_at_1px},
+                       {"auto_threshold_area_px", hw_from > 0 ? hw_from * hw_from / 2 : -1},
+                       {"committed_auto_threshold_area_px", kAutoHwMinTriangleAreaPx}};
+    out.notes.push_back(
+        "GPU: " + std::to_string(kGpuClusters * kTrianglesPerCluster) +
+        " triangles per sample, GPU timestamps of the raster passes (split + compute SW or hardware draw), " +
+        std::to_string(reps) + " interleaved repetitions. " +
+        (hw_from > 0 ? "The hardware path is clearly faster (HW/SW < 0.95) from legs of " + fmt(hw_from) +
+                           " px (area " + fmt(hw_from * hw_from / 2) + " px²): the auto rule's threshold "
+                           "(kAutoHwMinTriangleAreaPx, committed " + fmt(kAutoHwMinTriangleAreaPx) + " px²)."
+                     : std::string("The hardware path was not clearly faster at any measured size.")) +
+        (sw_over_hw_at_1px > 0 ? " SW/HW at 1-px legs: " + fmt(sw_over_hw_at_1px) + " (below 1: SW faster)." : ""));
+    add_plot(out, cfg, "raster_gpu_time_per_triangle.svg",
+             Plot{"GPU rasterizers: time per triangle", "triangle leg length (px)", "seconds per triangle", true, true,
+                  gpu_series},
+             "Compute SW vs hardware pipeline (GPU timestamps) and the CPU auto path, per triangle");
+  } else {
+    out.notes.push_back("GPU paths not measured: " + gpu.unavailable);
+  }
   add_plot(out, cfg, "raster_time_per_triangle.svg",
            Plot{"Rasterizer: time per triangle", "triangle leg length (px)", "seconds per triangle", true, true,
                 time_series},

@@ -6,42 +6,6 @@
 #include "vgeo/mesh/generate.h"
 
 namespace vgeo::bench {
-namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-
-void append_sphere(Mesh& m, uint32_t triangles, Vec3 center, Vec3 radii) {
-  // A UV sphere with segments = 2 * rings has ~4 rings^2 triangles.
-  uint32_t rings = std::max(3u, uint32_t(std::lround(std::sqrt(double(triangles) / 4.0))));
-  uint32_t segments = 2 * rings;
-  uint32_t base = uint32_t(m.vertex_count());
-  auto add = [&](double th, double ph) {
-    double x = std::sin(th) * std::cos(ph), y = std::sin(th) * std::sin(ph), z = std::cos(th);
-    m.positions.insert(m.positions.end(), {center.x + float(radii.x * x), center.y + float(radii.y * y),
-                                           center.z + float(radii.z * z)});
-    // Normal of an ellipsoid: gradient of the implicit function.
-    Vec3 n{float(x / radii.x), float(y / radii.y), float(z / radii.z)};
-    float l = length(n);
-    m.normals.insert(m.normals.end(), {n.x / l, n.y / l, n.z / l});
-    m.uvs.insert(m.uvs.end(), {float(ph / (2 * kPi)), float(th / kPi)});
-  };
-  add(0, 0);
-  for (uint32_t r = 1; r < rings; ++r)
-    for (uint32_t s = 0; s < segments; ++s) add(kPi * r / rings, 2 * kPi * s / segments);
-  add(kPi, 0);
-  uint32_t south = uint32_t(m.vertex_count() - 1);
-  auto ring = [&](uint32_t r, uint32_t s) { return base + 1 + (r - 1) * segments + (s % segments); };
-  for (uint32_t s = 0; s < segments; ++s) m.indices.insert(m.indices.end(), {base, ring(1, s), ring(1, s + 1)});
-  for (uint32_t r = 1; r + 1 < rings; ++r)
-    for (uint32_t s = 0; s < segments; ++s) {
-      uint32_t a = ring(r, s), b = ring(r, s + 1), c = ring(r + 1, s), d = ring(r + 1, s + 1);
-      m.indices.insert(m.indices.end(), {a, c, d, a, d, b});
-    }
-  for (uint32_t s = 0; s < segments; ++s)
-    m.indices.insert(m.indices.end(), {south, ring(rings - 1, s + 1), ring(rings - 1, s)});
-}
-
-}  // namespace
 
 const char* shape_name(Shape s) {
   switch (s) {
@@ -68,9 +32,17 @@ Mesh make_shape(Shape shape, uint32_t triangles, uint64_t seed) {
 }
 
 Mesh make_ellipsoid(uint32_t triangles, float thickness) {
-  Mesh m;
+  // lib/vgeo/mesh's UV sphere (segments = 2 * rings: ~4 rings^2 triangles) squashed along z.
+  const uint32_t rings = std::max(3u, uint32_t(std::lround(std::sqrt(double(triangles) / 4.0))));
+  Mesh m = make_uv_sphere(rings, 2 * rings);
   m.name = "ellipsoid";
-  append_sphere(m, triangles, {}, {1, 1, thickness});
+  for (size_t v = 0; v < m.vertex_count(); ++v) {
+    m.positions[3 * v + 2] *= thickness;
+    // Normal of an ellipsoid: gradient of the implicit function, from the sphere's normal.
+    Vec3 n{m.normals[3 * v], m.normals[3 * v + 1], m.normals[3 * v + 2] / thickness};
+    const float l = length(n);
+    for (int k = 0; k < 3; ++k) m.normals[3 * v + size_t(k)] = n[k] / l;
+  }
   return m;
 }
 

@@ -15,7 +15,7 @@ const char* shape_name(Shape s);
 // generate_mesh() of the shape with about `triangles` triangles.
 Mesh make_shape(Shape shape, uint32_t triangles, uint64_t seed);
 
-// A UV ellipsoid with radii (1, 1, thickness): thickness 1e-3 makes a sliver-heavy shell.
+// A UV ellipsoid with radii (1, 1, thickness), no uvs: thickness 1e-3 makes a sliver-heavy shell.
 Mesh make_ellipsoid(uint32_t triangles, float thickness);
 
 // `mesh` plus degenerate input: every `every`-th triangle gets a zero-area twin (two equal

@@ -109,7 +109,18 @@ void add_build_command(CLI::App& app, Context& ctx) {
     write_asset_file(args->output, built, kind, format_options, &format_report);
     const double seconds_write = seconds_since(t_write);
     if (kind == AssetFileKind::kPages)
+    {
       std::printf("wrote %s: page format, %zu pages\n", args->output.c_str(), format_report.pages.size());
+      // Quantization per mesh (spec/format.md §2): the steps chosen and the error they cause.
+      for (size_t i = 0; i < format_report.meshes.size(); ++i) {
+        const FormatReport::MeshQuantizationReport& m = format_report.meshes[i];
+        std::printf("  mesh %zu quantization: position step 2^%d (max error %.3g)", i, m.quantization.position_step_log2,
+                    m.position_max_error);
+        if (m.quantization.has_uvs)
+          std::printf(", uv step 2^%d (max error %.3g)", m.quantization.uv_step_log2, m.uv_max_error);
+        std::printf("\n");
+      }
+    }
     for (size_t i = 0; i < reports.size(); ++i)
       std::fputs(build_report_summary(scene.meshes[i].name.empty() ? std::to_string(i) : scene.meshes[i].name, reports[i])
                      .c_str(),
@@ -126,6 +137,13 @@ void add_build_command(CLI::App& app, Context& ctx) {
       for (size_t i = 0; i < reports.size(); ++i) {
         nlohmann::json m = report_json(reports[i]);
         m["name"] = scene.meshes[i].name;
+        if (i < format_report.meshes.size()) {
+          const FormatReport::MeshQuantizationReport& q = format_report.meshes[i];
+          m["quantization"] = {{"position_step_log2", q.quantization.position_step_log2},
+                               {"position_max_error", q.position_max_error},
+                               {"uv_step_log2", q.quantization.uv_step_log2},
+                               {"uv_max_error", q.uv_max_error}};
+        }
         j["meshes"].push_back(m);
       }
       write_file_atomic(args->report, j.dump(2) + "\n");

@@ -2,7 +2,23 @@
 // (spec/conform.md). Each subcommand lives in its own cmd_conform_*.cpp.
 #include "conform.h"
 
+#include "vgeo/core/error.h"
+#include "vgeo/core/file_io.h"
+
 namespace vgeo::cli {
+
+std::vector<uint8_t> read_conform_file(const std::string& path, uint64_t max_bytes, const std::string& what) {
+  try {
+    return read_file(path, max_bytes);
+  } catch (const VgeoError& e) {
+    fail("CONFORM_IO", path, "cannot read " + what + " (" + e.error().code + ": " + e.error().what + ")", e.error().exit_code);
+  }
+}
+
+std::string read_conform_text(const std::string& path, const std::string& what) {
+  const std::vector<uint8_t> bytes = read_conform_file(path, kMaxConformTextBytes, what);
+  return std::string(bytes.begin(), bytes.end());
+}
 
 void add_conform_command(CLI::App& app, Context& ctx) {
   auto* cmd = app.add_subcommand("conform", "check another implementation against vgeo's conformance vectors");

@@ -4,7 +4,6 @@
 // spec/stream.md §Cut) so a corrupted vector cannot pass silently.
 #include <algorithm>
 #include <cstdio>
-#include <fstream>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -44,9 +43,7 @@ struct ConformLodArgs {
 
 std::vector<LodVector> load_vectors(const std::string& dir) {
   const std::string path = dir + "/manifest.json";
-  std::ifstream f(path, std::ios::binary);
-  if (!f) fail("CONFORM_IO", path, "cannot read the vector manifest", kExitIo);
-  nlohmann::json m = nlohmann::json::parse(f, nullptr, false);
+  nlohmann::json m = nlohmann::json::parse(read_conform_text(path, "the vector manifest"), nullptr, false);
   if (m.is_discarded() || !m.is_object() || m.value("format", "") != "vgeo-lod-vectors" || m.value("version", 0) != 1 ||
       !m.contains("dag") || !m["dag"].is_string() || !m.contains("vectors") || !m["vectors"].is_array())
     bad_vector(path, "not a vgeo-lod-vectors version 1 manifest");
@@ -90,8 +87,7 @@ std::vector<LodVector> load_vectors(const std::string& dir) {
 // The selections file (spec/conform.md §3.2): `NAME: id id ...` per line, `#` comments.
 std::map<std::string, std::vector<uint32_t>> load_selections(const std::string& path,
                                                              const std::vector<LodVector>& vectors) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) fail("CONFORM_IO", path, "cannot read the selections file", kExitIo);
+  std::istringstream f(read_conform_text(path, "the selections file"));
   std::map<std::string, std::vector<uint32_t>> out;
   std::string line;
   for (size_t number = 1; std::getline(f, line); ++number) {

@@ -3,15 +3,8 @@
 // writes a deterministic procedural mesh (lib/vgeo/mesh/generate.h), optionally densified by
 // Loop subdivision (lib/vgeo/mesh/subdivide.h). Same arguments -> byte-identical file.
 //
-// --input goes through import_scene (lib/vgeo/mesh/import.h: glTF + OBJ/PLY/OFF/STL, validated,
-// welded) when that header is present; until it is merged, through the OpenMesh stopgap
-// read_mesh_openmesh (OBJ/PLY/OFF/STL, positions + triangles only).
-#if __has_include("vgeo/mesh/import.h")
-#include "vgeo/mesh/import.h"
-#define VGEO_GEN_HAS_IMPORT 1
-#else
-#define VGEO_GEN_HAS_IMPORT 0
-#endif
+// --input goes through import_scene (lib/vgeo/mesh/import.h: glTF + OBJ/PLY/OFF/STL by vgeo's
+// own readers, validated, welded), like every other command reading a mesh.
 #include <chrono>
 #include <cstdio>
 #include <string>
@@ -20,6 +13,7 @@
 #include "vgeo/core/error.h"
 #include "vgeo/mesh/export.h"
 #include "vgeo/mesh/generate.h"
+#include "vgeo/mesh/import.h"
 #include "vgeo/mesh/subdivide.h"
 
 namespace vgeo::cli {
@@ -50,15 +44,9 @@ void run_gen(const GenArgs& a) {
   std::string what;
   if (!a.input.empty()) {
     if (!a.shape.empty()) fail("GEN_SHAPE_AND_INPUT", "vgeo gen", "give either SHAPE or --input, not both", kExitUsage);
-#if VGEO_GEN_HAS_IMPORT
     ImportOptions import_options;
     import_options.weld = true;  // Loop needs shared vertices, not per-corner copies
     scene = import_scene(a.input, import_options).scene;
-#else
-    scene.meshes.push_back(read_mesh_openmesh(a.input));
-    scene.materials.push_back(Material{"default", {0.8f, 0.8f, 0.8f, 1.0f}});
-    scene.instances.push_back(Instance{});
-#endif
     what = "input=" + a.input;
   } else {
     if (a.shape.empty()) fail("GEN_NO_SHAPE", "vgeo gen", "missing SHAPE (one of " + shape_list() + ") or --input", kExitUsage);
@@ -100,7 +88,7 @@ void add_gen_command(CLI::App& app, Context& ctx) {
       ->check(CLI::Range(0u, 8u));
   cmd->add_option("--threads,-j", args->threads, "threads for generation (0 = all cores; output is identical)")
       ->capture_default_str();
-  cmd->add_option("--input,-i", args->input, "densify this mesh file (OBJ/PLY/OFF/STL; glTF once import.h is merged) instead of generating");
+  cmd->add_option("--input,-i", args->input, "densify this mesh file (glTF/GLB/OBJ/PLY/OFF/STL) instead of generating");
   cmd->add_option("-o,--output", args->output, "output file: .glb, .obj, .ply or .off")->required();
   cmd->callback([args, &ctx] {
     run_gen(*args);

@@ -26,7 +26,7 @@ struct RenderArgs {
   uint32_t save_every = 0, stream_issues = 8;
   bool stream_sync = false;
   // Backends (spec/gpu.md): any of these selects the backend runner (decoded memory form).
-  std::string backend, compare, device, diff_png, traversal;
+  std::string backend, compare, device, diff_png, traversal, raster;
   bool validate = false;
 };
 
@@ -47,6 +47,12 @@ void run_backend_command(const RenderArgs& args, const RenderRequest& request, S
   else if (args.traversal == "persistent") br.traversal = GpuTraversal::kPersistent;
   else if (!args.traversal.empty())
     fail("RENDER_BAD_OPTION", "vgeo render", "--traversal must be level or persistent", kExitUsage);
+  if (!args.raster.empty()) {
+    if (!parse_gpu_raster_mode(args.raster, &br.raster))
+      fail("RENDER_BAD_OPTION", "vgeo render", "--raster must be sw, hw or auto", kExitUsage);
+    if (br.backend != Backend::kVulkan)
+      fail("RENDER_BAD_OPTION", "vgeo render", "--raster needs --backend vulkan", kExitUsage);
+  }
   br.gpu.device = args.device;
   br.gpu.validate = args.validate;
   br.threads = request.threads;
@@ -63,11 +69,7 @@ void run_backend_command(const RenderArgs& args, const RenderRequest& request, S
                                        : load_scene_file(args.scene, options);
   if (!args.camera_path.empty()) scene.path = load_camera_path_file(args.camera_path, scene.cameras[0]);
   BackendRunReport report = run_backend(scene, br);
-  if (!args.json_file.empty()) {
-    std::ofstream f(args.json_file, std::ios::binary | std::ios::trunc);
-    f << report.json() << "\n";
-    if (!f) fail("IO_WRITE_FAILED", args.json_file, "cannot write", kExitIo);
-  }
+  if (!args.json_file.empty()) write_file_atomic(args.json_file, report.json() + "\n");
   std::printf("%s", (args.json ? report.json() + "\n" : report.table()).c_str());
   if (!report.validation_messages.empty())
     fail("GPU_VALIDATION", "vulkan",
@@ -124,6 +126,9 @@ void add_render_command(CLI::App& app, Context& ctx) {
                                               "(spec/raster.md; exit 1 when the rule fails)");
   cmd->add_option("--traversal", args->traversal,
                   "level|persistent: the Vulkan cull's BVH traversal (default: level, spec/raster.md §12)");
+  cmd->add_option("--raster", args->raster,
+                  "sw|hw|auto: with --backend vulkan, the compute rasterizer, the hardware pipeline, or per cluster by "
+                  "projected triangle size (spec/raster.md §13; default sw)");
   cmd->add_option("--diff-png", args->diff_png, "with --compare: PNG of the last frame's differences");
   cmd->add_option("--device", args->device, "Vulkan device: index or name substring (default: lavapipe; env VGEO_VK_DEVICE)");
   cmd->add_flag("--validate", args->validate, "enable the Vulkan validation layer; any message fails (env VGEO_VK_VALIDATE=1)");
@@ -172,7 +177,7 @@ void add_render_command(CLI::App& app, Context& ctx) {
     std::string cache = args->no_cache ? "" : (args->cache_dir.empty() ? default_cache_dir() : args->cache_dir);
     if (!args->traversal.empty() && args->backend.empty() && args->compare.empty())
       fail("RENDER_BAD_OPTION", "vgeo render", "--traversal needs --backend vulkan", kExitUsage);
-    if (!args->backend.empty() || !args->compare.empty()) {
+    if (!args->backend.empty() || !args->compare.empty() || !args->raster.empty()) {
       if (args->scene.empty() && options.stream) bad_stream_option("--stream-budget needs a scene file");
       run_backend_command(*args, request, options, cache, ctx);
       return;

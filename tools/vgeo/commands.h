@@ -19,5 +19,6 @@ void add_bench_command(CLI::App& app, Context& ctx);
 void add_demo_command(CLI::App& app, Context& ctx);
 void add_compare_command(CLI::App& app, Context& ctx);
 void add_conform_command(CLI::App& app, Context& ctx);
+void add_vectors_command(CLI::App& app, Context& ctx);
 
 }  // namespace vgeo::cli

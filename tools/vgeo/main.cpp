@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   vgeo::cli::add_demo_command(app, ctx);
   vgeo::cli::add_compare_command(app, ctx);
   vgeo::cli::add_conform_command(app, ctx);
+  vgeo::cli::add_vectors_command(app, ctx);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -32,8 +32,14 @@ inline float projected_error(const Sphere& bounds, float error, const LodView& v
 // Draw a cluster iff its parent is too coarse and it is fine enough (Nanite's local cut),
 // on already projected errors: the one cut predicate (lod_selects, lib/vgeo/verify, the
 // resident rule of spec/stream.md §Cut).
+// Its two halves are named so the verifier's sibling checks (every member of a group decides
+// the parent test alike, every generated cluster the lod test alike) use the same comparisons.
+inline bool parent_too_coarse(float projected_parent_px, float threshold_px) {
+  return projected_parent_px > threshold_px;
+}
+inline bool fine_enough(float projected_lod_px, float threshold_px) { return projected_lod_px <= threshold_px; }
 inline bool cut_selects(float projected_parent_px, float projected_lod_px, float threshold_px) {
-  return projected_parent_px > threshold_px && projected_lod_px <= threshold_px;
+  return parent_too_coarse(projected_parent_px, threshold_px) && fine_enough(projected_lod_px, threshold_px);
 }
 
 inline bool lod_selects(const Sphere& lod_bounds, float lod_error, const Sphere& parent_bounds,

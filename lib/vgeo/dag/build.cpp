@@ -256,6 +256,46 @@ void for_each_key_of_sorted_pairs(const std::vector<std::pair<uint64_t, uint32_t
   }
 }
 
+}  // namespace
+
+// Before any block task runs (spec/dag.md §2.3 Locks): the first block to claim a vertex
+// owns it, any other locks it, so `locked` does not depend on the order of the claims.
+std::vector<uint64_t> build_detail::lock_cross_block_vertices(const WeldedMesh& welded,
+                                                              const std::vector<const TriangleSet*>& clusters,
+                                                              const std::vector<uint32_t>& block_of, ThreadPool& pool,
+                                                              std::vector<uint32_t>& owner,
+                                                              std::vector<uint8_t>& locked) {
+  pool.parallel_for(clusters.size(), [&](size_t i) {
+    for (uint32_t v : clusters[i]->corners) {
+      uint32_t w = welded.weld[v], expected = kNone;
+      if (!std::atomic_ref<uint32_t>(owner[w]).compare_exchange_strong(expected, block_of[i],
+                                                                        std::memory_order_relaxed) &&
+          expected != block_of[i])
+        std::atomic_ref<uint8_t>(locked[w]).store(1, std::memory_order_relaxed);
+    }
+  });
+  std::vector<std::vector<uint64_t>> per_cluster(clusters.size());
+  pool.parallel_for(clusters.size(), [&](size_t i) {
+    const TriangleSet& t = *clusters[i];
+    for (uint32_t v : t.corners) std::atomic_ref<uint32_t>(owner[welded.weld[v]]).store(kNone, std::memory_order_relaxed);
+    for_each_welded_edge(welded, t.corners, [&](uint32_t a, uint32_t b) {
+      if (a != b && locked[a] && locked[b]) per_cluster[i].push_back(edge_key(a, b));
+    });
+  });
+  // (edge, block) pairs; an edge used by two blocks is shared.
+  std::vector<std::pair<uint64_t, uint32_t>> candidates;
+  for (size_t i = 0; i < clusters.size(); ++i)
+    for (uint64_t e : per_cluster[i]) candidates.push_back({e, block_of[i]});
+  std::sort(candidates.begin(), candidates.end());
+  std::vector<uint64_t> cross_edges;
+  for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
+    if (shared) cross_edges.push_back(e);
+  });
+  return cross_edges;
+}
+
+namespace {
+
 // ---- build state: what the phases of spec/dag.md §2 share ----
 
 // Per-task scratch arrays (vertex_count entries, kept all-kNone between uses) from a small
@@ -419,40 +459,13 @@ void plan_blocks(BuildState& s, LevelState& L) {
   }
   const size_t block_count = L.blocks.size();
   assert(block_count < (size_t(1) << 16));
-  // Cross-block locks and edges (only with several blocks): the first block to claim a
-  // vertex owns it, any other locks it, so `locked` does not depend on the order.
   if (block_count > 1) {
-    std::vector<uint32_t>& owner = s.locks.owner;
-    std::vector<uint8_t>& locked = s.locks.locked;
     std::vector<uint32_t> block_of(active.size());
     for (size_t b = 0; b < block_count; ++b)
       for (uint32_t i : L.blocks[b].items) block_of[i] = uint32_t(b);
-    s.pool.parallel_for(active.size(), [&](size_t i) {
-      for (uint32_t v : s.clusters[active[i]].triangles.corners) {
-        uint32_t w = s.welded.weld[v], expected = kNone;
-        if (!std::atomic_ref<uint32_t>(owner[w]).compare_exchange_strong(expected, block_of[i],
-                                                                          std::memory_order_relaxed) &&
-            expected != block_of[i])
-          std::atomic_ref<uint8_t>(locked[w]).store(1, std::memory_order_relaxed);
-      }
-    });
-    std::vector<std::vector<uint64_t>> per_cluster(active.size());
-    s.pool.parallel_for(active.size(), [&](size_t i) {
-      const TriangleSet& t = s.clusters[active[i]].triangles;
-      for (uint32_t v : t.corners)
-        std::atomic_ref<uint32_t>(owner[s.welded.weld[v]]).store(kNone, std::memory_order_relaxed);
-      for_each_welded_edge(s.welded, t.corners, [&](uint32_t a, uint32_t b) {
-        if (a != b && locked[a] && locked[b]) per_cluster[i].push_back(edge_key(a, b));
-      });
-    });
-    // (edge, block) pairs; an edge used by two blocks is shared.
-    std::vector<std::pair<uint64_t, uint32_t>> candidates;
-    for (size_t i = 0; i < active.size(); ++i)
-      for (uint64_t e : per_cluster[i]) candidates.push_back({e, block_of[i]});
-    std::sort(candidates.begin(), candidates.end());
-    for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
-      if (shared) L.cross_edges.push_back(e);
-    });
+    std::vector<const TriangleSet*> sets(active.size());
+    for (size_t i = 0; i < active.size(); ++i) sets[i] = &s.clusters[active[i]].triangles;
+    L.cross_edges = lock_cross_block_vertices(s.welded, sets, block_of, s.pool, s.locks.owner, s.locks.locked);
   }
   L.seconds_cross = now_seconds() - t0;
 }
@@ -526,7 +539,8 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   size_t before = merged.triangle_count(), after = simplified.triangles.triangle_count();
   bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
   bool sealed = enough && locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked,
-                                                  blk.shared_edges);
+                                                  blk.shared_edges) &&
+                !simplification_folds(s.welded, merged, simplified.triangles);
   const double tm = now_seconds();
   r.seconds_simplify = tm - ts;
   if (!sealed) return;

@@ -1,12 +1,15 @@
 #pragma once
 // Internal pieces of the DAG builder (lib/vgeo/dag), shared by its .cpp files and its tests.
 // Not a public API: names and signatures may change with the builder.
+#include <metis.h>
+
 #include <cstdint>
 #include <mutex>
 #include <vector>
 
 #include "vgeo/dag/build.h"
 #include "vgeo/core/math.h"
+#include "vgeo/core/thread_pool.h"
 #include "vgeo/mesh/mesh.h"
 
 namespace vgeo::build_detail {
@@ -62,6 +65,14 @@ struct TriangleSet {
   size_t triangle_count() const { return materials.size(); }
 };
 
+// Degenerate triangle (spec/dag.md §2.2): two corners share a welded position, or its height
+// over its longest edge is below kDegenerateRelativeHeight (collinear up to the float rounding
+// of its coordinates: 2^-20 is 16 ulps). It has no area and no direction: the clusterizer
+// places such triangles badly and the simplifier misreads them (a repeated-corner triangle
+// closes a border edge, a sliver's vertex copies look like seams).
+inline constexpr double kDegenerateRelativeHeight = 1.0 / (1 << 20);
+bool is_degenerate(const WeldedMesh& welded, const uint32_t* corners);
+
 // Splits triangles into clusters of ≤ kMaxClusterTriangles triangles and
 // ≤ kMaxClusterVertices original vertices. Deterministic. `scratch` must have
 // weld.size() entries, all kNone, and is returned in that state.
@@ -82,6 +93,14 @@ std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const Triang
 // recursive median split along the largest extent, ties by index. Each block's indices are
 // ascending; blocks are in split order (lower half first). Deterministic.
 std::vector<std::vector<uint32_t>> spatial_blocks(const std::vector<Vec3>& centres, size_t max_items);
+
+// The locks of a level with several spatial blocks, before any block task runs: locks
+// (locked[w] = 1) every welded vertex used by clusters of two blocks (block_of[i] = block of
+// clusters[i]) and returns the sorted welded edges used by two blocks. `owner` (weld.size()
+// entries, all kNone) is scratch, returned all kNone. Same result for any thread count.
+std::vector<uint64_t> lock_cross_block_vertices(const WeldedMesh& welded, const std::vector<const TriangleSet*>& clusters,
+                                                const std::vector<uint32_t>& block_of, ThreadPool& pool,
+                                                std::vector<uint32_t>& owner, std::vector<uint8_t>& locked);
 
 // Knobs for measuring alternatives (benchmarks, tests); build_dag uses the defaults.
 struct InternalBuildOptions {
@@ -110,6 +129,11 @@ float simplification_error(const Mesh& mesh, const TriangleSet& input, const Tri
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
                               const std::vector<uint8_t>& locked, Simplifier simplifier);
 
+// True when `after` uses some welded edge more than twice (three or more of its triangles on
+// one edge: a fold) and an odd number of times more or fewer than `before` does: a change of
+// that edge's parity, a crack to `vgeo verify` (spec/dag.md §2.3).
+bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after);
+
 // True when every locked welded vertex of `before` is used by `after` and every welded edge
 // of `before` listed in `shared_edges` (sorted edge keys of edges also used outside the
 // group) is an edge of `after`.
@@ -129,6 +153,12 @@ void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, u
 // Every METIS call holds this lock: GKlib's random state is process-global, so concurrent
 // calls would make results depend on timing (and would race).
 std::mutex& metis_mutex();
+// The options of every METIS call: defaults, the fixed seed (determinism), C numbering.
+inline void set_metis_options(idx_t (&options)[METIS_NOPTIONS]) {
+  METIS_SetDefaultOptions(options);
+  options[METIS_OPTION_SEED] = kMetisSeed;
+  options[METIS_OPTION_NUMBERING] = 0;
+}
 
 inline uint64_t edge_key(uint32_t a, uint32_t b) {
   return a < b ? (uint64_t(a) << 32) | b : (uint64_t(b) << 32) | a;

@@ -3,6 +3,7 @@
 #include <metis.h>
 
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <cstring>
 #include <mutex>
@@ -314,9 +315,7 @@ void bisect_metis(const TriangleSet& tris, const std::vector<uint32_t>& local, s
   std::vector<idx_t> part(n, 0);
   idx_t nvtxs = idx_t(n), ncon = 1, nparts = 2, objval = 0;
   idx_t options[METIS_NOPTIONS];
-  METIS_SetDefaultOptions(options);
-  options[METIS_OPTION_SEED] = kMetisSeed;
-  options[METIS_OPTION_NUMBERING] = 0;
+  set_metis_options(options);
   int rc;
   {
     std::lock_guard<std::mutex> lock(metis_mutex());
@@ -354,7 +353,213 @@ std::vector<TriangleSet> split_metis(const WeldedMesh& welded, const TriangleSet
   return out;
 }
 
+std::vector<TriangleSet> split_proper(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch,
+                                      SplitMethod method) {
+  return method == SplitMethod::kMetis ? split_metis(welded, tris, scratch) : split_meshopt(welded, tris, scratch);
+}
+
+// Emits triangles [begin, end) of `tris` (`ids` = identity order) as emit_cluster does, but
+// bisects at the unit start (`units`, ascending: a proper triangle followed by the degenerate
+// ones placed with it) nearest the middle, so a unit stays in one piece.
+void emit_units(const TriangleSet& tris, const uint32_t* ids, size_t begin, size_t end,
+                const std::vector<uint32_t>& units, std::vector<uint32_t>& scratch, std::vector<TriangleSet>& out) {
+  uint32_t unique = 0;
+  for (size_t i = begin; i < end; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t v = tris.corners[3 * ids[i] + k];
+      if (scratch[v] == kNone) scratch[v] = 0, ++unique;
+    }
+  for (size_t i = begin; i < end; ++i)
+    for (int k = 0; k < 3; ++k) scratch[tris.corners[3 * ids[i] + k]] = kNone;
+  const auto lo = std::upper_bound(units.begin(), units.end(), uint32_t(begin));
+  const auto hi = std::lower_bound(lo, units.end(), uint32_t(end));
+  if ((end - begin <= kMaxClusterTriangles && unique <= kMaxClusterVertices) || lo == hi) {
+    emit_cluster(tris, ids + begin, end - begin, scratch, out);
+    return;
+  }
+  const uint32_t middle = uint32_t(begin + (end - begin) / 2);
+  auto cut = std::lower_bound(lo, hi, middle);
+  if (cut == hi || (cut != lo && middle - *(cut - 1) < *cut - middle)) --cut;
+  emit_units(tris, ids, begin, *cut, units, scratch, out);
+  emit_units(tris, ids, *cut, end, units, scratch, out);
+}
+
+// Adds each degenerate triangle (`ids` into `tris`, ascending) to the first cluster (in
+// cluster order) that uses every one of its welded positions that proper triangles use, right
+// after that cluster's first triangle at one of them; a cluster that grows past the limits is
+// bisected in that order (emit_cluster), so the pieces stay local. A degenerate triangle
+// placed elsewhere would bring a position into a group that does not otherwise use it: locked
+// there, and lost when the simplifier drops the degenerate triangle (a stuck group). Those
+// no cluster holds entirely are clustered among themselves. Output: `clusters` in order
+// (grown ones replaced by their pieces), then the clusters of those left over.
+std::vector<TriangleSet> attach_degenerate(const WeldedMesh& welded, const TriangleSet& tris,
+                                           const std::vector<uint32_t>& ids, std::vector<TriangleSet> clusters,
+                                           std::vector<uint32_t>& scratch, SplitMethod method) {
+  constexpr uint32_t kWanted = 0, kSeen = 1;  // scratch marks: a degenerate's position (seen in this cluster)
+  std::vector<uint32_t> wanted;
+  for (uint32_t id : ids)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t w = welded.weld[tris.corners[3 * size_t(id) + k]];
+      if (scratch[w] == kNone) scratch[w] = kWanted, wanted.push_back(w);
+    }
+  // (position, cluster, first triangle of the cluster at that position), sorted.
+  std::vector<std::array<uint32_t, 3>> uses;
+  for (size_t c = 0; c < clusters.size(); ++c) {
+    const size_t first_use = uses.size();
+    for (size_t i = 0; i < clusters[c].corners.size(); ++i) {
+      const uint32_t w = welded.weld[clusters[c].corners[i]];
+      if (scratch[w] != kWanted) continue;
+      scratch[w] = kSeen;
+      uses.push_back({w, uint32_t(c), uint32_t(i / 3)});
+    }
+    for (size_t u = first_use; u < uses.size(); ++u) scratch[uses[u][0]] = kWanted;
+  }
+  for (uint32_t w : wanted) scratch[w] = kNone;
+  std::sort(uses.begin(), uses.end());
+  auto uses_of = [&](uint32_t w) {
+    auto lo = std::lower_bound(uses.begin(), uses.end(), std::array<uint32_t, 3>{w, 0, 0});
+    auto hi = std::lower_bound(lo, uses.end(), std::array<uint32_t, 3>{w + 1, 0, 0});
+    return std::make_pair(lo, hi);
+  };
+  // Per cluster, the degenerates placed in it: (anchor triangle, index into ids). A position
+  // that only degenerate triangles use ties them to one place: the first one's (scratch[w] =
+  // index into `placements`), or the leftovers.
+  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> attached(clusters.size());
+  std::vector<std::pair<uint32_t, uint32_t>> placements;  // (cluster or kNone = leftover, anchor)
+  std::vector<uint32_t> tied;
+  TriangleSet leftover;
+  for (size_t d = 0; d < ids.size(); ++d) {
+    const uint32_t* corners = &tris.corners[3 * size_t(ids[d])];
+    uint32_t w[3];
+    bool used[3];
+    for (int k = 0; k < 3; ++k) {
+      w[k] = welded.weld[corners[k]];
+      used[k] = uses_of(w[k]).first != uses_of(w[k]).second;
+    }
+    // Where the tied positions already point (kNone: free).
+    uint32_t tie = kNone;
+    bool conflict = false;
+    for (int k = 0; k < 3; ++k)
+      if (!used[k] && scratch[w[k]] != kNone) {
+        if (tie != kNone && placements[tie] != placements[scratch[w[k]]]) conflict = true;
+        tie = scratch[w[k]];
+      }
+    const uint32_t tie_cluster = tie == kNone ? kNone : placements[tie].first;
+    uint32_t best_cluster = kNone, best_triangle = kNone;
+    int first = -1;
+    for (int k = 0; k < 3 && first < 0; ++k)
+      if (used[k]) first = k;
+    if (conflict || (tie != kNone && tie_cluster == kNone)) {
+      // tied to the leftovers
+    } else if (first < 0) {
+      if (tie != kNone) best_cluster = tie_cluster, best_triangle = placements[tie].second;
+    } else {
+      // Candidates: the clusters of a used position; each must hold the other used positions.
+      for (auto [it, end] = uses_of(w[first]); it != end && best_cluster == kNone; ++it) {
+        const uint32_t c = (*it)[1];
+        if (tie_cluster != kNone && c != tie_cluster) continue;
+        uint32_t anchor = (*it)[2];
+        bool holds_all = true;
+        for (int k = 0; k < 3 && holds_all; ++k) {
+          if (!used[k]) continue;
+          auto [lo, hi] = uses_of(w[k]);
+          auto at = std::lower_bound(lo, hi, std::array<uint32_t, 3>{w[k], c, 0});
+          holds_all = at != hi && (*at)[1] == c;
+          if (holds_all) anchor = std::min(anchor, (*at)[2]);
+        }
+        if (!holds_all) continue;
+        // Better: a triangle holding all of them (the proper side of a degenerate one's edge),
+        // so a bisection that keeps the two together keeps the positions in one piece.
+        const TriangleSet& cl = clusters[c];
+        for (size_t t = 0; t < cl.triangle_count(); ++t) {
+          bool all = true;
+          for (int k = 0; k < 3 && all; ++k) {
+            if (!used[k]) continue;
+            const uint32_t* tc = &cl.corners[3 * t];
+            all = welded.weld[tc[0]] == w[k] || welded.weld[tc[1]] == w[k] || welded.weld[tc[2]] == w[k];
+          }
+          if (all) {
+            anchor = uint32_t(t);
+            break;
+          }
+        }
+        best_cluster = c, best_triangle = anchor;
+      }
+    }
+    for (int k = 0; k < 3; ++k)
+      if (!used[k] && scratch[w[k]] == kNone) {
+        scratch[w[k]] = uint32_t(placements.size());
+        tied.push_back(w[k]);
+      }
+    placements.push_back({best_cluster, best_triangle});
+    if (best_cluster != kNone) {
+      attached[best_cluster].push_back({best_triangle, uint32_t(d)});
+    } else {
+      leftover.corners.insert(leftover.corners.end(), corners, corners + 3);
+      leftover.materials.push_back(tris.materials[ids[d]]);
+    }
+  }
+  for (uint32_t x : tied) scratch[x] = kNone;
+  std::vector<TriangleSet> out;
+  out.reserve(clusters.size() + 1);
+  std::vector<uint32_t> order, units;
+  for (size_t c = 0; c < clusters.size(); ++c) {
+    if (attached[c].empty()) {
+      out.push_back(std::move(clusters[c]));
+      continue;
+    }
+    std::stable_sort(attached[c].begin(), attached[c].end(),
+                     [](const auto& x, const auto& y) { return x.first < y.first; });
+    // The grown cluster as one triangle list (its triangles, each followed by its degenerates).
+    TriangleSet grown;
+    const TriangleSet& cl = clusters[c];
+    size_t next = 0;
+    auto append = [&](const uint32_t* corners, uint32_t material) {
+      grown.corners.insert(grown.corners.end(), corners, corners + 3);
+      grown.materials.push_back(material);
+    };
+    units.clear();
+    for (size_t t = 0; t < cl.triangle_count(); ++t) {
+      units.push_back(uint32_t(grown.triangle_count()));
+      append(&cl.corners[3 * t], cl.materials[t]);
+      for (; next < attached[c].size() && attached[c][next].first == t; ++next) {
+        const uint32_t id = ids[attached[c][next].second];
+        append(&tris.corners[3 * size_t(id)], tris.materials[id]);
+      }
+    }
+    order.resize(grown.triangle_count());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = uint32_t(i);
+    emit_units(grown, order.data(), 0, order.size(), units, scratch, out);
+  }
+  if (leftover.triangle_count() > 0)
+    for (TriangleSet& t : split_proper(welded, leftover, scratch, method)) out.push_back(std::move(t));
+  return out;
+}
+
 }  // namespace
+
+bool is_degenerate(const WeldedMesh& welded, const uint32_t* corners) {
+  const uint32_t a = welded.weld[corners[0]], b = welded.weld[corners[1]], c = welded.weld[corners[2]];
+  if (a == b || b == c || c == a) return true;
+  const Mesh& mesh = *welded.mesh;
+  double p[3][3];
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j) p[k][j] = mesh.positions[3 * size_t(corners[k]) + size_t(j)];
+  double e[3][3], longest2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    double l2 = 0;
+    for (int j = 0; j < 3; ++j) {
+      e[k][j] = p[(k + 1) % 3][j] - p[k][j];
+      l2 += e[k][j] * e[k][j];
+    }
+    longest2 = std::max(longest2, l2);
+  }
+  const double n[3] = {e[0][1] * e[2][2] - e[0][2] * e[2][1], e[0][2] * e[2][0] - e[0][0] * e[2][2],
+                       e[0][0] * e[2][1] - e[0][1] * e[2][0]};
+  // |n| = longest edge × height: height < h·longest  <=>  |n|^2 < h^2·longest^4.
+  const double n2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+  return n2 < kDegenerateRelativeHeight * kDegenerateRelativeHeight * longest2 * longest2;
+}
 
 std::mutex& metis_mutex() {
   static std::mutex m;
@@ -363,8 +568,28 @@ std::mutex& metis_mutex() {
 
 std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const TriangleSet& tris,
                                              std::vector<uint32_t>& scratch, SplitMethod method) {
-  if (tris.triangle_count() == 0) return {};
-  return method == SplitMethod::kMetis ? split_metis(welded, tris, scratch) : split_meshopt(welded, tris, scratch);
+  const size_t n = tris.triangle_count();
+  if (n == 0) return {};
+  // Degenerate triangles are left out of the clusterizer and attached afterwards: meshopt
+  // gathers them into clusters that span the mesh, whose positions then lock every group
+  // border (issue 15; spec/dag.md §2.2).
+  std::vector<uint32_t> degenerate;
+  for (size_t t = 0; t < n; ++t)
+    if (is_degenerate(welded, &tris.corners[3 * t])) degenerate.push_back(uint32_t(t));
+  if (degenerate.empty() || degenerate.size() == n) return split_proper(welded, tris, scratch, method);
+  TriangleSet proper;
+  proper.corners.reserve(3 * (n - degenerate.size()));
+  proper.materials.reserve(n - degenerate.size());
+  for (size_t t = 0, d = 0; t < n; ++t) {
+    if (d < degenerate.size() && degenerate[d] == t) {
+      ++d;
+      continue;
+    }
+    proper.corners.insert(proper.corners.end(), &tris.corners[3 * t], &tris.corners[3 * t] + 3);
+    proper.materials.push_back(tris.materials[t]);
+  }
+  std::vector<TriangleSet> clusters = split_proper(welded, proper, scratch, method);
+  return attach_degenerate(welded, tris, degenerate, std::move(clusters), scratch, method);
 }
 
 }  // namespace vgeo::build_detail

@@ -179,9 +179,7 @@ std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const Triang
   std::vector<idx_t> part(n, 0);
   idx_t nvtxs = idx_t(n), ncon = 1, np = idx_t(nparts), objval = 0;
   idx_t options[METIS_NOPTIONS];
-  METIS_SetDefaultOptions(options);
-  options[METIS_OPTION_SEED] = kMetisSeed;
-  options[METIS_OPTION_NUMBERING] = 0;
+  set_metis_options(options);
   int rc;
   {
     std::lock_guard<std::mutex> lock(metis_mutex());

@@ -16,6 +16,7 @@
 #include "vgeo/dag/build_internal.h"
 #include "vgeo/dag/cluster_dag.h"
 #include "vgeo/core/surface_distance.h"
+#include "vgeo/mesh/openmesh_streams.h"
 
 namespace vgeo::build_detail {
 
@@ -203,6 +204,7 @@ double point_triangle_distance(const OpenMesh::Vec3d& p, const OpenMesh::Vec3d& 
 // Hausdorff distance at the input vertices), in object units.
 SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& group,
                                  const std::vector<uint8_t>& locked) {
+  silence_openmesh_streams();  // add_face reports complex edges on omerr
   const Mesh& mesh = *welded.mesh;
   size_t n = group.triangle_count();
   // Welded ids of the group, compacted in order of first use.
@@ -341,8 +343,80 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
 
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
                               const std::vector<uint8_t>& locked, Simplifier simplifier) {
-  if (simplifier == Simplifier::kOpenMesh) return simplify_openmesh(welded, group, locked);
-  return simplify_meshopt(welded, group);
+  // Triangles with a repeated welded position are left out (they cover no area and use each
+  // of their edges twice, so no edge's parity and no open edge changes): to meshopt such a
+  // triangle is the far side of a border edge, so locked border vertices would move, and
+  // OpenMesh refuses it and locks its corners. Each one lies in a cluster whose proper
+  // triangles use its positions (split_into_clusters), so leaving it out loses no locked
+  // position. Collinear slivers stay: dropping one would open its edges (spec/dag.md §2.3).
+  auto repeats_position = [&](size_t t) {
+    const uint32_t a = welded.weld[group.corners[3 * t]], b = welded.weld[group.corners[3 * t + 1]],
+                   c = welded.weld[group.corners[3 * t + 2]];
+    return a == b || b == c || c == a;
+  };
+  TriangleSet proper;
+  bool any_degenerate = false;
+  for (size_t t = 0; t < group.triangle_count() && !any_degenerate; ++t) any_degenerate = repeats_position(t);
+  if (any_degenerate)
+    for (size_t t = 0; t < group.triangle_count(); ++t)
+      if (!repeats_position(t)) {
+        proper.corners.insert(proper.corners.end(), &group.corners[3 * t], &group.corners[3 * t] + 3);
+        proper.materials.push_back(group.materials[t]);
+      }
+  const TriangleSet& input = any_degenerate ? proper : group;
+  if (input.triangle_count() == 0) return SimplifyResult{};
+  if (simplifier == Simplifier::kOpenMesh) return simplify_openmesh(welded, input, locked);
+  return simplify_meshopt(welded, input);
+}
+
+namespace {
+
+// Welded edge use counts of a triangle set: open addressing (load ≤ 1/2), keys edge_key(a, b).
+struct EdgeUses {
+  static constexpr uint64_t kEmpty = ~uint64_t(0);  // no edge key (a < b) equals it
+  std::vector<uint64_t> keys;
+  std::vector<uint32_t> uses;
+  int shift = 60;
+  explicit EdgeUses(size_t edges) {
+    size_t slots = 16;
+    while (slots < 2 * edges) slots <<= 1, --shift;
+    keys.assign(slots, kEmpty);
+    uses.assign(slots, 0);
+  }
+  size_t slot(uint64_t key) const {
+    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+    while (keys[h] != kEmpty && keys[h] != key) h = (h + 1) & (keys.size() - 1);
+    return h;
+  }
+  uint32_t add(uint64_t key) {
+    const size_t h = slot(key);
+    keys[h] = key;
+    return ++uses[h];
+  }
+  uint32_t count(uint64_t key) const {
+    const size_t h = slot(key);
+    return keys[h] == key ? uses[h] : 0;
+  }
+};
+
+}  // namespace
+
+bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after) {
+  constexpr uint32_t kManifoldUses = 2;  // an edge of a 2-manifold is used by at most 2 triangles
+  EdgeUses out(after.corners.size());
+  std::vector<uint64_t> folded;
+  for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
+    if (a != b && out.add(edge_key(a, b)) == kManifoldUses + 1) folded.push_back(edge_key(a, b));
+  });
+  if (folded.empty()) return false;
+  EdgeUses in(before.corners.size());
+  for_each_welded_edge(welded, before.corners, [&](uint32_t a, uint32_t b) {
+    if (a != b) in.add(edge_key(a, b));
+  });
+  // Only a fold that changes the edge's parity is a crack (four triangles on an edge pair up).
+  for (uint64_t key : folded)
+    if ((out.count(key) + in.count(key)) % 2 != 0) return true;
+  return false;
 }
 
 bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,

@@ -14,6 +14,7 @@
 #include "vgeo/core/byte_io.h"
 #include "vgeo/core/error.h"
 #include "vgeo/core/file_io.h"
+#include "vgeo/core/math.h"
 #include "vgeo/format/bitstream.h"
 #include "vgeo/format/crc32c.h"
 #include "vgeo/format/format.h"
@@ -69,7 +70,10 @@ constexpr size_t kHeaderVersion = 8, kHeaderHeaderSize = 12, kHeaderFileSize = 1
 
 bool is_pow2(uint32_t v) { return v && !(v & (v - 1)); }
 
-// ---- compression ----
+}  // namespace
+
+// ---- compression (declared in page_codec.h: the encoder, the decoder and format_edit.h) ----
+namespace format_detail {
 std::vector<uint8_t> compress(const std::vector<uint8_t>& raw, Compression c, int level) {
   std::vector<uint8_t> out;
   if (c == Compression::kNone) return raw;
@@ -115,17 +119,9 @@ void decompress(const uint8_t* src, size_t src_size, Compression c, uint8_t* dst
   if (size_t(n) != raw_size) fail(kErrDecompress, where, "lz4 output shorter than declared");
 }
 
-uint32_t morton3(uint32_t x, uint32_t y, uint32_t z) {
-  auto spread = [](uint32_t v) {
-    v &= 0x3FFu;
-    v = (v | (v << 16)) & 0x030000FFu;
-    v = (v | (v << 8)) & 0x0300F00Fu;
-    v = (v | (v << 4)) & 0x030C30C3u;
-    v = (v | (v << 2)) & 0x09249249u;
-    return v;
-  };
-  return spread(x) | (spread(y) << 1) | (spread(z) << 2);
-}
+}  // namespace format_detail
+
+namespace {
 
 int32_t choose_position_step(const ClusterDag& dag, const FormatOptions& o) {
   if (o.position_step_log2) return *o.position_step_log2;
@@ -159,6 +155,32 @@ int32_t choose_position_step(const ClusterDag& dag, const FormatOptions& o) {
          std::ldexp(max_abs, -(e - 1)) <= double(kMaxQuantized - 1))
     --e;
   return e;
+}
+
+// The UV step of one mesh: the option's step, coarsened (a power of two at a time) until
+// every |uv| fits in uv_quantized_limit steps; every finite UV fits at kMaxUvStepLog2.
+int32_t choose_uv_step(const ClusterDag& dag, const FormatOptions& o) {
+  double max_abs = 0;
+  for (float u : dag.uvs) {
+    if (!std::isfinite(u)) encode_fail("non-finite uv");
+    max_abs = std::max(max_abs, std::fabs(double(u)));
+  }
+  int32_t e = o.uv_step_log2;
+  // Rounding to the nearest step may reach the limit + 1/2: compare the rounded value.
+  while (e < kMaxUvStepLog2 && std::nearbyint(std::ldexp(max_abs, -e)) > double(uv_quantized_limit(e))) ++e;
+  return e;
+}
+
+// Largest |decoded − source| over a mesh's positions and UVs (FormatReport::meshes).
+FormatReport::MeshQuantizationReport measure_quantization(const ClusterDag& dag, const MeshQuantization& q) {
+  FormatReport::MeshQuantizationReport r;
+  r.quantization = q;
+  auto err = [](float v, int32_t e) {
+    return std::fabs(double(dequantize_position(int32_t(std::nearbyint(std::ldexp(double(v), -e))), e)) - double(v));
+  };
+  for (float p : dag.positions) r.position_max_error = std::max(r.position_max_error, err(p, q.position_step_log2));
+  for (float u : dag.uvs) r.uv_max_error = std::max(r.uv_max_error, err(u, q.uv_step_log2));
+  return r;
 }
 
 void check_options(const FormatOptions& o) {
@@ -277,6 +299,8 @@ void inflate_metadata_for_quantization(ClusterDag* dag, int32_t step_log2) {
 
 float dequantize_position(int32_t q, int32_t step_log2) { return float(std::ldexp(double(q), step_log2)); }
 
+int32_t uv_quantized_limit(int32_t step_log2) { return step_log2 >= kMaxUvStepLog2 ? kMaxQuantized - 1 : kMaxQuantized; }
+
 void octahedral_encode(const float n[3], uint32_t bits, uint32_t out[2]) {
   float x = n[0], y = n[1], z = n[2];
   float s = std::fabs(x) + std::fabs(y) + std::fabs(z);
@@ -345,7 +369,8 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
       encode_fail("attribute array sizes disagree");
     q.position_step_log2 = choose_position_step(dag, o);
     q.normal_bits = o.normal_bits;
-    q.uv_step_log2 = o.uv_step_log2;
+    q.uv_step_log2 = q.has_uvs ? choose_uv_step(dag, o) : o.uv_step_log2;
+    if (report) rep.meshes.push_back(measure_quantization(dag, q));
     const uint32_t nc = uint32_t(dag.clusters.size()), ng = uint32_t(dag.groups.size());
     // Structural checks the decoder would otherwise reject.
     for (const DagCluster& c : dag.clusters)
@@ -374,7 +399,7 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
         const double t = hi > lo ? (double(dag.groups[g].bounds.center[k]) - lo) / (hi - lo) : 0.0;
         cell[k] = uint32_t(std::clamp(t, 0.0, 1.0) * 1023.0);
       }
-      key[g] = morton3(cell[0], cell[1], cell[2]);
+      key[g] = morton_code(cell[0], cell[1], cell[2]);
     }
     std::stable_sort(group_order.begin(), group_order.end(), [&](uint32_t a, uint32_t b) {
       if (dag.groups[a].level != dag.groups[b].level) return dag.groups[a].level > dag.groups[b].level;
@@ -628,7 +653,7 @@ FormatContainer parse_container(const uint8_t* data, size_t size, const std::str
     q.uv_step_log2 = r.i32();
     q.normal_bits = r.u32();
     if (q.position_step_log2 < kMinStepLog2 || q.position_step_log2 > kMaxStepLog2 ||
-        q.uv_step_log2 < kMinStepLog2 || q.uv_step_log2 > kMaxStepLog2 || q.normal_bits < 1 ||
+        q.uv_step_log2 < kMinStepLog2 || q.uv_step_log2 > kMaxUvStepLog2 || q.normal_bits < 1 ||
         q.normal_bits > kMaxNormalBits)
       fail(kErrOutOfRange, where, "quantization parameters out of range");
     ClusterDag& dag = mm.dag;

@@ -57,6 +57,10 @@ inline constexpr int32_t kMaxQuantized = 1 << 24;
 inline constexpr uint32_t kMaxChannelBits = 25;     // bits_for_range(2 * kMaxQuantized)
 inline constexpr uint32_t kMaxNormalBits = 16;      // per octahedral component
 inline constexpr int32_t kMinStepLog2 = -40, kMaxStepLog2 = 40;  // grid steps 2^-40 .. 2^40
+// Coarsest stored UV step: FLT_MAX = (2^24 - 1) * 2^104, so with steps up to 2^104 every finite
+// UV quantizes (tiling UVs of any size encode; spec/format.md §2). At 2^104 the quantized
+// range is |q| <= 2^24 - 1, so every decodable value stays finite (uv_quantized_limit).
+inline constexpr int32_t kMaxUvStepLog2 = 104;
 inline constexpr uint32_t kMaxMaterialId = (1u << 24) - 1;       // 24-bit field of a material run
 inline constexpr uint32_t kMaxNameBytes = 4096;                 // material name length
 // Memory-form triangles are a base index plus two offsets of a per-cluster width: 5 bits
@@ -85,7 +89,10 @@ struct FormatOptions {
   // Per octahedral component, 1..kMaxNormalBits. 9: largest angular error < 0.5°
   // (spec/format.md §2; version 1's default was 10).
   uint32_t normal_bits = 9;
-  int32_t uv_step_log2 = -12;       // UV grid step (1/4096: ~1 texel of a 4K texture)
+  // Finest UV grid step (1/4096: ~1 texel of a 4K texture). A mesh whose |UV| exceeds 2^24
+  // such steps gets the smallest coarser power of two that holds it (spec/format.md §2);
+  // FormatReport::meshes says which step each mesh got and the UV error it caused.
+  int32_t uv_step_log2 = -12;
   Compression compression = Compression::kZstd;
   int zstd_level = 19;
   uint32_t version = kFormatVersion;  // kMinFormatVersion .. kFormatVersion
@@ -154,6 +161,13 @@ struct FormatReport {
   ComponentBytes disk_compressed;  // each component's streams compressed on their own (estimate)
   uint64_t pages_stored_bytes = 0; // the real compressed total
   std::vector<PageFill> pages;
+  // Per mesh: the stored quantization and the largest quantization error measured over its
+  // vertices (|decoded − source| per component, in object / UV units; 0 when absent).
+  struct MeshQuantizationReport {
+    MeshQuantization quantization;
+    double position_max_error = 0, uv_max_error = 0;
+  };
+  std::vector<MeshQuantizationReport> meshes;
 };
 
 // ---- whole file ----
@@ -220,6 +234,9 @@ void inflate_metadata_for_quantization(ClusterDag* dag, int32_t position_step_lo
 
 // Dequantization (the one definition the renderer and the tests use).
 float dequantize_position(int32_t q, int32_t step_log2);
+// Largest |q| of a UV channel with step 2^step_log2: 2^24, or 2^24 - 1 at kMaxUvStepLog2
+// (2^24 · 2^104 is not a finite float).
+int32_t uv_quantized_limit(int32_t step_log2);
 void octahedral_encode(const float n[3], uint32_t bits, uint32_t out[2]);
 void octahedral_decode(const uint32_t q[2], uint32_t bits, float n[3]);
 

@@ -19,10 +19,10 @@ namespace {
 
 [[noreturn]] void encode_fail(const std::string& what) { fail(kErrEncode, "<encoder>", what); }
 
-int32_t quantize_scalar(float v, int32_t step_log2, const char* what) {
+int32_t quantize_scalar(float v, int32_t step_log2, int32_t limit, const char* what) {
   if (!std::isfinite(v)) encode_fail(std::string("non-finite ") + what);
   const double q = std::nearbyint(std::ldexp(double(v), -step_log2));
-  if (!(std::fabs(q) <= double(kMaxQuantized)))
+  if (!(std::fabs(q) <= double(limit)))
     encode_fail(std::string(what) + " beyond 2^24 grid steps (use a coarser step)");
   return int32_t(q);
 }
@@ -91,6 +91,14 @@ uint32_t channel_max_bits(const MeshQuantization& q, uint32_t channel) {
 }
 bool channel_is_normal(const MeshQuantization& q, uint32_t channel) {
   return q.has_normals && (channel == 3 || channel == 4);
+}
+void channel_value_range(const MeshQuantization& q, uint32_t channel, int64_t* lo, int64_t* hi) {
+  if (channel_is_normal(q, channel)) {
+    *lo = 0, *hi = (int64_t(1) << q.normal_bits) - 1;
+  } else {
+    *hi = channel < 3 ? kMaxQuantized : uv_quantized_limit(q.uv_step_log2);
+    *lo = -*hi;
+  }
 }
 
 void min_first(const uint8_t in[3], uint8_t out[3]) {
@@ -316,7 +324,7 @@ void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantiza
   for (uint32_t v = 0; v < vc; ++v) {
     const uint32_t n = uint32_t(new_id[v]);
     for (int k = 0; k < 3; ++k)
-      out->values[k][n] = quantize_scalar(dag.positions[3 * (base + v) + k], q.position_step_log2, "position");
+      out->values[k][n] = quantize_scalar(dag.positions[3 * (base + v) + k], q.position_step_log2, kMaxQuantized, "position");
     uint32_t ch = 3;
     if (normals) {
       uint32_t o[2];
@@ -326,7 +334,8 @@ void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantiza
     }
     if (uvs)
       for (int k = 0; k < 2; ++k)
-        out->values[ch++][n] = quantize_scalar(dag.uvs[2 * (base + v) + k], q.uv_step_log2, "uv");
+        out->values[ch++][n] = quantize_scalar(dag.uvs[2 * (base + v) + k], q.uv_step_log2,
+                                                   uv_quantized_limit(q.uv_step_log2), "uv");
   }
   compute_channel_ranges(out, q.channel_count());
 }
@@ -433,8 +442,9 @@ void validate_memory_page(const uint32_t* w, size_t word_count, const MeshQuanti
       const int32_t mn = int32_t(d[3 + k]);
       if (k >= channels ? (bits[k] != 0 || mn != 0) : bits[k] > channel_max_bits(q, k))
         fail(kErrOutOfRange, where, at + "channel bit width out of range");
-      if (k < channels && (channel_is_normal(q, k) ? mn < 0 : (mn < -kMaxQuantized || mn > kMaxQuantized)))
-        fail(kErrOutOfRange, where, at + "channel minimum out of range");
+      int64_t kind_lo = 0, kind_hi = 0;
+      if (k < channels) channel_value_range(q, k, &kind_lo, &kind_hi);
+      if (k < channels && (mn < kind_lo || mn > kind_hi)) fail(kErrOutOfRange, where, at + "channel minimum out of range");
       vb += bits[k];
     }
     if ((d[2] >> 10) != data) fail(kErrInconsistent, where, at + "data offset is not the running offset");
@@ -446,7 +456,8 @@ void validate_memory_page(const uint32_t* w, size_t word_count, const MeshQuanti
       for (uint32_t k = 0; k < channels; ++k) {
         const int64_t value = int64_t(int32_t(d[3 + k])) + read_bits(w, bit, bits[k]);
         bit += bits[k];
-        const int64_t hi = channel_is_normal(q, k) ? (1 << q.normal_bits) - 1 : kMaxQuantized;
+        int64_t lo = 0, hi = 0;
+        channel_value_range(q, k, &lo, &hi);
         if (value > hi) fail(kErrOutOfRange, where, at + "vertex value beyond the quantized range");
       }
     data += vwords;
@@ -732,8 +743,9 @@ void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q
   for (Head& h : hs)
     for (uint32_t k = 0; k < channels; ++k) {
       h.min[k] = int32_t(r.u32());
-      if (channel_is_normal(q, k) ? (h.min[k] < 0 || h.min[k] >= (1 << q.normal_bits))
-                                  : (h.min[k] < -kMaxQuantized || h.min[k] > kMaxQuantized))
+      int64_t kind_lo = 0, kind_hi = 0;
+      channel_value_range(q, k, &kind_lo, &kind_hi);
+      if (h.min[k] < kind_lo || h.min[k] > kind_hi)
         fail(kErrOutOfRange, where, "channel minimum out of range");
     }
   // Section layout from the headers alone.
@@ -864,7 +876,8 @@ void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q
       const uint8_t* pl = data + planes[size_t(i) * channels + k];
       const uint32_t stored = c.vertex_count - h.copies;
       const int64_t lo = c.min[k], hi = lo + (int64_t(1) << c.bits[k]) - 1;
-      const int64_t kind_hi = channel_is_normal(q, k) ? (1 << q.normal_bits) - 1 : kMaxQuantized;
+      int64_t kind_lo = 0, kind_hi = 0;
+      channel_value_range(q, k, &kind_lo, &kind_hi);
       int64_t prev = lo, seen_lo = INT64_MAX, seen_hi = INT64_MIN;
       for (uint32_t v = 0, s = 0; v < c.vertex_count; ++v) {
         int64_t value;
@@ -877,7 +890,7 @@ void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q
           const int64_t p = version >= 2 ? predict_v2(c.values[k], v, lo, hi, pred, has) : prev;
           value = p + unzigzag(z);
         }
-        if (value < lo || value > hi || value > kind_hi) fail(kErrOutOfRange, where, "vertex value outside its cluster range");
+        if (value < lo || value > hi || value < kind_lo || value > kind_hi) fail(kErrOutOfRange, where, "vertex value outside its cluster range");
         c.values[k][v] = int32_t(value);
         seen_lo = std::min(seen_lo, value);
         seen_hi = std::max(seen_hi, value);

@@ -104,8 +104,18 @@ void parse_disk_page(const uint8_t* data, size_t size, const MeshQuantization& q
                      uint32_t expected_clusters, ClusterSink& sink, const std::string& where,
                      uint32_t version);
 
+// Compression of pages and metadata (spec/format.md §5.1): `compress` throws FORMAT_ENCODE;
+// `decompress` writes exactly raw_size bytes or throws DECOMPRESS / TRAILING_BYTES /
+// INCONSISTENT (none: sizes differ).
+std::vector<uint8_t> compress(const std::vector<uint8_t>& raw, Compression c, int level);
+void decompress(const uint8_t* src, size_t src_size, Compression c, uint8_t* dst, size_t raw_size,
+                const std::string& where);
+
 // Channel kind limits.
 uint32_t channel_max_bits(const MeshQuantization& q, uint32_t channel);
 bool channel_is_normal(const MeshQuantization& q, uint32_t channel);
+// The quantized values a channel may hold (spec/format.md §2.1): normals [0, 2^normal_bits − 1],
+// positions ±2^24, UVs ±uv_quantized_limit(uv_step_log2).
+void channel_value_range(const MeshQuantization& q, uint32_t channel, int64_t* lo, int64_t* hi);
 
 }  // namespace vgeo::format_detail

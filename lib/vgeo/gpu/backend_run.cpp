@@ -6,11 +6,14 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <optional>
+#include <map>
+#include <sstream>
+#include <tuple>
 
 #include <nlohmann/json.hpp>
 
 #include "vgeo/core/error.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/core/hash.h"
 #include "vgeo/gpu/gpu_frame.h"
 #include "vgeo/render/run.h"
@@ -46,7 +49,57 @@ std::string hex64(uint64_t v) {
   return buf;
 }
 
-FrameComparison compare_frames(const Frame& cpu, const Frame& gpu, bool shaded) {
+// The triangle a key denotes, as the exact model sees it (hw_rule.h), with the frame's own
+// float object→clip matrix (as gpu_frame.cpp and frame.cpp make it).
+struct TriangleModels {
+  const RenderScene& scene;
+  const std::vector<ClusterDag>& geometry;  // the scene's meshes, or a streamed frame's (streaming.h)
+  const Camera& camera;
+  const Frame& frame;
+  std::map<std::tuple<uint32_t, uint32_t, uint32_t>, ModelTriangle> cache;
+  const ModelTriangle* of(const Denoted& d) {
+    if (d.depth_bits == 0) return nullptr;
+    auto [it, fresh] = cache.try_emplace({d.instance, d.cluster, d.triangle});
+    if (fresh) {
+      const Mat4d view_to_clip =
+          perspective_reversed_z(camera.fov_y, double(camera.width) / double(camera.height), camera.z_near);
+      const Mat4 m = to_float(view_to_clip * frame.instance_views[d.instance].object_to_view);
+      const ClusterDag& dag = geometry[scene.instances[d.instance].mesh];
+      const DagCluster& c = dag.clusters[d.cluster];
+      Vec3 v[3];
+      for (int k = 0; k < 3; ++k) v[k] = dag.position(c.vertex_offset + dag.indices[3 * (c.triangle_offset + d.triangle) + k]);
+      it->second = model_triangle(v, m, float(camera.z_near), camera.width, camera.height);
+    }
+    return &it->second;
+  }
+};
+
+// spec/raster.md §13.3 over one frame: every pixel classified (hw_rule.h).
+HwRasterAgreement compare_hw_frame(const RenderScene& scene, const std::vector<ClusterDag>& geometry, const Camera& camera,
+                                   const Frame& cpu, const Frame& gpu) {
+  HwRasterAgreement agreement;
+  TriangleModels models{scene, geometry, camera, cpu, {}};
+  for (uint32_t y = 0; y < cpu.vis.height; ++y)
+    for (uint32_t x = 0; x < cpu.vis.width; ++x) {
+      const size_t p = size_t(y) * cpu.vis.width + x;
+      const Denoted a = denote(cpu.vis.keys[p], cpu.visible), b = denote(gpu.vis.keys[p], gpu.visible);
+      const bool same = a.depth_bits && b.depth_bits && a.instance == b.instance && a.cluster == b.cluster &&
+                        a.triangle == b.triangle;
+      const HwPixel kind = a == b ? HwPixel::kIdentical
+                                  : classify_hw_pixel(cpu.vis.keys[p], gpu.vis.keys[p], same, models.of(a), models.of(b), x, y);
+      ++agreement.pixels[int(kind)];
+      if (same && kind != HwPixel::kIdentical) {
+        const double tol = models.of(a)->depth_tolerance;
+        const double dz = std::abs(double(vis_key_depth(cpu.vis.keys[p])) - double(vis_key_depth(gpu.vis.keys[p])));
+        if (tol > 0) agreement.max_depth_error_ratio = std::max(agreement.max_depth_error_ratio, dz / tol);
+      }
+    }
+  return agreement;
+}
+
+// `geometry`: what the CPU frame drew from (the scene's meshes, or its streamed frame's).
+FrameComparison compare_frames(const RenderScene& scene, const std::vector<ClusterDag>& geometry, const Camera& camera,
+                               const Frame& cpu, const Frame& gpu, bool shaded, bool hw_rule) {
   FrameComparison c;
   std::vector<VisibleCluster> a = cpu.visible, b = gpu.visible;
   std::sort(a.begin(), a.end());
@@ -54,9 +107,14 @@ FrameComparison compare_frames(const Frame& cpu, const Frame& gpu, bool shaded) 
   c.clusters_equal = a == b;
   for (size_t p = 0; p < cpu.vis.keys.size(); ++p)
     c.vis_pixels_differing += !(denote(cpu.vis.keys[p], cpu.visible) == denote(gpu.vis.keys[p], gpu.visible));
+  c.hw_rule = hw_rule;
+  if (hw_rule && c.clusters_equal) c.hw = compare_hw_frame(scene, geometry, camera, cpu, gpu);
   c.shaded = shaded;
   if (shaded)
     for (size_t p = 0; p < cpu.image.rgb.size() / 3; ++p) {
+      // The hardware rule compares shading where the keys are identical (elsewhere the
+      // pixel shows another surface or depth, which the rule allows).
+      if (hw_rule && !(denote(cpu.vis.keys[p], cpu.visible) == denote(gpu.vis.keys[p], gpu.visible))) continue;
       int d = 0;
       for (int k = 0; k < 3; ++k) d = std::max(d, std::abs(int(cpu.image.rgb[3 * p + k]) - int(gpu.image.rgb[3 * p + k])));
       c.max_channel_diff = std::max(c.max_channel_diff, d);
@@ -86,7 +144,7 @@ void write_failure(const std::string& dir, uint32_t f, const Frame& cpu, const F
   char stem[32];
   std::snprintf(stem, sizeof stem, "/frame_%05u", f);
   write_png(dir + stem + "_diff.png", diff_image(cpu, gpu));
-  std::ofstream out(dir + stem + "_pixels.txt");
+  std::ostringstream out;
   out << "# x y | cpu: depth_bits instance cluster triangle | vulkan: depth_bits instance cluster triangle\n";
   for (uint32_t y = 0; y < cpu.vis.height; ++y)
     for (uint32_t x = 0; x < cpu.vis.width; ++x) {
@@ -96,6 +154,7 @@ void write_failure(const std::string& dir, uint32_t f, const Frame& cpu, const F
       out << x << ' ' << y << " | " << a.depth_bits << ' ' << a.instance << ' ' << a.cluster << ' ' << a.triangle
           << " | " << b.depth_bits << ' ' << b.instance << ' ' << b.cluster << ' ' << b.triangle << '\n';
     }
+  write_file_atomic(dir + stem + "_pixels.txt", out.str());
 }
 
 }  // namespace
@@ -122,6 +181,12 @@ uint64_t cluster_set_hash(const std::vector<VisibleCluster>& visible) {
 }
 
 BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& request) {
+  // A streamed scene's meshes are metadata only: its renderers draw their Streamers' pages.
+  return run_backend(file, file.streaming ? MemoryFormScene{} : make_memory_form_scene(file.scene), request);
+}
+
+BackendRunReport run_backend(const SceneFile& file, const MemoryFormScene& scene, const BackendRunRequest& request,
+                             GpuContext* shared_gpu) {
   uint32_t frames = 0;
   const RenderSettings settings = resolve_render_options(
       file, {request.threshold_px, request.view, request.occlusion, request.camera, request.frames}, &frames);
@@ -132,24 +197,34 @@ BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& req
   // page files and draws from its resident pages (the memory form as it is). A comparison
   // forces the deterministic loader on both, so both install the same pages in the same frame.
   std::unique_ptr<SceneStreaming> gpu_stream, cpu_stream;
-  std::optional<MemoryFormScene> memory_form;
   if (file.streaming) {
     if (vulkan) gpu_stream = start_scene_streaming(file, settings.threshold_px, compare);
     if (!vulkan || compare) cpu_stream = start_scene_streaming(file, settings.threshold_px, compare);
-  } else {
-    memory_form = make_memory_form_scene(file.scene);
   }
-  const RenderScene& gpu_scene = gpu_stream ? gpu_stream->scene : memory_form ? memory_form->scene : file.scene;
-  const RenderScene& cpu_scene = cpu_stream ? cpu_stream->scene : memory_form ? memory_form->scene : file.scene;
-  std::unique_ptr<GpuContext> gpu;
+  const RenderScene& gpu_scene = gpu_stream ? gpu_stream->scene : scene.scene;
+  const RenderScene& cpu_scene = cpu_stream ? cpu_stream->scene : scene.scene;
+  std::unique_ptr<GpuContext> own_gpu;
+  GpuContext* gpu = shared_gpu;
   GpuRendererPtr renderer;
+  size_t first_message = 0;
   if (vulkan) {
-    gpu = create_gpu_context(request.gpu);
-    renderer = gpu_stream ? create_gpu_renderer_streamed(*gpu, gpu_stream->scene, gpu_stream->frame, request.traversal)
-                          : create_gpu_renderer(*gpu, *memory_form, request.traversal);
+    if (!gpu) {
+      own_gpu = create_gpu_context(request.gpu);
+      gpu = own_gpu.get();
+    }
+    std::lock_guard<std::mutex> lock(gpu->messages_mutex);
+    first_message = gpu->validation_messages.size();
+  }
+  if (vulkan) {
+    GpuRendererOptions options;
+    options.raster = request.raster;
+    renderer = gpu_stream
+                   ? create_gpu_renderer_streamed(*gpu, gpu_stream->scene, gpu_stream->frame, request.traversal, options)
+                   : create_gpu_renderer(*gpu, scene, request.traversal, options);
   }
   BackendRunReport report;
   report.backend = request.backend;
+  report.raster = request.raster;
   if (gpu) report.device = gpu->device_name;
   ThreadPool pool(request.threads);
   FrameHistory history, cpu_history;
@@ -167,15 +242,19 @@ BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& req
     const bool last = f + 1 == frames;
     RenderSettings s = settings;
     s.shade = last;  // as render_scene: only the kept image is shaded
+    RasterSplitStats split;
     if (vulkan)
       render_frame_vulkan(*renderer, gpu_scene, cam, s, pool, &history, &frame, !last,
-                          gpu_stream ? &gpu_stream->frame : nullptr, file.stream_reason);
+                          gpu_stream ? &gpu_stream->frame : nullptr, file.stream_reason, &split);
     else
       render_cpu(cam, s, &history, &frame, !last);
     report.frames.push_back(frame.stats);
+    if (vulkan) report.raster_split.push_back(split);
     if (compare) {
       render_cpu(cam, s, &cpu_history, &cpu_frame, !last);
-      report.comparisons.push_back(compare_frames(cpu_frame, frame, last));
+      report.comparisons.push_back(
+          compare_frames(cpu_scene, cpu_stream ? cpu_stream->frame.geometry : cpu_scene.meshes, cam, cpu_frame, frame,
+                         last, request.raster != GpuRasterMode::kSw));
       report.rule_holds = report.rule_holds && report.comparisons.back().holds();
       if (!report.comparisons.back().holds() && !request.failure_dir.empty())
         write_failure(request.failure_dir, f, cpu_frame, frame);
@@ -189,9 +268,10 @@ BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& req
   report.image_hash = fnv1a64(frame.image.rgb.data(), frame.image.rgb.size());
   if (!request.output_png.empty()) write_png(request.output_png, frame.image);
   if (compare && !request.diff_png.empty()) write_png(request.diff_png, diff_image(cpu_frame, frame));
+  renderer.reset();
   if (gpu) {
     std::lock_guard<std::mutex> lock(gpu->messages_mutex);
-    report.validation_messages = gpu->validation_messages;
+    report.validation_messages.assign(gpu->validation_messages.begin() + first_message, gpu->validation_messages.end());
   }
   return report;
 }
@@ -199,6 +279,15 @@ BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& req
 std::string BackendRunReport::table() const {
   std::string out = "backend: " + std::string(backend_name(backend)) + (device.empty() ? "" : " (" + device + ")") + "\n";
   if (!frames.empty()) out += frame_stats_table(frames.back());
+  if (!raster_split.empty()) {
+    const RasterSplitStats& r = raster_split.back();
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "raster paths (--raster %s): sw %llu clusters %llu triangles | hw %llu clusters %llu triangles\n",
+                  gpu_raster_mode_name(raster), (unsigned long long)r.sw_clusters, (unsigned long long)r.sw_triangles,
+                  (unsigned long long)r.hw_clusters, (unsigned long long)r.hw_triangles);
+    out += line;
+  }
   out += "vis_hash " + hex64(vis_hash) + "  cluster_set_hash " + hex64(cluster_set_hash) + "\n";
   if (pool.slots) {
     char line[200];
@@ -224,6 +313,21 @@ std::string BackendRunReport::table() const {
                   comparisons.size(), cluster_mismatch ? "DIFFER" : "equal", (unsigned long long)vis_diff, max_diff,
                   (unsigned long long)over, rule_holds ? "holds" : "FAILS");
     out += line;
+    HwRasterAgreement hw;
+    bool any_hw = false;
+    for (const FrameComparison& c : comparisons)
+      if (c.hw_rule) {
+        hw.add(c.hw);
+        any_hw = true;
+      }
+    if (any_hw) {
+      out += "hardware rule (spec/raster.md §13.3), pixels over all frames:";
+      for (int k = 0; k < kHwPixelKinds; ++k)
+        out += std::string(" ") + hw_pixel_name(HwPixel(k)) + " " + std::to_string(hw.pixels[k]);
+      char ratio[64];
+      std::snprintf(ratio, sizeof ratio, "; max same-triangle depth error %.3g x tolerance\n", hw.max_depth_error_ratio);
+      out += ratio;
+    }
   }
   return out;
 }
@@ -237,14 +341,29 @@ std::string BackendRunReport::json() const {
   j["vis_hash"] = hex64(vis_hash);
   j["cluster_set_hash"] = hex64(cluster_set_hash);
   j["image_hash"] = hex64(image_hash);
+  j["raster"] = gpu_raster_mode_name(raster);
   j["frames"] = nlohmann::ordered_json::array();
-  for (const FrameStats& f : frames) j["frames"].push_back(nlohmann::ordered_json::parse(frame_stats_json(f)));
+  for (size_t i = 0; i < frames.size(); ++i) {
+    nlohmann::ordered_json f = nlohmann::ordered_json::parse(frame_stats_json(frames[i]));
+    if (i < raster_split.size())
+      f["raster_split"] = {{"sw_clusters", raster_split[i].sw_clusters},
+                           {"sw_triangles", raster_split[i].sw_triangles},
+                           {"hw_clusters", raster_split[i].hw_clusters},
+                           {"hw_triangles", raster_split[i].hw_triangles}};
+    j["frames"].push_back(f);
+  }
   if (!comparisons.empty()) {
     nlohmann::ordered_json c = nlohmann::ordered_json::array();
     for (const FrameComparison& fc : comparisons) {
       nlohmann::ordered_json e;
       e["clusters_equal"] = fc.clusters_equal;
       e["vis_pixels_differing"] = fc.vis_pixels_differing;
+      if (fc.hw_rule) {
+        nlohmann::ordered_json h;
+        for (int k = 0; k < kHwPixelKinds; ++k) h[hw_pixel_name(HwPixel(k))] = fc.hw.pixels[k];
+        h["max_depth_error_ratio"] = fc.hw.max_depth_error_ratio;
+        e["hw_rule"] = h;
+      }
       if (fc.shaded) {
         e["max_channel_diff"] = fc.max_channel_diff;
         e["pixels_over"] = fc.pixels_over;

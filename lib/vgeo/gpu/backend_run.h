@@ -10,6 +10,8 @@
 #include "vgeo/gpu/context.h"
 #include "vgeo/gpu/gpu_cull.h"
 #include "vgeo/gpu/gpu_frame.h"
+#include "vgeo/gpu/hw_raster.h"
+#include "vgeo/raster/hw_rule.h"
 #include "vgeo/render/scene_file.h"
 
 namespace vgeo {
@@ -21,6 +23,7 @@ const char* backend_name(Backend backend);
 struct BackendRunRequest {
   Backend backend = Backend::kCpu;
   bool compare_cpu = false;          // render every frame on the CPU too and compare
+  GpuRasterMode raster = GpuRasterMode::kSw;  // Vulkan: which GPU rasterizer draws each cluster
   GpuOptions gpu;
   GpuTraversal traversal = kDefaultGpuTraversal;  // the Vulkan cull's BVH traversal
   unsigned threads = 0;
@@ -36,20 +39,27 @@ struct BackendRunRequest {
   std::string failure_dir;
 };
 
-// One frame of a comparison (spec/raster.md §Backends agree).
+// One frame of a comparison (spec/raster.md §Backends agree; with a hardware-rastered
+// cluster in the frame, the hardware rule of §13.3 instead of bit identity).
 struct FrameComparison {
   bool clusters_equal = true;        // same selected (instance, cluster) set
   uint64_t vis_pixels_differing = 0; // pixels whose key denotes a different (depth, instance, cluster, triangle)
   bool shaded = false;               // the image was compared (last frame)
-  int max_channel_diff = 0;          // in 1/255 units
+  int max_channel_diff = 0;          // in 1/255 units (hardware rule: pixels with identical keys only)
   uint64_t pixels_over = 0;          // pixels with a channel more than 1/255 apart
-  bool holds() const { return clusters_equal && vis_pixels_differing == 0 && max_channel_diff <= 1; }
+  bool hw_rule = false;              // judged by the hardware rule (--raster hw|auto)
+  HwRasterAgreement hw;              // per-pixel classes of the hardware rule
+  bool holds() const {
+    return clusters_equal && (hw_rule ? hw.failures() == 0 : vis_pixels_differing == 0) && max_channel_diff <= 1;
+  }
 };
 
 struct BackendRunReport {
   Backend backend = Backend::kCpu;
   std::string device;                // GPU name (Vulkan)
   std::vector<FrameStats> frames;    // of `backend`
+  GpuRasterMode raster = GpuRasterMode::kSw;
+  std::vector<RasterSplitStats> raster_split;  // Vulkan: per frame, clusters/triangles per raster path
   uint32_t width = 0, height = 0;
   uint64_t vis_hash = 0, cluster_set_hash = 0, image_hash = 0;  // last frame (spec/raster.md §Hashes)
   std::vector<FrameComparison> comparisons;  // per frame, with compare_cpu
@@ -64,6 +74,12 @@ struct BackendRunReport {
 // the Streamer's errors for a streamed scene, GPU_STREAMING_UNSUPPORTED when a streamed
 // scene has a mesh not from a page file (Vulkan).
 BackendRunReport run_backend(const SceneFile& scene, const BackendRunRequest& request);
+// The same with the scene's memory form already made (make_memory_form_scene(scene.scene);
+// unused, and may be empty, when the scene streams: each renderer draws its resident pages)
+// and, when `gpu` is given, an existing context instead of one from request.gpu (the golden
+// test renders each scene under several --raster modes).
+BackendRunReport run_backend(const SceneFile& scene, const MemoryFormScene& memory_form, const BackendRunRequest& request,
+                             GpuContext* gpu = nullptr);
 
 // spec/raster.md §Hashes. Both are independent of the visible-cluster list's order.
 uint64_t vis_buffer_hash(const VisBuffer& vis, const std::vector<VisibleCluster>& visible);

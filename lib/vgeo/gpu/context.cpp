@@ -141,6 +141,13 @@ void require_features(VkPhysicalDevice d) {
   if (!f12.shaderBufferInt64Atomics) missing += " shaderBufferInt64Atomics";
   if (!f13.synchronization2) missing += " synchronization2";
   if (!f13.maintenance4) missing += " maintenance4";
+  // The hardware raster path (hw_raster.h): atomics from fragment shaders, dynamic
+  // rendering without attachments, draws from a GPU-written command list and count.
+  if (!f.features.fragmentStoresAndAtomics) missing += " fragmentStoresAndAtomics";
+  if (!f.features.multiDrawIndirect) missing += " multiDrawIndirect";
+  if (!f.features.drawIndirectFirstInstance) missing += " drawIndirectFirstInstance";
+  if (!f12.drawIndirectCount) missing += " drawIndirectCount";
+  if (!f13.dynamicRendering) missing += " dynamicRendering";
   if (!missing.empty())
     fail("GPU_FEATURE_MISSING", device_name(d), "required features missing:" + missing, kExitUsage);
 }
@@ -215,13 +222,18 @@ std::unique_ptr<GpuContext> create_gpu_context(const GpuOptions& options) {
   VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
   f13.synchronization2 = VK_TRUE;
   f13.maintenance4 = VK_TRUE;  // glslc --target-env=vulkan1.3 declares workgroup sizes with LocalSizeId
+  f13.dynamicRendering = VK_TRUE;  // hw_raster.h: a render pass with no attachments
   VkPhysicalDeviceVulkan12Features f12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
   f12.pNext = &f13;
   f12.shaderBufferInt64Atomics = VK_TRUE;
+  f12.drawIndirectCount = VK_TRUE;
   VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   features.pNext = &f12;
   features.features.shaderInt64 = VK_TRUE;
   features.features.shaderFloat64 = VK_TRUE;
+  features.features.fragmentStoresAndAtomics = VK_TRUE;
+  features.features.multiDrawIndirect = VK_TRUE;
+  features.features.drawIndirectFirstInstance = VK_TRUE;
   VkDeviceCreateInfo info{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   info.pNext = &features;
   info.queueCreateInfoCount = 1;
@@ -300,6 +312,10 @@ GpuBuffer create_gpu_buffer(GpuContext& c, VkDeviceSize size) {
   check_vk(vkBindBufferMemory(c.device, b.buffer, b.memory, 0), "vkBindBufferMemory");
   check_vk(vkMapMemory(c.device, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped), "vkMapMemory");
   return b;
+}
+
+void ensure_gpu_buffer(GpuContext& c, GpuBuffer& buffer, VkDeviceSize size) {
+  if (buffer.buffer == VK_NULL_HANDLE || buffer.size < size) buffer = create_gpu_buffer(c, size);
 }
 
 // ---- compute pipelines ----
@@ -444,16 +460,13 @@ void cmd_fill(GpuRecorder& rec, const GpuBuffer& buffer, uint32_t value) {
   full_barrier(rec.commands);
 }
 
-namespace {
-// Binds `pipeline` with `buffers` at bindings 0..n-1 and pushes the constants.
-void bind_compute(GpuRecorder& rec, const ComputePipeline& pipeline, const std::vector<const GpuBuffer*>& buffers,
-                  const void* push_constants) {
-  assert(rec.recording && buffers.size() == pipeline.storage_buffers);
+VkDescriptorSet storage_buffer_set(GpuRecorder& rec, VkDescriptorSetLayout layout,
+                                   const std::vector<const GpuBuffer*>& buffers) {
   VkDevice d = rec.context->device;
   VkDescriptorSetAllocateInfo alloc{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
   alloc.descriptorPool = rec.descriptors;
   alloc.descriptorSetCount = 1;
-  alloc.pSetLayouts = &pipeline.set_layout;
+  alloc.pSetLayouts = &layout;
   VkDescriptorSet set = VK_NULL_HANDLE;
   check_vk(vkAllocateDescriptorSets(d, &alloc, &set), "vkAllocateDescriptorSets");
   std::vector<VkDescriptorBufferInfo> infos(buffers.size());
@@ -468,6 +481,15 @@ void bind_compute(GpuRecorder& rec, const ComputePipeline& pipeline, const std::
     writes[i].pBufferInfo = &infos[i];
   }
   vkUpdateDescriptorSets(d, uint32_t(writes.size()), writes.data(), 0, nullptr);
+  return set;
+}
+
+namespace {
+// Binds `pipeline` with `buffers` at bindings 0..n-1 and pushes the constants.
+void bind_compute(GpuRecorder& rec, const ComputePipeline& pipeline, const std::vector<const GpuBuffer*>& buffers,
+                  const void* push_constants) {
+  assert(rec.recording && buffers.size() == pipeline.storage_buffers);
+  VkDescriptorSet set = storage_buffer_set(rec, pipeline.set_layout, buffers);
   vkCmdBindPipeline(rec.commands, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
   vkCmdBindDescriptorSets(rec.commands, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout, 0, 1, &set, 0, nullptr);
   if (pipeline.push_constant_bytes)

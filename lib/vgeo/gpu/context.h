@@ -54,8 +54,9 @@ struct GpuContext {
 
 // Throws VgeoError: GPU_NO_DEVICE (no Vulkan driver or no physical device),
 // GPU_DEVICE_NOT_FOUND (the requested device does not exist), GPU_FEATURE_MISSING
-// (a required feature: Vulkan 1.3 with synchronization2 and maintenance4, shaderInt64,
-// shaderFloat64, shaderBufferInt64Atomics),
+// (a required feature: Vulkan 1.3 with synchronization2, maintenance4 and dynamicRendering,
+// shaderInt64, shaderFloat64, shaderBufferInt64Atomics, and for the hardware raster path
+// fragmentStoresAndAtomics, multiDrawIndirect, drawIndirectFirstInstance, drawIndirectCount),
 // GPU_VALIDATION_UNAVAILABLE (validation requested, layer not installed), GPU_ERROR.
 std::unique_ptr<GpuContext> create_gpu_context(const GpuOptions& options);
 
@@ -88,6 +89,8 @@ struct GpuBuffer {
 // `size` bytes (0 is rounded up to 4, the smallest legal storage buffer). Larger than
 // maxStorageBufferRange is a programming error: callers split (spec/gpu.md).
 GpuBuffer create_gpu_buffer(GpuContext& context, VkDeviceSize size);
+// Keeps `buffer` at least `size` bytes long (a new buffer when it grows: contents not kept).
+void ensure_gpu_buffer(GpuContext& context, GpuBuffer& buffer, VkDeviceSize size);
 
 // SPIR-V embedded in the library by the build (shaders/*.comp → generated shaders.h).
 struct ShaderBinary {
@@ -139,6 +142,10 @@ struct GpuRecorder {
 std::unique_ptr<GpuRecorder> create_gpu_recorder(GpuContext& context);
 void begin_commands(GpuRecorder& rec);
 void cmd_fill(GpuRecorder& rec, const GpuBuffer& buffer, uint32_t value);
+// A descriptor set of this submission whose bindings 0..n-1 are the storage buffers `buffers`
+// (for cmd_dispatch and the graphics pipeline of hw_raster.h).
+VkDescriptorSet storage_buffer_set(GpuRecorder& rec, VkDescriptorSetLayout layout,
+                                   const std::vector<const GpuBuffer*>& buffers);
 void cmd_dispatch(GpuRecorder& rec, const ComputePipeline& pipeline,
                   const std::vector<const GpuBuffer*>& buffers, const void* push_constants,
                   uint32_t groups_x, uint32_t groups_y = 1, uint32_t groups_z = 1);

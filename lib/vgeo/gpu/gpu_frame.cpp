@@ -55,7 +55,9 @@ MemoryFormScene make_memory_form_scene(const RenderScene& scene) {
 struct GpuRenderer {
   GpuContext* gpu = nullptr;
   std::unique_ptr<GpuRecorder> recorder;
-  ComputePipeline raster, shade;
+  std::unique_ptr<GpuRasterPasses> raster;
+  GpuRendererOptions options;
+  ComputePipeline shade;
   GpuBuffer pages, locations, meshes, materials;
   // Per frame, grown on demand.
   GpuBuffer instances, visible, vis, counters, shade_instances, shade_clusters, overdraw, image;
@@ -77,7 +79,6 @@ void GpuRendererDeleter::operator()(GpuRenderer* r) const { delete r; }
 namespace {
 
 // Raster shader bindings: pages, locations, meshes, instances, visible, vis, counters.
-constexpr uint32_t kRasterBindings = 7;
 // Shade shader bindings: the raster ones less counters, then shade instances, shade clusters,
 // materials, overdraw, image.
 constexpr uint32_t kShadeBindings = 11;
@@ -103,28 +104,53 @@ void check_buffer_range(const GpuContext& gpu, uint64_t bytes, const char* what)
          kExitUsage);
 }
 
-// Dispatches the raster shader over visible[first, first + count) into the vis buffer;
-// returns the GPU time and the pixels written.
-void raster_range(GpuRenderer& r, const Camera& camera, uint32_t first, uint32_t count, PassStats* stats) {
+// Rasterizes visible[first, first + count) into the vis buffer by the renderer's raster mode
+// (hw_raster.h); returns the GPU time and the pixels written, adds the split to `split`.
+void raster_range(GpuRenderer& r, uint32_t width, uint32_t height, float z_near, float pixels_per_unit_at_1,
+                  bool cull_backfaces, uint32_t first, uint32_t count, PassStats* stats, RasterSplitStats* split) {
   GpuRecorder& rec = *r.recorder;
   begin_commands(rec);
   cmd_fill(rec, r.counters, 0);
-  GpuRasterParams params{};
-  params.width = camera.width;
-  params.height = camera.height;
-  params.first_visible = first;
-  params.visible_count = count;
-  params.groups_x = std::min(count, kGpuMaxGroupsX);
-  params.cull_backfaces = RasterOptions{}.cull_backfaces ? 1u : 0u;
-  params.z_near = float(camera.z_near);  // frame.cpp raster_pass: RasterOptions::z_near = float(z_near)
-  const uint32_t groups_y = params.groups_x ? (count + params.groups_x - 1) / params.groups_x : 0;
+  GpuRasterRequest request;
+  request.mode = r.options.raster;
+  request.first_visible = first;
+  request.visible_count = count;
+  request.width = width;
+  request.height = height;
+  request.z_near = z_near;
+  request.pixels_per_unit_at_1 = pixels_per_unit_at_1;
+  request.hw_min_triangle_area_px = r.options.hw_min_triangle_area_px;
+  request.cull_backfaces = cull_backfaces;
   uint32_t t0 = cmd_timestamp(rec);
-  cmd_dispatch(rec, r.raster, {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.counters},
-               &params, params.groups_x, groups_y);
+  record_gpu_raster(rec, *r.raster, {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.counters},
+                    request);
   uint32_t t1 = cmd_timestamp(rec);
   submit_and_wait(rec);
   stats->ms = timestamp_ms(rec, t0, t1);
   stats->pixels_written = r.counters.data<uint64_t>()[0];
+  split->add(read_gpu_raster_split(*r.raster));
+}
+
+// Uploads the per-frame raster inputs and clears the visibility buffer.
+void upload_raster_inputs(GpuRenderer& r, const std::vector<Mat4>& object_to_clip, const std::vector<uint32_t>& mesh,
+                          const std::vector<float>& instance_scale, const std::vector<VisibleCluster>& visible,
+                          uint32_t width, uint32_t height) {
+  GpuContext& gpu = *r.gpu;
+  std::vector<GpuInstance> instances(object_to_clip.size());
+  for (size_t i = 0; i < instances.size(); ++i) {
+    std::memcpy(instances[i].object_to_clip, object_to_clip[i].m, sizeof(instances[i].object_to_clip));
+    instances[i].mesh = mesh[i];
+  }
+  ensure_size(gpu, r.instances, instances.size() * sizeof(GpuInstance));
+  if (!instances.empty()) std::memcpy(r.instances.mapped, instances.data(), instances.size() * sizeof(GpuInstance));
+  static_assert(sizeof(VisibleCluster) == sizeof(GpuVisibleCluster));
+  ensure_size(gpu, r.visible, visible.size() * sizeof(GpuVisibleCluster));
+  if (!visible.empty()) std::memcpy(r.visible.mapped, visible.data(), visible.size() * sizeof(GpuVisibleCluster));
+  prepare_gpu_raster(*r.raster, instance_scale, uint32_t(visible.size()));
+  const uint64_t vis_bytes = uint64_t(width) * height * 8;
+  check_buffer_range(gpu, vis_bytes, "the visibility buffer");
+  ensure_size(gpu, r.vis, vis_bytes);
+  std::memset(r.vis.mapped, 0, vis_bytes);
 }
 
 // shade.cpp shade_frame on the GPU: every view, from the visibility buffer now in r.vis.
@@ -200,17 +226,34 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
 
 }  // namespace
 
+std::vector<GpuClusterRasterInfo> cluster_raster_infos(const RenderScene& scene) {
+  std::vector<GpuClusterRasterInfo> infos;
+  for (const ClusterDag& dag : scene.meshes)
+    for (const DagCluster& c : dag.clusters) {
+      GpuClusterRasterInfo info{};
+      info.center[0] = c.bounds.center.x;
+      info.center[1] = c.bounds.center.y;
+      info.center[2] = c.bounds.center.z;
+      info.radius = c.bounds.radius;
+      info.triangle_count = c.triangle_count;
+      infos.push_back(info);
+    }
+  return infos;
+}
+
 namespace {
 
-// What every renderer has: pipelines, the scene's cull records and its materials.
-GpuRendererPtr create_renderer_common(GpuContext& gpu, const RenderScene& scene, GpuTraversal traversal) {
+// What every renderer has: pipelines, the scene's cull records, raster split infos and materials.
+GpuRendererPtr create_renderer_common(GpuContext& gpu, const RenderScene& scene, GpuTraversal traversal,
+                                      const GpuRendererOptions& options) {
   GpuRendererPtr r(new GpuRenderer);
   r->gpu = &gpu;
   r->traversal = traversal;
+  r->options = options;
   r->cull = create_cull_pipelines(gpu);
   r->cull_meshes = upload_cull_meshes(gpu, scene.meshes);
   r->recorder = create_gpu_recorder(gpu);
-  r->raster = create_compute_pipeline(gpu, kShaderRaster, kRasterBindings, sizeof(GpuRasterParams));
+  r->raster = create_gpu_raster_passes(gpu, cluster_raster_infos(scene));
   r->shade = create_compute_pipeline(gpu, kShaderShade, kShadeBindings, sizeof(GpuShadeParams));
   r->counters = create_gpu_buffer(gpu, 64);
   std::vector<GpuMaterial> materials(scene.materials.size());
@@ -285,8 +328,9 @@ void sync_page_pool(GpuRenderer& r, const FrameStreaming& s) {
 
 }  // namespace
 
-GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene, GpuTraversal traversal) {
-  GpuRendererPtr r = create_renderer_common(gpu, scene.scene, traversal);
+GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene, GpuTraversal traversal,
+                                   const GpuRendererOptions& options) {
+  GpuRendererPtr r = create_renderer_common(gpu, scene.scene, traversal, options);
   std::vector<uint32_t> page_word(scene.pages.size());
   uint64_t words = 0;
   for (size_t p = 0; p < scene.pages.size(); ++p) {
@@ -311,14 +355,14 @@ GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene
 }
 
 GpuRendererPtr create_gpu_renderer_streamed(GpuContext& gpu, const RenderScene& scene, const FrameStreaming& s,
-                                            GpuTraversal traversal) {
+                                            GpuTraversal traversal, const GpuRendererOptions& options) {
   const FormatContainer& c = s.streamer->container();
   for (uint32_t m = 0; m < s.stream_mesh.size(); ++m)
     if (s.stream_mesh[m] == kNone)
       fail("GPU_STREAMING_UNSUPPORTED", "vulkan",
            "scene mesh " + std::to_string(m) + " is not from a page file: Vulkan streaming needs every mesh streamed",
            kExitUsage);
-  GpuRendererPtr r = create_renderer_common(gpu, scene, traversal);
+  GpuRendererPtr r = create_renderer_common(gpu, scene, traversal, options);
   r->streamed = true;
   uint32_t max_page = 0;
   for (const PageEntry& e : c.pages) max_page = std::max(max_page, e.memory_size);
@@ -359,9 +403,9 @@ class VulkanFrameExecutor final : public FrameExecutor {
  public:
   VulkanFrameExecutor(GpuRenderer& r, const FramePlan& plan, const RenderScene& scene, const Camera& camera,
                       const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                      FrameStreaming* streaming)
+                      FrameStreaming* streaming, RasterSplitStats* split)
       : r_(r), scene_(scene), camera_(camera), settings_(settings), pool_(pool), history_(history), out_(out),
-        streaming_(streaming) {
+        streaming_(streaming), split_(split) {
     GpuContext& gpu = *r.gpu;
     object_to_clip_ = begin_frame(scene, camera, out);  // the CPU executor's matrices, bit for bit
     std::vector<GpuInstance> instances(scene.instances.size());
@@ -527,8 +571,13 @@ class VulkanFrameExecutor final : public FrameExecutor {
     const uint32_t n = uint32_t(visible.size());
     ensure_size(*r_.gpu, r_.visible, visible.size() * sizeof(GpuVisibleCluster));
     if (!visible.empty()) std::memcpy(r_.visible.mapped, visible.data(), visible.size() * sizeof(GpuVisibleCluster));
+    std::vector<float> scale(scene_.instances.size());
+    for (size_t i = 0; i < scale.size(); ++i) scale[i] = float(out_->instance_views[i].scale);
+    prepare_gpu_raster(*r_.raster, scale, n);
     PassStats gpu;
-    raster_range(r_, camera_, first, n - first, &gpu);
+    // frame.cpp raster_pass: RasterOptions::z_near = float(z_near), default back-face culling.
+    raster_range(r_, camera_.width, camera_.height, float(camera_.z_near), out_->view.pixels_per_unit_at_1,
+                 RasterOptions{}.cull_backfaces, first, n - first, &gpu, split_);
     p->pixels_written += gpu.pixels_written;
     p->clusters_drawn += n - first;
     for (uint32_t i = first; i < n; ++i)
@@ -544,6 +593,7 @@ class VulkanFrameExecutor final : public FrameExecutor {
   FrameHistory* history_;
   Frame* out_;
   FrameStreaming* streaming_;
+  RasterSplitStats* split_;  // clusters and triangles per raster path, summed over the passes
   std::vector<Mat4> object_to_clip_;
   bool hzb_is_complete_ = false;  // f.hzb is the HZB of the complete frame
   std::vector<GroupRequest> requests_;  // both cull passes' (scene mesh ids), as frame.cpp's
@@ -554,22 +604,40 @@ class VulkanFrameExecutor final : public FrameExecutor {
 
 void render_frame_vulkan(GpuRenderer& r, const MemoryFormScene& mscene, const Camera& camera,
                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                         bool has_next_frame) {
-  render_frame_vulkan(r, mscene.scene, camera, settings, pool, history, out, has_next_frame, nullptr);
+                         bool has_next_frame, RasterSplitStats* split) {
+  render_frame_vulkan(r, mscene.scene, camera, settings, pool, history, out, has_next_frame, nullptr, "no stream budget",
+                      split);
 }
 
 void render_frame_vulkan(GpuRenderer& r, const RenderScene& scene, const Camera& camera,
                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                         bool has_next_frame, FrameStreaming* streaming, const std::string& no_stream_reason) {
+                         bool has_next_frame, FrameStreaming* streaming, const std::string& no_stream_reason,
+                         RasterSplitStats* split) {
   if ((streaming != nullptr) != r.streamed)
     fail("GPU_ERROR", "vulkan", "a streamed frame needs a streamed renderer and only it", kExitInternal);
+  RasterSplitStats frame_split;
   const FramePlan plan =
       plan_frame(scene, settings, frame_context(scene, camera, history, has_next_frame, streaming, no_stream_reason));
   const auto frame_start = std::chrono::steady_clock::now();
-  VulkanFrameExecutor executor(r, plan, scene, camera, settings, pool, history, out, streaming);
+  VulkanFrameExecutor executor(r, plan, scene, camera, settings, pool, history, out, streaming, &frame_split);
   execute_frame_plan(plan, executor, scene.instances.size(), uint64_t(camera.width) * camera.height, &out->stats);
   out->stats.total_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame_start).count();
+  if (split) *split = frame_split;
+}
+
+void raster_visible_vulkan(GpuRenderer& r, const GpuRasterInput& in, GpuRasterOutput* out) {
+  upload_raster_inputs(r, in.object_to_clip, in.instance_mesh, in.instance_scale, in.visible, in.width, in.height);
+  PassStats pass;
+  out->split = {};
+  raster_range(r, in.width, in.height, in.z_near, in.pixels_per_unit_at_1, in.cull_backfaces, 0,
+               uint32_t(in.visible.size()), &pass, &out->split);
+  out->ms = pass.ms;
+  out->pixels_written = pass.pixels_written;
+  out->vis.width = in.width;
+  out->vis.height = in.height;
+  out->vis.keys.resize(size_t(in.width) * in.height);
+  std::memcpy(out->vis.keys.data(), r.vis.mapped, out->vis.keys.size() * 8);
 }
 
 }  // namespace vgeo

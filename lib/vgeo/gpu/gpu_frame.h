@@ -12,6 +12,7 @@
 #include "vgeo/format/format.h"
 #include "vgeo/gpu/context.h"
 #include "vgeo/gpu/gpu_cull.h"
+#include "vgeo/gpu/hw_raster.h"
 #include "vgeo/render/frame.h"
 #include "vgeo/render/streaming.h"
 
@@ -37,10 +38,40 @@ struct GpuRendererDeleter {
 };
 using GpuRendererPtr = std::unique_ptr<GpuRenderer, GpuRendererDeleter>;
 
+struct GpuRendererOptions {
+  GpuRasterMode raster = GpuRasterMode::kSw;  // which GPU rasterizer draws each cluster (hw_raster.h)
+  float hw_min_triangle_area_px = kAutoHwMinTriangleAreaPx;  // the auto rule's threshold
+};
+
 // Uploads the pages once. Throws GPU_SCENE_TOO_LARGE when the pages exceed one storage
 // buffer (maxStorageBufferRange).
 GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene,
-                                   GpuTraversal traversal = kDefaultGpuTraversal);
+                                   GpuTraversal traversal = kDefaultGpuTraversal,
+                                   const GpuRendererOptions& options = {});
+
+// Per (mesh, cluster) in location order: the bounds and triangle count the split rule reads.
+std::vector<GpuClusterRasterInfo> cluster_raster_infos(const RenderScene& scene);
+
+// The raster passes alone (raster vectors, `vgeo bench raster`): `visible` clusters of the
+// scene's instances, drawn with per-instance float object→clip matrices (as frame.cpp makes
+// them) into a cleared width × height visibility buffer, by the renderer's raster mode.
+struct GpuRasterInput {
+  std::vector<Mat4> object_to_clip;   // per instance
+  std::vector<uint32_t> instance_mesh;  // per instance
+  std::vector<float> instance_scale;  // per instance (InstanceView::scale)
+  std::vector<VisibleCluster> visible;
+  uint32_t width = 0, height = 0;
+  float z_near = 0.01f;
+  float pixels_per_unit_at_1 = 1;
+  bool cull_backfaces = true;
+};
+struct GpuRasterOutput {
+  VisBuffer vis;
+  RasterSplitStats split;
+  double ms = 0;                // GPU time of the raster passes
+  uint64_t pixels_written = 0;  // covered pixel centres of both paths (write attempts)
+};
+void raster_visible_vulkan(GpuRenderer& renderer, const GpuRasterInput& input, GpuRasterOutput* out);
 
 // Streaming (spec/gpu.md §Streaming): the renderer of a streamed scene (`scene`: its
 // metadata-only meshes, as init_frame_streaming leaves them; every mesh from a page file, else
@@ -48,7 +79,8 @@ GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene
 // memory-form page, as many as the budget can hold pages at once; pages are uploaded when the
 // Streamer installs them and their slots freed when it evicts them.
 GpuRendererPtr create_gpu_renderer_streamed(GpuContext& gpu, const RenderScene& scene, const FrameStreaming& streaming,
-                                            GpuTraversal traversal = kDefaultGpuTraversal);
+                                            GpuTraversal traversal = kDefaultGpuTraversal,
+                                            const GpuRendererOptions& options = {});
 struct GpuPoolStats {
   uint32_t slots = 0;
   uint64_t pool_bytes = 0, pages_uploaded = 0, pages_freed = 0, bytes_uploaded = 0;  // since creation
@@ -56,15 +88,16 @@ struct GpuPoolStats {
 const GpuPoolStats& gpu_pool_stats(const GpuRenderer& renderer);
 
 // Renders one frame of `scene.scene` (as render_frame: plan_frame, then the Vulkan executor).
+// `split`, when given, receives the frame's clusters and triangles per raster path.
 void render_frame_vulkan(GpuRenderer& renderer, const MemoryFormScene& scene, const Camera& camera,
                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                         bool has_next_frame = true);
+                         bool has_next_frame = true, RasterSplitStats* split = nullptr);
 // The same for any scene the renderer was made for; `streaming` non-null exactly for a
 // streamed renderer: the traversal reads its usable masks and writes its requests into a
 // buffer read back after each cull pass, handed to its Streamer at stream_end (as the CPU).
 void render_frame_vulkan(GpuRenderer& renderer, const RenderScene& scene, const Camera& camera,
                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
                          bool has_next_frame, FrameStreaming* streaming,
-                         const std::string& no_stream_reason = "no stream budget");
+                         const std::string& no_stream_reason = "no stream budget", RasterSplitStats* split = nullptr);
 
 }  // namespace vgeo

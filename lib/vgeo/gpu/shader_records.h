@@ -51,7 +51,9 @@ struct GpuRasterParams {
   uint32_t groups_x;
   uint32_t cull_backfaces;
   float z_near;                  // RasterOptions::z_near (float, widened to double as on the CPU)
-  uint32_t reserved;
+  // 0: rasterize every cluster of the range; 1: only those whose word in the path buffer
+  // (binding 7, written by shaders/raster_split.comp) is kGpuRasterPathSw (hw_raster.h).
+  uint32_t select_path;
 };
 
 // Per instance and frame, for shading (shade.cpp): object→view (column-major Mat4d::m) and

@@ -9,18 +9,14 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "vgeo/core/byte_io.h"
+#include "vgeo/mesh/glb.h"
 #include "vgeo/mesh/import.h"
 #include "vgeo/mesh/validate.h"
 
 namespace vgeo::detail {
 namespace {
 
-constexpr uint32_t kGlbMagic = 0x46546C67;      // "glTF" little-endian
-constexpr uint32_t kGlbVersion = 2;             // the only GLB container version
-constexpr uint32_t kGlbChunkJson = 0x4E4F534A;  // "JSON"
-constexpr uint32_t kGlbChunkBin = 0x004E4942;   // "BIN\0"
-constexpr size_t kGlbHeaderBytes = 12;          // magic, version, length
-constexpr size_t kGlbChunkHeaderBytes = 8;      // chunkLength, chunkType
 // Non-affine tolerance for node matrices: exporters write tiny round-off (1e-17) into the
 // last row; anything larger is a projective matrix the mesh model cannot represent.
 constexpr double kAffineTolerance = 1e-6;
@@ -37,12 +33,6 @@ const std::set<std::string> kIgnorableRequiredExtensions = {
     "KHR_materials_pbrSpecularGlossiness", "KHR_texture_basisu", "EXT_texture_webp",
     "KHR_mesh_quantization", "KHR_lights_punctual",
     "KHR_technique_webgl"};  // legacy shader-technique materials
-
-uint32_t read_u32(const uint8_t* p) {
-  uint32_t v;
-  std::memcpy(&v, p, 4);
-  return v;
-}
 
 int component_size(int ctype) {
   switch (ctype) {
@@ -242,7 +232,7 @@ class GltfReader {
     out.resize(size_t(sp.count));
     for (size_t i = 0; i < out.size(); ++i) {
       const uint8_t* p = s.base + i * s.stride;
-      uint32_t v = isize == 1 ? *p : isize == 2 ? uint32_t(p[0] | (p[1] << 8)) : read_u32(p);
+      uint32_t v = isize == 1 ? *p : isize == 2 ? uint32_t(p[0] | (p[1] << 8)) : load_le32(p);
       if (v >= acc.count)
         error("ACCESSOR_SPARSE_INVALID", role + ": sparse index " + std::to_string(v) +
                                              " >= accessor count " + std::to_string(acc.count));
@@ -309,7 +299,7 @@ class GltfReader {
     } else {
       for (size_t i = 0; i < s.count; ++i) {
         const uint8_t* p = s.base + i * s.stride;
-        dst[i] = isize == 1 ? *p : isize == 2 ? uint32_t(p[0] | (p[1] << 8)) : read_u32(p);
+        dst[i] = isize == 1 ? *p : isize == 2 ? uint32_t(p[0] | (p[1] << 8)) : load_le32(p);
       }
     }
     if (acc.sparse.isSparse) {
@@ -321,7 +311,7 @@ class GltfReader {
                           false, role + " sparse values");
       for (size_t i = 0; i < where.size(); ++i) {
         const uint8_t* p = vs.base + i * vs.stride;
-        dst[where[i]] = isize == 1 ? *p : isize == 2 ? uint32_t(p[0] | (p[1] << 8)) : read_u32(p);
+        dst[where[i]] = isize == 1 ? *p : isize == 2 ? uint32_t(p[0] | (p[1] << 8)) : load_le32(p);
       }
     }
   }
@@ -760,18 +750,18 @@ void import_gltf(const uint8_t* data, size_t size, std::vector<uint8_t>* owned_b
   if (is_glb) {
     if (size < kGlbHeaderBytes + kGlbChunkHeaderBytes)
       fail("GLB_TRUNCATED", where, "GLB is " + std::to_string(size) + " bytes, shorter than its headers");
-    if (read_u32(data) != kGlbMagic) fail("GLB_HEADER_INVALID", where, "GLB magic is not 'glTF'");
-    if (read_u32(data + 4) != kGlbVersion)
-      fail("GLB_VERSION_UNSUPPORTED", where, "GLB version " + std::to_string(read_u32(data + 4)) + " (only 2)");
-    glb_length = read_u32(data + 8);
+    if (load_le32(data) != kGlbMagic) fail("GLB_HEADER_INVALID", where, "GLB magic is not 'glTF'");
+    if (load_le32(data + 4) != kGlbVersion)
+      fail("GLB_VERSION_UNSUPPORTED", where, "GLB version " + std::to_string(load_le32(data + 4)) + " (only 2)");
+    glb_length = load_le32(data + 8);
     if (glb_length > size)
       fail("GLB_TRUNCATED", where, "GLB header length " + std::to_string(glb_length) + " > file size " +
                                        std::to_string(size));
     if (glb_length < size)
       fail("GLB_HEADER_INVALID", where, "GLB header length " + std::to_string(glb_length) + " < file size " +
                                             std::to_string(size) + " (trailing bytes)");
-    const uint32_t json_len = read_u32(data + 12);
-    if (read_u32(data + 16) != kGlbChunkJson) fail("GLB_HEADER_INVALID", where, "first GLB chunk is not JSON");
+    const uint32_t json_len = load_le32(data + 12);
+    if (load_le32(data + 16) != kGlbChunkJson) fail("GLB_HEADER_INVALID", where, "first GLB chunk is not JSON");
     if (json_len > size - kGlbHeaderBytes - kGlbChunkHeaderBytes)
       fail("GLB_TRUNCATED", where, "JSON chunk of " + std::to_string(json_len) + " bytes exceeds the file");
     size_t pos = kGlbHeaderBytes + kGlbChunkHeaderBytes + json_len;
@@ -779,8 +769,8 @@ void import_gltf(const uint8_t* data, size_t size, std::vector<uint8_t>* owned_b
     json_size = json_len;
     if (pos < size) {
       if (size - pos < kGlbChunkHeaderBytes) fail("GLB_TRUNCATED", where, "truncated chunk header after JSON");
-      const uint32_t bin_len = read_u32(data + pos);
-      if (read_u32(data + pos + 4) != kGlbChunkBin)
+      const uint32_t bin_len = load_le32(data + pos);
+      if (load_le32(data + pos + 4) != kGlbChunkBin)
         fail("GLB_HEADER_INVALID", where, "second GLB chunk is not BIN");
       if (bin_len > size - pos - kGlbChunkHeaderBytes)
         fail("GLB_TRUNCATED", where, "BIN chunk of " + std::to_string(bin_len) + " bytes exceeds the file");

@@ -42,11 +42,4 @@ Mesh subdivide_loop(const Mesh& mesh, const SubdivideOptions& options = {});
 // Throws SUBDIVIDE_* (see above) when `mesh` is not acceptable Loop input.
 void check_loop_input(const Mesh& mesh, const std::string& where = "subdivide");
 
-// Stopgap reader for `vgeo gen --input` until lib/vgeo/mesh/import.h (import_scene) is merged:
-// OBJ/PLY/OFF/STL through OpenMesh's reader, positions and triangles only (polygons are
-// fan-triangulated by OpenMesh; faces OpenMesh rejects as non-manifold are dropped with a
-// warning on stderr). Errors use the importer's codes (spec/errors.md, Import):
-// FILE_NOT_FOUND / FILE_READ_ERROR (kExitIo), MESH_PARSE_ERROR, MESH_EMPTY.
-Mesh read_mesh_openmesh(const std::string& path);
-
 }  // namespace vgeo

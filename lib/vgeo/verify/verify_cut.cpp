@@ -332,9 +332,9 @@ void check_views(const ClusterDag& dag, const VerifyOptions& options, bool monot
           // decide the lod test alike.
           for (size_t g = 0; g < dag.groups.size(); ++g) {
             const DagGroup& G = dag.groups[g];
-            bool first = proj_parent[G.first_cluster] > tau;
+            bool first = parent_too_coarse(proj_parent[G.first_cluster], tau);
             for (uint32_t i = 1; i < G.cluster_count; ++i)
-              if ((proj_parent[G.first_cluster + i] > tau) != first) {
+              if (parent_too_coarse(proj_parent[G.first_cluster + i], tau) != first) {
                 out.cut.add("CUT_SIBLING", "cut", "group", g,
                             "members disagree on the parent test (cluster " + idx(G.first_cluster + i) + ")" + where,
                             values);
@@ -342,10 +342,10 @@ void check_views(const ClusterDag& dag, const VerifyOptions& options, bool monot
               }
             if (G.generated_count) {
               uint32_t p0 = dag.generated_clusters[G.first_generated];
-              bool gfirst = proj_lod[p0] <= tau;
+              bool gfirst = fine_enough(proj_lod[p0], tau);
               for (uint32_t i = 1; i < G.generated_count; ++i) {
                 uint32_t p = dag.generated_clusters[G.first_generated + i];
-                if ((proj_lod[p] <= tau) != gfirst) {
+                if (fine_enough(proj_lod[p], tau) != gfirst) {
                   out.cut.add("CUT_SIBLING", "cut", "group", g,
                               "generated clusters disagree on the lod test (cluster " + idx(p) + ")" + where, values);
                   break;

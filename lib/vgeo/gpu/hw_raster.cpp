@@ -1,0 +1,240 @@
+// GPU raster passes: compute SW, hardware pipeline, per-cluster split (hw_raster.h,
+// spec/raster.md §13).
+#include "vgeo/gpu/hw_raster.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cstring>
+
+#include "vgeo/gpu/shader_records.h"
+#include "vgeo/gpu/shaders.h"
+
+namespace vgeo {
+
+bool parse_gpu_raster_mode(const std::string& name, GpuRasterMode* out) {
+  if (name == "sw") *out = GpuRasterMode::kSw;
+  else if (name == "hw") *out = GpuRasterMode::kHw;
+  else if (name == "auto") *out = GpuRasterMode::kAuto;
+  else return false;
+  return true;
+}
+
+const char* gpu_raster_mode_name(GpuRasterMode mode) {
+  switch (mode) {
+    case GpuRasterMode::kSw: return "sw";
+    case GpuRasterMode::kHw: return "hw";
+    case GpuRasterMode::kAuto: return "auto";
+  }
+  return "?";
+}
+
+namespace {
+
+// shaders/raster.comp bindings: pages, locations, meshes, instances, visible, vis, counters, paths.
+constexpr uint32_t kSwBindings = 8;
+// shaders/raster_split.comp bindings: meshes, instances, visible, cluster info, raster
+// instances, paths, commands, split counters.
+constexpr uint32_t kSplitBindings = 8;
+// The graphics pipeline's set: raster.comp's first seven bindings (the vertex stage reads
+// 0–4, the fragment stage writes 5–6).
+constexpr uint32_t kHwBindings = 7;
+constexpr VkShaderStageFlags kHwStages = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+
+VkShaderModule make_module(GpuContext& c, const ShaderBinary& shader) {
+  VkShaderModuleCreateInfo info{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  info.codeSize = shader.word_count * 4;
+  info.pCode = shader.words;
+  VkShaderModule module = VK_NULL_HANDLE;
+  check_vk(vkCreateShaderModule(c.device, &info, nullptr, &module), shader.name);
+  return module;
+}
+
+// The hardware raster pipeline: no vertex input (the vertex shader fetches), triangle lists,
+// no attachments (dynamic rendering with zero formats), viewport/scissor/cull mode dynamic.
+void create_hw_pipeline(GpuContext& c, GpuRasterPasses& p) {
+  std::vector<VkDescriptorSetLayoutBinding> bindings(kHwBindings);
+  for (uint32_t i = 0; i < kHwBindings; ++i) bindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, kHwStages, nullptr};
+  VkDescriptorSetLayoutCreateInfo set_info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  set_info.bindingCount = kHwBindings;
+  set_info.pBindings = bindings.data();
+  check_vk(vkCreateDescriptorSetLayout(c.device, &set_info, nullptr, &p.hw_set_layout), "vkCreateDescriptorSetLayout");
+  VkPushConstantRange range{kHwStages, 0, sizeof(GpuRasterParams)};
+  VkPipelineLayoutCreateInfo layout_info{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  layout_info.setLayoutCount = 1;
+  layout_info.pSetLayouts = &p.hw_set_layout;
+  layout_info.pushConstantRangeCount = 1;
+  layout_info.pPushConstantRanges = &range;
+  check_vk(vkCreatePipelineLayout(c.device, &layout_info, nullptr, &p.hw_layout), "vkCreatePipelineLayout");
+
+  VkShaderModule vert = make_module(c, kShaderHwRasterVert), frag = make_module(c, kShaderHwRasterFrag);
+  VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
+                                               {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[0].module = vert;
+  stages[0].pName = "main";
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  stages[1].module = frag;
+  stages[1].pName = "main";
+  VkPipelineVertexInputStateCreateInfo vertex_input{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  VkPipelineInputAssemblyStateCreateInfo assembly{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo viewport{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  viewport.viewportCount = 1;
+  viewport.scissorCount = 1;
+  VkPipelineRasterizationStateCreateInfo raster{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  raster.polygonMode = VK_POLYGON_MODE_FILL;
+  // Vulkan's area sign is computed in y-down framebuffer coordinates with a leading minus
+  // (a = −½ Σ x_i y_{i+1} − x_{i+1} y_i), so a > 0 ("counter-clockwise") is exactly
+  // raster.cpp's front face, area < 0 (spec/raster.md §2).
+  raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  raster.cullMode = VK_CULL_MODE_BACK_BIT;  // dynamic (vkCmdSetCullMode)
+  raster.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo multisample{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  const VkDynamicState dynamic_states[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR, VK_DYNAMIC_STATE_CULL_MODE};
+  VkPipelineDynamicStateCreateInfo dynamic{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+  dynamic.dynamicStateCount = 3;
+  dynamic.pDynamicStates = dynamic_states;
+  VkPipelineRenderingCreateInfo rendering{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};  // no attachments
+  VkGraphicsPipelineCreateInfo info{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+  info.pNext = &rendering;
+  info.stageCount = 2;
+  info.pStages = stages;
+  info.pVertexInputState = &vertex_input;
+  info.pInputAssemblyState = &assembly;
+  info.pViewportState = &viewport;
+  info.pRasterizationState = &raster;
+  info.pMultisampleState = &multisample;
+  info.pDynamicState = &dynamic;
+  info.layout = p.hw_layout;
+  VkResult r = vkCreateGraphicsPipelines(c.device, VK_NULL_HANDLE, 1, &info, nullptr, &p.hw);
+  vkDestroyShaderModule(c.device, vert, nullptr);
+  vkDestroyShaderModule(c.device, frag, nullptr);
+  check_vk(r, "hw_raster pipeline");
+}
+
+// Shader writes of `src` stages become visible to the `dst` stages' `access`.
+void barrier(GpuRecorder& rec, VkPipelineStageFlags2 src, VkPipelineStageFlags2 dst, VkAccessFlags2 access) {
+  VkMemoryBarrier2 b{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+  b.srcStageMask = src;
+  b.srcAccessMask = VK_ACCESS_2_SHADER_WRITE_BIT;
+  b.dstStageMask = dst;
+  b.dstAccessMask = access;
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.memoryBarrierCount = 1;
+  dep.pMemoryBarriers = &b;
+  vkCmdPipelineBarrier2(rec.commands, &dep);
+}
+
+// The hardware draw: one dynamic-rendering pass with no attachments over the viewport.
+void record_hw_draw(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuffers& b, const GpuRasterParams& params,
+                    uint32_t max_draws) {
+  VkDescriptorSet set = storage_buffer_set(
+      rec, p.hw_set_layout, {b.pages, b.locations, b.meshes, b.instances, b.visible, b.vis, b.counters});
+
+  VkRenderingInfo rendering{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  rendering.renderArea = {{0, 0}, {params.width, params.height}};
+  rendering.layerCount = 1;
+  vkCmdBeginRendering(rec.commands, &rendering);
+  vkCmdBindPipeline(rec.commands, VK_PIPELINE_BIND_POINT_GRAPHICS, p.hw);
+  vkCmdBindDescriptorSets(rec.commands, VK_PIPELINE_BIND_POINT_GRAPHICS, p.hw_layout, 0, 1, &set, 0, nullptr);
+  vkCmdPushConstants(rec.commands, p.hw_layout, kHwStages, 0, sizeof params, &params);
+  const VkViewport viewport{0.0f, 0.0f, float(params.width), float(params.height), 0.0f, 1.0f};
+  const VkRect2D scissor{{0, 0}, {params.width, params.height}};
+  vkCmdSetViewport(rec.commands, 0, 1, &viewport);
+  vkCmdSetScissor(rec.commands, 0, 1, &scissor);
+  vkCmdSetCullMode(rec.commands, params.cull_backfaces ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE);
+  vkCmdDrawIndirectCount(rec.commands, p.commands.buffer, 0, p.split_counters.buffer,
+                         offsetof(GpuRasterSplitCounters, hw_draw_count), max_draws, sizeof(GpuDrawCommand));
+  vkCmdEndRendering(rec.commands);
+}
+
+}  // namespace
+
+GpuRasterPasses::~GpuRasterPasses() {
+  if (!context) return;
+  VkDevice d = context->device;
+  if (hw) vkDestroyPipeline(d, hw, nullptr);
+  if (hw_layout) vkDestroyPipelineLayout(d, hw_layout, nullptr);
+  if (hw_set_layout) vkDestroyDescriptorSetLayout(d, hw_set_layout, nullptr);
+}
+
+std::unique_ptr<GpuRasterPasses> create_gpu_raster_passes(GpuContext& gpu,
+                                                          const std::vector<GpuClusterRasterInfo>& cluster_info) {
+  auto p = std::make_unique<GpuRasterPasses>();
+  p->context = &gpu;
+  p->sw = create_compute_pipeline(gpu, kShaderRaster, kSwBindings, sizeof(GpuRasterParams));
+  p->split = create_compute_pipeline(gpu, kShaderRasterSplit, kSplitBindings, sizeof(GpuRasterSplitParams));
+  create_hw_pipeline(gpu, *p);
+  p->cluster_info = create_gpu_buffer(gpu, cluster_info.size() * sizeof(GpuClusterRasterInfo));
+  if (!cluster_info.empty())
+    std::memcpy(p->cluster_info.mapped, cluster_info.data(), cluster_info.size() * sizeof(GpuClusterRasterInfo));
+  p->split_counters = create_gpu_buffer(gpu, sizeof(GpuRasterSplitCounters));
+  return p;
+}
+
+void prepare_gpu_raster(GpuRasterPasses& p, const std::vector<float>& instance_scale, uint32_t visible_total) {
+  GpuContext& gpu = *p.context;
+  ensure_gpu_buffer(gpu, p.raster_instances, instance_scale.size() * sizeof(GpuRasterInstance));
+  if (!instance_scale.empty())
+    std::memcpy(p.raster_instances.mapped, instance_scale.data(), instance_scale.size() * sizeof(float));
+  ensure_gpu_buffer(gpu, p.paths, uint64_t(visible_total) * 4);
+  ensure_gpu_buffer(gpu, p.commands, uint64_t(visible_total) * sizeof(GpuDrawCommand));
+}
+
+void record_gpu_raster(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuffers& b, const GpuRasterRequest& q) {
+  cmd_fill(rec, p.split_counters, 0);
+  GpuRasterSplitParams split{};
+  split.first_visible = q.first_visible;
+  split.visible_count = q.visible_count;
+  const uint32_t split_groups = (q.visible_count + kGpuRasterSplitGroupSize - 1) / kGpuRasterSplitGroupSize;
+  split.groups_x = std::min(split_groups, kGpuMaxGroupsX);
+  split.mode = uint32_t(q.mode);
+  split.z_near = q.z_near;
+  split.pixels_per_unit_at_1 = q.pixels_per_unit_at_1;
+  split.hw_min_triangle_area_px = q.hw_min_triangle_area_px;
+  cmd_dispatch(rec, p.split, {b.meshes, b.instances, b.visible, &p.cluster_info, &p.raster_instances, &p.paths, &p.commands,
+                              &p.split_counters},
+               &split, split.groups_x, split.groups_x ? (split_groups + split.groups_x - 1) / split.groups_x : 0);
+
+  GpuRasterParams params{};
+  params.width = q.width;
+  params.height = q.height;
+  params.first_visible = q.first_visible;
+  params.visible_count = q.visible_count;
+  params.groups_x = std::min(q.visible_count, kGpuMaxGroupsX);
+  params.cull_backfaces = q.cull_backfaces ? 1u : 0u;
+  params.z_near = q.z_near;
+  params.select_path = q.mode == GpuRasterMode::kSw ? 0u : 1u;
+  if (q.mode != GpuRasterMode::kHw) {
+    const uint32_t groups_y = params.groups_x ? (q.visible_count + params.groups_x - 1) / params.groups_x : 0;
+    cmd_dispatch(rec, p.sw, {b.pages, b.locations, b.meshes, b.instances, b.visible, b.vis, b.counters, &p.paths}, &params,
+                 params.groups_x, groups_y);
+  }
+  if (q.mode != GpuRasterMode::kSw && q.visible_count) {
+    // The split's commands, count and paths, and the compute raster's keys, before the draw.
+    barrier(rec, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+            VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
+                VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+            VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT);
+    record_hw_draw(rec, p, b, params, q.visible_count);
+    // The fragment stage's keys and counter, before later passes and the host read-back.
+    barrier(rec, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+            VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT |
+                VK_PIPELINE_STAGE_2_TRANSFER_BIT | VK_PIPELINE_STAGE_2_HOST_BIT,
+            VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT |
+                VK_ACCESS_2_HOST_READ_BIT);
+  }
+}
+
+RasterSplitStats read_gpu_raster_split(const GpuRasterPasses& p) {
+  const GpuRasterSplitCounters& c = *p.split_counters.data<GpuRasterSplitCounters>();
+  RasterSplitStats s;
+  s.sw_clusters = c.sw_clusters;
+  s.hw_clusters = c.hw_clusters;
+  s.sw_triangles = c.sw_triangles;
+  s.hw_triangles = c.hw_triangles;
+  return s;
+}
+
+}  // namespace vgeo

@@ -1,0 +1,99 @@
+#pragma once
+// The GPU raster passes (spec/raster.md §13): the compute software rasterizer
+// (shaders/raster.comp, bit-identical to the CPU), the hardware raster pipeline (a graphics
+// pipeline with no attachments, dynamic rendering: shaders/hw_raster.vert decodes the
+// cluster's memory form, shaders/hw_raster.frag does the same 64-bit atomicMax), and the
+// per-cluster split between them (shaders/raster_split.comp). Both write one visibility
+// buffer with the key of core/vis_key.h.
+//
+// Input interface: the visible-cluster buffer (GpuVisibleCluster per visible index) and a
+// range [first, first + count) of it. The split pass reads it on the GPU and writes the draw
+// commands and their count for vkCmdDrawIndirectCount, so whoever fills the visible buffer
+// (today the host cull, later the GPU cull) feeds the hardware path with no CPU round trip.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "vgeo/gpu/context.h"
+#include "vgeo/gpu/hw_raster_records.h"
+
+namespace vgeo {
+
+// `vgeo render --raster sw|hw|auto`: which GPU rasterizer draws each visible cluster.
+enum class GpuRasterMode : uint8_t {
+  kSw = 0,    // every cluster by the compute rasterizer (bit-identical to the CPU reference)
+  kHw = 1,    // every cluster by the hardware pipeline
+  kAuto = 2,  // per cluster by the rule of spec/raster.md §13.2
+};
+bool parse_gpu_raster_mode(const std::string& name, GpuRasterMode* out);
+const char* gpu_raster_mode_name(GpuRasterMode mode);
+
+// The auto rule's threshold: a cluster whose estimated projected triangle area
+// (π r_px² / triangles, spec/raster.md §13.2) is at least this goes to the hardware path.
+// Where `vgeo bench raster`'s compute-SW and hardware curves cross on lavapipe: SW/HW 1.01×
+// at 8-px legs (32 px²), 0.83× at 16 px (128 px²); 64 px² is the geometric middle
+// (docs/bench/report.md §raster; on lavapipe the sides are inverted, see spec §13.4).
+inline constexpr float kAutoHwMinTriangleAreaPx = 64.0f;
+
+struct RasterSplitStats {
+  uint64_t sw_clusters = 0, hw_clusters = 0, sw_triangles = 0, hw_triangles = 0;
+  void add(const RasterSplitStats& o) {
+    sw_clusters += o.sw_clusters;
+    hw_clusters += o.hw_clusters;
+    sw_triangles += o.sw_triangles;
+    hw_triangles += o.hw_triangles;
+  }
+};
+
+// Pipelines of the three passes and the buffers only they use. Move-only; frees itself.
+struct GpuRasterPasses {
+  GpuContext* context = nullptr;
+  ComputePipeline sw, split;
+  VkDescriptorSetLayout hw_set_layout = VK_NULL_HANDLE;
+  VkPipelineLayout hw_layout = VK_NULL_HANDLE;
+  VkPipeline hw = VK_NULL_HANDLE;
+  GpuBuffer cluster_info;      // GpuClusterRasterInfo per (mesh, cluster), GpuClusterLocation order
+  GpuBuffer raster_instances;  // GpuRasterInstance per instance (per frame)
+  GpuBuffer paths;             // kGpuRasterPath* per visible cluster (per frame)
+  GpuBuffer commands;          // GpuDrawCommand per hardware cluster (per frame)
+  GpuBuffer split_counters;    // GpuRasterSplitCounters
+
+  GpuRasterPasses() = default;
+  GpuRasterPasses(const GpuRasterPasses&) = delete;
+  GpuRasterPasses& operator=(const GpuRasterPasses&) = delete;
+  ~GpuRasterPasses();
+};
+
+// `cluster_info`: one record per (mesh, cluster) in the order of the location buffer.
+std::unique_ptr<GpuRasterPasses> create_gpu_raster_passes(GpuContext& gpu,
+                                                          const std::vector<GpuClusterRasterInfo>& cluster_info);
+
+// Per frame, before recording: the instances' scale factors and the visible-cluster count
+// (sizes the path and command buffers).
+void prepare_gpu_raster(GpuRasterPasses& passes, const std::vector<float>& instance_scale, uint32_t visible_total);
+
+// The buffers the passes read and write, owned by the caller (bindings of shaders/raster.comp).
+struct GpuRasterBuffers {
+  const GpuBuffer *pages, *locations, *meshes, *instances, *visible, *vis, *counters;
+};
+
+struct GpuRasterRequest {
+  GpuRasterMode mode = GpuRasterMode::kSw;
+  uint32_t first_visible = 0, visible_count = 0;
+  uint32_t width = 0, height = 0;
+  float z_near = 0.01f;
+  float pixels_per_unit_at_1 = 1;
+  float hw_min_triangle_area_px = kAutoHwMinTriangleAreaPx;
+  bool cull_backfaces = true;
+};
+
+// Records the raster of visible[first, first + count) into `vis`: the split (every mode: it
+// also counts), the compute rasterizer over the clusters it owns (unless kHw), then one
+// vkCmdDrawIndirectCount of the hardware clusters (unless kSw). Between prepare and submit.
+void record_gpu_raster(GpuRecorder& rec, GpuRasterPasses& passes, const GpuRasterBuffers& buffers,
+                       const GpuRasterRequest& request);
+// After submit_and_wait: the split of the last recorded range.
+RasterSplitStats read_gpu_raster_split(const GpuRasterPasses& passes);
+
+}  // namespace vgeo
