@@ -8,6 +8,7 @@
 #extension GL_EXT_shader_explicit_arithmetic_types : require
 #extension GL_EXT_shader_atomic_int64 : require
 #extension GL_GOOGLE_include_directive : require
+#include "vgeo/core/cull_shared.h"
 #include "vgeo/core/vis_key.h"
 #include "vgeo/gpu/shader_records.h"
 #include "vgeo/gpu/hw_raster_records.h"
@@ -20,7 +21,9 @@ layout(std430, binding = 2) readonly buffer Meshes { GpuMesh meshes[]; };
 layout(std430, binding = 3) readonly buffer Instances { GpuInstance instances[]; };
 layout(std430, binding = 4) readonly buffer Visible { GpuVisibleCluster visible[]; };
 layout(std430, binding = 5) buffer Vis { uint64_t vis[]; };
-layout(std430, binding = 6) buffer Counters { uint64_t pixels_written; };
+// Word kGpuRasterOverflowWord (after pixels_written): triangles whose pixel loops did not run
+// to the end (llvmpipe's loop limiter, spec/raster.md §13.5); the host fails on any.
+layout(std430, binding = 6) buffer Counters { uint64_t pixels_written; uint32_t loop_overflow; };
 layout(std430, binding = 7) readonly buffer Paths { uint32_t path_of_visible[]; };
 layout(push_constant) uniform Push { GpuRasterParams params; };
 
@@ -131,7 +134,11 @@ float depth_at(int64_t px, int64_t py) {
 
 // raster.cpp raster_triangle (all pixel loops produce the same set; this is the bounding-box
 // loop over exact edge functions). Returns false when culled (back face, zero area).
-bool raster_triangle(ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, uint32_t id_bits, inout uint64_t written) {
+// `planned` sums the invocation's pixel-loop back edges; `overflow` is set when they would
+// exceed kGpuLoopBudget less kGpuRasterLoopMargin (then nothing is drawn) or when a loop was
+// left before its end all the same (the limiter counts a whole 8-lane vector's back edges).
+bool raster_triangle(ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, uint32_t id_bits, inout uint64_t written,
+                     inout int64_t planned, inout bool overflow) {
   int64_t area = (v1.x - v0.x) * (v2.y - v0.y) - (v2.x - v0.x) * (v1.y - v0.y);
   if (area == int64_t(0)) return false;
   bool front = area < int64_t(0);
@@ -171,13 +178,27 @@ bool raster_triangle(ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, uint32_t
   g_a = pa;
   g_b = pb;
 
-  for (int64_t py = min_py; py <= max_py; ++py)
-    for (int64_t px = min_px; px <= max_px; ++px)
+  // Back edges of the loops below: one per pixel and one per row (inner exit), plus the
+  // outer loop's own exit.
+  const int64_t rows = max(int64_t(0), max_py - min_py + int64_t(1));
+  const int64_t columns = max(int64_t(0), max_px - min_px + int64_t(1));
+  planned += rows * (columns + int64_t(1)) + int64_t(1);
+  if (planned > int64_t(kGpuLoopBudget - kGpuRasterLoopMargin)) {
+    overflow = true;
+    return true;
+  }
+  int64_t py = min_py;
+  for (; py <= max_py; ++py) {
+    int64_t px = min_px;
+    for (; px <= max_px; ++px)
       if (edge_at(0, px, py) >= int64_t(0) && edge_at(1, px, py) >= int64_t(0) && edge_at(2, px, py) >= int64_t(0)) {
         uint64_t key = pack_vis_key_bits(floatBitsToUint(depth_at(px, py)), 0u, 0u) | uint64_t(id_bits);
         atomicMax(vis[uint32_t(py) * params.width + uint32_t(px)], key);
         ++written;
       }
+    if (px <= max_px) overflow = true;  // the row was left early: the limiter ran out
+  }
+  if (py <= max_py) overflow = true;
   return true;
 }
 
@@ -236,8 +257,10 @@ void main() {
   uint32_t id_bits = (visible_index << kVisTriangleBits) | tri;
   uint32_t clip_mask = (tv[0].code | tv[1].code | tv[2].code) & kOutClipMask;
   uint64_t written = uint64_t(0);
+  int64_t planned = int64_t(0);
+  bool overflow = false;
   if (clip_mask == 0u) {
-    raster_triangle(tv[0].screen, tv[1].screen, tv[2].screen, id_bits, written);
+    raster_triangle(tv[0].screen, tv[1].screen, tv[2].screen, id_bits, written, planned, overflow);
   } else {
     // raster.cpp clip_polygon: Sutherland–Hodgman in the fixed plane order.
     ClipVertex poly[kMaxPolygon];
@@ -264,8 +287,12 @@ void main() {
     if (count >= 3) {
       ScreenVertex screen[kMaxPolygon];
       for (int k = 0; k < count; ++k) screen[k] = project(poly[k], scale_x, scale_y);
-      for (int k = 1; k + 1 < count; ++k) raster_triangle(screen[0], screen[k], screen[k + 1], id_bits, written);
+      int k = 1;
+      for (; k + 1 < count; ++k)
+        raster_triangle(screen[0], screen[k], screen[k + 1], id_bits, written, planned, overflow);
+      if (k + 1 < count) overflow = true;  // a fan triangle was skipped: the limiter ran out
     }
   }
   if (written != uint64_t(0)) atomicAdd(pixels_written, written);
+  if (overflow) atomicAdd(loop_overflow, 1u);
 }

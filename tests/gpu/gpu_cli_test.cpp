@@ -61,6 +61,28 @@ TEST(GpuCli, StreamBudgetCompareHoldsTheRule) {
   EXPECT_EQ(j["validation_messages"].get<int>(), 0);
 }
 
+// The compute rasterizer's loop budget (spec/raster.md §13.5): the fly-through's last camera
+// at 640×360 has triangles with pixel bounding boxes beyond it (before the check, lavapipe
+// silently drew 71,574 of 160,595 pixels). --raster sw fails with a coded error; auto sends
+// those clusters to the hardware path and keeps the rule.
+TEST(GpuCli, ComputeRasterRefusesTrianglesBeyondTheLoopBudget) {
+  const test::StreamFixture& f = test::stream_fixture();
+  const std::string scene = f.dir + "/gpu_cli_near.json";
+  std::ofstream(scene) << "{\"version\":1,\"meshes\":[{\"dag\":\"meshes.vgeo\",\"index\":0},{\"dag\":\"meshes.vgeo\","
+                          "\"index\":1}],\"instances\":[{\"mesh\":0,\"translation\":[-1.5,0,0]},{\"mesh\":1,"
+                          "\"translation\":[0,0,-2.5]},{\"mesh\":0,\"translation\":[1.5,0,-5]}],\"cameras\":[{\"position\":"
+                          "[2.5,0.4,-5],\"look_at\":[0,0,-7.5],\"resolution\":[640,360]}],\"settings\":{\"occlusion\":true}}";
+  test::CliResult sw = test::run_cli("render '" + scene + "' --backend vulkan --raster sw --tau 1000 --threads 2");
+  EXPECT_EQ(sw.exit_code, 2) << sw.output;
+  EXPECT_NE(sw.output.find("error[GPU_SCENE_TOO_LARGE]"), std::string::npos) << sw.output;
+  test::CliResult aut =
+      test::run_cli("render '" + scene + "' --backend vulkan --compare cpu --raster auto --tau 1000 --json --threads 2");
+  ASSERT_EQ(aut.exit_code, 0) << aut.output;
+  nlohmann::json j = nlohmann::json::parse(aut.output);
+  EXPECT_TRUE(j["rule_holds"].get<bool>());
+  EXPECT_GT(j["frames"].back()["raster_split"]["hw_clusters"].get<uint64_t>(), 0u);
+}
+
 TEST(GpuCli, RasterHwKeepsTheHardwareRuleAndCountsItsClusters) {
   test::CliResult r = test::run_cli("render '" + kScene + "' --compare cpu --raster hw --validate --json --no-cache");
   ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -28,7 +28,8 @@ VGEO_CONSTANT uint32_t kGpuHzbMaxLevels = 16u;
 // llvmpipe (Mesa 22.3, gallivm lp_exec_endloop) ends every loop of a shader invocation
 // vector once LP_MAX_TGSI_LOOP_ITERATIONS loop back edges have run since the shader began
 // (one counter per invocation, set at entry, never reset, shared by every loop). Every cull
-// shader is bounded below this (spec/raster.md §12): the host checks the bound per dispatch.
+// shader is bounded below this (spec/raster.md §12): the host checks the bound per dispatch;
+// the compute rasterizer checks its own in the shader and the host fails on a flag (§13.5).
 VGEO_CONSTANT uint32_t kGpuLoopBudget = 65535u;
 
 // ---- DAG records (== DagCluster, DagGroup, BvhNode) ----

@@ -129,6 +129,16 @@ void raster_range(GpuRenderer& r, uint32_t width, uint32_t height, float z_near,
   stats->ms = timestamp_ms(rec, t0, t1);
   stats->pixels_written = r.counters.data<uint64_t>()[0];
   split->add(read_gpu_raster_split(*r.raster));
+  // Never a silently wrong image: the compute rasterizer flags triangles whose pixel loops
+  // exceed the loop budget (spec/raster.md §13.5); the hardware path has no such loop.
+  const uint32_t overflow = r.counters.data<uint32_t>()[kGpuRasterOverflowWord];
+  if (overflow != 0)
+    fail("GPU_SCENE_TOO_LARGE", r.gpu->device_name,
+         std::to_string(overflow) + " triangle(s) need more pixel-loop iterations than the compute rasterizer's "
+             "loop budget (" + std::to_string(kGpuLoopBudget - kGpuRasterLoopMargin) +
+             " per invocation: a bounding box that large, spec/raster.md §13.5): use --raster hw or auto, or a "
+             "smaller viewport",
+         kExitUsage);
 }
 
 // Uploads the per-frame raster inputs and clears the visibility buffer.

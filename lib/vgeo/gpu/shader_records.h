@@ -56,6 +56,16 @@ struct GpuRasterParams {
   uint32_t select_path;
 };
 
+// shaders/raster.comp's loop bound (llvmpipe's loop limiter, core/cull_shared.h
+// kGpuLoopBudget; spec/raster.md §13.5): an invocation's pixel loops may plan at most
+// kGpuLoopBudget - kGpuRasterLoopMargin back edges. The margin covers its other loops (vertex
+// decode and transform, ≤ 5 clip planes × 8 polygon vertices, ≤ 6 fan triangles: well under
+// 1024) and follows gpu_cull.cpp's kPlannedLoopBudget.
+VGEO_CONSTANT uint32_t kGpuRasterLoopMargin = 1024u;
+// The raster counters (binding 6): uint64 pixels written (words 0-1), then at this word the
+// count of triangles whose pixel loops could not run to the end.
+VGEO_CONSTANT uint32_t kGpuRasterOverflowWord = 2u;
+
 // Per instance and frame, for shading (shade.cpp): object→view (column-major Mat4d::m) and
 // the normal matrix (cofactor matrix of the 3x3 part, sign-corrected; row-major 3x3).
 struct GpuShadeInstance {
