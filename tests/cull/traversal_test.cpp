@@ -5,22 +5,12 @@
 #include <cmath>
 #include <map>
 
+#include "cull/random_instances.h"
 #include "cull/synthetic_dag.h"
 #include "vgeo/cull/cull.h"
 
 namespace vgeo {
 namespace {
-
-Mat4d make_transform(double tx, double ty, double tz, double angle, double sx, double sy, double sz) {
-  Mat4d m;
-  double c = std::cos(angle), s = std::sin(angle);
-  // Rotation about Y, then per-axis scale.
-  m.at(0, 0) = c * sx; m.at(0, 2) = s * sz;
-  m.at(1, 1) = sy;
-  m.at(2, 0) = -s * sx; m.at(2, 2) = c * sz;
-  m.at(0, 3) = tx; m.at(1, 3) = ty; m.at(2, 3) = tz;
-  return m;
-}
 
 // Every leaf of every instance is covered by exactly one selected cluster (the cut is a
 // partition of the original surface). Returns the first failure as a message.
@@ -59,13 +49,7 @@ RandomScene gen_scene() {
   double far = *rc::gen::element(0.0, 1e4, 1e7);
   uint32_t count = *rc::gen::inRange<uint32_t>(1, 5);
   for (uint32_t i = 0; i < count; ++i) {
-    CullInstance inst;
-    inst.mesh = *rc::gen::inRange<uint32_t>(0, mesh_count);
-    double scale = *rc::gen::element(1e-4, 0.5, 1.0, 2.0, 1e4);
-    inst.object_to_world = make_transform(far + *rc::gen::inRange(-20, 20) * scale, *rc::gen::inRange(-20, 20) * scale,
-                                          *rc::gen::inRange(-20, 20) * scale, *rc::gen::inRange(0, 8) * 0.7,
-                                          scale, scale * *rc::gen::element(1.0, 0.5, 3.0), scale);
-    s.instances.push_back(inst);
+    s.instances.push_back(test::random_cull_instance(mesh_count, far));
   }
   double cs = *rc::gen::element(1e-4, 1.0, 1e4);
   s.camera.position = {far + *rc::gen::inRange(-60, 60) * cs, *rc::gen::inRange(-60, 60) * cs,
@@ -164,7 +148,7 @@ TEST(CullTraversal, OutputIsIdenticalForAnyThreadCount) {
   for (int i = 0; i < 20; ++i) {
     CullInstance inst;
     inst.mesh = i % 2;
-    inst.object_to_world = make_transform(i * 7.0, 0, -30.0 - i, i * 0.3, 1, 1, 1);
+    inst.object_to_world = test::make_transform(i * 7.0, 0, -30.0 - i, i * 0.3, 1, 1, 1);
     instances.push_back(inst);
   }
   Camera cam;

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <random>
 
+#include "cull/random_instances.h"
 #include "cull/synthetic_dag.h"
 #include "gpu/gpu_testing.h"
 #include "support/paths.h"
@@ -229,16 +230,6 @@ std::string compare(const CullRun& cpu, const CullRun& gpu) {
   return "";
 }
 
-Mat4d make_transform(double tx, double ty, double tz, double angle, double sx, double sy, double sz) {
-  Mat4d m;
-  double c = std::cos(angle), s = std::sin(angle);
-  m.at(0, 0) = c * sx; m.at(0, 2) = s * sz;
-  m.at(1, 1) = sy;
-  m.at(2, 0) = -s * sx; m.at(2, 2) = c * sz;
-  m.at(0, 3) = tx; m.at(1, 3) = ty; m.at(2, 3) = tz;
-  return m;
-}
-
 // Random synthetic DAGs and placements (far from the origin, tiny and huge scales, camera
 // among the instances), as tests/cull/traversal_test.cpp draws them.
 CullCase gen_case() {
@@ -250,13 +241,7 @@ CullCase gen_case() {
   double far = *rc::gen::element(0.0, 1e4, 1e7);
   uint32_t count = *rc::gen::inRange<uint32_t>(1, 40);
   for (uint32_t i = 0; i < count; ++i) {
-    CullInstance inst;
-    inst.mesh = *rc::gen::inRange<uint32_t>(0, mesh_count);
-    double scale = *rc::gen::element(1e-4, 0.5, 1.0, 2.0, 1e4);
-    inst.object_to_world = make_transform(far + *rc::gen::inRange(-20, 20) * scale, *rc::gen::inRange(-20, 20) * scale,
-                                          *rc::gen::inRange(-20, 20) * scale, *rc::gen::inRange(0, 8) * 0.7,
-                                          scale, scale * *rc::gen::element(1.0, 0.5, 3.0), scale);
-    c.instances.push_back(inst);
+    c.instances.push_back(test::random_cull_instance(mesh_count, far));
   }
   auto gen_camera = [&](Camera* cam) {
     double cs = *rc::gen::element(1e-4, 1.0, 1e4);
@@ -365,7 +350,7 @@ TEST(GpuCull, FinestHzbAndLongPersistentRunsEqualCpu) {
   for (uint32_t i = 0; i < 24; ++i) {
     CullInstance inst;
     inst.mesh = i % 3;
-    inst.object_to_world = make_transform((int(i % 6) - 2.5) * 12.0, (int(i / 6) - 1.5) * 10.0, 0, 0.3 * i, 1, 1, 1);
+    inst.object_to_world = test::make_transform((int(i % 6) - 2.5) * 12.0, (int(i / 6) - 1.5) * 10.0, 0, 0.3 * i, 1, 1, 1);
     c.instances.push_back(inst);
   }
   Camera camera;
