@@ -35,7 +35,10 @@ std::vector<Case> cases() {
   g.seed = 7;
   return {{"sphere", test::make_sphere(32, 64)},
           {"grid_with_hole", test::make_grid(40, 2.0f, true)},
-          {"generated_torus", generate_mesh(g)}};
+          {"generated_torus", generate_mesh(g)},
+          // Two sheets one ulp apart along a seam: the grid welds what the build keeps apart, so
+          // a seam the simplifier moved on one side only would be a crack (spec/dag.md Seams).
+          {"ulp_seam_sphere", test::make_ulp_seam(test::make_sphere(32, 64))}};
 }
 
 // position_bits 16 is the default grid; 8 bits is a coarse grid whose slack dominates the

@@ -2,6 +2,7 @@
 // Tiny deterministic meshes for unit tests (the full generator is lib/vgeo/mesh/generate.h).
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "vgeo/mesh/generate.h"
 #include "vgeo/mesh/mesh.h"
@@ -35,6 +36,45 @@ inline Mesh make_grid(uint32_t n, float size = 1.0f, bool hole = false, Vec3 off
 // Closed UV sphere (poles welded): lib/vgeo/mesh's generator.
 inline Mesh make_sphere(uint32_t rings, uint32_t segments, float radius = 1.0f, Vec3 center = {}) {
   return make_uv_sphere(rings, segments, radius, center);
+}
+
+// The same surface cut in two sheets along a seam whose two sides are one float ulp apart
+// (as CAD/PLY exports of parts that touch often are): triangles whose centroid has x > 0 get
+// their own copies of the vertices they share with the others, each copy's coordinates moved
+// one ulp towards +inf. Exactly, the seam is two open borders; on any position grid of the
+// page format both sides weld into one edge chain (spec/dag.md §2.3 Seams).
+inline Mesh make_ulp_seam(const Mesh& src) {
+  Mesh m = src;
+  m.name = src.name + "-ulp-seam";
+  const size_t tris = src.indices.size() / 3;
+  auto right = [&](size_t t) {
+    float x = 0;
+    for (int k = 0; k < 3; ++k) x += src.positions[3 * src.indices[3 * t + k]];
+    return x > 0;
+  };
+  std::vector<uint8_t> used_left(src.vertex_count(), 0);
+  for (size_t t = 0; t < tris; ++t)
+    if (!right(t))
+      for (int k = 0; k < 3; ++k) used_left[src.indices[3 * t + k]] = 1;
+  std::vector<uint32_t> copy(src.vertex_count(), ~uint32_t(0));
+  for (size_t t = 0; t < tris; ++t) {
+    if (!right(t)) continue;
+    for (int k = 0; k < 3; ++k) {
+      uint32_t& v = m.indices[3 * t + k];
+      if (!used_left[v]) continue;
+      if (copy[v] == ~uint32_t(0)) {
+        copy[v] = uint32_t(m.vertex_count());
+        for (int a = 0; a < 3; ++a)
+          m.positions.push_back(std::nextafter(src.positions[3 * v + a], INFINITY));
+        if (!src.normals.empty())
+          for (int a = 0; a < 3; ++a) m.normals.push_back(src.normals[3 * v + a]);
+        if (!src.uvs.empty())
+          for (int a = 0; a < 2; ++a) m.uvs.push_back(src.uvs[2 * v + a]);
+      }
+      v = copy[v];
+    }
+  }
+  return m;
 }
 
 // The same surface as a per-corner mesh (every triangle owns its three vertices, as many

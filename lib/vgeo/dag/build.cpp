@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cassert>
 #include <chrono>
@@ -324,6 +325,7 @@ struct LockState {
   std::vector<uint64_t> retired_edges;  // sorted welded edge keys of terminal groups' members
   std::vector<uint32_t> owner;          // block (cross-block pass) or block<<16|group tag
   std::vector<uint8_t> locked;
+  std::vector<uint8_t> pinned;  // welded vertex locked at every level (seams, pin_seam_vertices)
 };
 
 struct BuildState {
@@ -372,6 +374,98 @@ struct LevelState {
   double seconds_cross = 0;
 };
 
+// ---- 1b. seams (spec/dag.md §2.3 Seams) ----
+// A seam edge is a mesh-border edge whose two ends each lie within kSeamExtentFraction of the
+// ends of another mesh-border edge (one end may be the same vertex): the page format's grid can
+// weld the two into one interior edge, so simplifying one side only would open a crack there.
+// Its ends are locked at every level. Only the OpenMesh backend simplifies mesh borders
+// (meshopt's LockBorder keeps them), so the pass runs for it alone. Pinning more than needed
+// is safe (it only simplifies less), so a crowded search cell pins all of its vertices.
+void pin_seam_vertices(BuildState& s) {
+  std::vector<uint8_t>& pinned = s.locks.pinned;
+  pinned.assign(s.mesh.vertex_count(), 0);
+  if (s.options.simplifier != Simplifier::kOpenMesh || s.mesh_box.empty()) return;
+  std::vector<uint64_t> edges;
+  edges.reserve(s.mesh.indices.size());
+  for_each_welded_edge(s.welded, s.mesh.indices, [&](uint32_t a, uint32_t b) {
+    if (a != b) edges.push_back(edge_key(a, b));
+  });
+  std::sort(edges.begin(), edges.end());
+  std::vector<uint64_t> border_edges;  // welded edges used by exactly one triangle, sorted
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i + 1;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if (j - i == 1) border_edges.push_back(edges[i]);
+    i = j;
+  }
+  edges = {};
+  std::vector<uint32_t> border;  // their welded ends, sorted
+  for (uint64_t e : border_edges) border.insert(border.end(), {uint32_t(e >> 32), uint32_t(e)});
+  std::sort(border.begin(), border.end());
+  border.erase(std::unique(border.begin(), border.end()), border.end());
+  const Vec3 lo = s.mesh_box.min, hi = s.mesh_box.max;
+  const double tolerance = double(std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z})) * kSeamExtentFraction;
+  if (border.size() < 3 || !(tolerance > 0)) return;
+  const float* P = s.mesh.positions.data();
+  auto near = [&](uint32_t a, uint32_t b) {
+    for (int k = 0; k < 3; ++k)
+      if (!(std::fabs(double(P[3 * a + k]) - double(P[3 * b + k])) < tolerance)) return false;
+    return true;
+  };
+  // Near pairs of border vertices. Two coordinates less than `tolerance` apart share a cell
+  // of size 2·tolerance in at least one of two partitions shifted by `tolerance`; per axis,
+  // so 8 shifted grids find every pair.
+  std::vector<std::pair<uint32_t, uint32_t>> pairs;  // (a, b) and (b, a)
+  const double cell = 2.0 * tolerance;
+  const double origin[3] = {lo.x, lo.y, lo.z};
+  std::vector<std::pair<std::array<int64_t, 3>, uint32_t>> keyed(border.size());
+  for (uint32_t shift = 0; shift < 8; ++shift) {
+    for (size_t i = 0; i < border.size(); ++i) {
+      const uint32_t w = border[i];
+      for (int k = 0; k < 3; ++k)
+        keyed[i].first[k] =
+            int64_t(std::floor((double(P[3 * w + k]) - origin[k] + ((shift >> k) & 1) * tolerance) / cell));
+      keyed[i].second = w;
+    }
+    std::sort(keyed.begin(), keyed.end());
+    for (size_t i = 0; i < keyed.size();) {
+      size_t j = i + 1;
+      while (j < keyed.size() && keyed[j].first == keyed[i].first) ++j;
+      if (j - i > kSeamCellPairwiseLimit) {
+        for (size_t a = i; a < j; ++a) pinned[keyed[a].second] = 1;
+      } else {
+        for (size_t a = i; a < j; ++a)
+          for (size_t b = a + 1; b < j; ++b)
+            if (near(keyed[a].second, keyed[b].second)) {
+              pairs.push_back({keyed[a].second, keyed[b].second});
+              pairs.push_back({keyed[b].second, keyed[a].second});
+            }
+      }
+      i = j;
+    }
+  }
+  if (pairs.empty()) return;
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  // Seam edges: (u, v) with a border edge (u', v') != (u, v), u' = u or near u, v' = v or near v.
+  auto partners = [&](uint32_t w, auto&& fn) {
+    fn(w);
+    auto it = std::lower_bound(pairs.begin(), pairs.end(), std::pair<uint32_t, uint32_t>{w, 0});
+    for (; it != pairs.end() && it->first == w; ++it) fn(it->second);
+  };
+  for (uint64_t e : border_edges) {
+    const uint32_t u = uint32_t(e >> 32), v = uint32_t(e);
+    bool seam = false;
+    partners(u, [&](uint32_t u2) {
+      partners(v, [&](uint32_t v2) {
+        const uint64_t e2 = edge_key(u2, v2);
+        if (!seam && u2 != v2 && e2 != e && std::binary_search(border_edges.begin(), border_edges.end(), e2)) seam = true;
+      });
+    });
+    if (seam) pinned[u] = pinned[v] = 1;
+  }
+}
+
 // ---- 1. validate, weld ----
 void prepare(BuildState& s) {
   const double t0 = now_seconds();
@@ -384,6 +478,7 @@ void prepare(BuildState& s) {
   s.locks.retired.assign(vertex_count, 0);
   s.locks.owner.assign(vertex_count, kNone);
   s.locks.locked.assign(vertex_count, 0);
+  pin_seam_vertices(s);
   s.report.seconds_prepare = now_seconds() - t0;
 }
 
@@ -500,7 +595,7 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
       for (uint32_t v : s.clusters[m].triangles.corners) {
         uint32_t w = s.welded.weld[v];
         if (locked[w]) continue;
-        if (s.locks.retired[w] || (owner[w] != kNone && owner[w] != tag)) locked[w] = 1;
+        if (s.locks.retired[w] || s.locks.pinned[w] || (owner[w] != kNone && owner[w] != tag)) locked[w] = 1;
         else owner[w] = tag;
       }
   }

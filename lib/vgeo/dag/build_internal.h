@@ -45,6 +45,15 @@ inline constexpr uint32_t kMaxLevels = 64;
 // Meshes above this many triangles are leaf-clustered in spatial chunks of about this
 // size, in parallel: chunk borders add ~1% cluster-border edges at 128k triangles/chunk.
 inline constexpr size_t kLeafChunkTriangles = size_t(1) << 17;
+// Seams (spec/dag.md §2.3): mesh-border vertices less than this fraction of the mesh's
+// largest axis extent apart (per axis) are locked at every level. The page format's coarsest
+// automatic position grid (16 bits, spec/format.md §2.1) has the smallest power-of-two step s
+// with extent <= 2^16 s, so s < 2^-15 extent, and coordinates it rounds together differ by
+// less than s.
+inline constexpr double kSeamExtentFraction = 0x1p-15;
+// A cell of the seam search holding more mesh-border vertices than this pins them all instead
+// of comparing every pair (bounded work on pathological inputs; pinning is always safe).
+inline constexpr size_t kSeamCellPairwiseLimit = 64;
 // meshopt target error (relative to the sub-mesh extent): 1 = "no error bound", the
 // triangle count target drives the simplification and the error is measured.
 inline constexpr float kMeshoptTargetError = 1.0f;
