@@ -404,7 +404,10 @@ void pin_seam_vertices(BuildState& s) {
   std::sort(border.begin(), border.end());
   border.erase(std::unique(border.begin(), border.end()), border.end());
   const Vec3 lo = s.mesh_box.min, hi = s.mesh_box.max;
-  const double tolerance = double(std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z})) * kSeamExtentFraction;
+  const double extent = std::max({double(hi.x) - lo.x, double(hi.y) - lo.y, double(hi.z) - lo.z});
+  const double max_abs = std::max({std::fabs(lo.x), std::fabs(lo.y), std::fabs(lo.z), std::fabs(hi.x),
+                                   std::fabs(hi.y), std::fabs(hi.z)});
+  const double tolerance = std::max(extent * kSeamExtentFraction, double(max_abs) * kSeamMagnitudeFraction);
   if (border.size() < 3 || !(tolerance > 0)) return;
   const float* P = s.mesh.positions.data();
   auto near = [&](uint32_t a, uint32_t b) {

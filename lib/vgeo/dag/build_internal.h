@@ -51,6 +51,9 @@ inline constexpr size_t kLeafChunkTriangles = size_t(1) << 17;
 // with extent <= 2^16 s, so s < 2^-15 extent, and coordinates it rounds together differ by
 // less than s.
 inline constexpr double kSeamExtentFraction = 0x1p-15;
+// ... or less than this fraction of the largest |coordinate|: the grid step is also at least
+// max|p| / (2^24 - 1) (quantized coordinates fit 2^24), which is below 2^-22 max|p|.
+inline constexpr double kSeamMagnitudeFraction = 0x1p-22;
 // A cell of the seam search holding more mesh-border vertices than this pins them all instead
 // of comparing every pair (bounded work on pathological inputs; pinning is always safe).
 inline constexpr size_t kSeamCellPairwiseLimit = 64;
