@@ -11,6 +11,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <iterator>
 #include <unordered_map>
 
 #include "vgeo/dag/build_internal.h"
@@ -40,6 +41,11 @@ size_t target_triangles(size_t n) { return std::max<size_t>(1, size_t(double(n) 
 // seam; more are locked by it, so such positions are welded instead.
 constexpr size_t kMaxSeamWedges = 2;
 
+// Attempts after the first that give lost locked vertices their own copies: each adds the
+// vertices the previous one lost; measured, one retry recovers every case seen (CGAL
+// anchor_dense), a third attempt is a margin; a group still losing one is terminal as before.
+constexpr uint32_t kMaxLockedRetries = 2;
+
 // Unit geometric normal of a triangle, in double (zero for a degenerate one).
 DVec3 face_normal(const Mesh& mesh, uint32_t a, uint32_t b, uint32_t c) {
   const float *p = &mesh.positions[3 * size_t(a)], *q = &mesh.positions[3 * size_t(b)], *r = &mesh.positions[3 * size_t(c)];
@@ -51,7 +57,35 @@ DVec3 face_normal(const Mesh& mesh, uint32_t a, uint32_t b, uint32_t c) {
   return DVec3{n.x / len, n.y / len, n.z / len};
 }
 
-SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group) {
+// Copy `k` (k >= 1) of a sub-mesh position: every coordinate k ulps towards +inf. meshopt
+// joins bit-equal positions into wedges, so a copy must differ from the original and from the
+// other copies; a few ulps change no quadric measurably, and outputs map back to the vertex.
+void perturbed_copy(const float* p, uint32_t k, float* out) {
+  for (int a = 0; a < 3; ++a) {
+    float x = p[a];
+    for (uint32_t i = 0; i < k; ++i) x = std::nextafter(x, INFINITY);
+    out[a] = x;
+  }
+}
+
+// Locked welded ids used by `before` but not by `after` (sorted).
+std::vector<uint32_t> lost_locked_vertices(const WeldedMesh& welded, const TriangleSet& before,
+                                           const std::vector<uint32_t>& after_corners,
+                                           const std::vector<uint8_t>& locked) {
+  std::vector<uint32_t> kept, lost;
+  for (uint32_t v : after_corners)
+    if (locked[welded.weld[v]]) kept.push_back(welded.weld[v]);
+  std::sort(kept.begin(), kept.end());
+  for (uint32_t v : before.corners) {
+    const uint32_t w = welded.weld[v];
+    if (locked[w] && !std::binary_search(kept.begin(), kept.end(), w)) lost.push_back(w);
+  }
+  std::sort(lost.begin(), lost.end());
+  lost.erase(std::unique(lost.begin(), lost.end()), lost.end());
+  return lost;
+}
+
+SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked) {
   const Mesh& mesh = *welded.mesh;
   size_t n = group.triangle_count();
   // Distinct (vertex << 32 | material) keys of the corners via an open addressing table
@@ -114,17 +148,51 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
   for (size_t v = 0; v < unique_keys.size(); ++v)
     std::memcpy(&positions[3 * v], &mesh.positions[3 * size_t(unique_keys[v] >> 32)], 12);
 
+  // LockBorder keeps the sub-mesh's topological border only. A locked vertex with no open
+  // edge in the group (the coarse surface can pinch: another group uses the vertex too) or
+  // one meshopt classifies as complex may still be collapsed; then the border check would
+  // make the group terminal. Each such vertex lost by an attempt gets, in the next, a
+  // sub-mesh vertex of its own per corner (perturbed_copy): every copy is then a border
+  // vertex, which LockBorder keeps, and the outputs map back to the vertex.
+  std::vector<uint64_t> copy_keys;  // sub-mesh vertex unique_keys.size() + c has key copy_keys[c]
+  auto key_of = [&](unsigned int sub) {
+    return sub < unique_keys.size() ? unique_keys[sub] : copy_keys[sub - unique_keys.size()];
+  };
+  std::vector<uint32_t> split;  // welded ids given per-corner copies, sorted
   std::vector<unsigned int> out(indices.size());
-  float relative_error = 0.0f;
-  size_t out_count = meshopt_simplify(out.data(), indices.data(), indices.size(), positions.data(),
-                                      unique_keys.size(), sizeof(float) * 3, 3 * target_triangles(n),
-                                      kMeshoptTargetError, meshopt_SimplifyLockBorder, &relative_error);
   SimplifyResult r;
-  r.error = relative_error * meshopt_simplifyScale(positions.data(), unique_keys.size(), sizeof(float) * 3);
-  r.triangles.corners.resize(out_count);
-  r.triangles.materials.resize(out_count / 3);
-  for (size_t i = 0; i < out_count; ++i) r.triangles.corners[i] = uint32_t(unique_keys[out[i]] >> 32);
-  for (size_t t = 0; t < out_count / 3; ++t) r.triangles.materials[t] = uint32_t(unique_keys[out[3 * t]]);
+  size_t out_count = 0;
+  for (uint32_t attempt = 0;; ++attempt) {
+    std::vector<unsigned int> attempt_indices = indices;
+    std::vector<float> attempt_positions = positions;
+    copy_keys.clear();
+    if (!split.empty())
+      for (size_t i = 0; i < 3 * n; ++i) {
+        if (!std::binary_search(split.begin(), split.end(), welded.weld[group.corners[i]])) continue;
+        const uint64_t key = unique_keys[indices[i]];
+        copy_keys.push_back(key);
+        attempt_indices[i] = unsigned(unique_keys.size() + copy_keys.size() - 1);
+        attempt_positions.resize(attempt_positions.size() + 3);
+        perturbed_copy(&positions[3 * indices[i]], uint32_t(copy_keys.size()),
+                       &attempt_positions[attempt_positions.size() - 3]);
+      }
+    const size_t sub_vertices = unique_keys.size() + copy_keys.size();
+    float relative_error = 0.0f;
+    out_count = meshopt_simplify(out.data(), attempt_indices.data(), attempt_indices.size(), attempt_positions.data(),
+                                 sub_vertices, sizeof(float) * 3, 3 * target_triangles(n), kMeshoptTargetError,
+                                 meshopt_SimplifyLockBorder, &relative_error);
+    r.error = relative_error * meshopt_simplifyScale(attempt_positions.data(), sub_vertices, sizeof(float) * 3);
+    r.triangles.corners.resize(out_count);
+    r.triangles.materials.resize(out_count / 3);
+    for (size_t i = 0; i < out_count; ++i) r.triangles.corners[i] = uint32_t(key_of(out[i]) >> 32);
+    for (size_t t = 0; t < out_count / 3; ++t) r.triangles.materials[t] = uint32_t(key_of(out[3 * t]));
+    if (attempt == kMaxLockedRetries) break;
+    const std::vector<uint32_t> lost = lost_locked_vertices(welded, group, r.triangles.corners, locked);
+    if (lost.empty()) break;
+    std::vector<uint32_t> merged;
+    std::set_union(split.begin(), split.end(), lost.begin(), lost.end(), std::back_inserter(merged));
+    split = std::move(merged);
+  }
   if (welded_positions.empty()) return r;
 
   // Welded corners: the input corner of the same position and material whose triangle's
@@ -143,7 +211,7 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
     DVec3 nt{};
     bool normal_known = false;
     for (int k = 0; k < 3; ++k) {
-      const uint64_t sub = unique_keys[out[3 * t + k]];
+      const uint64_t sub = key_of(out[3 * t + k]);
       if (!is_welded(uint32_t(sub >> 32))) continue;
       if (!normal_known) {
         nt = face_normal(mesh, r.triangles.corners[3 * t], r.triangles.corners[3 * t + 1], r.triangles.corners[3 * t + 2]);
@@ -366,7 +434,7 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
   const TriangleSet& input = any_degenerate ? proper : group;
   if (input.triangle_count() == 0) return SimplifyResult{};
   if (simplifier == Simplifier::kOpenMesh) return simplify_openmesh(welded, input, locked);
-  return simplify_meshopt(welded, input);
+  return simplify_meshopt(welded, input, locked);
 }
 
 namespace {
