@@ -485,3 +485,31 @@ TEST(Build, FoldCheckFlagsOddParityChangesOnly) {
 
 }  // namespace
 }  // namespace vgeo::test
+
+namespace vgeo::test {
+namespace {
+
+// spec/dag.md §3 meshopt: a locked vertex without an open edge in the group (the coarse
+// surface pinches there) is not on the sub-mesh border LockBorder keeps; the simplifier must
+// still keep every locked vertex of its input (the border check would make the group terminal).
+TEST(Build, MeshoptKeepsLockedVerticesInsideTheGroup) {
+  // A closed sphere: the sub-mesh has no border at all, so LockBorder holds none of them.
+  const Mesh sphere = make_sphere(16, 32);
+  const build_detail::WeldedMesh w = build_detail::weld_positions(sphere);
+  build_detail::TriangleSet all;
+  all.corners.assign(sphere.indices.begin(), sphere.indices.end());
+  all.materials.assign(all.corners.size() / 3, 0);
+  std::vector<uint8_t> locked(sphere.vertex_count(), 0);
+  std::vector<uint32_t> inner;  // every 29th welded position
+  for (uint32_t v = 0; v < sphere.vertex_count(); v += 29) inner.push_back(w.weld[v]);
+  for (uint32_t v : inner) locked[v] = 1;
+  const build_detail::SimplifyResult r = build_detail::simplify_group(w, all, locked, Simplifier::kMeshopt);
+  ASSERT_GT(r.triangles.triangle_count(), 0u);
+  EXPECT_LE(double(r.triangles.triangle_count()), 0.85 * double(all.triangle_count()));
+  std::set<uint32_t> used;
+  for (uint32_t v : r.triangles.corners) used.insert(w.weld[v]);
+  for (uint32_t v : inner) EXPECT_TRUE(used.count(v)) << "locked interior vertex " << v << " was collapsed";
+}
+
+}  // namespace
+}  // namespace vgeo::test

@@ -41,9 +41,10 @@ size_t target_triangles(size_t n) { return std::max<size_t>(1, size_t(double(n) 
 // seam; more are locked by it, so such positions are welded instead.
 constexpr size_t kMaxSeamWedges = 2;
 
-// Attempts after the first that give lost locked vertices their own copies: each adds the
-// vertices the previous one lost; measured, one retry recovers every case seen (CGAL
-// anchor_dense), a third attempt is a margin; a group still losing one is terminal as before.
+// Attempts after the first that give lost locked vertices their own copies: the first also
+// splits every locked vertex off the sub-mesh border, later ones add what the previous one
+// lost; a group still losing one is terminal by the border check, as before. One retry
+// recovered every case measured (CGAL anchor_dense, femur, a test sphere), a second is margin.
 constexpr uint32_t kMaxLockedRetries = 2;
 
 // Unit geometric normal of a triangle, in double (zero for a degenerate one).
@@ -83,6 +84,36 @@ std::vector<uint32_t> lost_locked_vertices(const WeldedMesh& welded, const Trian
   std::sort(lost.begin(), lost.end());
   lost.erase(std::unique(lost.begin(), lost.end()), lost.end());
   return lost;
+}
+
+// Locked welded ids of `group` without exactly two open welded edges (used by one triangle of
+// the group) at them: inside the group (none) or complex (more), where LockBorder may not hold
+// them (sorted).
+std::vector<uint32_t> locked_vertices_off_the_border(const WeldedMesh& welded, const TriangleSet& group,
+                                                     const std::vector<uint8_t>& locked) {
+  std::vector<uint64_t> edges;
+  for_each_welded_edge(welded, group.corners, [&](uint32_t a, uint32_t b) {
+    if (a != b && (locked[a] || locked[b])) edges.push_back(edge_key(a, b));
+  });
+  std::sort(edges.begin(), edges.end());
+  std::vector<std::pair<uint32_t, uint32_t>> open_ends;  // (welded id, 1) per open edge end
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i + 1;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if (j - i == 1) open_ends.insert(open_ends.end(), {{uint32_t(edges[i] >> 32), 1}, {uint32_t(edges[i]), 1}});
+    i = j;
+  }
+  std::sort(open_ends.begin(), open_ends.end());
+  std::vector<uint32_t> out;
+  for (uint32_t v : group.corners) {
+    const uint32_t w = welded.weld[v];
+    if (!locked[w]) continue;
+    const auto range = std::equal_range(open_ends.begin(), open_ends.end(), std::pair<uint32_t, uint32_t>{w, 1});
+    if (range.second - range.first != 2) out.push_back(w);
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
 }
 
 SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked) {
@@ -187,8 +218,16 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
     for (size_t i = 0; i < out_count; ++i) r.triangles.corners[i] = uint32_t(key_of(out[i]) >> 32);
     for (size_t t = 0; t < out_count / 3; ++t) r.triangles.materials[t] = uint32_t(key_of(out[3 * t]));
     if (attempt == kMaxLockedRetries) break;
-    const std::vector<uint32_t> lost = lost_locked_vertices(welded, group, r.triangles.corners, locked);
+    std::vector<uint32_t> lost = lost_locked_vertices(welded, group, r.triangles.corners, locked);
     if (lost.empty()) break;
+    // Another collapse order loses other such vertices: the first retry also splits every
+    // locked vertex LockBorder cannot hold (not exactly two open welded edges in the group).
+    if (attempt == 0) {
+      std::vector<uint32_t> unheld = locked_vertices_off_the_border(welded, group, locked);
+      lost.insert(lost.end(), unheld.begin(), unheld.end());
+      std::sort(lost.begin(), lost.end());
+      lost.erase(std::unique(lost.begin(), lost.end()), lost.end());
+    }
     std::vector<uint32_t> merged;
     std::set_union(split.begin(), split.end(), lost.begin(), lost.end(), std::back_inserter(merged));
     split = std::move(merged);
