@@ -206,7 +206,7 @@ TEST(Build, RetiredClustersKeepTheirBordersAtLaterLevels) {
 
 // The split's limits hold for every input (spec/dag.md §Split): a soup of disjoint triangles
 // has 3 vertices per triangle, so 128 triangles (the triangle limit) need 6 clusters by the
-// vertex limit (64); both split methods, all triangles kept.
+// vertex limit (64); every split method, all triangles kept.
 TEST(Build, SplitKeepsTheVertexLimitForDisjointTriangles) {
   Mesh m;
   for (uint32_t t = 0; t < kMaxClusterTriangles; ++t) {
@@ -218,7 +218,7 @@ TEST(Build, SplitKeepsTheVertexLimitForDisjointTriangles) {
   build_detail::TriangleSet all;
   all.corners = m.indices;
   all.materials.assign(m.triangle_count(), 0);
-  for (auto method : {build_detail::SplitMethod::kMeshopt, build_detail::SplitMethod::kMetis}) {
+  for (auto method : {build_detail::SplitMethod::kMeshopt, build_detail::SplitMethod::kMetis, build_detail::SplitMethod::kGrow}) {
     std::vector<uint32_t> scratch(welded.weld.size(), kNone);
     const std::vector<build_detail::TriangleSet> clusters = build_detail::split_into_clusters(welded, all, scratch, method);
     size_t triangles = 0;

@@ -1,4 +1,5 @@
-// Leaf clustering: meshopt_buildMeshlets vs METIS recursive bisection, on CGAL meshes
+// Leaf clustering: meshopt_buildMeshlets vs METIS recursive bisection vs the grower
+// (method = SplitMethod: 0 meshopt, 1 METIS, 2 grow), on CGAL meshes
 // (run tools/fetch-data first; VGEO_DATA_DIR overrides ./data). Counters: average fill
 // (triangles per cluster / 128) and boundary-edge fraction (cluster-border edge slots /
 // all edge slots, as BuildLevelReport::boundary_edge_fraction).
@@ -34,7 +35,7 @@ void BM_LeafClusters(benchmark::State& state) {
   all.corners = mesh.indices;
   all.materials.assign(mesh.triangle_count(), 0);
   std::vector<uint32_t> scratch(mesh.vertex_count(), kNone);
-  SplitMethod method = state.range(1) ? SplitMethod::kMetis : SplitMethod::kMeshopt;
+  const SplitMethod method = SplitMethod(state.range(1));
   std::vector<TriangleSet> clusters;
   for (auto _ : state) clusters = split_into_clusters(welded, all, scratch, method);
   uint64_t open = 0, edges = 0;
@@ -51,7 +52,9 @@ void BM_LeafClusters(benchmark::State& state) {
   state.counters["border"] = double(open) / double(edges);
 }
 
-BENCHMARK(BM_LeafClusters)->ArgNames({"mesh", "metis"})->ArgsProduct({{0, 1, 2, 3, 4, 5, 6, 7}, {0, 1}})
+BENCHMARK(BM_LeafClusters)->ArgNames({"mesh", "method"})
+    ->ArgsProduct({{0, 1, 2, 3, 4, 5, 6, 7},
+                   {int(SplitMethod::kMeshopt), int(SplitMethod::kMetis), int(SplitMethod::kGrow)}})
     ->Unit(benchmark::kMillisecond)->Iterations(1);
 
 }  // namespace
