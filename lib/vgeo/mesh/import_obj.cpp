@@ -102,6 +102,22 @@ void read_numbers(TextCursor& in, size_t required, size_t n, std::vector<float>&
 // or repeat whole rings; the OpenMesh reader this replaces kept the first corner of each
 // position index and so does this one. Long polygons are sorted, not compared pairwise.
 void drop_repeated_positions(std::vector<Corner>& polygon, std::vector<std::pair<int64_t, size_t>>& order) {
+  if (polygon.size() <= kPairwiseRepeatTestMax) {
+    // Pairwise (no sort) for the common short polygon: a corner repeating an earlier v is
+    // dropped, as below (a dropped corner's v is kNone, which no resolved v equals).
+    bool repeats = false;
+    for (size_t i = 1; i < polygon.size(); ++i)
+      for (size_t j = 0; j < i; ++j)
+        if (polygon[j].v == polygon[i].v) {
+          polygon[i].v = kNone;
+          repeats = true;
+          break;
+        }
+    if (repeats)
+      polygon.erase(std::remove_if(polygon.begin(), polygon.end(), [](const Corner& c) { return c.v == kNone; }),
+                    polygon.end());
+    return;
+  }
   order.clear();
   for (size_t i = 0; i < polygon.size(); ++i) order.push_back({polygon[i].v, i});
   std::sort(order.begin(), order.end());  // by v, then by position in the polygon
