@@ -1,6 +1,7 @@
 // Builder properties on small synthetic meshes (spec/dag.md).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -206,7 +207,7 @@ TEST(Build, RetiredClustersKeepTheirBordersAtLaterLevels) {
 
 // The split's limits hold for every input (spec/dag.md §Split): a soup of disjoint triangles
 // has 3 vertices per triangle, so 128 triangles (the triangle limit) need 6 clusters by the
-// vertex limit (64); both split methods, all triangles kept.
+// vertex limit (64); every split method, all triangles kept.
 TEST(Build, SplitKeepsTheVertexLimitForDisjointTriangles) {
   Mesh m;
   for (uint32_t t = 0; t < kMaxClusterTriangles; ++t) {
@@ -218,7 +219,7 @@ TEST(Build, SplitKeepsTheVertexLimitForDisjointTriangles) {
   build_detail::TriangleSet all;
   all.corners = m.indices;
   all.materials.assign(m.triangle_count(), 0);
-  for (auto method : {build_detail::SplitMethod::kMeshopt, build_detail::SplitMethod::kMetis}) {
+  for (auto method : {build_detail::SplitMethod::kMeshopt, build_detail::SplitMethod::kMetis, build_detail::SplitMethod::kGrow}) {
     std::vector<uint32_t> scratch(welded.weld.size(), kNone);
     const std::vector<build_detail::TriangleSet> clusters = build_detail::split_into_clusters(welded, all, scratch, method);
     size_t triangles = 0;
@@ -229,6 +230,47 @@ TEST(Build, SplitKeepsTheVertexLimitForDisjointTriangles) {
       triangles += c.triangle_count();
     }
     EXPECT_EQ(triangles, all.triangle_count());
+  }
+}
+
+// Every split method puts each triangle (corners, material) in exactly one cluster and keeps
+// the limits: a closed sphere, 40 small islands (the grower's restarts) and a fan of 300
+// triangles around one vertex (more than fit next to it in one cluster).
+TEST(Build, SplitKeepsEveryTriangleOnce) {
+  Mesh m = make_sphere(24, 48);
+  for (int i = 0; i < 40; ++i) {
+    const Mesh s = make_sphere(3, 4, 0.05f, Vec3{3.0f + float(i % 8), float(i / 8), 0.0f});
+    const uint32_t base = uint32_t(m.vertex_count());
+    m.positions.insert(m.positions.end(), s.positions.begin(), s.positions.end());
+    for (uint32_t idx : s.indices) m.indices.push_back(base + idx);
+  }
+  const uint32_t centre = uint32_t(m.vertex_count());
+  m.positions.insert(m.positions.end(), {-5, 0, 0});
+  constexpr uint32_t kFan = 300;
+  for (uint32_t k = 0; k < kFan; ++k) {
+    const float a = 6.2831853f * float(k) / kFan;
+    m.positions.insert(m.positions.end(), {-5 + std::cos(a), std::sin(a), 0});
+  }
+  for (uint32_t k = 0; k < kFan; ++k) m.indices.insert(m.indices.end(), {centre, centre + 1 + k, centre + 1 + (k + 1) % kFan});
+  const build_detail::WeldedMesh welded = build_detail::weld_positions(m);
+  build_detail::TriangleSet all;
+  all.corners = m.indices;
+  for (size_t t = 0; t < m.triangle_count(); ++t) all.materials.push_back(uint32_t(t % 3));
+  std::multiset<std::array<uint32_t, 4>> expected;
+  for (size_t t = 0; t < all.triangle_count(); ++t)
+    expected.insert({all.corners[3 * t], all.corners[3 * t + 1], all.corners[3 * t + 2], all.materials[t]});
+  for (auto method : {build_detail::SplitMethod::kMeshopt, build_detail::SplitMethod::kGrow}) {
+    std::vector<uint32_t> scratch(welded.weld.size(), kNone);
+    std::multiset<std::array<uint32_t, 4>> got;
+    for (const build_detail::TriangleSet& c : build_detail::split_into_clusters(welded, all, scratch, method)) {
+      EXPECT_GE(c.triangle_count(), 1u);
+      EXPECT_LE(c.triangle_count(), kMaxClusterTriangles);
+      EXPECT_LE(std::set<uint32_t>(c.corners.begin(), c.corners.end()).size(), kMaxClusterVertices);
+      for (size_t t = 0; t < c.triangle_count(); ++t)
+        got.insert({c.corners[3 * t], c.corners[3 * t + 1], c.corners[3 * t + 2], c.materials[t]});
+    }
+    EXPECT_TRUE(got == expected) << "method " << int(method);
+    EXPECT_TRUE(std::all_of(scratch.begin(), scratch.end(), [](uint32_t v) { return v == kNone; }));
   }
 }
 

@@ -1,4 +1,5 @@
-// Leaf clustering: meshopt_buildMeshlets vs METIS recursive bisection, on CGAL meshes
+// Leaf clustering: meshopt_buildMeshlets vs METIS recursive bisection vs the grower
+// (method = SplitMethod: 0 meshopt, 1 METIS, 2 grow), on CGAL meshes
 // (run tools/fetch-data first; VGEO_DATA_DIR overrides ./data). Counters: average fill
 // (triangles per cluster / 128) and boundary-edge fraction (cluster-border edge slots /
 // all edge slots, as BuildLevelReport::boundary_edge_fraction).
@@ -10,6 +11,7 @@
 
 #include "vgeo/dag/build_internal.h"
 #include "vgeo/dag/cluster_dag.h"
+#include "vgeo/mesh/generate.h"
 #include "vgeo/mesh/import.h"
 
 namespace {
@@ -17,24 +19,33 @@ namespace {
 using namespace vgeo;
 using namespace vgeo::build_detail;
 
+// The last entry is not a file: a UV sphere of one leaf chunk (kLeafChunkTriangles triangles,
+// the largest set the builder clusters at once).
 const char* kMeshes[] = {"armadillo", "bunny00", "elephant", "fandisk", "refined_elephant", "diplodocus",
-                         "blobby_3cc", "man"};
+                         "blobby_3cc", "man", "sphere"};
+
+Mesh bench_mesh(const std::string& name, const std::string& path) {
+  if (name == "sphere") {
+    const uint32_t segments = 512, rings = uint32_t(kLeafChunkTriangles / (2 * segments)) + 1;
+    return make_uv_sphere(rings, segments);
+  }
+  return import_scene(path).scene.meshes[0];
+}
 
 void BM_LeafClusters(benchmark::State& state) {
   const char* dir = std::getenv("VGEO_DATA_DIR");
   std::string path = std::string(dir ? dir : "data") + "/cgal/meshes/" + kMeshes[state.range(0)] + ".off";
-  if (!std::filesystem::exists(path)) {
+  if (std::string(kMeshes[state.range(0)]) != "sphere" && !std::filesystem::exists(path)) {
     state.SkipWithError(("missing " + path + " (run tools/fetch-data)").c_str());
     return;
   }
-  Scene scene = import_scene(path).scene;
-  const Mesh& mesh = scene.meshes[0];
+  const Mesh mesh = bench_mesh(kMeshes[state.range(0)], path);
   WeldedMesh welded = weld_positions(mesh);
   TriangleSet all;
   all.corners = mesh.indices;
   all.materials.assign(mesh.triangle_count(), 0);
   std::vector<uint32_t> scratch(mesh.vertex_count(), kNone);
-  SplitMethod method = state.range(1) ? SplitMethod::kMetis : SplitMethod::kMeshopt;
+  const SplitMethod method = SplitMethod(state.range(1));
   std::vector<TriangleSet> clusters;
   for (auto _ : state) clusters = split_into_clusters(welded, all, scratch, method);
   uint64_t open = 0, edges = 0;
@@ -51,7 +62,9 @@ void BM_LeafClusters(benchmark::State& state) {
   state.counters["border"] = double(open) / double(edges);
 }
 
-BENCHMARK(BM_LeafClusters)->ArgNames({"mesh", "metis"})->ArgsProduct({{0, 1, 2, 3, 4, 5, 6, 7}, {0, 1}})
+BENCHMARK(BM_LeafClusters)->ArgNames({"mesh", "method"})
+    ->ArgsProduct({{0, 1, 2, 3, 4, 5, 6, 7, 8},
+                   {int(SplitMethod::kMeshopt), int(SplitMethod::kMetis), int(SplitMethod::kGrow)}})
     ->Unit(benchmark::kMillisecond)->Iterations(1);
 
 }  // namespace

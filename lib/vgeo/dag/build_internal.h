@@ -87,8 +87,10 @@ bool is_degenerate(const WeldedMesh& welded, const uint32_t* corners);
 
 // Splits triangles into clusters of ≤ kMaxClusterTriangles triangles and
 // ≤ kMaxClusterVertices original vertices. Deterministic. `scratch` must have
-// weld.size() entries, all kNone, and is returned in that state.
-enum class SplitMethod : uint8_t { kMeshopt = 0, kMetis = 1 };
+// weld.size() entries, all kNone, and is returned in that state. kMeshopt:
+// meshopt_buildMeshlets (the default); kMetis: recursive bisection; kGrow: the own greedy
+// grower (meshopt's rule, O(log) steps; measured in spec/dag.md §5, not the default).
+enum class SplitMethod : uint8_t { kMeshopt = 0, kMetis = 1, kGrow = 2 };
 std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const TriangleSet& tris,
                                              std::vector<uint32_t>& scratch,
                                              SplitMethod method = SplitMethod::kMeshopt);

@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <unordered_map>
 
 #include "vgeo/mesh/import_text.h"
 
@@ -23,18 +22,31 @@ struct Corner {
   int64_t v = kNone, vt = kNone, vn = kNone;  // 0-based, kNone when absent
   bool operator==(const Corner& o) const { return v == o.v && vt == o.vt && vn == o.vn; }
 };
-struct CornerHash {
-  size_t operator()(const Corner& c) const {
-    uint64_t h = 1469598103934665603ull;
-    for (int64_t x : {c.v, c.vt, c.vn}) h = (h ^ uint64_t(x)) * 1099511628211ull;
-    return size_t(h);
+// Output vertex of each distinct corner, found through the corner's position index: a chain of
+// the vertices with that v (usually one). Faces use nearby v's, so lookups stay in cache (a
+// node-based hash map cost half of a 1M-triangle import, a flat hash a random access each).
+struct CornerTable {
+  static constexpr uint32_t kEmpty = UINT32_MAX;
+  std::vector<uint32_t> first;  // per v: the first vertex whose corner has it
+  std::vector<uint32_t> next;   // per vertex: the next vertex with the same v
+  // The vertex of `c` (c.v < position_count), adding it to `corners` if new; second = inserted.
+  std::pair<uint32_t, bool> find_or_add(const Corner& c, size_t position_count, std::vector<Corner>& corners) {
+    if (first.size() < position_count) first.resize(position_count, kEmpty);
+    uint32_t* link = &first[size_t(c.v)];
+    for (; *link != kEmpty; link = &next[*link])
+      if (corners[*link] == c) return {*link, false};
+    const uint32_t vertex = uint32_t(corners.size());
+    *link = vertex;  // before next grows: `link` may point into it
+    corners.push_back(c);
+    next.push_back(kEmpty);
+    return {vertex, true};
   }
 };
 
 struct ObjState {
   std::vector<float> v, vt, vn;  // 3, 2, 3 floats per entry
   std::vector<Corner> corners;   // per output vertex
-  std::unordered_map<Corner, uint32_t, CornerHash> vertex_of;
+  CornerTable vertex_of;
   bool any_vt = false, any_vn = false, missing_vt = false, missing_vn = false;
 };
 
@@ -90,6 +102,22 @@ void read_numbers(TextCursor& in, size_t required, size_t n, std::vector<float>&
 // or repeat whole rings; the OpenMesh reader this replaces kept the first corner of each
 // position index and so does this one. Long polygons are sorted, not compared pairwise.
 void drop_repeated_positions(std::vector<Corner>& polygon, std::vector<std::pair<int64_t, size_t>>& order) {
+  if (polygon.size() <= kPairwiseRepeatTestMax) {
+    // Pairwise (no sort) for the common short polygon: a corner repeating an earlier v is
+    // dropped, as below (a dropped corner's v is kNone, which no resolved v equals).
+    bool repeats = false;
+    for (size_t i = 1; i < polygon.size(); ++i)
+      for (size_t j = 0; j < i; ++j)
+        if (polygon[j].v == polygon[i].v) {
+          polygon[i].v = kNone;
+          repeats = true;
+          break;
+        }
+    if (repeats)
+      polygon.erase(std::remove_if(polygon.begin(), polygon.end(), [](const Corner& c) { return c.v == kNone; }),
+                    polygon.end());
+    return;
+  }
   order.clear();
   for (size_t i = 0; i < polygon.size(); ++i) order.push_back({polygon[i].v, i});
   std::sort(order.begin(), order.end());  // by v, then by position in the polygon
@@ -155,18 +183,17 @@ void import_obj(const uint8_t* data, size_t size, const std::string& where, Impo
       const size_t filled_before = filled_normals.size();
       const size_t indices_before = mesh.indices.size();
       for (const Corner& c : polygon) {
-        const auto [it, inserted] = s.vertex_of.emplace(c, uint32_t(s.corners.size()));
+        const auto [vertex, inserted] = s.vertex_of.find_or_add(c, s.v.size() / 3, s.corners);
         if (inserted) {
-          s.corners.push_back(c);
           if (c.vt == kNone) s.missing_vt = true; else s.any_vt = true;
           if (c.vn == kNone) {
             s.missing_vn = true;
-            filled_normals.push_back({it->second, uint32_t(mesh.indices.size())});
+            filled_normals.push_back({vertex, uint32_t(mesh.indices.size())});
           } else {
             s.any_vn = true;
           }
         }
-        ring.push_back(it->second);
+        ring.push_back(vertex);
       }
       sink.add(ring.data(), ring.size());
       if (mesh.indices.size() == indices_before)

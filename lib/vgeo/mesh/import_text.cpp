@@ -6,9 +6,6 @@
 
 namespace vgeo::detail {
 namespace {
-// Polygons up to this many corners are tested for repeats pairwise (no allocation); longer
-// ones are sorted, so a million-corner polygon costs n log n, not n^2.
-constexpr size_t kPairwiseRepeatTestMax = 16;
 
 bool repeats_a_vertex(const uint32_t* ring, size_t n, std::vector<uint32_t>& sorted) {
   if (n <= kPairwiseRepeatTestMax) {

@@ -82,6 +82,10 @@ inline bool parse_int(std::string_view t, int64_t& out) { return parse_number(t,
 // "<where>:<line>" for error messages that point into a text file.
 inline std::string at_line(const std::string& where, uint64_t line) { return where + ":" + std::to_string(line); }
 
+// Polygons up to this many corners are tested for repeated vertices pairwise (no allocation);
+// longer ones are sorted, so a million-corner polygon costs n log n, not n^2.
+inline constexpr size_t kPairwiseRepeatTestMax = 16;
+
 // Triangles from polygons, shared by every format: fans (v0, vi, vi+1) in file order. A
 // polygon that repeats a vertex is dropped whole (FACE_REPEATED_VERTEX, counted in
 // degenerate_removed), one with fewer than 3 corners is skipped; indices are checked by the
