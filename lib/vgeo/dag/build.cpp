@@ -337,6 +337,7 @@ struct BuildState {
   LockState locks;
   std::vector<WorkCluster> clusters;
   std::vector<WorkGroup> groups;
+  LeafSurface leaf_surface;  // the original surface the stored errors are measured against
   BuildReport report;
 
   BuildState(const Mesh& m, const BuildOptions& o, const InternalBuildOptions& i)
@@ -413,6 +414,11 @@ void build_leaves(BuildState& s) {
     c.lod_bounds = c.bounds;
   });
   s.report.seconds_cluster = now_seconds() - t0;
+  const double te = now_seconds();
+  std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
+  for (size_t i = 0; i < s.clusters.size(); ++i) leaf_sets[i] = &s.clusters[i].triangles;
+  s.leaf_surface = build_leaf_surface(s.mesh, leaf_sets);
+  s.report.seconds_error += now_seconds() - te;
 }
 
 // ---- 3a. level edges: per-cluster open edges (grouping) and the level's report ----
@@ -550,10 +556,12 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   r.seconds_split = now_seconds() - tm;
   r.terminal = false;
   const double tv = now_seconds();
-  // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the backends'
-  // estimates (meshopt's quadric, OpenMesh's removed-vertex distance) can be below the
-  // distance from the simplified surface back to its input, so measure that too.
-  r.error = simplification_error(s.mesh, merged, simplified.triangles, simplified.error);
+  // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the distance from the
+  // simplified surface to the leaves, measured as verify measures it; the members' stored
+  // error is a floor (the parent's error takes the max with it anyway).
+  float max_member_error = 0.0f;
+  for (uint32_t m : blk.groups[g]) max_member_error = std::max(max_member_error, s.clusters[m].lod_error);
+  r.error = leaf_deviation(s.leaf_surface, s.mesh, simplified.triangles, max_member_error);
   r.seconds_error = now_seconds() - tv;
 }
 
@@ -689,10 +697,9 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
       }
       continue;
     }
-    // parent_error = max(member lod_error) + own error; float addition of a
-    // non-negative term never goes below the max, so monotonicity holds exactly.
-    float own = std::isfinite(r.error) && r.error > 0 ? r.error : 0.0f;
-    groups[gi].parent_error = groups[gi].parent_error + own;
+    // parent_error = max(member lod_error, measured deviation from the leaves): monotonic
+    // exactly, and tight (no per-level sum).
+    if (std::isfinite(r.error)) groups[gi].parent_error = std::max(groups[gi].parent_error, r.error);
     for (TriangleSet& t : r.clusters) {
       WorkCluster c;
       c.triangles = std::move(t);

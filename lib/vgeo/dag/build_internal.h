@@ -9,6 +9,7 @@
 
 #include "vgeo/dag/build.h"
 #include "vgeo/core/math.h"
+#include "vgeo/core/surface_distance.h"
 #include "vgeo/core/thread_pool.h"
 #include "vgeo/mesh/mesh.h"
 
@@ -125,6 +126,17 @@ float measured_simplification_error(const Mesh& mesh, const TriangleSet& input, 
 // stops early for points that cannot raise the maximum (lib/vgeo/dag/measure_error.cpp).
 float simplification_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
                            float estimate);
+
+// The original surface, for measuring a simplification's deviation from it (leaf_error.cpp):
+// all leaf triangles in a distance tree.
+struct LeafSurface {
+  TriangleDistanceTree tree;  // triangle ids: the leaves' triangles in order
+};
+LeafSurface build_leaf_surface(const Mesh& mesh, const std::vector<const TriangleSet*>& leaves);
+// max(floor, the distance lib/vgeo/verify measures from `simplified` to the leaves), rounded
+// up to float: the lattice of surface_distance.h, exact nearest leaf triangle, bit-identical
+// points; the search skips points within the floor (they cannot raise the result).
+float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& simplified, float floor);
 
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
                               const std::vector<uint8_t>& locked, Simplifier simplifier);
