@@ -541,7 +541,13 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     merged.corners.insert(merged.corners.end(), t.corners.begin(), t.corners.end());
     merged.materials.insert(merged.materials.end(), t.materials.begin(), t.materials.end());
   }
-  SimplifyResult simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier);
+  float max_member_error = 0.0f;
+  for (uint32_t m : blk.groups[g]) max_member_error = std::max(max_member_error, s.clusters[m].lod_error);
+  SimplifyTarget target;
+  target.ratio = s.internal.simplify_target_ratio;
+  if (s.internal.simplify_error_budget > 0 && max_member_error > 0)
+    target.max_error = s.internal.simplify_error_budget * max_member_error;
+  SimplifyResult simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target);
   size_t before = merged.triangle_count(), after = simplified.triangles.triangle_count();
   bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
   bool sealed = enough && locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked,
@@ -559,9 +565,7 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the distance from the
   // simplified surface to the leaves, measured as verify measures it; the members' stored
   // error is a floor (the parent's error takes the max with it anyway).
-  float max_member_error = 0.0f;
-  for (uint32_t m : blk.groups[g]) max_member_error = std::max(max_member_error, s.clusters[m].lod_error);
-  r.error = leaf_deviation(s.leaf_surface, s.mesh, simplified.triangles, max_member_error);
+  r.error = leaf_deviation(s.leaf_surface, s.mesh, merged, simplified.triangles, max_member_error);
   r.seconds_error = now_seconds() - tv;
 }
 

@@ -4,6 +4,7 @@
 #include <metis.h>
 
 #include <cstdint>
+#include <limits>
 #include <mutex>
 #include <vector>
 
@@ -109,6 +110,10 @@ struct InternalBuildOptions {
   SplitMethod group_split = SplitMethod::kMeshopt;
   uint32_t group_target_clusters = kGroupTargetClusters;
   size_t group_block_clusters = kGroupBlockClusters;  // tests force small blocks
+  double simplify_target_ratio = kSimplifyTargetRatio;
+  // > 0: a group's simplification stops where meshopt's error estimate passes this × the
+  // largest stored error of its members (0: no bound, the ratio alone decides).
+  float simplify_error_budget = 0.0f;
 };
 ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, const InternalBuildOptions& internal,
                               BuildReport* report);
@@ -134,12 +139,22 @@ struct LeafSurface {
 };
 LeafSurface build_leaf_surface(const Mesh& mesh, const std::vector<const TriangleSet*>& leaves);
 // max(floor, the distance lib/vgeo/verify measures from `simplified` to the leaves), rounded
-// up to float: the lattice of surface_distance.h, exact nearest leaf triangle, bit-identical
-// points; the search skips points within the floor (they cannot raise the result).
-float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& simplified, float floor);
+// up to float: the lattice of surface_distance.h, exact nearest leaf triangle, the same
+// points. `floor` = the largest stored error of the group's members (`input`); the search
+// skips points that cannot raise the result (within the floor, or on an edge of a simplified
+// input, measured for the members already).
+float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
+                     float floor);
 
+// How far a group is simplified: to ratio × its triangles, stopping early where the
+// backend's error estimate would pass max_error (object units; meshopt only; +inf: no bound).
+struct SimplifyTarget {
+  double ratio = kSimplifyTargetRatio;
+  float max_error = std::numeric_limits<float>::infinity();
+};
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
-                              const std::vector<uint8_t>& locked, Simplifier simplifier);
+                              const std::vector<uint8_t>& locked, Simplifier simplifier,
+                              const SimplifyTarget& target = {});
 
 // True when `after` uses some welded edge more than twice (three or more of its triangles on
 // one edge: a fold) and an odd number of times more or fewer than `before` does: a change of

@@ -22,7 +22,7 @@ namespace vgeo::build_detail {
 
 namespace {
 
-size_t target_triangles(size_t n) { return std::max<size_t>(1, size_t(double(n) * kSimplifyTargetRatio)); }
+size_t target_triangles(size_t n, double ratio) { return std::max<size_t>(1, size_t(double(n) * ratio)); }
 
 // ---------------------------------------------------------------- meshopt backend
 // Sub-mesh vertices are (vertex, material) pairs: attribute and material discontinuities
@@ -51,7 +51,7 @@ DVec3 face_normal(const Mesh& mesh, uint32_t a, uint32_t b, uint32_t c) {
   return DVec3{n.x / len, n.y / len, n.z / len};
 }
 
-SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group) {
+SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group, const SimplifyTarget& target) {
   const Mesh& mesh = *welded.mesh;
   size_t n = group.triangle_count();
   // Distinct (vertex << 32 | material) keys of the corners via an open addressing table
@@ -116,11 +116,14 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
 
   std::vector<unsigned int> out(indices.size());
   float relative_error = 0.0f;
+  // meshopt 0.18's error bound is relative to the sub-mesh's extent (meshopt_simplifyScale).
+  const float scale = meshopt_simplifyScale(positions.data(), unique_keys.size(), sizeof(float) * 3);
+  const float target_error = std::isfinite(target.max_error) && scale > 0 ? target.max_error / scale : kMeshoptTargetError;
   size_t out_count = meshopt_simplify(out.data(), indices.data(), indices.size(), positions.data(),
-                                      unique_keys.size(), sizeof(float) * 3, 3 * target_triangles(n),
-                                      kMeshoptTargetError, meshopt_SimplifyLockBorder, &relative_error);
+                                      unique_keys.size(), sizeof(float) * 3, 3 * target_triangles(n, target.ratio),
+                                      target_error, meshopt_SimplifyLockBorder, &relative_error);
   SimplifyResult r;
-  r.error = relative_error * meshopt_simplifyScale(positions.data(), unique_keys.size(), sizeof(float) * 3);
+  r.error = relative_error * scale;
   r.triangles.corners.resize(out_count);
   r.triangles.materials.resize(out_count / 3);
   for (size_t i = 0; i < out_count; ++i) r.triangles.corners[i] = uint32_t(unique_keys[out[i]] >> 32);
@@ -203,7 +206,7 @@ double point_triangle_distance(const OpenMesh::Vec3d& p, const OpenMesh::Vec3d& 
 // largest distance from a removed vertex to the group's output triangles (one-sided
 // Hausdorff distance at the input vertices), in object units.
 SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& group,
-                                 const std::vector<uint8_t>& locked) {
+                                 const std::vector<uint8_t>& locked, const SimplifyTarget& target) {
   silence_openmesh_streams();  // add_face reports complex edges on omerr
   const Mesh& mesh = *welded.mesh;
   size_t n = group.triangle_count();
@@ -253,8 +256,8 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
   for (uint32_t t : passthrough)
     for (int k = 0; k < 3; ++k) om.status(vh[om_corner[3 * t + k]]).set_locked(true);
 
-  size_t target = target_triangles(n);
-  size_t om_target = target > passthrough.size() ? target - passthrough.size() : 0;
+  size_t target_count = target_triangles(n, target.ratio);
+  size_t om_target = target_count > passthrough.size() ? target_count - passthrough.size() : 0;
   om.update_face_normals();
   OpenMesh::Decimater::DecimaterT<OmMesh> decimater(om);
   ModQuadricRecordT<OmMesh>::Handle quadric;
@@ -342,7 +345,7 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
 }  // namespace
 
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
-                              const std::vector<uint8_t>& locked, Simplifier simplifier) {
+                              const std::vector<uint8_t>& locked, Simplifier simplifier, const SimplifyTarget& target) {
   // Triangles with a repeated welded position are left out (they cover no area and use each
   // of their edges twice, so no edge's parity and no open edge changes): to meshopt such a
   // triangle is the far side of a border edge, so locked border vertices would move, and
@@ -365,8 +368,8 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
       }
   const TriangleSet& input = any_degenerate ? proper : group;
   if (input.triangle_count() == 0) return SimplifyResult{};
-  if (simplifier == Simplifier::kOpenMesh) return simplify_openmesh(welded, input, locked);
-  return simplify_meshopt(welded, input);
+  if (simplifier == Simplifier::kOpenMesh) return simplify_openmesh(welded, input, locked, target);
+  return simplify_meshopt(welded, input, target);
 }
 
 namespace {
