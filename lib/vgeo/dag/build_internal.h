@@ -120,8 +120,7 @@ ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, con
 
 // Simplification of one group's triangles with locked vertices (by welded id).
 struct SimplifyResult {
-  TriangleSet triangles;   // references original vertex ids only (no new positions)
-  float error = 0.0f;      // absolute (object units), this simplification only
+  TriangleSet triangles;  // references original vertex ids only (no new positions)
 };
 // The simplification's own error as stored: the sampled one-sided distance from the
 // simplified triangles to the group's input triangles on the shared error lattice
