@@ -3,6 +3,7 @@
 // Not a public API: names and signatures may change with the builder.
 #include <metis.h>
 
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <mutex>
@@ -130,6 +131,13 @@ float measured_simplification_error(const Mesh& mesh, const TriangleSet& input, 
 // stops early for points that cannot raise the maximum (lib/vgeo/dag/measure_error.cpp).
 float simplification_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
                            float estimate);
+
+// The smallest float ≥ d: stored errors are rounded up, never below the measured double.
+inline float round_up_to_float(double d) {
+  float e = float(d);
+  if (double(e) < d) e = std::nextafter(e, std::numeric_limits<float>::infinity());
+  return e;
+}
 
 // The original surface, for measuring a simplification's deviation from it (leaf_error.cpp):
 // all leaf triangles in a distance tree.

@@ -23,12 +23,6 @@ namespace {
 // Empty slot of the edge set (no edge has both ends ~0u: vertex ids are < 2^32 - 1).
 constexpr uint64_t kNoEdge = ~uint64_t(0);
 
-float round_up_to_float(double d) {
-  float e = float(d);
-  if (double(e) < d) e = std::nextafter(e, std::numeric_limits<float>::infinity());
-  return e;
-}
-
 }  // namespace
 
 LeafSurface build_leaf_surface(const Mesh& mesh, const std::vector<const TriangleSet*>& leaves) {
