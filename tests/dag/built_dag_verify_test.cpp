@@ -210,6 +210,33 @@ void check_cgal(uint32_t checks) {
   }
 }
 
+// spec/dag.md D6: a group's parent_error is max(member lod_error, the deviation of what it
+// generated from the leaves) — the ERROR_BOUND measurement itself, so it is tight (no sum of
+// per-level errors): at most the verify-measured value up to the lattice's rounding (edge points
+// are computed from either end: a few ulps) and at least it (ERROR_BOUND, checked above).
+// (One backend: the rule is the builder's, not the simplifier's.)
+TEST(VerifyBuilt, StoredErrorIsMaxOfMembersAndMeasuredDeviation) {
+  {
+    BuildOptions bo;
+    bo.threads = 2;
+    const ClusterDag dag = build_dag(test::make_sphere(40, 64), bo);
+    const ClusterDeviation dev = measure_cluster_deviation(dag);
+    constexpr double kRoundingTolerance = 1e-6;  // relative: ulps of the lattice points, far below 1e-6
+    size_t checked = 0;
+    for (const DagGroup& g : dag.groups) {
+      if (g.generated_count == 0) continue;
+      double expected = 0;
+      for (uint32_t c = g.first_cluster; c < g.first_cluster + g.cluster_count; ++c)
+        expected = std::max(expected, double(dag.clusters[c].lod_error));
+      for (uint32_t i = 0; i < g.generated_count; ++i)
+        expected = std::max(expected, dev.distance[dag.generated_clusters[g.first_generated + i]]);
+      EXPECT_LE(double(g.parent_error), expected * (1 + kRoundingTolerance));
+      ++checked;
+    }
+    EXPECT_GT(checked, 10u);
+  }
+}
+
 TEST(VerifyBuilt, SmallCgalMeshesAreValidMonotonicAndCrackFree) { check_cgal(kTopology); }
 TEST(VerifyBuilt, SmallCgalMeshesErrorWithinStoredBound) { check_cgal(kCheckErrorBound); }
 

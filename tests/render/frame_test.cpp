@@ -20,6 +20,9 @@ Frame render(const RenderScene& scene, const Camera& cam, unsigned threads, Rend
   return f;
 }
 
+// τ for the occlusion tests: enough clusters in the cut that some are hidden behind others.
+constexpr float kFineThresholdPx = 0.25f;
+
 bool image_finite_and_sized(const Frame& f) {
   return f.image.width == f.vis.width && f.image.height == f.vis.height &&
          f.image.rgb.size() == size_t(f.vis.width) * f.vis.height * 3;
@@ -46,6 +49,9 @@ TEST(RenderFrame, OcclusionCullingNeverChangesTheVisibilityBufferAlongACameraPat
   ASSERT_FALSE(scene.single_convex_object);
   RenderSettings on, off;
   off.occlusion = false;
+  // Finer than τ = 1 px: these small meshes' stored errors are tight (measured against the
+  // leaves), so at 1 px the cut holds a few coarse clusters and nothing is ever occluded.
+  on.threshold_px = off.threshold_px = kFineThresholdPx;
   FrameHistory history;
   uint64_t occluded_total = 0, pass2_frames = 0;
   ThreadPool pool(2);
@@ -78,6 +84,7 @@ TEST(RenderFrame, ClustersPostponedByAStaleHzbAreDrawnByPass2) {
   ThreadPool pool(2);
   RenderSettings on, off;
   off.occlusion = false;
+  on.threshold_px = off.threshold_px = kFineThresholdPx;  // as above: clusters small enough to hide
   FrameHistory history;
   Frame previous, with, without;
   render_frame(scene, cam, on, pool, &history, &previous);

@@ -140,6 +140,39 @@ std::vector<uint32_t> group_sizes() {
   return sizes;
 }
 
+// VGEO_DAGQUALITY_VARIANTS: semicolon-separated builder variants to compare, each
+// "simplifier:ratio:budget" (meshopt|openmesh, simplify target ratio, error budget factor,
+// 0 = none); default: the builder's defaults.
+struct BuilderVariant {
+  Simplifier simplifier = Simplifier::kMeshopt;
+  double ratio = build_detail::kSimplifyTargetRatio;
+  float budget = 0.0f;
+  std::string label() const {
+    std::string l = simplifier == Simplifier::kOpenMesh ? "openmesh" : "meshopt";
+    if (ratio != build_detail::kSimplifyTargetRatio) l += " r" + fmt(ratio);
+    if (budget > 0) l += " b" + fmt(budget);
+    return l;
+  }
+};
+std::vector<BuilderVariant> builder_variants() {
+  std::vector<BuilderVariant> out;
+  if (const char* env = std::getenv("VGEO_DAGQUALITY_VARIANTS"); env && *env) {
+    std::stringstream ss(env);
+    for (std::string t; std::getline(ss, t, ';');) {
+      if (t.empty()) continue;
+      BuilderVariant v;
+      std::stringstream f(t);
+      std::string part;
+      if (std::getline(f, part, ':')) v.simplifier = part == "openmesh" ? Simplifier::kOpenMesh : Simplifier::kMeshopt;
+      if (std::getline(f, part, ':') && !part.empty()) v.ratio = std::stod(part);
+      if (std::getline(f, part, ':') && !part.empty()) v.budget = std::stof(part);
+      out.push_back(v);
+    }
+  }
+  if (out.empty()) out.push_back(BuilderVariant{});
+  return out;
+}
+
 std::string median_str(std::vector<double> v, double q) {
   if (v.empty()) return "-";
   std::sort(v.begin(), v.end());
@@ -157,8 +190,8 @@ void run_dagquality_suite(const BenchConfig& cfg, SuiteReport& out) {
       "its hull <= eps < its group's parents' hull (terminal groups: +inf). eps = 1e-3 and 1e-2 of the mesh "
       "diagonal. 'stored cut' is the same cut with the stored lod_error/parent_error (what the runtime draws). "
       "Inputs: `vgeo gen sphere --seed 1` meshes and CGAL meshes from data/ (VGEO_DAGQUALITY_INPUTS overrides).";
-  Table t{"Cut triangles at equal measured error, and DAG shape (meshopt simplifier, default options)",
-          {"mesh", "group size", "input tris", "cut 1e-3 (measured)", "cut 1e-2 (measured)", "cut 1e-3 (stored)", "cut 1e-2 (stored)",
+  Table t{"Cut triangles at equal measured error, and DAG shape (builder variants: VGEO_DAGQUALITY_VARIANTS)",
+          {"mesh", "builder", "group size", "input tris", "cut 1e-3 (measured)", "cut 1e-2 (measured)", "cut 1e-3 (stored)", "cut 1e-2 (stored)",
            "measured/stored median", "p5", "max", "levels", "stored x", "roots", "build s"},
           {}};
   nlohmann::json rows = nlohmann::json::array();
@@ -185,22 +218,27 @@ void run_dagquality_suite(const BenchConfig& cfg, SuiteReport& out) {
       }
       out.inputs.push_back(in.label + ": " + in.path);
     }
+    for (const BuilderVariant& variant : builder_variants())
     for (uint32_t group_size : group_sizes()) {
     BuildOptions bo;
     bo.threads = cfg.threads;
+    bo.simplifier = variant.simplifier;
     build_detail::InternalBuildOptions internal;
     internal.group_target_clusters = group_size;
+    internal.simplify_target_ratio = variant.ratio;
+    internal.simplify_error_budget = variant.budget;
     BuildReport br;
     const double t0 = now_seconds();
     ClusterDag dag = build_detail::build_dag_internal(mesh, bo, internal, &br);
     const double build_s = now_seconds() - t0;
     DagQuality q = measure_dag_quality(dag, cfg.threads);
     const double stored_x = double(dag.triangle_count()) / double(mesh.triangle_count());
-    t.rows.push_back({in.label, std::to_string(group_size), std::to_string(mesh.triangle_count()), std::to_string(q.cut_measured[0]),
+    t.rows.push_back({in.label, variant.label(), std::to_string(group_size), std::to_string(mesh.triangle_count()), std::to_string(q.cut_measured[0]),
                       std::to_string(q.cut_measured[1]), std::to_string(q.cut_stored[0]), std::to_string(q.cut_stored[1]),
                       median_str(q.ratios, 0.5), median_str(q.ratios, 0.05), median_str(q.ratios, 1.0),
                       std::to_string(dag.level_count), fmt(stored_x), std::to_string(q.roots), fmt(build_s)});
     rows.push_back({{"mesh", in.label},
+                    {"builder", variant.label()},
                     {"group_target_clusters", group_size},
                     {"input_triangles", mesh.triangle_count()},
                     {"cut_measured_1e-3", q.cut_measured[0]},

@@ -42,6 +42,31 @@ TriangleDistanceTree::TriangleDistanceTree(std::vector<DVec3> corners) : corners
     nodes_.reserve(2 * size_t(n) / kLeafSize + 2);
     nodes_.resize(1);
     build(0, 0, n, tri_box.data(), centroids.data());
+    // Corners in tree order: a leaf's triangles are adjacent in memory (queries are bound by
+    // cache misses), and a triangle's id is its tree position.
+    // In place, cycle by cycle (no second copy of the corners at the peak).
+    auto triangle = [&](uint32_t t) { return &corners_[3 * size_t(t)]; };
+    for (uint32_t i = 0; i < n; ++i) {
+      if (order_[i] == i) continue;
+      const DVec3 saved[3] = {triangle(i)[0], triangle(i)[1], triangle(i)[2]};
+      uint32_t j = i;
+      for (uint32_t k = order_[j]; k != i; j = k, k = order_[j]) {
+        std::copy(triangle(k), triangle(k) + 3, triangle(j));
+        order_[j] = j;
+      }
+      std::copy(saved, saved + 3, triangle(j));
+      order_[j] = j;
+    }
+    std::vector<uint32_t>().swap(order_);
+    parent_.assign(nodes_.size(), 0);
+    leaf_of_.resize(n);
+    for (uint32_t i = 0; i < nodes_.size(); ++i) {
+      const Node& nd = nodes_[i];
+      if (nd.count)
+        for (uint32_t j = nd.first; j < nd.first + nd.count; ++j) leaf_of_[j] = i;
+      else
+        parent_[nd.first] = parent_[nd.first + 1] = i;
+    }
   }
 }
 
@@ -50,10 +75,15 @@ double TriangleDistanceTree::triangle_d2(DVec3 p, uint32_t t) const {
   return point_triangle_distance_squared(p, c[0], c[1], c[2]);
 }
 
-static double box_d2(DVec3 p, DVec3 lo, DVec3 hi) {
-  double dx = std::max({lo.x - p.x, 0.0, p.x - hi.x});
-  double dy = std::max({lo.y - p.y, 0.0, p.y - hi.y});
-  double dz = std::max({lo.z - p.z, 0.0, p.z - hi.z});
+static inline double box_d2(DVec3 p, DVec3 lo, DVec3 hi) {
+  double dx = std::max(std::max(lo.x - p.x, 0.0), p.x - hi.x);
+  double dy = std::max(std::max(lo.y - p.y, 0.0), p.y - hi.y);
+  double dz = std::max(std::max(lo.z - p.z, 0.0), p.z - hi.z);
+  return dx * dx + dy * dy + dz * dz;
+}
+
+static double box_centre_d2(DVec3 p, DVec3 lo, DVec3 hi) {
+  const double dx = 0.5 * (lo.x + hi.x) - p.x, dy = 0.5 * (lo.y + hi.y) - p.y, dz = 0.5 * (lo.z + hi.z) - p.z;
   return dx * dx + dy * dy + dz * dz;
 }
 
@@ -114,7 +144,7 @@ double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) c
   double best = std::numeric_limits<double>::infinity();
   if (nodes_.empty()) return best;
   uint32_t best_t = *hint;
-  if (best_t < order_.size()) best = triangle_d2(p, best_t);
+  if (best_t < leaf_of_.size()) best = triangle_d2(p, best_t);
   uint32_t stack[128];
   int top = 0;
   stack[top++] = 0;
@@ -123,7 +153,7 @@ double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) c
     if (box_d2(p, nd.lo, nd.hi) >= best) continue;
     if (nd.count) {
       for (uint32_t i = 0; i < nd.count; ++i) {
-        uint32_t t = order_[nd.first + i];
+        uint32_t t = nd.first + i;
         double d = triangle_d2(p, t);
         if (d < best) best = d, best_t = t;
       }
@@ -137,6 +167,52 @@ double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) c
   }
   *hint = best_t;
   return best;
+}
+
+bool TriangleDistanceTree::triangle_within_squared(DVec3 p, uint32_t t, double threshold) const {
+  const DVec3* c = &corners_[3 * size_t(t)];
+  double d2;
+  return point_triangle_within_squared(p, c[0], c[1], c[2], threshold, &d2);
+}
+
+bool TriangleDistanceTree::any_within_squared(DVec3 p, double threshold, uint32_t* hint) const {
+  if (nodes_.empty()) return false;
+  // Searched from the hint's tree leaf outwards (the leaf, then the sibling subtree of each
+  // ancestor): every triangle is searched, and a query near the last one ends near its leaf
+  // instead of descending from the root.
+  uint32_t node = *hint < leaf_of_.size() ? leaf_of_[*hint] : 0;
+  uint32_t stack[128];
+  auto search = [&](uint32_t root) {
+    int top = 0;
+    stack[top++] = root;
+    while (top) {
+      const Node& nd = nodes_[stack[--top]];
+      if (box_d2(p, nd.lo, nd.hi) > threshold) continue;
+      if (nd.count) {
+        for (uint32_t i = 0; i < nd.count; ++i)
+          if (triangle_within_squared(p, nd.first + i, threshold)) return *hint = nd.first + i, true;
+        continue;
+      }
+      uint32_t l = nd.first, r = nd.first + 1;
+      double dl = box_d2(p, nodes_[l].lo, nodes_[l].hi), dr = box_d2(p, nodes_[r].lo, nodes_[r].hi);
+      // Boxes of a curved surface's triangles often all contain p (distance 0): then the
+      // child whose box centre is nearer more likely holds a triangle within the threshold.
+      const bool swap = dl == dr ? box_centre_d2(p, nodes_[l].lo, nodes_[l].hi) > box_centre_d2(p, nodes_[r].lo, nodes_[r].hi)
+                                 : dl > dr;
+      if (swap) std::swap(l, r), std::swap(dl, dr);
+      if (dr <= threshold) stack[top++] = r;
+      if (dl <= threshold) stack[top++] = l;
+    }
+    return false;
+  };
+  if (search(node)) return true;
+  while (node != 0) {
+    const uint32_t parent = parent_[node];
+    const uint32_t sibling = nodes_[parent].first + (nodes_[parent].first == node ? 1 : 0);
+    if (search(sibling)) return true;
+    node = parent;
+  }
+  return false;
 }
 
 double sampled_one_sided_distance(const float* positions, const uint32_t* from_indices, size_t from_triangles,

@@ -43,19 +43,26 @@ class TriangleDistanceTree {
   explicit TriangleDistanceTree(std::vector<DVec3> corners);  // 3 per triangle
   bool empty() const { return nodes_.empty(); }
   // Squared distance to the nearest triangle; `hint` (in/out) is a triangle to start from
-  // (pass ~0u initially); +inf when empty.
+  // (pass ~0u initially; an opaque tree position); +inf when empty.
   double nearest_distance_squared(DVec3 p, uint32_t* hint) const;
+  // Whether some triangle lies within sqrt(threshold) of p (the decision of
+  // nearest_distance_squared(p) <= threshold, bit-exactly), stopping at the first one found;
+  // `hint` (in/out, as above) is where the search starts and gets the triangle found.
+  bool any_within_squared(DVec3 p, double threshold, uint32_t* hint) const;
 
  private:
   struct Node {
     DVec3 lo, hi;
-    uint32_t first = 0, count = 0;  // leaf: order_[first, +count); inner: children first, first+1
+    uint32_t first = 0, count = 0;  // leaf: triangles [first, +count); inner: children first, first+1
   };
   void build(uint32_t index, uint32_t first, uint32_t last, const DVec3* tri_box, const double* centroids);
   double triangle_d2(DVec3 p, uint32_t t) const;
-  std::vector<DVec3> corners_;
-  std::vector<uint32_t> order_;
+  bool triangle_within_squared(DVec3 p, uint32_t t, double threshold) const;
+  std::vector<DVec3> corners_;   // 3 per triangle, in tree order after the build
+  std::vector<uint32_t> order_;  // build only: tree position → input triangle
   std::vector<Node> nodes_;
+  std::vector<uint32_t> parent_;   // per node (root: 0)
+  std::vector<uint32_t> leaf_of_;  // per triangle: its tree leaf
 };
 
 // Calls visit(point) once for every lattice point of the triangles (corner points once per

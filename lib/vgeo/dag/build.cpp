@@ -339,6 +339,7 @@ struct BuildState {
   LockState locks;
   std::vector<WorkCluster> clusters;
   std::vector<WorkGroup> groups;
+  LeafSurface leaf_surface;  // the original surface the stored errors are measured against
   BuildReport report;
 
   BuildState(const Mesh& m, const BuildOptions& o, const InternalBuildOptions& i)
@@ -511,6 +512,11 @@ void build_leaves(BuildState& s) {
     c.lod_bounds = c.bounds;
   });
   s.report.seconds_cluster = now_seconds() - t0;
+  const double te = now_seconds();
+  std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
+  for (size_t i = 0; i < s.clusters.size(); ++i) leaf_sets[i] = &s.clusters[i].triangles;
+  s.leaf_surface = build_leaf_surface(s.mesh, leaf_sets);
+  s.report.seconds_error += now_seconds() - te;
 }
 
 // ---- 3a. level edges: per-cluster open edges (grouping) and the level's report ----
@@ -633,7 +639,13 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     merged.corners.insert(merged.corners.end(), t.corners.begin(), t.corners.end());
     merged.materials.insert(merged.materials.end(), t.materials.begin(), t.materials.end());
   }
-  SimplifyResult simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier);
+  float max_member_error = 0.0f;
+  for (uint32_t m : blk.groups[g]) max_member_error = std::max(max_member_error, s.clusters[m].lod_error);
+  SimplifyTarget target;
+  target.ratio = s.internal.simplify_target_ratio;
+  if (s.internal.simplify_error_budget > 0 && max_member_error > 0)
+    target.max_error = s.internal.simplify_error_budget * max_member_error;
+  SimplifyResult simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target);
   size_t before = merged.triangle_count(), after = simplified.triangles.triangle_count();
   bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
   bool sealed = enough && locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked,
@@ -648,10 +660,10 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   r.seconds_split = now_seconds() - tm;
   r.terminal = false;
   const double tv = now_seconds();
-  // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the backends'
-  // estimates (meshopt's quadric, OpenMesh's removed-vertex distance) can be below the
-  // distance from the simplified surface back to its input, so measure that too.
-  r.error = simplification_error(s.mesh, merged, simplified.triangles, simplified.error);
+  // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the distance from the
+  // simplified surface to the leaves, measured as verify measures it; the members' stored
+  // error is a floor (the parent's error takes the max with it anyway).
+  r.error = leaf_deviation(s.leaf_surface, s.mesh, merged, simplified.triangles, max_member_error);
   r.seconds_error = now_seconds() - tv;
 }
 
@@ -787,10 +799,9 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
       }
       continue;
     }
-    // parent_error = max(member lod_error) + own error; float addition of a
-    // non-negative term never goes below the max, so monotonicity holds exactly.
-    float own = std::isfinite(r.error) && r.error > 0 ? r.error : 0.0f;
-    groups[gi].parent_error = groups[gi].parent_error + own;
+    // parent_error = max(member lod_error, measured deviation from the leaves): monotonic
+    // exactly, and tight (no per-level sum).
+    if (std::isfinite(r.error)) groups[gi].parent_error = std::max(groups[gi].parent_error, r.error);
     for (TriangleSet& t : r.clusters) {
       WorkCluster c;
       c.triangles = std::move(t);

@@ -3,12 +3,15 @@
 // Not a public API: names and signatures may change with the builder.
 #include <metis.h>
 
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <mutex>
 #include <vector>
 
 #include "vgeo/dag/build.h"
 #include "vgeo/core/math.h"
+#include "vgeo/core/surface_distance.h"
 #include "vgeo/core/thread_pool.h"
 #include "vgeo/mesh/mesh.h"
 
@@ -122,14 +125,17 @@ struct InternalBuildOptions {
   SplitMethod group_split = SplitMethod::kMeshopt;
   uint32_t group_target_clusters = kGroupTargetClusters;
   size_t group_block_clusters = kGroupBlockClusters;  // tests force small blocks
+  double simplify_target_ratio = kSimplifyTargetRatio;
+  // > 0: a group's simplification stops where meshopt's error estimate passes this × the
+  // largest stored error of its members (0: no bound, the ratio alone decides).
+  float simplify_error_budget = 0.0f;
 };
 ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, const InternalBuildOptions& internal,
                               BuildReport* report);
 
 // Simplification of one group's triangles with locked vertices (by welded id).
 struct SimplifyResult {
-  TriangleSet triangles;   // references original vertex ids only (no new positions)
-  float error = 0.0f;      // absolute (object units), this simplification only
+  TriangleSet triangles;  // references original vertex ids only (no new positions)
 };
 // The simplification's own error as stored: the sampled one-sided distance from the
 // simplified triangles to the group's input triangles on the shared error lattice
@@ -140,8 +146,36 @@ float measured_simplification_error(const Mesh& mesh, const TriangleSet& input, 
 float simplification_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
                            float estimate);
 
+// The smallest float ≥ d: stored errors are rounded up, never below the measured double.
+inline float round_up_to_float(double d) {
+  float e = float(d);
+  if (double(e) < d) e = std::nextafter(e, std::numeric_limits<float>::infinity());
+  return e;
+}
+
+// The original surface, for measuring a simplification's deviation from it (leaf_error.cpp):
+// all leaf triangles in a distance tree.
+struct LeafSurface {
+  TriangleDistanceTree tree;  // triangle ids: the leaves' triangles in order
+};
+LeafSurface build_leaf_surface(const Mesh& mesh, const std::vector<const TriangleSet*>& leaves);
+// max(floor, the distance lib/vgeo/verify measures from `simplified` to the leaves), rounded
+// up to float: the lattice of surface_distance.h, exact nearest leaf triangle, the same
+// points. `floor` = the largest stored error of the group's members (`input`); the search
+// skips points that cannot raise the result (within the floor, or on an edge of a simplified
+// input, measured for the members already).
+float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
+                     float floor);
+
+// How far a group is simplified: to ratio × its triangles, stopping early where the
+// backend's error estimate would pass max_error (object units; meshopt only; +inf: no bound).
+struct SimplifyTarget {
+  double ratio = kSimplifyTargetRatio;
+  float max_error = std::numeric_limits<float>::infinity();
+};
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
-                              const std::vector<uint8_t>& locked, Simplifier simplifier);
+                              const std::vector<uint8_t>& locked, Simplifier simplifier,
+                              const SimplifyTarget& target = {});
 
 // True when `after` uses some welded edge more than twice (three or more of its triangles on
 // one edge: a fold) and an odd number of times more or fewer than `before` does: a change of

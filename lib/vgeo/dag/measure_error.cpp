@@ -24,12 +24,6 @@ namespace {
 // Empty slot of the vertex hash (not a valid vertex id: meshes have < 2^32 - 1 vertices).
 constexpr uint32_t kNoVertex = ~uint32_t(0);
 
-float round_up_to_float(double d) {
-  float e = float(d);
-  if (double(e) < d) e = std::nextafter(e, std::numeric_limits<float>::infinity());
-  return e;
-}
-
 // Uniform grid over triangle boxes (cells of the mean largest box extent, at most
 // kGridCellsPerTriangle cells per triangle in total): for_each_near lists every triangle whose
 // box may lie within r of a point (a triangle in several cells is listed once per cell).

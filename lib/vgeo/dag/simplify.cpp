@@ -23,7 +23,7 @@ namespace vgeo::build_detail {
 
 namespace {
 
-size_t target_triangles(size_t n) { return std::max<size_t>(1, size_t(double(n) * kSimplifyTargetRatio)); }
+size_t target_triangles(size_t n, double ratio) { return std::max<size_t>(1, size_t(double(n) * ratio)); }
 
 // ---------------------------------------------------------------- meshopt backend
 // Sub-mesh vertices are (vertex, material) pairs: attribute and material discontinuities
@@ -116,7 +116,8 @@ std::vector<uint32_t> locked_vertices_off_the_border(const WeldedMesh& welded, c
   return out;
 }
 
-SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked) {
+SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked,
+                                const SimplifyTarget& target) {
   const Mesh& mesh = *welded.mesh;
   size_t n = group.triangle_count();
   // Distinct (vertex << 32 | material) keys of the corners via an open addressing table
@@ -191,6 +192,9 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
   };
   std::vector<uint32_t> split;  // welded ids given per-corner copies, sorted
   std::vector<unsigned int> out(indices.size());
+  // meshopt 0.18's error bound is relative to the sub-mesh's extent (meshopt_simplifyScale).
+  const float scale = meshopt_simplifyScale(positions.data(), unique_keys.size(), sizeof(float) * 3);
+  const float target_error = std::isfinite(target.max_error) && scale > 0 ? target.max_error / scale : kMeshoptTargetError;
   SimplifyResult r;
   size_t out_count = 0;
   for (uint32_t attempt = 0;; ++attempt) {
@@ -208,11 +212,9 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
                        &attempt_positions[attempt_positions.size() - 3]);
       }
     const size_t sub_vertices = unique_keys.size() + copy_keys.size();
-    float relative_error = 0.0f;
     out_count = meshopt_simplify(out.data(), attempt_indices.data(), attempt_indices.size(), attempt_positions.data(),
-                                 sub_vertices, sizeof(float) * 3, 3 * target_triangles(n), kMeshoptTargetError,
-                                 meshopt_SimplifyLockBorder, &relative_error);
-    r.error = relative_error * meshopt_simplifyScale(attempt_positions.data(), sub_vertices, sizeof(float) * 3);
+                                 sub_vertices, sizeof(float) * 3, 3 * target_triangles(n, target.ratio), target_error,
+                                 meshopt_SimplifyLockBorder, nullptr);
     r.triangles.corners.resize(out_count);
     r.triangles.materials.resize(out_count / 3);
     for (size_t i = 0; i < out_count; ++i) r.triangles.corners[i] = uint32_t(key_of(out[i]) >> 32);
@@ -282,35 +284,12 @@ struct OmTraits : public OpenMesh::DefaultTraits {
 };
 using OmMesh = OpenMesh::TriMesh_ArrayKernelT<OmTraits>;
 
-// ModQuadricT that records every collapse (v0 removed into v1), to measure the error.
-template <class MeshT>
-class ModQuadricRecordT : public OpenMesh::Decimater::ModQuadricT<MeshT> {
- public:
-  typedef ModQuadricRecordT<MeshT> Self;
-  typedef OpenMesh::Decimater::ModHandleT<Self> Handle;
-  typedef typename OpenMesh::Decimater::ModQuadricT<MeshT>::CollapseInfo CollapseInfo;
-  explicit ModQuadricRecordT(MeshT& mesh) : OpenMesh::Decimater::ModQuadricT<MeshT>(mesh) {}
-  void preprocess_collapse(const CollapseInfo& ci) override {
-    collapses.push_back({ci.v0.idx(), ci.v1.idx()});
-    OpenMesh::Decimater::ModQuadricT<MeshT>::preprocess_collapse(ci);
-  }
-  std::vector<std::pair<int, int>> collapses;
-};
-
-// lib/vgeo/core's exact point-triangle distance (the one the error lattice uses).
-double point_triangle_distance(const OpenMesh::Vec3d& p, const OpenMesh::Vec3d& a, const OpenMesh::Vec3d& b,
-                               const OpenMesh::Vec3d& c) {
-  auto d = [](const OpenMesh::Vec3d& v) { return DVec3{v[0], v[1], v[2]}; };
-  return std::sqrt(point_triangle_distance_squared(d(p), d(a), d(b), d(c)));
-}
-
 // One OpenMesh vertex per welded position of the group; material is a face property, so
 // material borders move but never open. Faces OpenMesh cannot add (complex edges,
-// non-manifold vertices) pass through unchanged and lock their vertices. Error: the
-// largest distance from a removed vertex to the group's output triangles (one-sided
-// Hausdorff distance at the input vertices), in object units.
+// non-manifold vertices) pass through unchanged and lock their vertices. (The error is
+// measured by the builder against the leaves: leaf_error.cpp.)
 SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& group,
-                                 const std::vector<uint8_t>& locked) {
+                                 const std::vector<uint8_t>& locked, const SimplifyTarget& target) {
   silence_openmesh_streams();  // add_face reports complex edges on omerr
   const Mesh& mesh = *welded.mesh;
   size_t n = group.triangle_count();
@@ -360,11 +339,11 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
   for (uint32_t t : passthrough)
     for (int k = 0; k < 3; ++k) om.status(vh[om_corner[3 * t + k]]).set_locked(true);
 
-  size_t target = target_triangles(n);
-  size_t om_target = target > passthrough.size() ? target - passthrough.size() : 0;
+  size_t target_count = target_triangles(n, target.ratio);
+  size_t om_target = target_count > passthrough.size() ? target_count - passthrough.size() : 0;
   om.update_face_normals();
   OpenMesh::Decimater::DecimaterT<OmMesh> decimater(om);
-  ModQuadricRecordT<OmMesh>::Handle quadric;
+  OpenMesh::Decimater::ModQuadricT<OmMesh>::Handle quadric;
   OpenMesh::Decimater::ModNormalFlippingT<OmMesh>::Handle normal_flipping;
   decimater.add(quadric);
   decimater.add(normal_flipping);
@@ -403,45 +382,6 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
     r.triangles.materials.push_back(group.materials[t]);
   }
 
-  // Error: distance from every removed vertex to the output surface (all output
-  // triangles of the group, pruned by their bounding boxes), the one-sided Hausdorff
-  // distance at the input vertices.
-  std::vector<uint8_t> alive(welded_of_om.size(), 1);
-  for (auto [v0, v1] : decimater.module(quadric).collapses) alive[size_t(v0)] = 0;
-  struct Tri {
-    OpenMesh::Vec3d a, b, c, lo, hi;
-  };
-  std::vector<Tri> out_tris(r.triangles.triangle_count());
-  for (size_t f = 0; f < out_tris.size(); ++f) {
-    OpenMesh::Vec3d p[3];
-    for (int k = 0; k < 3; ++k) {
-      const float* q = &mesh.positions[3 * size_t(r.triangles.corners[3 * f + k])];
-      p[k] = OpenMesh::Vec3d(q[0], q[1], q[2]) - origin;
-    }
-    Tri& t = out_tris[f];
-    t.a = p[0], t.b = p[1], t.c = p[2];
-    t.lo = t.hi = p[0];
-    for (int k = 1; k < 3; ++k) t.lo.minimize(p[k]), t.hi.maximize(p[k]);
-  }
-  double error = 0;
-  for (size_t v = 0; v < alive.size(); ++v) {
-    if (alive[v]) continue;
-    const float* q = &mesh.positions[3 * size_t(welded_of_om[v])];
-    OpenMesh::Vec3d p = OpenMesh::Vec3d(q[0], q[1], q[2]) - origin;
-    double best = std::numeric_limits<double>::infinity();
-    for (const Tri& t : out_tris) {
-      double dx = std::max({t.lo[0] - p[0], 0.0, p[0] - t.hi[0]});
-      double dy = std::max({t.lo[1] - p[1], 0.0, p[1] - t.hi[1]});
-      double dz = std::max({t.lo[2] - p[2], 0.0, p[2] - t.hi[2]});
-      if (dx * dx + dy * dy + dz * dz >= best * best) continue;
-      best = std::min(best, point_triangle_distance(p, t.a, t.b, t.c));
-    }
-    if (std::isfinite(best)) error = std::max(error, best);
-  }
-  // Rounded up so the float error is never below the measured double.
-  float e = float(error);
-  if (double(e) < error) e = std::nextafter(e, std::numeric_limits<float>::infinity());
-  r.error = e;
   return r;
 }
 
@@ -449,7 +389,7 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
 }  // namespace
 
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
-                              const std::vector<uint8_t>& locked, Simplifier simplifier) {
+                              const std::vector<uint8_t>& locked, Simplifier simplifier, const SimplifyTarget& target) {
   // Triangles with a repeated welded position are left out (they cover no area and use each
   // of their edges twice, so no edge's parity and no open edge changes): to meshopt such a
   // triangle is the far side of a border edge, so locked border vertices would move, and
@@ -472,8 +412,8 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
       }
   const TriangleSet& input = any_degenerate ? proper : group;
   if (input.triangle_count() == 0) return SimplifyResult{};
-  if (simplifier == Simplifier::kOpenMesh) return simplify_openmesh(welded, input, locked);
-  return simplify_meshopt(welded, input, locked);
+  if (simplifier == Simplifier::kOpenMesh) return simplify_openmesh(welded, input, locked, target);
+  return simplify_meshopt(welded, input, locked, target);
 }
 
 namespace {
