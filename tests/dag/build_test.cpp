@@ -508,6 +508,39 @@ TEST(Build, DegenerateTrianglesDoNotStallSimplification) {
 
 // spec/dag.md §2.3 fold check: three triangles on an edge where the input had two change its
 // parity (a crack); four pair up.
+// Fins (collinear slivers on an edge: three distinct positions) are left out of the
+// simplifier's input; they used to lock their edge's ends (meshopt: border) or be refused
+// (OpenMesh), so a mesh full of them ended with dozens of roots (spec/dag.md §2.3).
+TEST(Build, CollinearFinsDoNotStallSimplification) {
+  Mesh clean = make_sphere(24, 48);
+  Mesh m = make_with_fins(clean);
+  ASSERT_GT(m.triangle_count(), clean.triangle_count() + clean.triangle_count() / 6);
+  for (Simplifier s : {Simplifier::kMeshopt, Simplifier::kOpenMesh}) {
+    BuildReport r, rc;
+    ClusterDag d = build(m, s, 2, &r);
+    ClusterDag dc = build(clean, s, 2, &rc);
+    expect_dag_properties(d, m.triangle_count());
+    expect_borders_preserved(d, false);
+    EXPECT_GE(double(d.triangle_count() - m.triangle_count()),
+              0.9 * double(dc.triangle_count() - clean.triangle_count())) << "simplifier " << int(s);
+    EXPECT_LE(r.root_clusters, 4u) << "simplifier " << int(s);
+    EXPECT_EQ(r.levels.size(), rc.levels.size()) << "simplifier " << int(s);
+  }
+  // A sliver filling a T-junction (each of its edges used twice) is no fin: its middle vertex
+  // ends no odd edge, and dropping it would open a crack there; it stays in the input.
+  Mesh patch;
+  patch.positions = {0, 0, 0, 2, 0, 0, 1, 0, 0, 1, 1, 0, 1, -1, 0};  // a b m (collinear), c above, d below
+  patch.indices = {0, 1, 3, 0, 2, 1, 0, 4, 2, 2, 4, 1};
+  const build_detail::WeldedMesh ws = build_detail::weld_positions(patch);
+  ThreadPool pool(1);
+  EXPECT_TRUE(build_detail::find_fins(ws, pool).empty());
+  patch.indices.resize(6);  // without the lower triangles it hangs on the border: a fin
+  EXPECT_EQ(build_detail::find_fins(build_detail::weld_positions(patch), pool).size(), 1u);
+  const build_detail::WeldedMesh wf = build_detail::weld_positions(m);
+  ThreadPool pool2(2);
+  EXPECT_EQ(build_detail::find_fins(wf, pool2).size(), (clean.triangle_count() + 4) / 5);
+}
+
 TEST(Build, FoldCheckFlagsOddParityChangesOnly) {
   Mesh m;
   m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1};  // edge 0-1 plus four apexes

@@ -126,4 +126,33 @@ inline Mesh make_with_degenerates(const Mesh& src, uint32_t every = 5) {
   return m;
 }
 
+// The same surface with a collinear sliver hung on an edge after every `every`-th triangle:
+// (a', b', m) with a', b' copies of the triangle's corners a, b and m the float midpoint of a
+// and b, so edge a-b is used three times and a-m, m-b once (a fin, spec/dag.md §2.3).
+inline Mesh make_with_fins(const Mesh& src, uint32_t every = 5) {
+  Mesh m = src;
+  m.name = src.name + "-fins";
+  m.indices.clear();
+  m.materials.clear();
+  auto copy_vertex = [&](uint32_t v, const float* p) {
+    m.positions.insert(m.positions.end(), p, p + 3);
+    if (!src.normals.empty()) m.normals.insert(m.normals.end(), &src.normals[3 * v], &src.normals[3 * v] + 3);
+    if (!src.uvs.empty()) m.uvs.insert(m.uvs.end(), &src.uvs[2 * v], &src.uvs[2 * v] + 2);
+    return uint32_t(m.positions.size() / 3 - 1);
+  };
+  for (size_t t = 0; t < src.triangle_count(); ++t) {
+    const uint32_t a = src.indices[3 * t], b = src.indices[3 * t + 1];
+    m.indices.insert(m.indices.end(), &src.indices[3 * t], &src.indices[3 * t] + 3);
+    if (!src.materials.empty()) m.materials.push_back(src.materials[t]);
+    if (t % every != 0) continue;
+    float mid[3];
+    for (int k = 0; k < 3; ++k) mid[k] = 0.5f * (src.positions[3 * a + k] + src.positions[3 * b + k]);
+    const uint32_t a2 = copy_vertex(a, &src.positions[3 * a]), b2 = copy_vertex(b, &src.positions[3 * b]);
+    const uint32_t mv = copy_vertex(a, mid);
+    m.indices.insert(m.indices.end(), {a2, b2, mv});
+    if (!src.materials.empty()) m.materials.push_back(src.materials[t]);
+  }
+  return m;
+}
+
 }  // namespace vgeo::test

@@ -337,6 +337,7 @@ struct BuildState {
   Aabb mesh_box;  // of the vertices referenced by triangles (leaf chunking, ClusterDag::bounds)
   ScratchPool scratch;
   LockState locks;
+  FinSet fins;  // left out of every simplifier input (find_fins)
   std::vector<WorkCluster> clusters;
   std::vector<WorkGroup> groups;
   LeafSurface leaf_surface;  // the original surface the stored errors are measured against
@@ -483,6 +484,7 @@ void prepare(BuildState& s) {
   s.locks.owner.assign(vertex_count, kNone);
   s.locks.locked.assign(vertex_count, 0);
   pin_seam_vertices(s);
+  s.fins = find_fins(s.welded, s.pool);
   s.report.seconds_prepare = now_seconds() - t0;
 }
 
@@ -645,7 +647,7 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   target.ratio = s.internal.simplify_target_ratio;
   if (s.internal.simplify_error_budget > 0 && max_member_error > 0)
     target.max_error = s.internal.simplify_error_budget * max_member_error;
-  SimplifyResult simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target);
+  SimplifyResult simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target, s.fins);
   size_t before = merged.triangle_count(), after = simplified.triangles.triangle_count();
   bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
   bool sealed = enough && locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked,

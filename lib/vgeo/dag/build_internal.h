@@ -4,6 +4,7 @@
 #include <metis.h>
 
 #include <cmath>
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <mutex>
@@ -87,6 +88,18 @@ struct TriangleSet {
 // closes a border edge, a sliver's vertex copies look like seams).
 inline constexpr double kDegenerateRelativeHeight = 1.0 / (1 << 20);
 bool is_degenerate(const WeldedMesh& welded, const uint32_t* corners);
+
+// Fins (spec/dag.md §2.3): collinear degenerate triangles on three distinct welded positions
+// each of which ends an edge used an odd number of times by the whole mesh (a sliver hung on
+// an edge, or on the mesh border). Their edges all join mesh-border vertices, so leaving them
+// out of the simplifier's input changes only the mesh's own border, which coarser levels may
+// simplify; a sliver inside a closed surface is not a fin (dropping it would open a crack).
+// Corner triples, each sorted, in ascending order; empty for most meshes (one parallel scan).
+using FinSet = std::vector<std::array<uint32_t, 3>>;
+// Triangles per task of the fin scan: large enough that task overhead is noise (the test per
+// triangle is a few ns), small enough to balance two threads on a 1M mesh.
+inline constexpr size_t kFinScanTriangles = size_t(1) << 16;
+FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool);
 
 // Splits triangles into clusters of ≤ kMaxClusterTriangles triangles and
 // ≤ kMaxClusterVertices original vertices. Deterministic. `scratch` must have
@@ -173,9 +186,11 @@ struct SimplifyTarget {
   double ratio = kSimplifyTargetRatio;
   float max_error = std::numeric_limits<float>::infinity();
 };
+// Triangles of `fins` (find_fins) are left out of the simplifier's input like those with a
+// repeated welded position (spec/dag.md §2.3).
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
                               const std::vector<uint8_t>& locked, Simplifier simplifier,
-                              const SimplifyTarget& target = {});
+                              const SimplifyTarget& target = {}, const FinSet& fins = {});
 
 // True when `after` uses some welded edge more than twice (three or more of its triangles on
 // one edge: a fold) and an odd number of times more or fewer than `before` does: a change of

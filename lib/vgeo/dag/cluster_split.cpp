@@ -847,6 +847,49 @@ bool is_degenerate(const WeldedMesh& welded, const uint32_t* corners) {
   return n2 < kDegenerateRelativeHeight * kDegenerateRelativeHeight * longest2 * longest2;
 }
 
+FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool) {
+  const Mesh& mesh = *welded.mesh;
+  const size_t n = mesh.triangle_count();
+  // Collinear slivers on three distinct positions, per task in triangle order (deterministic).
+  const size_t tasks = (n + kFinScanTriangles - 1) / kFinScanTriangles;
+  std::vector<std::vector<uint32_t>> found(tasks);
+  pool.parallel_for(tasks, [&](size_t k) {
+    for (size_t t = k * kFinScanTriangles; t < std::min(n, (k + 1) * kFinScanTriangles); ++t) {
+      const uint32_t* c = &mesh.indices[3 * t];
+      const uint32_t a = welded.weld[c[0]], b = welded.weld[c[1]], d = welded.weld[c[2]];
+      if (a != b && b != d && d != a && is_degenerate(welded, c)) found[k].push_back(uint32_t(t));
+    }
+  });
+  std::vector<uint32_t> slivers;
+  for (const auto& f : found) slivers.insert(slivers.end(), f.begin(), f.end());
+  if (slivers.empty()) return {};
+  // Parity of every welded edge at a sliver's positions, over the whole mesh.
+  std::vector<uint8_t> at_sliver(mesh.vertex_count(), 0), odd_end(mesh.vertex_count(), 0);
+  for (uint32_t t : slivers)
+    for (int k = 0; k < 3; ++k) at_sliver[welded.weld[mesh.indices[3 * size_t(t) + k]]] = 1;
+  std::vector<uint64_t> edges;
+  for_each_welded_edge(welded, mesh.indices, [&](uint32_t a, uint32_t b) {
+    if (a != b && (at_sliver[a] || at_sliver[b])) edges.push_back(edge_key(a, b));
+  });
+  std::sort(edges.begin(), edges.end());
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i + 1;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if ((j - i) % 2 == 1) odd_end[uint32_t(edges[i] >> 32)] = odd_end[uint32_t(edges[i])] = 1;
+    i = j;
+  }
+  FinSet fins;
+  for (uint32_t t : slivers) {
+    const uint32_t* c = &mesh.indices[3 * size_t(t)];
+    if (!odd_end[welded.weld[c[0]]] || !odd_end[welded.weld[c[1]]] || !odd_end[welded.weld[c[2]]]) continue;
+    std::array<uint32_t, 3> key{c[0], c[1], c[2]};
+    std::sort(key.begin(), key.end());
+    fins.push_back(key);
+  }
+  std::sort(fins.begin(), fins.end());
+  return fins;
+}
+
 std::mutex& metis_mutex() {
   static std::mutex m;
   return m;

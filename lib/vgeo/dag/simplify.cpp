@@ -389,24 +389,31 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
 }  // namespace
 
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
-                              const std::vector<uint8_t>& locked, Simplifier simplifier, const SimplifyTarget& target) {
+                              const std::vector<uint8_t>& locked, Simplifier simplifier, const SimplifyTarget& target,
+                              const FinSet& fins) {
   // Triangles with a repeated welded position are left out (they cover no area and use each
   // of their edges twice, so no edge's parity and no open edge changes): to meshopt such a
   // triangle is the far side of a border edge, so locked border vertices would move, and
   // OpenMesh refuses it and locks its corners. Each one lies in a cluster whose proper
   // triangles use its positions (split_into_clusters), so leaving it out loses no locked
-  // position. Collinear slivers stay: dropping one would open its edges (spec/dag.md §2.3).
-  auto repeats_position = [&](size_t t) {
-    const uint32_t a = welded.weld[group.corners[3 * t]], b = welded.weld[group.corners[3 * t + 1]],
-                   c = welded.weld[group.corners[3 * t + 2]];
-    return a == b || b == c || c == a;
+  // position. Fins are left out too: to meshopt one is a border that locks its base edge,
+  // OpenMesh refuses it; they change only the mesh's own border. Other collinear slivers
+  // stay: dropping one would open its edges (spec/dag.md §2.3).
+  auto left_out = [&](size_t t) {
+    const uint32_t* c = &group.corners[3 * t];
+    const uint32_t a = welded.weld[c[0]], b = welded.weld[c[1]], d = welded.weld[c[2]];
+    if (a == b || b == d || d == a) return true;
+    if (fins.empty()) return false;
+    std::array<uint32_t, 3> key{c[0], c[1], c[2]};
+    std::sort(key.begin(), key.end());
+    return std::binary_search(fins.begin(), fins.end(), key);
   };
   TriangleSet proper;
   bool any_degenerate = false;
-  for (size_t t = 0; t < group.triangle_count() && !any_degenerate; ++t) any_degenerate = repeats_position(t);
+  for (size_t t = 0; t < group.triangle_count() && !any_degenerate; ++t) any_degenerate = left_out(t);
   if (any_degenerate)
     for (size_t t = 0; t < group.triangle_count(); ++t)
-      if (!repeats_position(t)) {
+      if (!left_out(t)) {
         proper.corners.insert(proper.corners.end(), &group.corners[3 * t], &group.corners[3 * t] + 3);
         proper.materials.push_back(group.materials[t]);
       }
