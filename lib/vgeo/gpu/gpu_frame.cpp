@@ -617,11 +617,13 @@ class VulkanFrameExecutor final : public FrameExecutor {
 
  private:
   // Every streamed visible[first..] cluster's page is in the GPU pool (it is resident: its
-  // group is usable), so the raster and shade passes read installed pages only.
+  // group is usable), so the raster and shade passes read installed pages only. (Meshes not
+  // streamed have all their pages placed after the pool.)
   void check_bound(uint32_t first) const {
     const FormatContainer& c = streaming_->streamer->container();
     for (size_t i = first; i < out_->visible.size(); ++i) {
       const uint32_t m = scene_.instances[out_->visible[i].instance].mesh;
+      if (streaming_->stream_mesh[m] == kNone) continue;
       const uint32_t page = c.meshes[streaming_->stream_mesh[m]].cluster_page[out_->visible[i].cluster];
       if (r_.slot_of_page[page] == kNone)
         fail("GPU_ERROR", "vulkan", "visible cluster " + std::to_string(out_->visible[i].cluster) +
