@@ -4,7 +4,10 @@
 // (spec/raster.md §Backends agree). Doubles where the CPU uses double, int64 where it uses
 // int64; every floating-point temporary is `precise` (SPIR-V NoContraction) because the CPU
 // build does not contract a·b + c into a fused multiply-add either. One workgroup per visible
-// cluster, one invocation per triangle; covered pixels get atomicMax of the key.
+// cluster, one invocation per triangle; covered pixels get atomicMax of the key. Triangles whose
+// pixel box exceeds kGpuRasterTileSize in x or y are deferred to the tile pass (params.tile_pass:
+// one invocation per kGpuRasterTileSize² tile of a deferred box), which draws them with the
+// same arithmetic (spec/raster.md §13.5).
 #extension GL_EXT_shader_explicit_arithmetic_types : require
 #extension GL_EXT_shader_atomic_int64 : require
 #extension GL_GOOGLE_include_directive : require
@@ -23,8 +26,11 @@ layout(std430, binding = 4) readonly buffer Visible { GpuVisibleCluster visible[
 layout(std430, binding = 5) buffer Vis { uint64_t vis[]; };
 // Word kGpuRasterOverflowWord (after pixels_written): triangles whose pixel loops did not run
 // to the end (llvmpipe's loop limiter, spec/raster.md §13.5); the host fails on any.
-layout(std430, binding = 6) buffer Counters { uint64_t pixels_written; uint32_t loop_overflow; };
+// Word kGpuRasterBigWord: the big triangles deferred to the tile pass (GpuBigTriangle).
+layout(std430, binding = 6) buffer Counters { uint64_t pixels_written; uint32_t loop_overflow; uint32_t big_count; };
 layout(std430, binding = 7) readonly buffer Paths { uint32_t path_of_visible[]; };
+layout(std430, binding = 8) buffer BigTriangles { GpuBigTriangle big[]; };
+layout(std430, binding = 9) readonly buffer Tiles { GpuRasterTile tiles[]; };
 layout(push_constant) uniform Push { GpuRasterParams params; };
 
 #define VGEO_PAGE_WORD(i) page_words[i]
@@ -132,13 +138,24 @@ float depth_at(int64_t px, int64_t py) {
   return float(z);
 }
 
+// Which pixels of a triangle an invocation draws: the cluster pass (tile.x < 0) its whole box,
+// unless the box exceeds kGpuRasterTileSize in x or y (then the triangle is deferred: recorded
+// in the big-triangle list as fan triangle `fan` of triangle id_bits); the tile pass the box's
+// pixels in [tile, tile + kGpuRasterTileSize).
+struct PixelScope {
+  ivec2 tile;
+  uint32_t fan;
+};
+
 // raster.cpp raster_triangle (all pixel loops produce the same set; this is the bounding-box
 // loop over exact edge functions). Returns false when culled (back face, zero area).
 // `planned` sums the invocation's pixel-loop back edges; `overflow` is set when they would
 // exceed kGpuLoopBudget less kGpuRasterLoopMargin (then nothing is drawn) or when a loop was
 // left before its end all the same (the limiter counts a whole 8-lane vector's back edges).
-bool raster_triangle(ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, uint32_t id_bits, inout uint64_t written,
-                     inout int64_t planned, inout bool overflow) {
+// Neither can happen with boxes of at most kGpuRasterTileSize² (shader_records.h): kept so
+// that a change of that bound cannot draw a wrong image silently.
+bool raster_triangle(ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, uint32_t id_bits, PixelScope scope,
+                     inout uint64_t written, inout int64_t planned, inout bool overflow) {
   int64_t area = (v1.x - v0.x) * (v2.y - v0.y) - (v2.x - v0.x) * (v1.y - v0.y);
   if (area == int64_t(0)) return false;
   bool front = area < int64_t(0);
@@ -166,6 +183,21 @@ bool raster_triangle(ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, uint32_t
   int64_t max_px = min(int64_t(params.width) - int64_t(1), floor_div(max_x - kHalfPixel, kSubpixelScale));
   int64_t min_py = max(int64_t(0), ceil_div(min_y - kHalfPixel, kSubpixelScale));
   int64_t max_py = min(int64_t(params.height) - int64_t(1), floor_div(max_y - kHalfPixel, kSubpixelScale));
+  const int64_t tile_size = int64_t(kGpuRasterTileSize);
+  if (scope.tile.x < 0) {
+    if (max_px - min_px >= tile_size || max_py - min_py >= tile_size) {
+      const uint32_t slot = atomicAdd(big_count, 1u);  // the host fails when slot ≥ the capacity
+      if (slot < kGpuRasterMaxBigTriangles)
+        big[slot] = GpuBigTriangle(id_bits, scope.fan, int32_t(min_px), int32_t(max_px), int32_t(min_py),
+                                   int32_t(max_py), uint32_t[2](0u, 0u));
+      return true;
+    }
+  } else {
+    min_px = max(min_px, int64_t(scope.tile.x));
+    max_px = min(max_px, int64_t(scope.tile.x) + tile_size - int64_t(1));
+    min_py = max(min_py, int64_t(scope.tile.y));
+    max_py = min(max_py, int64_t(scope.tile.y) + tile_size - int64_t(1));
+  }
 
   precise double inv_area = 1.0 / double(area);
   precise double dz1 = v1.z - v0.z;
@@ -230,17 +262,15 @@ TransformedVertex transform_vertex(MemoryCluster c, uint32_t v, GpuInstance inst
   return t;
 }
 
-void main() {
-  uint32_t group = gl_WorkGroupID.y * params.groups_x + gl_WorkGroupID.x;
-  if (group >= params.visible_count) return;
-  uint32_t visible_index = params.first_visible + group;
-  if (params.select_path != 0u && path_of_visible[visible_index] != kGpuRasterPathSw) return;  // drawn by hw_raster
+// Triangle `tri` of visible[visible_index], transformed, clipped and drawn as raster.cpp does;
+// `fan_only` ≥ 0 (the tile pass) draws only that fan triangle of its clipped polygon.
+void draw_triangle(uint32_t visible_index, uint32_t tri, int fan_only, ivec2 tile, inout uint64_t written,
+                   inout int64_t planned, inout bool overflow) {
   GpuVisibleCluster vc = visible[visible_index];
   GpuInstance inst = instances[vc.instance];
   GpuMesh mesh = meshes[inst.mesh];
   GpuClusterLocation loc = locations[mesh.first_location + vc.cluster];
   MemoryCluster c = memory_cluster(loc.page_word, loc.cluster_in_page, mesh.channel_count);
-  uint32_t tri = gl_LocalInvocationID.x;
   if (tri >= c.triangle_count) return;
 
   const double z_near = double(params.z_near);
@@ -256,11 +286,9 @@ void main() {
   if ((tv[0].code & tv[1].code & tv[2].code & kOutRejectMask) != 0u) return;
   uint32_t id_bits = (visible_index << kVisTriangleBits) | tri;
   uint32_t clip_mask = (tv[0].code | tv[1].code | tv[2].code) & kOutClipMask;
-  uint64_t written = uint64_t(0);
-  int64_t planned = int64_t(0);
-  bool overflow = false;
   if (clip_mask == 0u) {
-    raster_triangle(tv[0].screen, tv[1].screen, tv[2].screen, id_bits, written, planned, overflow);
+    raster_triangle(tv[0].screen, tv[1].screen, tv[2].screen, id_bits, PixelScope(tile, 0u), written, planned,
+                    overflow);
   } else {
     // raster.cpp clip_polygon: Sutherland–Hodgman in the fixed plane order.
     ClipVertex poly[kMaxPolygon];
@@ -289,9 +317,31 @@ void main() {
       for (int k = 0; k < count; ++k) screen[k] = project(poly[k], scale_x, scale_y);
       int k = 1;
       for (; k + 1 < count; ++k)
-        raster_triangle(screen[0], screen[k], screen[k + 1], id_bits, written, planned, overflow);
+        if (fan_only < 0 || fan_only == k - 1)
+          raster_triangle(screen[0], screen[k], screen[k + 1], id_bits, PixelScope(tile, uint32_t(k - 1)), written,
+                          planned, overflow);
       if (k + 1 < count) overflow = true;  // a fan triangle was skipped: the limiter ran out
     }
+  }
+}
+
+void main() {
+  uint32_t group = gl_WorkGroupID.y * params.groups_x + gl_WorkGroupID.x;
+  uint64_t written = uint64_t(0);
+  int64_t planned = int64_t(0);
+  bool overflow = false;
+  if (params.tile_pass != 0u) {
+    uint32_t t = group * kGpuRasterGroupSize + gl_LocalInvocationID.x;
+    if (t >= params.tile_count) return;
+    GpuRasterTile tile = tiles[t];
+    GpuBigTriangle b = big[tile.big];
+    draw_triangle(b.id_bits >> kVisTriangleBits, b.id_bits & kVisTriangleMask, int(b.fan), ivec2(tile.x0, tile.y0),
+                  written, planned, overflow);
+  } else {
+    if (group >= params.visible_count) return;
+    uint32_t visible_index = params.first_visible + group;
+    if (params.select_path != 0u && path_of_visible[visible_index] != kGpuRasterPathSw) return;  // drawn by hw_raster
+    draw_triangle(visible_index, gl_LocalInvocationID.x, -1, ivec2(-1, -1), written, planned, overflow);
   }
   if (written != uint64_t(0)) atomicAdd(pixels_written, written);
   if (overflow) atomicAdd(loop_overflow, 1u);

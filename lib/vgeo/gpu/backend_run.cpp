@@ -288,6 +288,11 @@ std::string BackendRunReport::table() const {
                   gpu_raster_mode_name(raster), (unsigned long long)r.sw_clusters, (unsigned long long)r.sw_triangles,
                   (unsigned long long)r.hw_clusters, (unsigned long long)r.hw_triangles);
     out += line;
+    if (r.sw_tiled_triangles) {
+      std::snprintf(line, sizeof line, "sw big triangles drawn by tiles: %llu triangles, %llu tiles\n",
+                    (unsigned long long)r.sw_tiled_triangles, (unsigned long long)r.sw_tiles);
+      out += line;
+    }
   }
   out += "vis_hash " + hex64(vis_hash) + "  cluster_set_hash " + hex64(cluster_set_hash) + "\n";
   if (pool.slots) {
@@ -350,7 +355,9 @@ std::string BackendRunReport::json() const {
       f["raster_split"] = {{"sw_clusters", raster_split[i].sw_clusters},
                            {"sw_triangles", raster_split[i].sw_triangles},
                            {"hw_clusters", raster_split[i].hw_clusters},
-                           {"hw_triangles", raster_split[i].hw_triangles}};
+                           {"hw_triangles", raster_split[i].hw_triangles},
+                           {"sw_tiled_triangles", raster_split[i].sw_tiled_triangles},
+                           {"sw_tiles", raster_split[i].sw_tiles}};
     j["frames"].push_back(f);
   }
   if (!comparisons.empty()) {

@@ -134,22 +134,28 @@ void raster_range(GpuRenderer& r, uint32_t width, uint32_t height, float z_near,
   request.hw_min_triangle_area_px = r.options.hw_min_triangle_area_px;
   request.cull_backfaces = cull_backfaces;
   uint32_t t0 = cmd_timestamp(rec);
-  record_gpu_raster(rec, *r.raster, {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.counters},
-                    request);
+  const GpuRasterBuffers buffers{&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.counters};
+  record_gpu_raster(rec, *r.raster, buffers, request);
+  RasterSplitStats tiled;
+  if (request.mode != GpuRasterMode::kHw) {
+    continue_commands(rec);  // the host cuts the deferred big triangles into tiles (spec/raster.md §13.5)
+    record_gpu_raster_tiles(rec, *r.raster, buffers, request, &tiled);
+  }
   uint32_t t1 = cmd_timestamp(rec);
   submit_and_wait(rec);
   stats->ms = timestamp_ms(rec, t0, t1);
   stats->pixels_written = r.counters.data<uint64_t>()[0];
   split->add(read_gpu_raster_split(*r.raster));
+  split->add(tiled);
   // Never a silently wrong image: the compute rasterizer flags triangles whose pixel loops
-  // exceed the loop budget (spec/raster.md §13.5); the hardware path has no such loop.
+  // did not run to their end (spec/raster.md §13.5: unreachable with tiles of
+  // kGpuRasterTileSize, kept as the guard); the hardware path has no such loop.
   const uint32_t overflow = r.counters.data<uint32_t>()[kGpuRasterOverflowWord];
   if (overflow != 0)
     fail("GPU_SCENE_TOO_LARGE", r.gpu->device_name,
-         std::to_string(overflow) + " triangle(s) need more pixel-loop iterations than the compute rasterizer's "
+         std::to_string(overflow) + " triangle(s) needed more pixel-loop iterations than the compute rasterizer's "
              "loop budget (" + std::to_string(kGpuLoopBudget - kGpuRasterLoopMargin) +
-             " per invocation: a bounding box that large, spec/raster.md §13.5): use --raster hw or auto, or a "
-             "smaller viewport",
+             " per invocation, spec/raster.md §13.5): use --raster hw or auto",
          kExitUsage);
 }
 
