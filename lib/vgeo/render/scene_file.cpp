@@ -197,11 +197,13 @@ EncodedMesh build_cached(const Ctx& c, const Mesh& mesh, const std::string& path
 }
 
 // The page files a load reads in full, each once: its bytes become one of the scene's
-// encodings (the GPU's pages are the file's own), its decode what the CPU reference draws.
+// encodings (the GPU's pages are the file's own), its decode what the CPU reference draws. A
+// decoded mesh is moved into the first scene mesh drawing it and copied from there for others.
 struct PageFileReads {
   std::vector<std::string> paths;  // canonical
   std::vector<uint32_t> encoding;  // index into SceneFile::encodings
   std::vector<BuiltScene> decoded;
+  std::vector<std::vector<uint32_t>> holder;  // per file, per mesh: the scene mesh holding it, kNone
 };
 
 std::string canonical_path(const std::filesystem::path& p) {
@@ -210,39 +212,48 @@ std::string canonical_path(const std::filesystem::path& p) {
   return ec ? p.string() : c.string();
 }
 
-// Page file `file` (read once per load); `*encoding` receives its index in out->encodings.
-const BuiltScene& read_page_file(const Ctx& c, const std::string& file, const std::string& path, SceneFile* out,
-                                 PageFileReads* reads, uint32_t* encoding) {
+// Page file `file`, read and decoded once per load: its index in `reads`.
+uint32_t read_page_file(const Ctx& c, const std::string& file, const std::string& path, SceneFile* out,
+                        PageFileReads* reads) {
   const std::string canonical = canonical_path(file);
-  size_t k = std::find(reads->paths.begin(), reads->paths.end(), canonical) - reads->paths.begin();
-  if (k == reads->paths.size()) {
-    SceneEncoding e;
-    BuiltScene decoded;
-    try {
-      e = scene_encoding(file, read_file(file, kAnyFileSize));  // page files may exceed 4 GiB
-      decoded = decode_format(e.bytes.data(), e.bytes.size(), file);
-    } catch (const VgeoError& err) {
-      bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + err.error().line());
-    }
-    reads->paths.push_back(canonical);
-    reads->encoding.push_back(uint32_t(out->encodings.size()));
-    reads->decoded.push_back(std::move(decoded));
-    out->encodings.push_back(std::move(e));
+  const size_t k = std::find(reads->paths.begin(), reads->paths.end(), canonical) - reads->paths.begin();
+  if (k < reads->paths.size()) return uint32_t(k);
+  SceneEncoding e;
+  BuiltScene decoded;
+  try {
+    e = scene_encoding(file, read_file(file, kAnyFileSize));  // page files may exceed 4 GiB
+    decoded = decode_format(e.bytes.data(), e.bytes.size(), file);
+  } catch (const VgeoError& err) {
+    bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + err.error().line());
   }
-  *encoding = reads->encoding[k];
-  return reads->decoded[k];
+  reads->paths.push_back(canonical);
+  reads->encoding.push_back(uint32_t(out->encodings.size()));
+  reads->holder.emplace_back(decoded.meshes.size(), kNone);
+  reads->decoded.push_back(std::move(decoded));
+  out->encodings.push_back(std::move(e));
+  return uint32_t(k);
 }
 
-// Scene mesh `path` as mesh `index` of an in-memory page file: its decode with the file's
-// materials appended to the scene's (ids offset to match), drawn from the file's encoding.
-void add_page_file_mesh(const Ctx& c, const std::string& file, uint32_t encoding, const BuiltScene& built,
-                        uint32_t index, uint32_t material_offset, const std::string& path, ClusterDag* mesh,
-                        SceneMeshForm* form) {
+// Scene mesh `scene_mesh` (`path`) as mesh `index` of the page file reads->decoded[k]: its
+// decode with the file's materials appended to the scene's at `material_offset`, drawn from the
+// file's encoding.
+void add_page_file_mesh(const Ctx& c, const std::string& file, PageFileReads* reads, uint32_t k, uint32_t index,
+                        uint32_t material_offset, const std::string& path, uint32_t scene_mesh, SceneFile* out) {
+  BuiltScene& built = reads->decoded[k];
   if (index >= built.meshes.size()) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh in " + file);
-  *mesh = built.meshes[index];
-  if (!bvh_is_tree(*mesh)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
-  for (uint32_t& t : mesh->triangle_materials) t += material_offset;
-  *form = {encoding, index, material_offset};
+  ClusterDag& mesh = out->scene.meshes[scene_mesh];
+  uint32_t& holder = reads->holder[k][index];
+  if (holder == kNone) {
+    mesh = std::move(built.meshes[index]);
+    if (!bvh_is_tree(mesh)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
+    for (uint32_t& t : mesh.triangle_materials) t += material_offset;
+    holder = scene_mesh;
+  } else {
+    mesh = out->scene.meshes[holder];
+    const uint32_t held_offset = out->mesh_forms[holder].material_offset;
+    for (uint32_t& t : mesh.triangle_materials) t = t - held_offset + material_offset;
+  }
+  out->mesh_forms[scene_mesh] = {reads->encoding[k], index, material_offset};
 }
 
 // A generated mesh (lib/vgeo/mesh/generate.h): the scene's `shape`, `triangles` and `seed` are
@@ -324,14 +335,14 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out, PageFileReads* r
       // A page file is already the memory form: drawn from its own bytes. A VGEODAG1 file holds
       // float positions: encoded once into its memory form.
       const bool page_file = is_page_file(fp.string());
-      uint32_t encoding = kNone;
       BuiltScene dag_file;
       try {
         if (!page_file) dag_file = read_asset_file(fp.string());  // VGEODAG1 (lib/vgeo/format/asset_file.h)
       } catch (const VgeoError& e) {
         bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
       }
-      const BuiltScene& built = page_file ? read_page_file(c, fp.string(), path, out, reads, &encoding) : dag_file;
+      const uint32_t read = page_file ? read_page_file(c, fp.string(), path, out, reads) : kNone;
+      const BuiltScene& built = page_file ? reads->decoded[read] : dag_file;
       double index = get_number(c, m, path, "index", 0, 0, 1e9);
       if (index >= double(built.meshes.size())) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh in " + file);
       // The file's materials are appended; its triangle materials are offset to match.
@@ -342,8 +353,7 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out, PageFileReads* r
       if (page_file) {
         out->scene.meshes.emplace_back();
         out->mesh_forms.emplace_back();
-        add_page_file_mesh(c, file, encoding, built, uint32_t(index), offset, path, &out->scene.meshes.back(),
-                           &out->mesh_forms.back());
+        add_page_file_mesh(c, file, reads, read, uint32_t(index), offset, path, uint32_t(i), out);
         continue;
       }
       ClusterDag dag = std::move(dag_file.meshes[size_t(index)]);
@@ -427,10 +437,8 @@ void resolve_page_meshes(const Ctx& c, SceneFile* out, PageFileReads* reads) {
     if (pm.file == kNone) continue;
     const std::string path = "meshes[" + std::to_string(i) + "]";
     const std::string& file = out->page_files[pm.file].path;
-    uint32_t encoding = kNone;
-    const BuiltScene& built = read_page_file(c, file, path, out, reads, &encoding);
-    add_page_file_mesh(c, file, encoding, built, pm.index, pm.material_offset, path, &out->scene.meshes[i],
-                       &out->mesh_forms[i]);
+    add_page_file_mesh(c, file, reads, read_page_file(c, file, path, out, reads), pm.index, pm.material_offset, path,
+                       uint32_t(i), out);
     pm.file = kNone;
   }
   out->page_files.clear();  // nothing streams
