@@ -138,13 +138,14 @@ float depth_at(int64_t px, int64_t py) {
   return float(z);
 }
 
-// Which pixels of a triangle an invocation draws: the cluster pass (tile.x < 0) its whole box,
-// unless the box exceeds kGpuRasterTileSize in x or y (then the triangle is deferred: recorded
-// in the big-triangle list as fan triangle `fan` of triangle id_bits); the tile pass the box's
-// pixels in [tile, tile + kGpuRasterTileSize).
+// Which pixels of a triangle an invocation draws: those of its box in [lo, hi]. The cluster
+// pass (defer_big: lo, hi the viewport) defers a triangle whose box exceeds kGpuRasterTileSize in
+// x or y (records it in the big-triangle list as fan triangle `fan` of triangle id_bits); the
+// tile pass draws one tile [lo, lo + kGpuRasterTileSize).
 struct PixelScope {
-  ivec2 tile;
+  ivec2 lo, hi;
   uint32_t fan;
+  bool defer_big;
 };
 
 // raster.cpp raster_triangle (all pixel loops produce the same set; this is the bounding-box
@@ -184,20 +185,17 @@ bool raster_triangle(ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, uint32_t
   int64_t min_py = max(int64_t(0), ceil_div(min_y - kHalfPixel, kSubpixelScale));
   int64_t max_py = min(int64_t(params.height) - int64_t(1), floor_div(max_y - kHalfPixel, kSubpixelScale));
   const int64_t tile_size = int64_t(kGpuRasterTileSize);
-  if (scope.tile.x < 0) {
-    if (max_px - min_px >= tile_size || max_py - min_py >= tile_size) {
-      const uint32_t slot = atomicAdd(big_count, 1u);  // the host fails when slot ≥ the capacity
-      if (slot < kGpuRasterMaxBigTriangles)
-        big[slot] = GpuBigTriangle(id_bits, scope.fan, int32_t(min_px), int32_t(max_px), int32_t(min_py),
-                                   int32_t(max_py), uint32_t[2](0u, 0u));
-      return true;
-    }
-  } else {
-    min_px = max(min_px, int64_t(scope.tile.x));
-    max_px = min(max_px, int64_t(scope.tile.x) + tile_size - int64_t(1));
-    min_py = max(min_py, int64_t(scope.tile.y));
-    max_py = min(max_py, int64_t(scope.tile.y) + tile_size - int64_t(1));
+  if (scope.defer_big && (max_px - min_px >= tile_size || max_py - min_py >= tile_size)) {
+    const uint32_t slot = atomicAdd(big_count, 1u);  // the host fails when slot ≥ the capacity
+    if (slot < kGpuRasterMaxBigTriangles)
+      big[slot] = GpuBigTriangle(id_bits, scope.fan, int32_t(min_px), int32_t(max_px), int32_t(min_py),
+                                 int32_t(max_py), uint32_t[2](0u, 0u));
+    return true;
   }
+  min_px = max(min_px, int64_t(scope.lo.x));
+  max_px = min(max_px, int64_t(scope.hi.x));
+  min_py = max(min_py, int64_t(scope.lo.y));
+  max_py = min(max_py, int64_t(scope.hi.y));
 
   precise double inv_area = 1.0 / double(area);
   precise double dz1 = v1.z - v0.z;
@@ -264,7 +262,7 @@ TransformedVertex transform_vertex(MemoryCluster c, uint32_t v, GpuInstance inst
 
 // Triangle `tri` of visible[visible_index], transformed, clipped and drawn as raster.cpp does;
 // `fan_only` ≥ 0 (the tile pass) draws only that fan triangle of its clipped polygon.
-void draw_triangle(uint32_t visible_index, uint32_t tri, int fan_only, ivec2 tile, inout uint64_t written,
+void draw_triangle(uint32_t visible_index, uint32_t tri, int fan_only, PixelScope scope, inout uint64_t written,
                    inout int64_t planned, inout bool overflow) {
   GpuVisibleCluster vc = visible[visible_index];
   GpuInstance inst = instances[vc.instance];
@@ -287,8 +285,8 @@ void draw_triangle(uint32_t visible_index, uint32_t tri, int fan_only, ivec2 til
   uint32_t id_bits = (visible_index << kVisTriangleBits) | tri;
   uint32_t clip_mask = (tv[0].code | tv[1].code | tv[2].code) & kOutClipMask;
   if (clip_mask == 0u) {
-    raster_triangle(tv[0].screen, tv[1].screen, tv[2].screen, id_bits, PixelScope(tile, 0u), written, planned,
-                    overflow);
+    scope.fan = 0u;
+    raster_triangle(tv[0].screen, tv[1].screen, tv[2].screen, id_bits, scope, written, planned, overflow);
   } else {
     // raster.cpp clip_polygon: Sutherland–Hodgman in the fixed plane order.
     ClipVertex poly[kMaxPolygon];
@@ -317,9 +315,10 @@ void draw_triangle(uint32_t visible_index, uint32_t tri, int fan_only, ivec2 til
       for (int k = 0; k < count; ++k) screen[k] = project(poly[k], scale_x, scale_y);
       int k = 1;
       for (; k + 1 < count; ++k)
-        if (fan_only < 0 || fan_only == k - 1)
-          raster_triangle(screen[0], screen[k], screen[k + 1], id_bits, PixelScope(tile, uint32_t(k - 1)), written,
-                          planned, overflow);
+        if (fan_only < 0 || fan_only == k - 1) {
+          scope.fan = uint32_t(k - 1);
+          raster_triangle(screen[0], screen[k], screen[k + 1], id_bits, scope, written, planned, overflow);
+        }
       if (k + 1 < count) overflow = true;  // a fan triangle was skipped: the limiter ran out
     }
   }
@@ -327,22 +326,31 @@ void draw_triangle(uint32_t visible_index, uint32_t tri, int fan_only, ivec2 til
 
 void main() {
   uint32_t group = gl_WorkGroupID.y * params.groups_x + gl_WorkGroupID.x;
-  uint64_t written = uint64_t(0);
-  int64_t planned = int64_t(0);
-  bool overflow = false;
+  // One call of draw_triangle for both passes (one inlined copy of the pixel loops).
+  uint32_t visible_index, tri;
+  int fan_only = -1;
+  PixelScope scope = PixelScope(ivec2(0, 0), ivec2(int(params.width) - 1, int(params.height) - 1), 0u, true);
   if (params.tile_pass != 0u) {
     uint32_t t = group * kGpuRasterGroupSize + gl_LocalInvocationID.x;
     if (t >= params.tile_count) return;
-    GpuRasterTile tile = tiles[t];
-    GpuBigTriangle b = big[tile.big];
-    draw_triangle(b.id_bits >> kVisTriangleBits, b.id_bits & kVisTriangleMask, int(b.fan), ivec2(tile.x0, tile.y0),
-                  written, planned, overflow);
+    GpuRasterTile rt = tiles[t];
+    GpuBigTriangle b = big[rt.big];
+    visible_index = b.id_bits >> kVisTriangleBits;
+    tri = b.id_bits & kVisTriangleMask;
+    fan_only = int(b.fan);
+    scope.lo = ivec2(rt.x0, rt.y0);
+    scope.hi = scope.lo + ivec2(int(kGpuRasterTileSize) - 1);
+    scope.defer_big = false;
   } else {
     if (group >= params.visible_count) return;
-    uint32_t visible_index = params.first_visible + group;
+    visible_index = params.first_visible + group;
     if (params.select_path != 0u && path_of_visible[visible_index] != kGpuRasterPathSw) return;  // drawn by hw_raster
-    draw_triangle(visible_index, gl_LocalInvocationID.x, -1, ivec2(-1, -1), written, planned, overflow);
+    tri = gl_LocalInvocationID.x;
   }
+  uint64_t written = uint64_t(0);
+  int64_t planned = int64_t(0);
+  bool overflow = false;
+  draw_triangle(visible_index, tri, fan_only, scope, written, planned, overflow);
   if (written != uint64_t(0)) atomicAdd(pixels_written, written);
   if (overflow) atomicAdd(loop_overflow, 1u);
 }
