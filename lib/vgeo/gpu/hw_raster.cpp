@@ -31,8 +31,8 @@ const char* gpu_raster_mode_name(GpuRasterMode mode) {
 
 namespace {
 
-// shaders/raster.comp bindings: pages, locations, meshes, instances, visible, vis, counters, paths,
-// big triangles, tiles.
+// shaders/raster.comp and raster_tiles.comp bindings: pages, locations, meshes, instances,
+// visible, vis, counters, paths, big triangles, tiles.
 constexpr uint32_t kSwBindings = 10;
 // shaders/raster_split.comp bindings: meshes, instances, visible, cluster info, raster
 // instances, paths, commands, split counters.
@@ -184,6 +184,7 @@ std::unique_ptr<GpuRasterPasses> create_gpu_raster_passes(GpuContext& gpu,
   auto p = std::make_unique<GpuRasterPasses>();
   p->context = &gpu;
   p->sw = create_compute_pipeline(gpu, kShaderRaster, kSwBindings, sizeof(GpuRasterParams));
+  p->sw_tiles = create_compute_pipeline(gpu, kShaderRasterTiles, kSwBindings, sizeof(GpuRasterParams));
   p->split = create_compute_pipeline(gpu, kShaderRasterSplit, kSplitBindings, sizeof(GpuRasterSplitParams));
   create_hw_pipeline(gpu, *p);
   p->cluster_info = create_gpu_buffer(gpu, cluster_info.size() * sizeof(GpuClusterRasterInfo));
@@ -262,11 +263,11 @@ void record_gpu_raster_tiles(GpuRecorder& rec, GpuRasterPasses& p, const GpuRast
     ensure_gpu_buffer(*p.context, p.tiles, tiles.size() * sizeof(GpuRasterTile));
     std::memcpy(p.tiles.mapped, tiles.data(), tiles.size() * sizeof(GpuRasterTile));
     GpuRasterParams params = sw_params(q);
-    params.tile_pass = 1;
     params.tile_count = uint32_t(tiles.size());
     const uint32_t groups = (params.tile_count + kGpuRasterGroupSize - 1) / kGpuRasterGroupSize;
     params.groups_x = std::min(groups, kGpuMaxGroupsX);
-    cmd_dispatch(rec, p.sw, sw_buffers(p, b), &params, params.groups_x, (groups + params.groups_x - 1) / params.groups_x);
+    cmd_dispatch(rec, p.sw_tiles, sw_buffers(p, b), &params, params.groups_x,
+                 (groups + params.groups_x - 1) / params.groups_x);
     split->sw_tiles += tiles.size();
     tiles.clear();
   };

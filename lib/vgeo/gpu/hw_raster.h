@@ -54,7 +54,7 @@ struct RasterSplitStats {
 // Pipelines of the three passes and the buffers only they use. Move-only; frees itself.
 struct GpuRasterPasses {
   GpuContext* context = nullptr;
-  ComputePipeline sw, split;
+  ComputePipeline sw, sw_tiles, split;  // raster.comp, raster_tiles.comp, raster_split.comp
   VkDescriptorSetLayout hw_set_layout = VK_NULL_HANDLE;
   VkPipelineLayout hw_layout = VK_NULL_HANDLE;
   VkPipeline hw = VK_NULL_HANDLE;

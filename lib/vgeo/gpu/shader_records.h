@@ -54,19 +54,18 @@ struct GpuRasterParams {
   // 0: rasterize every cluster of the range; 1: only those whose word in the path buffer
   // (binding 7, written by shaders/raster_split.comp) is kGpuRasterPathSw (hw_raster.h).
   uint32_t select_path;
-  // 0: the cluster pass (one invocation per triangle; triangles with a pixel box wider or
-  // taller than kGpuRasterTileSize are deferred into the big-triangle list, binding 8);
-  // 1: the tile pass (invocation i draws tiles[i], binding 9, i < tile_count).
-  uint32_t tile_pass;
+  // shaders/raster_tiles.comp (the tile pass): invocation i draws tiles[i] (binding 9) for
+  // i < tile_count. The cluster pass (raster.comp) defers triangles with a pixel box wider or
+  // taller than kGpuRasterTileSize into the big-triangle list (binding 8).
   uint32_t tile_count;
-  uint32_t reserved[2];
+  uint32_t reserved[3];
 };
 
 // The compute rasterizer's big-triangle tiles (spec/raster.md §13.5). A triangle whose
 // viewport-clamped pixel box has more than kGpuRasterTileSize rows or columns is not drawn by
 // the cluster pass but recorded (GpuBigTriangle, counted at counters word kGpuRasterBigWord);
 // the host cuts each recorded box into kGpuRasterTileSize² tiles (GpuRasterTile) and the tile
-// pass draws each tile in its own invocation with the same setup, snapping, top-left rule and
+// pass (shaders/raster_tiles.comp) draws each tile in its own invocation with the same setup, snapping, top-left rule and
 // key. 64: a cluster-pass invocation vector then runs at most 6 fan triangles × (64 rows ×
 // 65 columns + 1) + 1 = 24,967 pixel-loop back edges whatever its 8 lanes' boxes (the vector
 // runs the largest rows and columns of its lanes), a tile invocation 4,161: both under
@@ -160,7 +159,7 @@ static_assert(sizeof(GpuMesh) == 32 && offsetof(GpuMesh, material_offset) == 16)
 static_assert(sizeof(GpuInstance) == 80 && offsetof(GpuInstance, mesh) == 64);
 static_assert(sizeof(GpuVisibleCluster) == 8);
 static_assert(sizeof(GpuRasterParams) == 48 && offsetof(GpuRasterParams, z_near) == 24 &&
-              offsetof(GpuRasterParams, tile_count) == 36);
+              offsetof(GpuRasterParams, tile_count) == 32);
 static_assert(sizeof(GpuBigTriangle) == 32 && sizeof(GpuRasterTile) == 16);
 static_assert(sizeof(GpuShadeInstance) == 208 && offsetof(GpuShadeInstance, normal_matrix) == 128);
 static_assert(sizeof(GpuShadeCluster) == 16);
