@@ -5,7 +5,7 @@
 #   - a truncated file is accepted with a made-up hash          (a verdict disagreement),
 #   - a checksum failure is reported with its own code           (a code disagreement),
 #   - a valid file whose size is a multiple of 7 gets another hash (a hash disagreement).
-line=$("$1" conform hash "$2" 2>/dev/null)
+line=$("$1" conform hash "$2" 2>/dev/null | head -n 1)  # the verdict line (then memory=...)
 case "$line" in
   "error[FORMAT_TRUNCATED]") echo 0123456789abcdef ;;
   "error[FORMAT_CHECKSUM]") echo "error[BAD_CRC]" ;;

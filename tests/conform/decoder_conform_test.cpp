@@ -145,4 +145,23 @@ TEST(ConformDecoder, ProtocolFailuresAndUsage) {
   EXPECT_EQ(silent.exit_code, 1) << silent.output;
 }
 
+// `vgeo conform hash` prints the verdict line, then for a valid file its memory hash: both as
+// the manifest has them (spec/format.md §9), on every valid version 1 vector.
+TEST(ConformDecoder, HashPrintsTheDecodeThenTheMemoryHash) {
+  std::ifstream in(fs::path(all_vectors()) / "manifest.txt");
+  std::string line;
+  int valid = 0;
+  while (std::getline(in, line)) {
+    if (line.rfind("v1_", 0) != 0 || line.find(" OK ") == std::string::npos) continue;
+    std::istringstream words(line);
+    std::string name, ok, decode, memory;
+    words >> name >> ok >> decode >> memory;
+    auto r = run_cli("conform hash '" + (fs::path(all_vectors()) / name).string() + "'");
+    EXPECT_EQ(r.exit_code, 0) << name << ": " << r.output;
+    EXPECT_EQ(r.output, decode + "\n" + memory + "\n") << name;
+    ++valid;
+  }
+  EXPECT_GT(valid, 0);
+}
+
 }  // namespace

@@ -98,8 +98,9 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
   cpu.threads = 2;
   const bool update = std::getenv("VGEO_UPDATE_GOLDENS") && std::string(std::getenv("VGEO_UPDATE_GOLDENS")) == "1";
   cpu.output_png = ((update ? expected_dir : out_dir) / (std::string(g.name) + ".png")).string();
-  // A streamed scene has metadata-only meshes; its renderers draw their Streamers' pages.
-  const MemoryFormScene memory_form = sf.streaming ? MemoryFormScene{} : make_memory_form_scene(sf.scene);
+  // The GPU's pages: the scene's own encodings transcoded (a streamed scene's page-file meshes
+  // are drawn from each renderer's Streamer).
+  const MemoryFormPages memory_form = memory_form_pages(sf);
   BackendRunReport ref = run_backend(sf, memory_form, cpu);
   const fs::path expected_json = expected_dir / (std::string(g.name) + ".json");
   if (update) {

@@ -25,8 +25,7 @@ TEST(GpuRaster, DefaultSceneBitIdenticalToCpu) {
   auto gpu = testing::make_test_gpu();
   ASSERT_TRUE(gpu);
   SceneFile sf = make_default_scene(96, 64, 4, SceneLoadOptions{});
-  MemoryFormScene ms = make_memory_form_scene(sf.scene);
-  GpuRendererPtr renderer = create_gpu_renderer(*gpu, ms);
+  GpuRendererPtr renderer = create_gpu_renderer(*gpu, sf.scene, memory_form_pages(sf));
   ThreadPool pool(2);
   RenderSettings settings = sf.settings;
   settings.shade = false;
@@ -39,8 +38,8 @@ TEST(GpuRaster, DefaultSceneBitIdenticalToCpu) {
   cameras.push_back(inside);
   for (size_t i = 0; i < cameras.size(); ++i) {
     Frame cpu, vk;
-    render_frame(ms.scene, cameras[i], settings, pool, nullptr, &cpu);
-    render_frame_vulkan(*renderer, ms, cameras[i], settings, pool, nullptr, &vk);
+    render_frame(sf.scene, cameras[i], settings, pool, nullptr, &cpu);
+    render_frame_vulkan(*renderer, sf.scene, cameras[i], settings, pool, nullptr, &vk);
     ASSERT_EQ(cpu.visible, vk.visible) << "camera " << i;
     KeyDiff d = diff_keys(cpu.vis, vk.vis);
     uint64_t covered = 0;
@@ -62,16 +61,15 @@ TEST(GpuShade, EveryViewWithinOneOf255) {
   auto gpu = testing::make_test_gpu();
   ASSERT_TRUE(gpu);
   SceneFile sf = make_default_scene(96, 64, 1, SceneLoadOptions{});
-  MemoryFormScene ms = make_memory_form_scene(sf.scene);
-  GpuRendererPtr renderer = create_gpu_renderer(*gpu, ms);
+  GpuRendererPtr renderer = create_gpu_renderer(*gpu, sf.scene, memory_form_pages(sf));
   ThreadPool pool(2);
   for (ShadeView view : {ShadeView::kLit, ShadeView::kTriangle, ShadeView::kCluster, ShadeView::kGroup, ShadeView::kLod,
                          ShadeView::kError, ShadeView::kOverdraw}) {
     RenderSettings settings = sf.settings;
     settings.view = view;
     Frame cpu, vk;
-    render_frame(ms.scene, sf.cameras[0], settings, pool, nullptr, &cpu);
-    render_frame_vulkan(*renderer, ms, sf.cameras[0], settings, pool, nullptr, &vk);
+    render_frame(sf.scene, sf.cameras[0], settings, pool, nullptr, &cpu);
+    render_frame_vulkan(*renderer, sf.scene, sf.cameras[0], settings, pool, nullptr, &vk);
     ASSERT_EQ(cpu.image.rgb.size(), vk.image.rgb.size());
     int max_diff = 0;
     uint64_t over = 0, differing = 0;

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "support/shapes.h"
+#include "vgeo/core/file_io.h"
 #include "vgeo/dag/build.h"
 #include "vgeo/dag/dag_io.h"
 #include "vgeo/format/asset_file.h"
@@ -132,6 +133,41 @@ TEST(MemoryForm, DrawnGeometryIsTheFloatDagQuantizedAndNothingElse) {
     moved += cluster_triangles(drawn, c) != cluster_triangles(dag, c);
   }
   EXPECT_GT(moved, 0u);  // not vacuous: the float DAG is off the grid
+}
+
+// A page file is read once per load and kept as the scene's one encoding of it; every scene
+// mesh drawn from it is the decode of those bytes (the first takes the decoded DAG, later ones
+// copy it), with its own material offset.
+TEST(MemoryForm, APageFileIsReadOnceAndEveryMeshFromItIsItsDecode) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("vgeo_memory_form_once_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  BuiltScene built;
+  built.meshes.push_back(built_float_dag());
+  built.meshes.push_back(built.meshes[0]);
+  for (uint32_t& t : built.meshes[1].triangle_materials) t = 1;
+  built.materials = {Material{"a", {1, 0, 0, 1}}, Material{"b", {0, 1, 0, 1}}};
+  write_asset_file((dir / "two.vgeo").string(), built, AssetFileKind::kPages, {});
+  const std::vector<uint8_t> bytes = read_file((dir / "two.vgeo").string());
+  const BuiltScene decoded = decode_format(bytes.data(), bytes.size(), "<test>");
+  const std::string json = R"({"version": 1, "meshes": [{"dag": "two.vgeo", "index": 0}, {"dag": "two.vgeo", "index": 1},
+      {"dag": "two.vgeo", "index": 0}], "instances": [{"mesh": 0}, {"mesh": 1}, {"mesh": 2}], )" + std::string(kCamera) + "}";
+  const SceneFile sf = parse_scene_json(json, "<test>", dir.string(), {});
+  ASSERT_EQ(sf.encodings.size(), 1u);
+  EXPECT_EQ(sf.encodings[0].bytes, bytes);
+  ASSERT_EQ(sf.mesh_forms.size(), 3u);
+  const uint32_t index[3] = {0, 1, 0}, offset[3] = {1, 3, 5};  // after the default material, 2 per use
+  for (uint32_t m = 0; m < 3; ++m) {
+    EXPECT_EQ(sf.mesh_forms[m].encoding, 0u);
+    EXPECT_EQ(sf.mesh_forms[m].mesh, index[m]);
+    EXPECT_EQ(sf.mesh_forms[m].material_offset, offset[m]);
+    const ClusterDag& want = decoded.meshes[index[m]];
+    EXPECT_EQ(sf.scene.meshes[m].positions, want.positions) << m;
+    EXPECT_EQ(sf.scene.meshes[m].indices, want.indices) << m;
+    std::vector<uint32_t> materials = want.triangle_materials;
+    for (uint32_t& t : materials) t += offset[m];
+    EXPECT_EQ(sf.scene.meshes[m].triangle_materials, materials) << m;
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

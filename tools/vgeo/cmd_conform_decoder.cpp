@@ -439,7 +439,8 @@ void add_conform_decoder_command(CLI::App& conform, Context& ctx) {
   cmd->callback([args, &ctx] { ctx.exit_code = run_conform_decoder(*args); });
 
   auto file = std::make_shared<std::string>();
-  auto* hash = conform.add_subcommand("hash", "vgeo's decoder behind the protocol: print FILE's decode hash or error[CODE]");
+  auto* hash = conform.add_subcommand(
+      "hash", "vgeo's decoder behind the protocol: print FILE's decode hash (then memory=HASH) or error[CODE]");
   hash->add_option("file", *file, "page-format file")->required();
   hash->callback([file, &ctx] {
     std::vector<uint8_t> bytes;
@@ -452,6 +453,10 @@ void add_conform_decoder_command(CLI::App& conform, Context& ctx) {
     }
     Verdict v = our_verdict(bytes);
     std::printf("%s\n", v.text().c_str());
+    // The protocol reads the first line only; the memory hash (spec/format.md §9, the
+    // manifest's `memory=`) follows for a file that decodes.
+    if (v.kind == Verdict::kAccept)
+      std::printf("memory=%s\n", hash_text(memory_form_hash(bytes.data(), bytes.size(), "<conform>")).c_str());
     ctx.exit_code = v.kind == Verdict::kAccept ? kExitOk : kExitBadInput;
   });
 }

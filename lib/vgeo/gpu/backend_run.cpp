@@ -181,11 +181,11 @@ uint64_t cluster_set_hash(const std::vector<VisibleCluster>& visible) {
 }
 
 BackendRunReport run_backend(const SceneFile& file, const BackendRunRequest& request) {
-  // A streamed scene's meshes are metadata only: its renderers draw their Streamers' pages.
-  return run_backend(file, file.streaming ? MemoryFormScene{} : make_memory_form_scene(file.scene), request);
+  // The CPU reference draws the scene's decode; only the GPU reads the pages.
+  return run_backend(file, request.backend == Backend::kVulkan ? memory_form_pages(file) : MemoryFormPages{}, request);
 }
 
-BackendRunReport run_backend(const SceneFile& file, const MemoryFormScene& scene, const BackendRunRequest& request,
+BackendRunReport run_backend(const SceneFile& file, const MemoryFormPages& pages, const BackendRunRequest& request,
                              GpuContext* shared_gpu) {
   uint32_t frames = 0;
   const RenderSettings settings = resolve_render_options(
@@ -201,8 +201,8 @@ BackendRunReport run_backend(const SceneFile& file, const MemoryFormScene& scene
     if (vulkan) gpu_stream = start_scene_streaming(file, settings.threshold_px, compare);
     if (!vulkan || compare) cpu_stream = start_scene_streaming(file, settings.threshold_px, compare);
   }
-  const RenderScene& gpu_scene = gpu_stream ? gpu_stream->scene : scene.scene;
-  const RenderScene& cpu_scene = cpu_stream ? cpu_stream->scene : scene.scene;
+  const RenderScene& gpu_scene = gpu_stream ? gpu_stream->scene : file.scene;
+  const RenderScene& cpu_scene = cpu_stream ? cpu_stream->scene : file.scene;
   std::unique_ptr<GpuContext> own_gpu;
   GpuContext* gpu = shared_gpu;
   GpuRendererPtr renderer;
@@ -219,8 +219,9 @@ BackendRunReport run_backend(const SceneFile& file, const MemoryFormScene& scene
     GpuRendererOptions options;
     options.raster = request.raster;
     renderer = gpu_stream
-                   ? create_gpu_renderer_streamed(*gpu, gpu_stream->scene, gpu_stream->frame, request.traversal, options)
-                   : create_gpu_renderer(*gpu, scene, request.traversal, options);
+                   ? create_gpu_renderer_streamed(*gpu, gpu_stream->scene, gpu_stream->frame, pages, request.traversal,
+                                                  options)
+                   : create_gpu_renderer(*gpu, file.scene, pages, request.traversal, options);
   }
   BackendRunReport report;
   report.backend = request.backend;
@@ -287,6 +288,11 @@ std::string BackendRunReport::table() const {
                   gpu_raster_mode_name(raster), (unsigned long long)r.sw_clusters, (unsigned long long)r.sw_triangles,
                   (unsigned long long)r.hw_clusters, (unsigned long long)r.hw_triangles);
     out += line;
+    if (r.sw_tiled_triangles) {
+      std::snprintf(line, sizeof line, "sw big triangles drawn by tiles: %llu triangles, %llu tiles\n",
+                    (unsigned long long)r.sw_tiled_triangles, (unsigned long long)r.sw_tiles);
+      out += line;
+    }
   }
   out += "vis_hash " + hex64(vis_hash) + "  cluster_set_hash " + hex64(cluster_set_hash) + "\n";
   if (pool.slots) {
@@ -349,7 +355,9 @@ std::string BackendRunReport::json() const {
       f["raster_split"] = {{"sw_clusters", raster_split[i].sw_clusters},
                            {"sw_triangles", raster_split[i].sw_triangles},
                            {"hw_clusters", raster_split[i].hw_clusters},
-                           {"hw_triangles", raster_split[i].hw_triangles}};
+                           {"hw_triangles", raster_split[i].hw_triangles},
+                           {"sw_tiled_triangles", raster_split[i].sw_tiled_triangles},
+                           {"sw_tiles", raster_split[i].sw_tiles}};
     j["frames"].push_back(f);
   }
   if (!comparisons.empty()) {

@@ -1,7 +1,8 @@
 #pragma once
 // `vgeo render --backend cpu|vulkan [--compare cpu]` (spec/gpu.md §Backends, the rule in
-// spec/raster.md §Backends agree): renders a scene's frames from its decoded memory form
-// on the CPU reference or on Vulkan, or on both and compares them frame by frame.
+// spec/raster.md §Backends agree): renders a scene's frames from its memory form (one
+// encoding per mesh: the CPU reference draws its decode, Vulkan its pages) on either backend,
+// or on both and compares them frame by frame.
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -70,15 +71,16 @@ struct BackendRunReport {
   std::string json() const;
 };
 
-// Throws VgeoError: GPU_* (gpu.md), RENDER_BAD_OPTION / RENDER_BAD_CAMERA as render_scene,
-// the Streamer's errors for a streamed scene, GPU_STREAMING_UNSUPPORTED when a streamed
-// scene has a mesh not from a page file (Vulkan).
+// Both backends draw the scene's own memory form (spec/raster.md §Backends agree): the CPU
+// reference its decode (scene.scene), Vulkan its pages (memory_form_pages(scene)); a streamed
+// scene's page-file meshes from each renderer's resident pages. Throws VgeoError: GPU_*
+// (gpu.md), RENDER_BAD_OPTION / RENDER_BAD_CAMERA as render_scene, the Streamer's errors for a
+// streamed scene.
 BackendRunReport run_backend(const SceneFile& scene, const BackendRunRequest& request);
-// The same with the scene's memory form already made (make_memory_form_scene(scene.scene);
-// unused, and may be empty, when the scene streams: each renderer draws its resident pages)
-// and, when `gpu` is given, an existing context instead of one from request.gpu (the golden
-// test renders each scene under several --raster modes).
-BackendRunReport run_backend(const SceneFile& scene, const MemoryFormScene& memory_form, const BackendRunRequest& request,
+// The same with the scene's pages already transcoded (memory_form_pages(scene); unused, and
+// may be empty, on the CPU backend) and, when `gpu` is given, an existing context instead of
+// one from request.gpu (the golden test renders each scene under several --raster modes).
+BackendRunReport run_backend(const SceneFile& scene, const MemoryFormPages& pages, const BackendRunRequest& request,
                              GpuContext* gpu = nullptr);
 
 // spec/raster.md §Hashes. Both are independent of the visible-cluster list's order.

@@ -16,39 +16,51 @@
 
 namespace vgeo {
 
+MemoryFormPages memory_form_pages(const std::vector<SceneEncoding>& encodings, const std::vector<SceneMeshForm>& forms) {
+  MemoryFormPages out;
+  out.quantization.resize(forms.size());
+  out.material_offset.resize(forms.size());
+  out.cluster_page.resize(forms.size());
+  // (encoding, page) → index in out.pages: each page transcoded once, only those drawn.
+  std::vector<std::vector<uint32_t>> page_index(encodings.size());
+  for (size_t m = 0; m < forms.size(); ++m) {
+    const SceneMeshForm& form = forms[m];
+    if (form.encoding == kNone) continue;  // streamed: the Streamer's pages
+    const SceneEncoding& e = encodings[form.encoding];
+    const FormatContainer& fc = e.container;
+    const MeshMetadata& mm = fc.meshes[form.mesh];
+    std::vector<uint32_t>& index = page_index[form.encoding];
+    index.resize(fc.pages.size(), kNone);
+    out.quantization[m] = mm.quantization;
+    out.material_offset[m] = form.material_offset;
+    out.cluster_page[m].resize(mm.dag.clusters.size());
+    for (uint32_t p = mm.first_page; p < mm.first_page + mm.page_count; ++p) {
+      const PageEntry& pe = fc.pages[p];
+      if (index[p] == kNone) {
+        index[p] = uint32_t(out.pages.size());
+        out.pages.push_back(transcode_page(fc, p, e.bytes.data() + pe.file_offset, pe.stored_size, e.where));
+      }
+      for (uint32_t k = 0; k < pe.cluster_count; ++k) out.cluster_page[m][mm.page_clusters[pe.first_cluster_slot + k]] = {index[p], k};
+    }
+  }
+  return out;
+}
+
+MemoryFormPages memory_form_pages(const SceneFile& file) { return memory_form_pages(file.encodings, file.mesh_forms); }
+
 MemoryFormScene make_memory_form_scene(const RenderScene& scene) {
-  BuiltScene built;
+  BuiltScene built, decoded;
   built.meshes = scene.meshes;
   built.materials = scene.materials;
-  // The memory form does not depend on the disk compression: skip zstd (level 19 costs
-  // seconds on the default scene).
-  FormatOptions format;
-  format.compression = Compression::kNone;
-  const std::vector<uint8_t> bytes = encode_format(built, format);
-  const std::string where = "<memory form>";
-  const FormatContainer container = parse_container(bytes.data(), bytes.size(), where);
-  BuiltScene decoded = decode_format(bytes.data(), bytes.size(), where);
-
+  std::vector<SceneEncoding> encodings;
+  encodings.push_back(encode_memory_form(built, "<memory form>", &decoded));
+  std::vector<SceneMeshForm> forms(scene.meshes.size());
+  for (uint32_t m = 0; m < forms.size(); ++m) forms[m] = {0, m, 0};
   MemoryFormScene out;
   out.scene = scene;
   out.scene.meshes = std::move(decoded.meshes);
   analyze_render_scene(&out.scene);
-  out.pages.resize(container.pages.size());
-  for (uint32_t p = 0; p < container.pages.size(); ++p) {
-    const PageEntry& e = container.pages[p];
-    out.pages[p] = transcode_page(container, p, bytes.data() + e.file_offset, e.stored_size, where);
-  }
-  out.quantization.resize(container.meshes.size());
-  out.cluster_page.resize(container.meshes.size());
-  for (uint32_t m = 0; m < container.meshes.size(); ++m) {
-    const MeshMetadata& mm = container.meshes[m];
-    out.quantization[m] = mm.quantization;
-    out.cluster_page[m].resize(mm.dag.clusters.size());
-    for (uint32_t p = mm.first_page; p < mm.first_page + mm.page_count; ++p) {
-      const PageEntry& e = container.pages[p];
-      for (uint32_t k = 0; k < e.cluster_count; ++k) out.cluster_page[m][mm.page_clusters[e.first_cluster_slot + k]] = {p, k};
-    }
-  }
+  out.pages = memory_form_pages(encodings, forms);
   return out;
 }
 
@@ -122,22 +134,28 @@ void raster_range(GpuRenderer& r, uint32_t width, uint32_t height, float z_near,
   request.hw_min_triangle_area_px = r.options.hw_min_triangle_area_px;
   request.cull_backfaces = cull_backfaces;
   uint32_t t0 = cmd_timestamp(rec);
-  record_gpu_raster(rec, *r.raster, {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.counters},
-                    request);
+  const GpuRasterBuffers buffers{&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.counters};
+  record_gpu_raster(rec, *r.raster, buffers, request);
+  RasterSplitStats tiled;
+  if (request.mode != GpuRasterMode::kHw) {
+    continue_commands(rec);  // the host cuts the deferred big triangles into tiles (spec/raster.md §13.5)
+    record_gpu_raster_tiles(rec, *r.raster, buffers, request, &tiled);
+  }
   uint32_t t1 = cmd_timestamp(rec);
   submit_and_wait(rec);
   stats->ms = timestamp_ms(rec, t0, t1);
   stats->pixels_written = r.counters.data<uint64_t>()[0];
   split->add(read_gpu_raster_split(*r.raster));
+  split->add(tiled);
   // Never a silently wrong image: the compute rasterizer flags triangles whose pixel loops
-  // exceed the loop budget (spec/raster.md §13.5); the hardware path has no such loop.
+  // did not run to their end (spec/raster.md §13.5: unreachable with tiles of
+  // kGpuRasterTileSize, kept as the guard); the hardware path has no such loop.
   const uint32_t overflow = r.counters.data<uint32_t>()[kGpuRasterOverflowWord];
   if (overflow != 0)
     fail("GPU_SCENE_TOO_LARGE", r.gpu->device_name,
-         std::to_string(overflow) + " triangle(s) need more pixel-loop iterations than the compute rasterizer's "
+         std::to_string(overflow) + " triangle(s) needed more pixel-loop iterations than the compute rasterizer's "
              "loop budget (" + std::to_string(kGpuLoopBudget - kGpuRasterLoopMargin) +
-             " per invocation: a bounding box that large, spec/raster.md §13.5): use --raster hw or auto, or a "
-             "smaller viewport",
+             " per invocation, spec/raster.md §13.5): use --raster hw or auto",
          kExitUsage);
 }
 
@@ -338,40 +356,74 @@ void sync_page_pool(GpuRenderer& r, const FrameStreaming& s) {
 
 }  // namespace
 
-GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene, GpuTraversal traversal,
-                                   const GpuRendererOptions& options) {
-  GpuRendererPtr r = create_renderer_common(gpu, scene.scene, traversal, options);
-  std::vector<uint32_t> page_word(scene.pages.size());
-  uint64_t words = 0;
-  for (size_t p = 0; p < scene.pages.size(); ++p) {
-    page_word[p] = uint32_t(std::min<uint64_t>(words, UINT32_MAX));
-    words += scene.pages[p].size();
-  }
-  check_buffer_range(gpu, words * 4, "the memory-form pages");
-  std::vector<uint32_t> all(words);
-  for (size_t p = 0; p < scene.pages.size(); ++p)
-    std::copy(scene.pages[p].begin(), scene.pages[p].end(), all.begin() + page_word[p]);
-  r->pages = upload(gpu, all);
+namespace {
 
-  std::vector<GpuClusterLocation> locations;
-  std::vector<GpuMesh> meshes(scene.cluster_page.size());
-  for (size_t m = 0; m < scene.cluster_page.size(); ++m) {
-    meshes[m] = gpu_mesh(scene.quantization[m], uint32_t(locations.size()), 0);
-    for (const auto& [page, index] : scene.cluster_page[m]) locations.push_back({page_word[page], index});
+// The pages of `in_memory`'s meshes (those `drawn` says), placed from word `first_word` of the
+// page buffer into `words`, and their clusters' locations; the meshes' records.
+void place_in_memory_pages(const RenderScene& scene, const MemoryFormPages& in_memory, const std::vector<bool>& drawn,
+                           uint64_t first_word, std::vector<uint32_t>* words, std::vector<GpuMesh>* meshes,
+                           std::vector<GpuClusterLocation>* locations) {
+  if (in_memory.cluster_page.size() != scene.meshes.size())
+    fail("GPU_ERROR", "vulkan", "the memory form has " + std::to_string(in_memory.cluster_page.size()) +
+                                    " meshes, the scene " + std::to_string(scene.meshes.size()), kExitInternal);
+  std::vector<uint32_t> page_word(in_memory.pages.size());
+  uint64_t word = first_word;
+  for (size_t p = 0; p < in_memory.pages.size(); ++p) {
+    page_word[p] = uint32_t(std::min<uint64_t>(word, UINT32_MAX));
+    word += in_memory.pages[p].size();
   }
+  words->reserve(word - first_word);
+  for (const std::vector<uint32_t>& page : in_memory.pages) words->insert(words->end(), page.begin(), page.end());
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    if (!drawn[m]) continue;
+    if (in_memory.cluster_page[m].size() != scene.meshes[m].clusters.size())
+      fail("GPU_ERROR", "vulkan", "scene mesh " + std::to_string(m) + " has no memory form", kExitInternal);
+    (*meshes)[m] = gpu_mesh(in_memory.quantization[m], (*meshes)[m].first_location, in_memory.material_offset[m]);
+    for (size_t c = 0; c < in_memory.cluster_page[m].size(); ++c) {
+      const auto& [page, index] = in_memory.cluster_page[m][c];
+      (*locations)[(*meshes)[m].first_location + c] = {page_word[page], index};
+    }
+  }
+}
+
+// Every mesh's first location: its clusters' locations are consecutive, in mesh order.
+std::vector<GpuMesh> mesh_records(const RenderScene& scene, uint64_t* location_count) {
+  std::vector<GpuMesh> meshes(scene.meshes.size());
+  uint64_t locations = 0;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    meshes[m].first_location = uint32_t(locations);
+    locations += scene.meshes[m].clusters.size();
+  }
+  *location_count = locations;
+  return meshes;
+}
+
+}  // namespace
+
+GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const RenderScene& scene, const MemoryFormPages& pages,
+                                   GpuTraversal traversal, const GpuRendererOptions& options) {
+  GpuRendererPtr r = create_renderer_common(gpu, scene, traversal, options);
+  uint64_t location_count = 0;
+  std::vector<GpuMesh> meshes = mesh_records(scene, &location_count);
+  std::vector<GpuClusterLocation> locations(location_count);
+  std::vector<uint32_t> words;
+  place_in_memory_pages(scene, pages, std::vector<bool>(scene.meshes.size(), true), 0, &words, &meshes, &locations);
+  check_buffer_range(gpu, words.size() * 4, "the memory-form pages");
+  r->pages = upload(gpu, words);
   r->locations = upload(gpu, locations);
   r->meshes = upload(gpu, meshes);
   return r;
 }
 
+GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene, GpuTraversal traversal,
+                                   const GpuRendererOptions& options) {
+  return create_gpu_renderer(gpu, scene.scene, scene.pages, traversal, options);
+}
+
 GpuRendererPtr create_gpu_renderer_streamed(GpuContext& gpu, const RenderScene& scene, const FrameStreaming& s,
-                                            GpuTraversal traversal, const GpuRendererOptions& options) {
+                                            const MemoryFormPages& in_memory, GpuTraversal traversal,
+                                            const GpuRendererOptions& options) {
   const FormatContainer& c = s.streamer->container();
-  for (uint32_t m = 0; m < s.stream_mesh.size(); ++m)
-    if (s.stream_mesh[m] == kNone)
-      fail("GPU_STREAMING_UNSUPPORTED", "vulkan",
-           "scene mesh " + std::to_string(m) + " is not from a page file: Vulkan streaming needs every mesh streamed",
-           kExitUsage);
   GpuRendererPtr r = create_renderer_common(gpu, scene, traversal, options);
   r->streamed = true;
   uint32_t max_page = 0;
@@ -379,23 +431,36 @@ GpuRendererPtr create_gpu_renderer_streamed(GpuContext& gpu, const RenderScene& 
   r->slot_words = (max_page + 3) / 4;
   const uint32_t slots = max_resident_pages(c, s.streamer->budget_bytes());
   const uint64_t pool_bytes = uint64_t(slots) * r->slot_words * 4;
-  check_buffer_range(gpu, pool_bytes, "the GPU page pool");
-  r->pages = create_gpu_buffer(gpu, std::max<uint64_t>(pool_bytes, 4));
   r->slot_of_page.assign(c.pages.size(), kNone);
   for (uint32_t k = slots; k-- > 0;) r->free_slots.push_back(k);
   r->pool_stats.slots = slots;
   r->pool_stats.pool_bytes = pool_bytes;
 
-  std::vector<GpuMesh> meshes(scene.meshes.size());
-  uint64_t locations = 0;
+  // Streamed meshes' locations are written when their pages are installed (read only once
+  // resident); the other meshes' pages follow the pool, placed once.
+  uint64_t location_count = 0;
+  std::vector<GpuMesh> meshes = mesh_records(scene, &location_count);
+  std::vector<GpuClusterLocation> locations(location_count);
+  std::vector<bool> in_memory_mesh(scene.meshes.size());
   for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
-    meshes[m] = gpu_mesh(c.meshes[s.stream_mesh[m]].quantization, uint32_t(locations), s.material_offset[m]);
-    locations += scene.meshes[m].clusters.size();
+    in_memory_mesh[m] = s.stream_mesh[m] == kNone;
+    if (!in_memory_mesh[m])
+      meshes[m] = gpu_mesh(c.meshes[s.stream_mesh[m]].quantization, meshes[m].first_location, s.material_offset[m]);
   }
+  std::vector<uint32_t> fixed_words;
+  place_in_memory_pages(scene, in_memory, in_memory_mesh, pool_bytes / 4, &fixed_words, &meshes, &locations);
+  const uint64_t page_bytes = pool_bytes + fixed_words.size() * 4;
+  check_buffer_range(gpu, page_bytes, "the GPU page pool and the pages of meshes not streamed");
+  r->pages = create_gpu_buffer(gpu, std::max<uint64_t>(page_bytes, 4));
+  if (!fixed_words.empty()) std::memcpy(r->pages.data<uint32_t>() + pool_bytes / 4, fixed_words.data(), fixed_words.size() * 4);
   r->meshes = upload(gpu, meshes);
-  r->locations = create_gpu_buffer(gpu, std::max<uint64_t>(locations * sizeof(GpuClusterLocation), 4));
-  std::memset(r->locations.mapped, 0, locations * sizeof(GpuClusterLocation));  // read only once resident
+  r->locations = upload(gpu, locations);
   return r;
+}
+
+std::vector<uint32_t> gpu_page_words(const GpuRenderer& r) {
+  const uint32_t* words = static_cast<const uint32_t*>(r.pages.mapped);
+  return std::vector<uint32_t>(words, words + r.pages.size / 4);
 }
 
 const GpuPoolStats& gpu_pool_stats(const GpuRenderer& r) { return r.pool_stats; }
@@ -558,11 +623,13 @@ class VulkanFrameExecutor final : public FrameExecutor {
 
  private:
   // Every streamed visible[first..] cluster's page is in the GPU pool (it is resident: its
-  // group is usable), so the raster and shade passes read installed pages only.
+  // group is usable), so the raster and shade passes read installed pages only. (Meshes not
+  // streamed have all their pages placed after the pool.)
   void check_bound(uint32_t first) const {
     const FormatContainer& c = streaming_->streamer->container();
     for (size_t i = first; i < out_->visible.size(); ++i) {
       const uint32_t m = scene_.instances[out_->visible[i].instance].mesh;
+      if (streaming_->stream_mesh[m] == kNone) continue;
       const uint32_t page = c.meshes[streaming_->stream_mesh[m]].cluster_page[out_->visible[i].cluster];
       if (r_.slot_of_page[page] == kNone)
         fail("GPU_ERROR", "vulkan", "visible cluster " + std::to_string(out_->visible[i].cluster) +

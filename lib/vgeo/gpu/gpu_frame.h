@@ -3,7 +3,8 @@
 // reference (lib/vgeo/render/frame_plan.h), with the same pass names, PassStats and Frame
 // result. Every pass runs on the device: instance cull, hierarchical LOD + cluster cull
 // (gpu_cull.h, persistent or level-by-level traversal), raster (compute, 64-bit
-// atomicMax), HZB, pass 2, shade, reading the memory-form pages as they are. Only the
+// atomicMax), HZB, pass 2, shade, reading the memory-form pages as they are (the scene's own
+// encodings, transcoded: MemoryFormPages). Only the
 // overdraw view's per-pixel counts are computed on the host.
 #include <cstdint>
 #include <memory>
@@ -14,20 +15,34 @@
 #include "vgeo/gpu/gpu_cull.h"
 #include "vgeo/gpu/hw_raster.h"
 #include "vgeo/render/frame.h"
+#include "vgeo/render/scene_file.h"
 #include "vgeo/render/streaming.h"
 
 namespace vgeo {
 
-// The scene in the form both backends render (spec/raster.md §Backends agree): every mesh
-// encoded once into the page format; `scene` holds the decoded DAGs (quantized positions:
-// what the CPU reference draws), `pages` the memory form of the same encoding (what the
-// GPU reads). Cluster ids are the original ones in both.
+// What the GPU reads of a scene (spec/gpu.md §Geometry): the memory form of the scene's own
+// encodings (SceneFile::encodings: a page file's pages as stored, a built mesh's one
+// encoding), transcoded page by page (transcode_page) and never encoded again. Each used page
+// appears once, however many scene meshes draw from it. Cluster ids are the original ones.
+struct MemoryFormPages {
+  std::vector<std::vector<uint32_t>> pages;       // memory-form words per page
+  std::vector<MeshQuantization> quantization;     // per scene mesh
+  std::vector<uint32_t> material_offset;          // per scene mesh: added to the pages' material ids
+  // Per scene mesh, per cluster: (page, index of the cluster in that page); empty for a
+  // streamed mesh (SceneMeshForm::encoding kNone: its pages are the Streamer's).
+  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> cluster_page;
+};
+// Throws the transcoder's FORMAT_* codes (a page file changed under the scene cannot reach
+// here: its bytes are the scene's own).
+MemoryFormPages memory_form_pages(const std::vector<SceneEncoding>& encodings, const std::vector<SceneMeshForm>& forms);
+MemoryFormPages memory_form_pages(const SceneFile& file);
+
+// A scene of built (float) DAGs (raster vectors, benchmarks) in the form both backends render
+// (spec/raster.md §Backends agree): encoded once (encode_memory_form); `scene` holds its decode
+// (what the CPU reference draws), `pages` the memory form of the same bytes (what the GPU reads).
 struct MemoryFormScene {
   RenderScene scene;
-  std::vector<MeshQuantization> quantization;    // per mesh
-  std::vector<std::vector<uint32_t>> pages;      // memory-form words per page
-  // Per mesh, per cluster: (page, index of the cluster in that page).
-  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> cluster_page;
+  MemoryFormPages pages;
 };
 // Throws FORMAT_ENCODE (format.h) for meshes the page format cannot represent.
 MemoryFormScene make_memory_form_scene(const RenderScene& scene);
@@ -44,10 +59,16 @@ struct GpuRendererOptions {
 };
 
 // Uploads the pages once. Throws GPU_SCENE_TOO_LARGE when the pages exceed one storage
-// buffer (maxStorageBufferRange).
+// buffer (maxStorageBufferRange), GPU_ERROR when `pages` is not the memory form of every
+// mesh of `scene`.
+GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const RenderScene& scene, const MemoryFormPages& pages,
+                                   GpuTraversal traversal = kDefaultGpuTraversal,
+                                   const GpuRendererOptions& options = {});
 GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene,
                                    GpuTraversal traversal = kDefaultGpuTraversal,
                                    const GpuRendererOptions& options = {});
+// The renderer's page buffer as uploaded (tests: the GPU reads exactly the scene's memory form).
+std::vector<uint32_t> gpu_page_words(const GpuRenderer& renderer);
 
 // Per (mesh, cluster) in location order: the bounds and triangle count the split rule reads.
 std::vector<GpuClusterRasterInfo> cluster_raster_infos(const RenderScene& scene);
@@ -74,11 +95,13 @@ struct GpuRasterOutput {
 void raster_visible_vulkan(GpuRenderer& renderer, const GpuRasterInput& input, GpuRasterOutput* out);
 
 // Streaming (spec/gpu.md §Streaming): the renderer of a streamed scene (`scene`: its
-// metadata-only meshes, as init_frame_streaming leaves them; every mesh from a page file, else
-// GPU_STREAMING_UNSUPPORTED). `pages` is a fixed pool of slots, each the size of the largest
-// memory-form page, as many as the budget can hold pages at once; pages are uploaded when the
-// Streamer installs them and their slots freed when it evicts them.
+// metadata-only meshes, as init_frame_streaming leaves them). The page buffer is a fixed pool
+// of slots, each the size of the largest memory-form page, as many as the budget can hold
+// pages at once; pages are uploaded when the Streamer installs them and their slots freed when
+// it evicts them. Meshes not streamed (not from a page file) are drawn from `in_memory`'s
+// pages (memory_form_pages of the scene), uploaded once after the pool.
 GpuRendererPtr create_gpu_renderer_streamed(GpuContext& gpu, const RenderScene& scene, const FrameStreaming& streaming,
+                                            const MemoryFormPages& in_memory,
                                             GpuTraversal traversal = kDefaultGpuTraversal,
                                             const GpuRendererOptions& options = {});
 struct GpuPoolStats {
@@ -97,7 +120,7 @@ void render_frame_vulkan(GpuRenderer& renderer, const MemoryFormScene& scene, co
 // buffer read back after each cull pass, handed to its Streamer at stream_end (as the CPU).
 void render_frame_vulkan(GpuRenderer& renderer, const RenderScene& scene, const Camera& camera,
                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                         bool has_next_frame, FrameStreaming* streaming,
+                         bool has_next_frame = true, FrameStreaming* streaming = nullptr,
                          const std::string& no_stream_reason = "no stream budget", RasterSplitStats* split = nullptr);
 
 }  // namespace vgeo

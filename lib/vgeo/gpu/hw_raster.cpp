@@ -6,6 +6,7 @@
 #include <cassert>
 #include <cstring>
 
+#include "vgeo/core/error.h"
 #include "vgeo/gpu/shader_records.h"
 #include "vgeo/gpu/shaders.h"
 
@@ -30,8 +31,9 @@ const char* gpu_raster_mode_name(GpuRasterMode mode) {
 
 namespace {
 
-// shaders/raster.comp bindings: pages, locations, meshes, instances, visible, vis, counters, paths.
-constexpr uint32_t kSwBindings = 8;
+// shaders/raster.comp and raster_tiles.comp bindings: pages, locations, meshes, instances,
+// visible, vis, counters, paths, big triangles, tiles.
+constexpr uint32_t kSwBindings = 10;
 // shaders/raster_split.comp bindings: meshes, instances, visible, cluster info, raster
 // instances, paths, commands, split counters.
 constexpr uint32_t kSplitBindings = 8;
@@ -149,6 +151,24 @@ void record_hw_draw(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuffers
   vkCmdEndRendering(rec.commands);
 }
 
+// The compute rasterizer's push constants of a request (the cluster pass; groups_x and the
+// tile fields are the caller's).
+GpuRasterParams sw_params(const GpuRasterRequest& q) {
+  GpuRasterParams params{};
+  params.width = q.width;
+  params.height = q.height;
+  params.first_visible = q.first_visible;
+  params.visible_count = q.visible_count;
+  params.cull_backfaces = q.cull_backfaces ? 1u : 0u;
+  params.z_near = q.z_near;
+  params.select_path = q.mode == GpuRasterMode::kSw ? 0u : 1u;
+  return params;
+}
+
+std::vector<const GpuBuffer*> sw_buffers(const GpuRasterPasses& p, const GpuRasterBuffers& b) {
+  return {b.pages, b.locations, b.meshes, b.instances, b.visible, b.vis, b.counters, &p.paths, &p.big_triangles, &p.tiles};
+}
+
 }  // namespace
 
 GpuRasterPasses::~GpuRasterPasses() {
@@ -164,12 +184,15 @@ std::unique_ptr<GpuRasterPasses> create_gpu_raster_passes(GpuContext& gpu,
   auto p = std::make_unique<GpuRasterPasses>();
   p->context = &gpu;
   p->sw = create_compute_pipeline(gpu, kShaderRaster, kSwBindings, sizeof(GpuRasterParams));
+  p->sw_tiles = create_compute_pipeline(gpu, kShaderRasterTiles, kSwBindings, sizeof(GpuRasterParams));
   p->split = create_compute_pipeline(gpu, kShaderRasterSplit, kSplitBindings, sizeof(GpuRasterSplitParams));
   create_hw_pipeline(gpu, *p);
   p->cluster_info = create_gpu_buffer(gpu, cluster_info.size() * sizeof(GpuClusterRasterInfo));
   if (!cluster_info.empty())
     std::memcpy(p->cluster_info.mapped, cluster_info.data(), cluster_info.size() * sizeof(GpuClusterRasterInfo));
   p->split_counters = create_gpu_buffer(gpu, sizeof(GpuRasterSplitCounters));
+  p->big_triangles = create_gpu_buffer(gpu, uint64_t(kGpuRasterMaxBigTriangles) * sizeof(GpuBigTriangle));
+  p->tiles = create_gpu_buffer(gpu, sizeof(GpuRasterTile));
   return p;
 }
 
@@ -197,19 +220,11 @@ void record_gpu_raster(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuff
                               &p.split_counters},
                &split, split.groups_x, split.groups_x ? (split_groups + split.groups_x - 1) / split.groups_x : 0);
 
-  GpuRasterParams params{};
-  params.width = q.width;
-  params.height = q.height;
-  params.first_visible = q.first_visible;
-  params.visible_count = q.visible_count;
+  GpuRasterParams params = sw_params(q);
   params.groups_x = std::min(q.visible_count, kGpuMaxGroupsX);
-  params.cull_backfaces = q.cull_backfaces ? 1u : 0u;
-  params.z_near = q.z_near;
-  params.select_path = q.mode == GpuRasterMode::kSw ? 0u : 1u;
   if (q.mode != GpuRasterMode::kHw) {
     const uint32_t groups_y = params.groups_x ? (q.visible_count + params.groups_x - 1) / params.groups_x : 0;
-    cmd_dispatch(rec, p.sw, {b.pages, b.locations, b.meshes, b.instances, b.visible, b.vis, b.counters, &p.paths}, &params,
-                 params.groups_x, groups_y);
+    cmd_dispatch(rec, p.sw, sw_buffers(p, b), &params, params.groups_x, groups_y);
   }
   if (q.mode != GpuRasterMode::kSw && q.visible_count) {
     // The split's commands, count and paths, and the compute raster's keys, before the draw.
@@ -225,6 +240,48 @@ void record_gpu_raster(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuff
             VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT |
                 VK_ACCESS_2_HOST_READ_BIT);
   }
+}
+
+void record_gpu_raster_tiles(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuffers& b, const GpuRasterRequest& q,
+                             RasterSplitStats* split) {
+  if (q.mode == GpuRasterMode::kHw) return;
+  const uint32_t count = b.counters->data<uint32_t>()[kGpuRasterBigWord];
+  if (count == 0) return;
+  if (count > kGpuRasterMaxBigTriangles)
+    fail("GPU_SCENE_TOO_LARGE", p.context->device_name,
+         std::to_string(count) + " triangles with a pixel box over " + std::to_string(kGpuRasterTileSize) +
+             " px in one raster pass, more than the compute rasterizer's big-triangle list holds (" +
+             std::to_string(kGpuRasterMaxBigTriangles) + ", spec/raster.md §13.5): use --raster hw or auto",
+         kExitUsage);
+  // Each box in tiles of kGpuRasterTileSize² from its corner, row by row; the tile pass reads
+  // the list (and the big triangles) while the next batch waits for continue_commands.
+  const GpuBigTriangle* big = p.big_triangles.data<GpuBigTriangle>();
+  std::vector<GpuRasterTile> tiles;
+  const int32_t size = int32_t(kGpuRasterTileSize);
+  auto flush = [&] {
+    if (tiles.empty()) return;
+    ensure_gpu_buffer(*p.context, p.tiles, tiles.size() * sizeof(GpuRasterTile));
+    std::memcpy(p.tiles.mapped, tiles.data(), tiles.size() * sizeof(GpuRasterTile));
+    GpuRasterParams params = sw_params(q);
+    params.tile_count = uint32_t(tiles.size());
+    const uint32_t groups = (params.tile_count + kGpuRasterGroupSize - 1) / kGpuRasterGroupSize;
+    params.groups_x = std::min(groups, kGpuMaxGroupsX);
+    cmd_dispatch(rec, p.sw_tiles, sw_buffers(p, b), &params, params.groups_x,
+                 (groups + params.groups_x - 1) / params.groups_x);
+    split->sw_tiles += tiles.size();
+    tiles.clear();
+  };
+  for (uint32_t i = 0; i < count; ++i)
+    for (int32_t y = big[i].min_py; y <= big[i].max_py; y += size)
+      for (int32_t x = big[i].min_px; x <= big[i].max_px; x += size) {
+        if (tiles.size() == kGpuRasterTilesPerDispatch) {
+          flush();
+          continue_commands(rec);  // the dispatch has read its tiles before the list is rewritten
+        }
+        tiles.push_back({i, x, y, 0});
+      }
+  flush();
+  split->sw_tiled_triangles += count;
 }
 
 RasterSplitStats read_gpu_raster_split(const GpuRasterPasses& p) {

@@ -38,18 +38,23 @@ inline constexpr float kAutoHwMinTriangleAreaPx = 64.0f;
 
 struct RasterSplitStats {
   uint64_t sw_clusters = 0, hw_clusters = 0, sw_triangles = 0, hw_triangles = 0;
+  // Of the compute path's (fan) triangles, those drawn tile by tile, and their tiles
+  // (spec/raster.md §13.5).
+  uint64_t sw_tiled_triangles = 0, sw_tiles = 0;
   void add(const RasterSplitStats& o) {
     sw_clusters += o.sw_clusters;
     hw_clusters += o.hw_clusters;
     sw_triangles += o.sw_triangles;
     hw_triangles += o.hw_triangles;
+    sw_tiled_triangles += o.sw_tiled_triangles;
+    sw_tiles += o.sw_tiles;
   }
 };
 
 // Pipelines of the three passes and the buffers only they use. Move-only; frees itself.
 struct GpuRasterPasses {
   GpuContext* context = nullptr;
-  ComputePipeline sw, split;
+  ComputePipeline sw, sw_tiles, split;  // raster.comp, raster_tiles.comp, raster_split.comp
   VkDescriptorSetLayout hw_set_layout = VK_NULL_HANDLE;
   VkPipelineLayout hw_layout = VK_NULL_HANDLE;
   VkPipeline hw = VK_NULL_HANDLE;
@@ -58,6 +63,8 @@ struct GpuRasterPasses {
   GpuBuffer paths;             // kGpuRasterPath* per visible cluster (per frame)
   GpuBuffer commands;          // GpuDrawCommand per hardware cluster (per frame)
   GpuBuffer split_counters;    // GpuRasterSplitCounters
+  GpuBuffer big_triangles;     // GpuBigTriangle per deferred triangle (kGpuRasterMaxBigTriangles)
+  GpuBuffer tiles;             // GpuRasterTile per tile of a tile-pass dispatch (grown on demand)
 
   GpuRasterPasses() = default;
   GpuRasterPasses(const GpuRasterPasses&) = delete;
@@ -93,6 +100,13 @@ struct GpuRasterRequest {
 // vkCmdDrawIndirectCount of the hardware clusters (unless kSw). Between prepare and submit.
 void record_gpu_raster(GpuRecorder& rec, GpuRasterPasses& passes, const GpuRasterBuffers& buffers,
                        const GpuRasterRequest& request);
+// After record_gpu_raster's commands ran (continue_commands): the compute rasterizer's
+// deferred big triangles, each box cut into kGpuRasterTileSize² tiles on the host and drawn by
+// the tile pass (spec/raster.md §13.5), recorded into `rec` (continue_commands between
+// dispatches of kGpuRasterTilesPerDispatch tiles). Adds the tiled triangles and tiles to
+// `split`. Throws GPU_SCENE_TOO_LARGE beyond kGpuRasterMaxBigTriangles big triangles.
+void record_gpu_raster_tiles(GpuRecorder& rec, GpuRasterPasses& passes, const GpuRasterBuffers& buffers,
+                             const GpuRasterRequest& request, RasterSplitStats* split);
 // After submit_and_wait: the split of the last recorded range.
 RasterSplitStats read_gpu_raster_split(const GpuRasterPasses& passes);
 

@@ -54,6 +54,50 @@ struct GpuRasterParams {
   // 0: rasterize every cluster of the range; 1: only those whose word in the path buffer
   // (binding 7, written by shaders/raster_split.comp) is kGpuRasterPathSw (hw_raster.h).
   uint32_t select_path;
+  // shaders/raster_tiles.comp (the tile pass): invocation i draws tiles[i] (binding 9) for
+  // i < tile_count. The cluster pass (raster.comp) defers triangles with a pixel box wider or
+  // taller than kGpuRasterTileSize into the big-triangle list (binding 8).
+  uint32_t tile_count;
+  uint32_t reserved[3];
+};
+
+// The compute rasterizer's big-triangle tiles (spec/raster.md §13.5). A triangle whose
+// viewport-clamped pixel box has more than kGpuRasterTileSize rows or columns is not drawn by
+// the cluster pass but recorded (GpuBigTriangle, counted at counters word kGpuRasterBigWord);
+// the host cuts each recorded box into kGpuRasterTileSize² tiles (GpuRasterTile) and the tile
+// pass (shaders/raster_tiles.comp) draws each tile in its own invocation with the same setup, snapping, top-left rule and
+// key. 64: a cluster-pass invocation vector then runs at most 6 fan triangles × (64 rows ×
+// 65 columns + 1) + 1 = 24,967 pixel-loop back edges whatever its 8 lanes' boxes (the vector
+// runs the largest rows and columns of its lanes), a tile invocation 4,161: both under
+// kGpuLoopBudget - kGpuRasterLoopMargin.
+VGEO_CONSTANT uint32_t kGpuRasterTileSize = 64u;
+// Big triangles one raster pass may defer (GpuBigTriangle: 32 bytes, a 2 MiB list); more is
+// GPU_SCENE_TOO_LARGE.
+VGEO_CONSTANT uint32_t kGpuRasterMaxBigTriangles = 65536u;
+// Tiles per tile-pass dispatch (GpuRasterTile: 16 bytes, a 16 MiB list at most); more are
+// drawn in further dispatches.
+VGEO_CONSTANT uint32_t kGpuRasterTilesPerDispatch = 1048576u;
+
+// A deferred triangle: its key's id bits ((visible index << kVisTriangleBits) | triangle),
+// which fan triangle of its clipped polygon (0 when not clipped), and its pixel box
+// (inclusive, clamped to the viewport).
+struct GpuBigTriangle {
+  uint32_t id_bits;
+  uint32_t fan;
+  int32_t min_px;
+  int32_t max_px;
+  int32_t min_py;
+  int32_t max_py;
+  uint32_t reserved[2];
+};
+
+// One tile of a deferred triangle: pixels [x0, x0 + kGpuRasterTileSize) × [y0, y0 +
+// kGpuRasterTileSize) of big[big]'s box.
+struct GpuRasterTile {
+  uint32_t big;
+  int32_t x0;
+  int32_t y0;
+  uint32_t reserved;
 };
 
 // shaders/raster.comp's loop bound (llvmpipe's loop limiter, core/cull_shared.h
@@ -63,8 +107,10 @@ struct GpuRasterParams {
 // 1024) and follows gpu_cull.cpp's kPlannedLoopBudget.
 VGEO_CONSTANT uint32_t kGpuRasterLoopMargin = 1024u;
 // The raster counters (binding 6): uint64 pixels written (words 0-1), then at this word the
-// count of triangles whose pixel loops could not run to the end.
+// count of triangles whose pixel loops could not run to the end, then the count of deferred
+// big triangles (kGpuRasterTileSize).
 VGEO_CONSTANT uint32_t kGpuRasterOverflowWord = 2u;
+VGEO_CONSTANT uint32_t kGpuRasterBigWord = 3u;
 
 // Per instance and frame, for shading (shade.cpp): object→view (column-major Mat4d::m) and
 // the normal matrix (cofactor matrix of the 3x3 part, sign-corrected; row-major 3x3).
@@ -112,7 +158,9 @@ static_assert(sizeof(GpuClusterLocation) == 8);
 static_assert(sizeof(GpuMesh) == 32 && offsetof(GpuMesh, material_offset) == 16);
 static_assert(sizeof(GpuInstance) == 80 && offsetof(GpuInstance, mesh) == 64);
 static_assert(sizeof(GpuVisibleCluster) == 8);
-static_assert(sizeof(GpuRasterParams) == 32 && offsetof(GpuRasterParams, z_near) == 24);
+static_assert(sizeof(GpuRasterParams) == 48 && offsetof(GpuRasterParams, z_near) == 24 &&
+              offsetof(GpuRasterParams, tile_count) == 32);
+static_assert(sizeof(GpuBigTriangle) == 32 && sizeof(GpuRasterTile) == 16);
 static_assert(sizeof(GpuShadeInstance) == 208 && offsetof(GpuShadeInstance, normal_matrix) == 128);
 static_assert(sizeof(GpuShadeCluster) == 16);
 static_assert(sizeof(GpuMaterial) == 16);

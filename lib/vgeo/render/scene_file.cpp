@@ -112,25 +112,49 @@ const json& get_array(const Ctx& c, const json& obj, const std::string& path, co
 
 // ---- meshes ----
 
-// What both backends draw of a built (float) DAG: its page-format memory form, decoded
-// (spec/raster.md §Geometry): quantized positions and normals, canonical cluster order and the
-// conservative metadata of spec/format.md §2.1, exactly as if read from a page file written with
+// A page-format byte buffer as a scene encoding. Throws the container's FORMAT_* codes.
+SceneEncoding scene_encoding(const std::string& where, std::vector<uint8_t> bytes) {
+  SceneEncoding e;
+  e.where = where;
+  e.bytes = std::move(bytes);
+  e.container = parse_container(e.bytes.data(), e.bytes.size(), where);
+  return e;
+}
+
+// A built mesh as the scene draws it: its one encoding and the decode of those bytes.
+struct EncodedMesh {
+  SceneEncoding encoding;
+  ClusterDag decoded;
+};
+
+// Adds a built mesh's memory form to the scene (material offset 0: it stores the scene's ids).
+void add_built_mesh(SceneFile* out, EncodedMesh mesh) {
+  out->mesh_forms.push_back({uint32_t(out->encodings.size()), 0, 0});
+  out->encodings.push_back(std::move(mesh.encoding));
+  out->scene.meshes.push_back(std::move(mesh.decoded));
+}
+
+// What both backends draw of a built (float) DAG: its page-format memory form (spec/raster.md
+// §Geometry): quantized positions and normals, canonical cluster order and the conservative
+// metadata of spec/format.md §2.1, exactly as if read from a page file written with
 // memory_form_options().
-ClusterDag decoded_memory_form(const Ctx& c, ClusterDag dag, const std::string& path) {
+EncodedMesh encoded_memory_form(const Ctx& c, ClusterDag dag, const std::string& path) {
   BuiltScene one;
   one.meshes.push_back(std::move(dag));
   try {
-    const std::vector<uint8_t> bytes = encode_format(one, memory_form_options());
-    BuiltScene decoded = decode_format(bytes.data(), bytes.size(), path);
-    return std::move(decoded.meshes[0]);
+    BuiltScene decoded;
+    EncodedMesh out;
+    out.encoding = encode_memory_form(one, path, &decoded);
+    out.decoded = std::move(decoded.meshes[0]);
+    return out;
   } catch (const VgeoError& e) {
     bad(c, "SCENE_MESH_BUILD", path + ": memory form: " + e.error().line());
   }
 }
 
-// A mesh's DAG in its decoded memory form. The cache holds that page file (the page encoder
-// costs more than decoding: measured ~3 s per 131k-triangle mesh on the loaded 2 cores).
-ClusterDag build_cached(const Ctx& c, const Mesh& mesh, const std::string& path) {
+// A mesh's DAG in its memory form. The cache holds that encoding as a page file (the page
+// encoder costs more than decoding: measured ~3 s per 131k-triangle mesh on the loaded 2 cores).
+EncodedMesh build_cached(const Ctx& c, const Mesh& mesh, const std::string& path) {
   const SceneLoadOptions& o = *c.options;
   std::string cache_file;
   if (!o.cache_dir.empty()) {
@@ -140,32 +164,96 @@ ClusterDag build_cached(const Ctx& c, const Mesh& mesh, const std::string& path)
     std::error_code ec;
     if (std::filesystem::exists(cache_file, ec)) {
       try {
-        BuiltScene cached = read_asset_file(cache_file);
-        if (cached.meshes.size() == 1) return std::move(cached.meshes[0]);
+        EncodedMesh cached;
+        cached.encoding = scene_encoding(path, read_file(cache_file, kAnyFileSize));
+        const std::vector<uint8_t>& bytes = cached.encoding.bytes;
+        BuiltScene decoded = decode_format(bytes.data(), bytes.size(), cache_file);
+        if (decoded.meshes.size() == 1) {
+          cached.decoded = std::move(decoded.meshes[0]);
+          return cached;
+        }
       } catch (const VgeoError&) {
         // A corrupt or foreign cache entry is rebuilt and overwritten below.
       }
     }
   }
-  BuiltScene one;
-  one.meshes.resize(1);
+  ClusterDag dag;
   try {
-    one.meshes[0] = build_dag(mesh, o.build);
+    dag = build_dag(mesh, o.build);
   } catch (const VgeoError& e) {
     bad(c, "SCENE_MESH_BUILD", path + ": " + e.error().line());
   }
+  EncodedMesh built = encoded_memory_form(c, std::move(dag), path);
   if (!cache_file.empty()) {
     try {
       std::error_code ec;
       std::filesystem::create_directories(o.cache_dir, ec);
-      write_asset_file(cache_file, one, AssetFileKind::kPages, memory_form_options());
-      BuiltScene cached = read_asset_file(cache_file);
-      if (cached.meshes.size() == 1) return std::move(cached.meshes[0]);
+      write_file_atomic(cache_file, built.encoding.bytes.data(), built.encoding.bytes.size());
     } catch (const VgeoError&) {
       // The cache is an optimization: a failed write leaves the scene usable.
     }
   }
-  return decoded_memory_form(c, std::move(one.meshes[0]), path);
+  return built;
+}
+
+// The page files a load reads in full, each once: its bytes become one of the scene's
+// encodings (the GPU's pages are the file's own), its decode what the CPU reference draws. A
+// decoded mesh is moved into the first scene mesh drawing it and copied from there for others.
+struct PageFileReads {
+  std::vector<std::string> paths;  // canonical
+  std::vector<uint32_t> encoding;  // index into SceneFile::encodings
+  std::vector<BuiltScene> decoded;
+  std::vector<std::vector<uint32_t>> holder;  // per file, per mesh: the scene mesh holding it, kNone
+};
+
+std::string canonical_path(const std::filesystem::path& p) {
+  std::error_code ec;
+  std::filesystem::path c = std::filesystem::weakly_canonical(p, ec);
+  return ec ? p.string() : c.string();
+}
+
+// Page file `file`, read and decoded once per load: its index in `reads`.
+uint32_t read_page_file(const Ctx& c, const std::string& file, const std::string& path, SceneFile* out,
+                        PageFileReads* reads) {
+  const std::string canonical = canonical_path(file);
+  const size_t k = std::find(reads->paths.begin(), reads->paths.end(), canonical) - reads->paths.begin();
+  if (k < reads->paths.size()) return uint32_t(k);
+  SceneEncoding e;
+  BuiltScene decoded;
+  try {
+    e = scene_encoding(file, read_file(file, kAnyFileSize));  // page files may exceed 4 GiB
+    decoded = decode_format(e.bytes.data(), e.bytes.size(), file);
+  } catch (const VgeoError& err) {
+    bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + err.error().line());
+  }
+  reads->paths.push_back(canonical);
+  reads->encoding.push_back(uint32_t(out->encodings.size()));
+  reads->holder.emplace_back(decoded.meshes.size(), kNone);
+  reads->decoded.push_back(std::move(decoded));
+  out->encodings.push_back(std::move(e));
+  return uint32_t(k);
+}
+
+// Scene mesh `scene_mesh` (`path`) as mesh `index` of the page file reads->decoded[k]: its
+// decode with the file's materials appended to the scene's at `material_offset`, drawn from the
+// file's encoding.
+void add_page_file_mesh(const Ctx& c, const std::string& file, PageFileReads* reads, uint32_t k, uint32_t index,
+                        uint32_t material_offset, const std::string& path, uint32_t scene_mesh, SceneFile* out) {
+  BuiltScene& built = reads->decoded[k];
+  if (index >= built.meshes.size()) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh in " + file);
+  ClusterDag& mesh = out->scene.meshes[scene_mesh];
+  uint32_t& holder = reads->holder[k][index];
+  if (holder == kNone) {
+    mesh = std::move(built.meshes[index]);
+    if (!bvh_is_tree(mesh)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
+    for (uint32_t& t : mesh.triangle_materials) t += material_offset;
+    holder = scene_mesh;
+  } else {
+    mesh = out->scene.meshes[holder];
+    const uint32_t held_offset = out->mesh_forms[holder].material_offset;
+    for (uint32_t& t : mesh.triangle_materials) t = t - held_offset + material_offset;
+  }
+  out->mesh_forms[scene_mesh] = {reads->encoding[k], index, material_offset};
 }
 
 // A generated mesh (lib/vgeo/mesh/generate.h): the scene's `shape`, `triangles` and `seed` are
@@ -199,7 +287,7 @@ Mesh make_procedural(const Ctx& c, const json& p, const std::string& path) {
   return generate_mesh(o);
 }
 
-void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
+void load_meshes(const Ctx& c, const json& doc, SceneFile* out, PageFileReads* reads) {
   const json& meshes = get_array(c, doc, "", "meshes", kMaxSceneMeshes);
   for (size_t i = 0; i < meshes.size(); ++i) {
     std::string path = "meshes[" + std::to_string(i) + "]";
@@ -241,14 +329,20 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
         out->page_meshes.resize(out->scene.meshes.size());
         out->page_meshes.push_back(pm);
         out->scene.meshes.push_back(mm.dag);
+        out->mesh_forms.push_back({kNone, pm.index, pm.material_offset});  // streamed, unless resolved in memory
         continue;
       }
-      BuiltScene built;
+      // A page file is already the memory form: drawn from its own bytes. A VGEODAG1 file holds
+      // float positions: encoded once into its memory form.
+      const bool page_file = is_page_file(fp.string());
+      BuiltScene dag_file;
       try {
-        built = read_asset_file(fp.string());  // page format or VGEODAG1 (lib/vgeo/format/asset_file.h)
+        if (!page_file) dag_file = read_asset_file(fp.string());  // VGEODAG1 (lib/vgeo/format/asset_file.h)
       } catch (const VgeoError& e) {
         bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
       }
+      const uint32_t read = page_file ? read_page_file(c, fp.string(), path, out, reads) : kNone;
+      const BuiltScene& built = page_file ? reads->decoded[read] : dag_file;
       double index = get_number(c, m, path, "index", 0, 0, 1e9);
       if (index >= double(built.meshes.size())) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh in " + file);
       // The file's materials are appended; its triangle materials are offset to match.
@@ -256,12 +350,20 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
       if (out->scene.materials.size() + built.materials.size() > kMaxSceneMaterials)
         bad(c, "SCENE_TOO_LARGE", path + ": too many materials");
       out->scene.materials.insert(out->scene.materials.end(), built.materials.begin(), built.materials.end());
-      ClusterDag dag = std::move(built.meshes[size_t(index)]);
+      if (page_file) {
+        out->scene.meshes.emplace_back();
+        out->mesh_forms.emplace_back();
+        add_page_file_mesh(c, file, reads, read, uint32_t(index), offset, path, uint32_t(i), out);
+        continue;
+      }
+      ClusterDag dag = std::move(dag_file.meshes[size_t(index)]);
       if (!bvh_is_tree(dag)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
-      // A page file is already the memory form; a VGEODAG1 file holds float positions.
-      if (!is_page_file(fp.string())) dag = decoded_memory_form(c, std::move(dag), path);
-      for (uint32_t& t : dag.triangle_materials) t += offset;
-      out->scene.meshes.push_back(std::move(dag));
+      // Encoded with the file's material ids, offset after the decode (as a page file's).
+      EncodedMesh encoded = encoded_memory_form(c, std::move(dag), path);
+      for (uint32_t& t : encoded.decoded.triangle_materials) t += offset;
+      out->mesh_forms.push_back({uint32_t(out->encodings.size()), 0, offset});
+      out->encodings.push_back(std::move(encoded.encoding));
+      out->scene.meshes.push_back(std::move(encoded.decoded));
       continue;
     }
     Mesh mesh;
@@ -301,14 +403,14 @@ void load_meshes(const Ctx& c, const json& doc, SceneFile* out) {
         for (uint32_t& t : mesh.materials) t += offset;
       }
     }
-    out->scene.meshes.push_back(build_cached(c, mesh, path));
+    add_built_mesh(out, build_cached(c, mesh, path));
   }
 }
 
 // With a stream budget: the one decision whether the scene streams (spec/stream.md §Renderer).
-// Page-file meshes stay metadata-only when their pages exceed the budget, else they are decoded
-// exactly as read_asset_file does without a budget (each file read once).
-void resolve_page_meshes(const Ctx& c, SceneFile* out) {
+// Page-file meshes stay metadata-only when their pages exceed the budget, else they are read and
+// decoded exactly as without a budget (each file read once, kept as the scene's encoding).
+void resolve_page_meshes(const Ctx& c, SceneFile* out, PageFileReads* reads) {
   if (!c.options->stream) return;
   out->stream = c.options->stream;
   const uint64_t budget = out->stream->budget_bytes;
@@ -330,24 +432,13 @@ void resolve_page_meshes(const Ctx& c, SceneFile* out) {
     return;
   }
   out->stream_reason = "data " + format_bytes(out->page_bytes) + " <= budget " + format_bytes(budget);
-  std::vector<std::optional<BuiltScene>> decoded(out->page_files.size());
   for (size_t i = 0; i < out->page_meshes.size(); ++i) {
     ScenePageMesh& pm = out->page_meshes[i];
     if (pm.file == kNone) continue;
     const std::string path = "meshes[" + std::to_string(i) + "]";
-    std::optional<BuiltScene>& built = decoded[pm.file];
-    if (!built) {
-      try {
-        built = read_asset_file(out->page_files[pm.file].path);
-      } catch (const VgeoError& e) {
-        bad(c, "SCENE_MESH_SOURCE", path + ".dag: " + e.error().line());
-      }
-    }
-    if (pm.index >= built->meshes.size()) bad(c, "SCENE_BAD_VALUE", path + ".index: no such mesh");
-    ClusterDag dag = built->meshes[pm.index];
-    if (!bvh_is_tree(dag)) bad(c, "SCENE_MESH_SOURCE", path + ".dag: BVH node reached twice (cycle or shared subtree)");
-    for (uint32_t& t : dag.triangle_materials) t += pm.material_offset;
-    out->scene.meshes[i] = std::move(dag);
+    const std::string& file = out->page_files[pm.file].path;
+    add_page_file_mesh(c, file, reads, read_page_file(c, file, path, out, reads), pm.index, pm.material_offset, path,
+                       uint32_t(i), out);
     pm.file = kNone;
   }
   out->page_files.clear();  // nothing streams
@@ -490,6 +581,12 @@ FormatOptions memory_form_options() {
   return o;
 }
 
+SceneEncoding encode_memory_form(const BuiltScene& built, const std::string& where, BuiltScene* decoded) {
+  SceneEncoding e = scene_encoding(where, encode_format(built, memory_form_options()));
+  if (decoded) *decoded = decode_format(e.bytes.data(), e.bytes.size(), where);
+  return e;
+}
+
 uint64_t mesh_content_hash(const Mesh& mesh, const BuildOptions& options) {
   uint64_t h = fnv1a64(kCacheKeyVersion);
   auto add = [&](const auto& v) {
@@ -568,8 +665,9 @@ SceneFile parse_scene_json(const std::string& text, const std::string& where, co
     inst.object_to_world = instance_matrix(c, insts[i], path);
     out.scene.instances.push_back(inst);
   }
-  load_meshes(c, doc, &out);
-  resolve_page_meshes(c, &out);
+  PageFileReads reads;
+  load_meshes(c, doc, &out, &reads);
+  resolve_page_meshes(c, &out, &reads);
   for (const ClusterDag& dag : out.scene.meshes)
     for (uint32_t t : dag.triangle_materials)
       if (t >= out.scene.materials.size()) bad(c, "SCENE_BAD_VALUE", "a mesh refers to material " + std::to_string(t) + " which does not exist");
@@ -614,8 +712,8 @@ SceneFile make_default_scene(uint32_t width, uint32_t height, uint32_t frames, c
   gen.seed = kDefaultGroundSeed;
   Mesh ground = generate_mesh(gen);
   ground.materials.assign(ground.triangle_count(), 0);
-  out.scene.meshes.push_back(build_cached(c, sphere, "default.sphere"));
-  out.scene.meshes.push_back(build_cached(c, ground, "default.ground"));
+  add_built_mesh(&out, build_cached(c, sphere, "default.sphere"));
+  add_built_mesh(&out, build_cached(c, ground, "default.ground"));
   auto place = [&](uint32_t mesh, double x, double y, double z, double s) {
     CullInstance inst;
     inst.mesh = mesh;

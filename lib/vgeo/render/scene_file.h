@@ -1,7 +1,8 @@
 #pragma once
 // Render scenes: the JSON scene file (normative: spec/scene.md) and the embedded default
 // scene. Loading builds every mesh's DAG on demand (build_dag), cached by content hash, and
-// draws it in its decoded memory form (memory_form_options).
+// draws it in its decoded memory form (memory_form_options); page-file meshes are drawn as
+// stored. The encoding each mesh is decoded from is kept (SceneFile::encodings).
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -32,8 +33,31 @@ struct ScenePageMesh {
   uint64_t page_bytes = 0;       // memory-form bytes of the mesh's pages
 };
 
+// One page-format encoding the scene's meshes are drawn from (spec/raster.md §Geometry): a page
+// file's bytes as read, or the one encoding of meshes built at load (encode_memory_form). Both
+// backends draw from it: the CPU reference its decode (SceneFile::scene), the GPU its pages
+// transcoded to the memory form (lib/vgeo/gpu memory_form_pages); nothing is encoded again.
+struct SceneEncoding {
+  std::string where;           // the page file, or the built mesh's place in the scene
+  std::vector<uint8_t> bytes;  // the whole page-format file
+  FormatContainer container;   // parse_container(bytes)
+};
+
+// Where a scene mesh's memory form is: mesh `mesh` of encodings[encoding]. Its decoded
+// triangle materials are the stored ids + material_offset (a page file's materials are
+// appended to the scene's; a built mesh stores the scene's ids: offset 0).
+struct SceneMeshForm {
+  uint32_t encoding = kNone;  // kNone: a streamed mesh (its pages are the Streamer's)
+  uint32_t mesh = 0;
+  uint32_t material_offset = 0;
+};
+
 struct SceneFile {
   RenderScene scene;
+  // The memory form of every mesh, each encoded at most once (spec/raster.md §Geometry):
+  // scene.meshes[m] (unless streamed) is the decode of mesh_forms[m]'s encoding.
+  std::vector<SceneEncoding> encodings;
+  std::vector<SceneMeshForm> mesh_forms;  // per scene mesh
   std::vector<Camera> cameras;  // at least one
   std::vector<Camera> path;     // expanded camera path (empty when the file has none)
   RenderSettings settings;
@@ -85,6 +109,11 @@ SceneFile make_default_scene(uint32_t width, uint32_t height, uint32_t frames, c
 // these and decoded at load, so the CPU reference draws the quantized geometry a GPU reads
 // from pages (page-file meshes are drawn as stored). `vgeo build`'s defaults, less compression.
 FormatOptions memory_form_options();
+
+// Built (float) DAGs in their memory form: `built` encoded once with memory_form_options();
+// `decoded` (optional) receives the decode of those same bytes. Throws FORMAT_ENCODE (format.h)
+// for meshes the page format cannot represent.
+SceneEncoding encode_memory_form(const BuiltScene& built, const std::string& where, BuiltScene* decoded);
 
 // Content hash of a mesh + builder identity: the cache key of its DAG.
 uint64_t mesh_content_hash(const Mesh& mesh, const BuildOptions& options);
