@@ -25,7 +25,7 @@ using json = nlohmann::json;
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 // Identity of the cached memory form's producer (builder + page encoder) in cache keys: bump
 // when either's output changes meaning.
-constexpr const char* kCacheKeyVersion = "vgeo-memory-form-cache-1";
+constexpr const char* kCacheKeyVersion = "vgeo-memory-form-cache-2";  // 2: stored errors measured against the leaves
 // Limits on untrusted list sizes (memory bound before anything is generated).
 constexpr size_t kMaxSceneMeshes = 4096, kMaxSceneInstances = 1u << 20, kMaxSceneMaterials = 1u << 16,
                  kMaxSceneCameras = 1024, kMaxKeyframes = 10000;
