@@ -479,6 +479,23 @@ TEST(Build, PerCornerMeshSimplifiesWithMeshopt) {
 }
 
 
+// With both simplifiers, `m` (its clean twin plus added degenerate triangles) keeps the DAG
+// properties and simplifies like the twin: the levels above the leaves hold about what the
+// twin's do (the added triangles themselves need not survive), ≤ 4 roots, as many levels.
+void expect_simplifies_like_clean_twin(const Mesh& m, const Mesh& clean) {
+  for (Simplifier s : {Simplifier::kMeshopt, Simplifier::kOpenMesh}) {
+    BuildReport r, rc;
+    ClusterDag d = build(m, s, 2, &r);
+    ClusterDag dc = build(clean, s, 2, &rc);
+    expect_dag_properties(d, m.triangle_count());
+    expect_borders_preserved(d, false);
+    EXPECT_GE(double(d.triangle_count() - m.triangle_count()),
+              0.9 * double(dc.triangle_count() - clean.triangle_count())) << "simplifier " << int(s);
+    EXPECT_LE(r.root_clusters, 4u) << "simplifier " << int(s);
+    EXPECT_EQ(r.levels.size(), rc.levels.size()) << "simplifier " << int(s);
+  }
+}
+
 // Issue 15 §1: degenerate triangles handed to build_dag directly (no importer cleanup) do not
 // stall simplification: leaves are clustered from the proper triangles and each degenerate
 // one joins a cluster it shares a position with (spec/dag.md §2.2), so it locks nothing.
@@ -486,19 +503,7 @@ TEST(Build, DegenerateTrianglesDoNotStallSimplification) {
   Mesh clean = make_sphere(24, 48);
   Mesh m = make_with_degenerates(clean);
   ASSERT_GT(m.triangle_count(), clean.triangle_count() + clean.triangle_count() / 3);
-  for (Simplifier s : {Simplifier::kMeshopt, Simplifier::kOpenMesh}) {
-    BuildReport r, rc;
-    ClusterDag d = build(m, s, 2, &r);
-    ClusterDag dc = build(clean, s, 2, &rc);
-    expect_dag_properties(d, m.triangle_count());
-    expect_borders_preserved(d, false);
-    // The levels above the leaves hold about what the clean twin's do (the degenerate
-    // triangles themselves need not survive simplification).
-    EXPECT_GE(double(d.triangle_count() - m.triangle_count()),
-              0.9 * double(dc.triangle_count() - clean.triangle_count())) << "simplifier " << int(s);
-    EXPECT_LE(r.root_clusters, 4u) << "simplifier " << int(s);
-    EXPECT_EQ(r.levels.size(), rc.levels.size()) << "simplifier " << int(s);
-  }
+  expect_simplifies_like_clean_twin(m, clean);
   BuiltScene a, b;
   a.meshes.push_back(build(m, Simplifier::kMeshopt, 1));
   b.meshes.push_back(build(m, Simplifier::kMeshopt, 3));
@@ -506,8 +511,6 @@ TEST(Build, DegenerateTrianglesDoNotStallSimplification) {
 }
 
 
-// spec/dag.md §2.3 fold check: three triangles on an edge where the input had two change its
-// parity (a crack); four pair up.
 // Fins (collinear slivers on an edge: three distinct positions) are left out of the
 // simplifier's input; they used to lock their edge's ends (meshopt: border) or be refused
 // (OpenMesh), so a mesh full of them ended with dozens of roots (spec/dag.md §2.3).
@@ -515,17 +518,7 @@ TEST(Build, CollinearFinsDoNotStallSimplification) {
   Mesh clean = make_sphere(24, 48);
   Mesh m = make_with_fins(clean);
   ASSERT_GT(m.triangle_count(), clean.triangle_count() + clean.triangle_count() / 6);
-  for (Simplifier s : {Simplifier::kMeshopt, Simplifier::kOpenMesh}) {
-    BuildReport r, rc;
-    ClusterDag d = build(m, s, 2, &r);
-    ClusterDag dc = build(clean, s, 2, &rc);
-    expect_dag_properties(d, m.triangle_count());
-    expect_borders_preserved(d, false);
-    EXPECT_GE(double(d.triangle_count() - m.triangle_count()),
-              0.9 * double(dc.triangle_count() - clean.triangle_count())) << "simplifier " << int(s);
-    EXPECT_LE(r.root_clusters, 4u) << "simplifier " << int(s);
-    EXPECT_EQ(r.levels.size(), rc.levels.size()) << "simplifier " << int(s);
-  }
+  expect_simplifies_like_clean_twin(m, clean);
   // A sliver filling a T-junction (each of its edges used twice) is no fin: its middle vertex
   // ends no odd edge, and dropping it would open a crack there; it stays in the input.
   Mesh patch;
@@ -541,6 +534,8 @@ TEST(Build, CollinearFinsDoNotStallSimplification) {
   EXPECT_EQ(build_detail::find_fins(wf, pool2).size(), (clean.triangle_count() + 4) / 5);
 }
 
+// spec/dag.md §2.3 fold check: three triangles on an edge where the input had two change its
+// parity (a crack); four pair up.
 TEST(Build, FoldCheckFlagsOddParityChangesOnly) {
   Mesh m;
   m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1};  // edge 0-1 plus four apexes
