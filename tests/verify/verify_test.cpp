@@ -54,6 +54,19 @@ TEST(Verify, HandDagPassesEveryCheck) {
   EXPECT_NEAR(r.error_ratio.max, test::kLevel2Height / test::kLevel2Error, 1e-6);
 }
 
+// An untrusted DAG may claim any level count; the checker's memory must follow what the file
+// holds (fuzz_dag_verify found an out-of-memory abort sizing per-level rows by level_count).
+TEST(Verify, ClaimedLevelCountDoesNotSizeAllocations) {
+  ClusterDag dag = make_hand_dag();
+  dag.level_count = 0xFFFFFFFFu;
+  VerifyOptions o = quick_options();
+  o.views = 4;
+  VerifyReport r;
+  ASSERT_NO_THROW(r = verify_dag(dag, o));
+  EXPECT_FALSE(r.ok());
+  EXPECT_LE(r.error_ratio_per_level.size(), 3u);
+}
+
 TEST(Verify, HandDagFarFromOriginAndTinyPasses) {
   EXPECT_TRUE(passes(verify_dag(make_hand_dag({{1e6f, -2e6f, 5e5f}, 1.0f}), quick_options())));
   EXPECT_TRUE(passes(verify_dag(make_hand_dag({{0, 0, 0}, 1e-4f}), quick_options())));

@@ -80,7 +80,12 @@ void check_error_bound(const ClusterDag& dag, const VerifyOptions& options, Sink
   const double abs_tol = 4.0 * verify_detail::float_ulp(max_abs);
   const ClusterDeviation deviation = measure_cluster_deviation(dag, options);
   result->samples += deviation.samples;
-  result->ratios_per_level.assign(dag.level_count + 1, {});
+  // Sized by the levels the clusters hold, not by dag.level_count: an untrusted file may claim
+  // 2^32 levels (fuzz_dag_verify: out of memory here), and only clusters fill the rows.
+  uint32_t top_level = 0;
+  for (const DagCluster& k : dag.clusters)
+    if (k.generating_group != kNone) top_level = std::max(top_level, k.level);
+  result->ratios_per_level.assign(std::min<size_t>(size_t(dag.level_count), size_t(top_level)) + 1, {});
   for (size_t c = 0; c < dag.clusters.size(); ++c) {
     const DagCluster& k = dag.clusters[c];
     if (k.generating_group == kNone) continue;
