@@ -22,16 +22,16 @@ namespace vgeo::test {
 
 // ---- sanitizer detection (GCC defines __SANITIZE_ADDRESS__, clang has __has_feature) ----
 #if defined(__SANITIZE_ADDRESS__)
-inline constexpr bool kSanitizerBuild = true;
+#define VGEO_TEST_SANITIZED 1
 #elif defined(__has_feature)
 #if __has_feature(address_sanitizer)
-inline constexpr bool kSanitizerBuild = true;
-#else
-inline constexpr bool kSanitizerBuild = false;
+#define VGEO_TEST_SANITIZED 1
 #endif
-#else
-inline constexpr bool kSanitizerBuild = false;
 #endif
+#ifndef VGEO_TEST_SANITIZED
+#define VGEO_TEST_SANITIZED 0
+#endif
+inline constexpr bool kSanitizerBuild = VGEO_TEST_SANITIZED;
 
 // Views of the acceptance verification: 8 random viewpoints x 4 thresholds = 32 tested cuts
 // per DAG. The default 64 views are for `vgeo verify` on one file; over ~140 meshes x 2
