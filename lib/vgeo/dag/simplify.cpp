@@ -198,10 +198,13 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
   SimplifyResult r;
   size_t out_count = 0;
   for (uint32_t attempt = 0;; ++attempt) {
-    std::vector<unsigned int> attempt_indices = indices;
-    std::vector<float> attempt_positions = positions;
+    // The first attempt simplifies the sub-mesh as built; retries work on copies of it.
+    std::vector<unsigned int> attempt_indices;
+    std::vector<float> attempt_positions;
     copy_keys.clear();
-    if (!split.empty())
+    if (!split.empty()) {
+      attempt_indices = indices;
+      attempt_positions = positions;
       for (size_t i = 0; i < 3 * n; ++i) {
         if (!std::binary_search(split.begin(), split.end(), welded.weld[group.corners[i]])) continue;
         const uint64_t key = unique_keys[indices[i]];
@@ -211,8 +214,11 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
         perturbed_copy(&positions[3 * indices[i]], uint32_t(copy_keys.size()),
                        &attempt_positions[attempt_positions.size() - 3]);
       }
+    }
+    const std::vector<unsigned int>& sub_indices = split.empty() ? indices : attempt_indices;
+    const std::vector<float>& sub_positions = split.empty() ? positions : attempt_positions;
     const size_t sub_vertices = unique_keys.size() + copy_keys.size();
-    out_count = meshopt_simplify(out.data(), attempt_indices.data(), attempt_indices.size(), attempt_positions.data(),
+    out_count = meshopt_simplify(out.data(), sub_indices.data(), sub_indices.size(), sub_positions.data(),
                                  sub_vertices, sizeof(float) * 3, 3 * target_triangles(n, target.ratio), target_error,
                                  meshopt_SimplifyLockBorder, nullptr);
     r.triangles.corners.resize(out_count);
