@@ -146,6 +146,13 @@ struct InternalBuildOptions {
 ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, const InternalBuildOptions& internal,
                               BuildReport* report);
 
+// A triangle and its reverse (the same welded positions, opposite orientation) are a fold
+// that adds 2 to each of their edges' use counts: parity unchanged, so neither the border
+// nor the fold check sees it, but on a group border it makes a locked edge non-manifold
+// (used 3 times) and the pair covers its area twice. meshopt 0.18 emits such pairs; both
+// triangles of each pair are dropped (every edge's parity is kept).
+void drop_reversed_pairs(const WeldedMesh& welded, TriangleSet& triangles);
+
 // Simplification of one group's triangles with locked vertices (by welded id).
 struct SimplifyResult {
   TriangleSet triangles;  // references original vertex ids only (no new positions)
@@ -199,7 +206,7 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
 
 // True when every locked welded vertex of `before` is used by `after` and every welded edge
 // of `before` listed in `shared_edges` (sorted edge keys of edges also used outside the
-// group) is an edge of `after`.
+// group) is an edge of `after`, used once by `after` when `before` uses it once.
 bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before,
                              const TriangleSet& after, const std::vector<uint8_t>& locked,
                              const std::vector<uint64_t>& shared_edges);

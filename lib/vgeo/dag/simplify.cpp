@@ -425,8 +425,58 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
       }
   const TriangleSet& input = any_degenerate ? proper : group;
   if (input.triangle_count() == 0) return SimplifyResult{};
-  if (simplifier == Simplifier::kOpenMesh) return simplify_openmesh(welded, input, locked, target);
-  return simplify_meshopt(welded, input, locked, target);
+  SimplifyResult r = simplifier == Simplifier::kOpenMesh ? simplify_openmesh(welded, input, locked, target)
+                                                         : simplify_meshopt(welded, input, locked, target);
+  drop_reversed_pairs(welded, r.triangles);
+  return r;
+}
+
+void drop_reversed_pairs(const WeldedMesh& welded, TriangleSet& triangles) {
+  // (sorted welded corners, orientation, triangle): a triangle's orientation is whether its
+  // welded corners are an even rotation of the sorted ones.
+  struct Face {
+    std::array<uint32_t, 3> key;
+    bool odd;
+    uint32_t t;
+  };
+  std::vector<Face> faces;
+  const size_t n = triangles.triangle_count();
+  faces.reserve(n);
+  for (size_t t = 0; t < n; ++t) {
+    const uint32_t* c = &triangles.corners[3 * t];
+    const uint32_t a = welded.weld[c[0]], b = welded.weld[c[1]], d = welded.weld[c[2]];
+    if (a == b || b == d || d == a) continue;
+    std::array<uint32_t, 3> key{a, b, d};
+    // Rotate the smallest first; then (lo, mid, hi) is even, (lo, hi, mid) odd.
+    std::rotate(key.begin(), std::min_element(key.begin(), key.end()), key.end());
+    const bool odd = key[1] > key[2];
+    if (odd) std::swap(key[1], key[2]);
+    faces.push_back({key, odd, uint32_t(t)});
+  }
+  std::sort(faces.begin(), faces.end(), [](const Face& x, const Face& y) {
+    return x.key != y.key ? x.key < y.key : (x.odd != y.odd ? x.odd < y.odd : x.t < y.t);
+  });
+  std::vector<uint8_t> drop(n, 0);
+  bool any = false;
+  for (size_t i = 0; i < faces.size();) {
+    size_t j = i;
+    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
+    size_t even_end = i;
+    while (even_end < j && !faces[even_end].odd) ++even_end;
+    // The first k of each orientation pair up (sorted by triangle: deterministic).
+    const size_t k = std::min(even_end - i, j - even_end);
+    for (size_t m = 0; m < k; ++m) drop[faces[i + m].t] = drop[faces[even_end + m].t] = 1, any = true;
+    i = j;
+  }
+  if (!any) return;
+  size_t kept = 0;
+  for (size_t t = 0; t < n; ++t) {
+    if (drop[t]) continue;
+    std::copy_n(&triangles.corners[3 * t], 3, &triangles.corners[3 * kept]);
+    triangles.materials[kept++] = triangles.materials[t];
+  }
+  triangles.corners.resize(3 * kept);
+  triangles.materials.resize(kept);
 }
 
 namespace {
@@ -481,19 +531,21 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
 
 bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
                              const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
-  // Locked welded vertices and edges (both ends locked) of `after` in one open addressing
-  // set (load ≤ 1/2): edges as edge_key(a, b) (a < b), vertices as (v << 32 | v), which no
-  // edge key equals. Only locked ones are ever looked up, and they lie on the group border
-  // (a minority), so nothing else is inserted.
-  std::vector<uint64_t> keys;
+  // Locked welded vertices of `after` in one open addressing set (load ≤ 1/2), keyed
+  // (v << 32 | v); the shared edges of both sides as sorted key lists with multiplicity.
+  // Only locked ones are looked at, and they lie on the group border (a minority).
+  std::vector<uint64_t> vertex_keys, after_shared, before_shared;
+  auto is_shared = [&](uint32_t a, uint32_t b) {
+    return a != b && locked[b] && std::binary_search(shared_edges.begin(), shared_edges.end(), edge_key(a, b));
+  };
   for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
     if (!locked[a]) return;
-    keys.push_back((uint64_t(a) << 32) | a);
-    if (a != b && locked[b]) keys.push_back(edge_key(a, b));
+    vertex_keys.push_back((uint64_t(a) << 32) | a);
+    if (is_shared(a, b)) after_shared.push_back(edge_key(a, b));
   });
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
-  while (slots < 2 * keys.size()) slots <<= 1, --shift;
+  while (slots < 2 * vertex_keys.size()) slots <<= 1, --shift;
   constexpr uint64_t kEmpty = ~uint64_t(0);
   std::vector<uint64_t> table(slots, kEmpty);
   auto slot = [&](uint64_t key) {
@@ -501,19 +553,27 @@ bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before
     while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
     return h;
   };
-  for (uint64_t key : keys) table[slot(key)] = key;
-  auto present = [&](uint64_t key) { return table[slot(key)] == key; };
+  for (uint64_t key : vertex_keys) table[slot(key)] = key;
   bool preserved = true;
   for_each_welded_edge(welded, before.corners, [&](uint32_t a, uint32_t b) {
     if (!preserved || !locked[a]) return;
     // Every locked vertex of `before` is used by `after`.
-    if (!present((uint64_t(a) << 32) | a)) preserved = false;
-    // Every shared edge of `before` (both ends locked) is an edge of `after`.
-    if (a == b || !locked[b]) return;
-    uint64_t key = edge_key(a, b);
-    if (std::binary_search(shared_edges.begin(), shared_edges.end(), key) && !present(key)) preserved = false;
+    if (table[slot((uint64_t(a) << 32) | a)] == kEmpty) preserved = false;
+    if (is_shared(a, b)) before_shared.push_back(edge_key(a, b));
   });
-  return preserved;
+  if (!preserved) return false;
+  // Every shared edge of `before` is an edge of `after`; one used once (a manifold border)
+  // stays used once: a second and third use is a fold over the border (spec/dag.md §2.3).
+  std::sort(before_shared.begin(), before_shared.end());
+  std::sort(after_shared.begin(), after_shared.end());
+  for (size_t i = 0; i < before_shared.size();) {
+    size_t j = i;
+    while (j < before_shared.size() && before_shared[j] == before_shared[i]) ++j;
+    auto [lo, hi] = std::equal_range(after_shared.begin(), after_shared.end(), before_shared[i]);
+    if (lo == hi || (j - i == 1 && hi - lo != 1)) return false;
+    i = j;
+  }
+  return true;
 }
 
 }  // namespace vgeo::build_detail
