@@ -647,12 +647,19 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   target.ratio = s.internal.simplify_target_ratio;
   if (s.internal.simplify_error_budget > 0 && max_member_error > 0)
     target.max_error = s.internal.simplify_error_budget * max_member_error;
-  SimplifyResult simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target, s.fins);
-  size_t before = merged.triangle_count(), after = simplified.triangles.triangle_count();
-  bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
-  bool sealed = enough && locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked,
-                                                  blk.shared_edges) &&
-                !simplification_folds(s.welded, merged, simplified.triangles);
+  SimplifyResult simplified;
+  bool sealed = false;
+  // A result that breaks the border or folds is retried with fewer collapses (a fold comes
+  // from a late collapse next to the locked border); one without enough reduction is not.
+  for (size_t attempt = 0; attempt <= kBorderRetryRatios.size() && !sealed; ++attempt) {
+    if (attempt > 0) target.ratio = std::max(target.ratio, kBorderRetryRatios[attempt - 1]);
+    simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target, s.fins);
+    const size_t before = merged.triangle_count(), after = simplified.triangles.triangle_count();
+    const bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
+    if (!enough) break;
+    sealed = locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked, blk.shared_edges) &&
+             !simplification_folds(s.welded, merged, simplified.triangles);
+  }
   const double tm = now_seconds();
   r.seconds_simplify = tm - ts;
   if (!sealed) return;

@@ -26,6 +26,9 @@ inline constexpr double kSimplifyTargetRatio = 0.5;
 // A group whose simplification removes fewer than 15% of its triangles is terminal: it
 // would otherwise spend levels on almost nothing (lessons item 5: > ~85% left = stuck).
 inline constexpr double kMinReduction = 0.15;
+// Target ratios of the retries of a group whose simplification broke its border or folded
+// (spec/dag.md §2.3): fewer collapses, each still below 1 - kMinReduction = 0.85.
+inline constexpr std::array<double, 2> kBorderRetryRatios = {0.65, 0.8};
 // Mean clusters per group asked from METIS. 8 leaves ~4 parents per group (Nanite's common
 // case) and keeps groups small enough that locked borders alternate between levels.
 inline constexpr uint32_t kGroupTargetClusters = 8;
