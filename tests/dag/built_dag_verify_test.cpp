@@ -219,7 +219,7 @@ TEST(VerifyBuilt, StoredErrorIsMaxOfMembersAndMeasuredDeviation) {
   {
     BuildOptions bo;
     bo.threads = 2;
-    const ClusterDag dag = build_dag(test::make_sphere(40, 64), bo);
+    const ClusterDag dag = build_dag(test::make_sphere(80, 128), bo);  // > 10 groups of 16 clusters
     const ClusterDeviation dev = measure_cluster_deviation(dag);
     constexpr double kRoundingTolerance = 1e-6;  // relative: ulps of the lattice points, far below 1e-6
     size_t checked = 0;

@@ -36,7 +36,7 @@ void BM_DagQuality(benchmark::State& state) {
   switch (state.range(1)) {
     case 1: internal.leaf_split = SplitMethod::kMetis; variant = "metis-leaves"; break;
     case 2: internal.leaf_split = internal.group_split = SplitMethod::kMetis; variant = "metis-all"; break;
-    case 3: internal.group_target_clusters = 16; variant = "group16"; break;
+    case 3: internal.group_target_clusters = 8; variant = "group8"; break;
     case 4: internal.group_target_clusters = 32; variant = "group32"; break;
     case 5: options.simplifier = Simplifier::kOpenMesh; variant = "openmesh"; break;
     default: break;

@@ -136,21 +136,21 @@ std::vector<uint32_t> group_sizes() {
     for (std::string t; std::getline(ss, t, ',');)
       if (!t.empty()) sizes.push_back(uint32_t(std::stoul(t)));
   }
-  if (sizes.empty()) sizes.push_back(build_detail::kGroupTargetClusters);
+  if (sizes.empty()) sizes.push_back(0);  // the builder's default for the simplifier
   return sizes;
 }
 
 // VGEO_DAGQUALITY_VARIANTS: semicolon-separated builder variants to compare, each
 // "simplifier:ratio:budget" (meshopt|openmesh, simplify target ratio, error budget factor,
-// 0 = none); default: the builder's defaults.
+// 0 = none; an empty field keeps the builder's default); default: the builder's defaults.
 struct BuilderVariant {
   Simplifier simplifier = Simplifier::kMeshopt;
   double ratio = build_detail::kSimplifyTargetRatio;
-  float budget = 0.0f;
+  float budget = build_detail::kSimplifyErrorBudget;
   std::string label() const {
     std::string l = simplifier == Simplifier::kOpenMesh ? "openmesh" : "meshopt";
     if (ratio != build_detail::kSimplifyTargetRatio) l += " r" + fmt(ratio);
-    if (budget > 0) l += " b" + fmt(budget);
+    if (budget != build_detail::kSimplifyErrorBudget) l += " b" + fmt(budget);
     return l;
   }
 };
@@ -224,6 +224,7 @@ void run_dagquality_suite(const BenchConfig& cfg, SuiteReport& out) {
     bo.threads = cfg.threads;
     bo.simplifier = variant.simplifier;
     build_detail::InternalBuildOptions internal;
+    if (group_size == 0) group_size = build_detail::default_group_target_clusters(variant.simplifier);
     internal.group_target_clusters = group_size;
     internal.simplify_target_ratio = variant.ratio;
     internal.simplify_error_budget = variant.budget;

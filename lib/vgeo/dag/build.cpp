@@ -591,7 +591,9 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
       bounds[i] = s.clusters[L.active[blk.items[i]]].bounds;
       keys[i] = std::move(L.open_keys[blk.items[i]]);
     }
-    blk.groups = group_clusters(sets, keys, bounds, s.internal.group_target_clusters);
+    const uint32_t target = s.internal.group_target_clusters ? s.internal.group_target_clusters
+                                                             : default_group_target_clusters(s.options.simplifier);
+    blk.groups = group_clusters(sets, keys, bounds, target);
     for (auto& g : blk.groups)
       for (uint32_t& m : g) m = L.active[blk.items[m]];
   }
