@@ -141,16 +141,19 @@ std::vector<uint32_t> group_sizes() {
 }
 
 // VGEO_DAGQUALITY_VARIANTS: semicolon-separated builder variants to compare, each
-// "simplifier:ratio:budget" (meshopt|openmesh, simplify target ratio, error budget factor,
-// 0 = none; an empty field keeps the builder's default); default: the builder's defaults.
+// "simplifier:ratio:budget:split" (meshopt|openmesh, simplify target ratio, error budget
+// factor, 0 = none, clusterizer of leaves and group splits: meshopt|grow; an empty field
+// keeps the builder's default); default: the builder's defaults.
 struct BuilderVariant {
   Simplifier simplifier = Simplifier::kMeshopt;
   double ratio = build_detail::kSimplifyTargetRatio;
   float budget = build_detail::kSimplifyErrorBudget;
+  build_detail::SplitMethod split = build_detail::InternalBuildOptions{}.leaf_split;
   std::string label() const {
     std::string l = simplifier == Simplifier::kOpenMesh ? "openmesh" : "meshopt";
     if (ratio != build_detail::kSimplifyTargetRatio) l += " r" + fmt(ratio);
     if (budget != build_detail::kSimplifyErrorBudget) l += " b" + fmt(budget);
+    if (split == build_detail::SplitMethod::kGrow) l += " grow";
     return l;
   }
 };
@@ -166,6 +169,8 @@ std::vector<BuilderVariant> builder_variants() {
       if (std::getline(f, part, ':')) v.simplifier = part == "openmesh" ? Simplifier::kOpenMesh : Simplifier::kMeshopt;
       if (std::getline(f, part, ':') && !part.empty()) v.ratio = std::stod(part);
       if (std::getline(f, part, ':') && !part.empty()) v.budget = std::stof(part);
+      if (std::getline(f, part, ':') && !part.empty())
+        v.split = part == "grow" ? build_detail::SplitMethod::kGrow : build_detail::SplitMethod::kMeshopt;
       out.push_back(v);
     }
   }
@@ -228,6 +233,7 @@ void run_dagquality_suite(const BenchConfig& cfg, SuiteReport& out) {
     internal.group_target_clusters = group_size;
     internal.simplify_target_ratio = variant.ratio;
     internal.simplify_error_budget = variant.budget;
+    internal.leaf_split = internal.group_split = variant.split;
     BuildReport br;
     const double t0 = now_seconds();
     ClusterDag dag = build_detail::build_dag_internal(mesh, bo, internal, &br);

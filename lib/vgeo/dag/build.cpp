@@ -633,6 +633,12 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
 }
 
 // ---- 3d. group task: simplify, check the border, split, measure the error ----
+// At least kMinReduction of the group's triangles removed (and some left).
+bool reduces_enough(const TriangleSet& before, const TriangleSet& after) {
+  return after.triangle_count() > 0 &&
+         double(after.triangle_count()) <= double(before.triangle_count()) * (1.0 - kMinReduction);
+}
+
 void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   const Block& blk = L.blocks[b];
   GroupResult& r = L.blocks[b].results[g];
@@ -649,19 +655,30 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   target.ratio = s.internal.simplify_target_ratio;
   if (s.internal.simplify_error_budget > 0 && max_member_error > 0)
     target.max_error = s.internal.simplify_error_budget * max_member_error;
-  SimplifyResult simplified;
-  bool sealed = false;
-  // A result that breaks the border or folds is retried with fewer collapses (a fold comes
-  // from a late collapse next to the locked border); one without enough reduction is not.
+  SimplifyResult simplified, folded_over_border;
+  bool sealed = false, have_folded = false;
+  // A result that breaks the border or folds over it is retried with fewer collapses (a fold
+  // comes from a late collapse next to the locked border); one whose error budget stopped it
+  // short of kMinReduction once more without the budget (the budget must not stall a group).
+  // A result whose only defect is a border edge used 3 times (parity kept, no crack) is kept
+  // as the last resort: a fold over the border is better than a stuck group.
   for (size_t attempt = 0; attempt <= kBorderRetryRatios.size() && !sealed; ++attempt) {
     if (attempt > 0) target.ratio = std::max(target.ratio, kBorderRetryRatios[attempt - 1]);
     simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target, s.fins);
-    const size_t before = merged.triangle_count(), after = simplified.triangles.triangle_count();
-    const bool enough = after > 0 && double(after) <= double(before) * (1.0 - kMinReduction);
-    if (!enough) break;
-    sealed = locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked, blk.shared_edges) &&
-             !simplification_folds(s.welded, merged, simplified.triangles);
+    if (!reduces_enough(merged, simplified.triangles) && std::isfinite(target.max_error)) {
+      target.max_error = std::numeric_limits<float>::infinity();
+      simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target, s.fins);
+    }
+    if (!reduces_enough(merged, simplified.triangles)) break;
+    if (!locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked, blk.shared_edges,
+                                 BorderUses::kAny) ||
+        simplification_folds(s.welded, merged, simplified.triangles))
+      continue;
+    sealed = locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked, blk.shared_edges,
+                                     BorderUses::kSame);
+    if (!sealed && !have_folded) folded_over_border = simplified, have_folded = true;
   }
+  if (!sealed && have_folded) simplified = std::move(folded_over_border), sealed = true;
   const double tm = now_seconds();
   r.seconds_simplify = tm - ts;
   if (!sealed) return;

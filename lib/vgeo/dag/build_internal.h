@@ -224,10 +224,12 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
 
 // True when every locked welded vertex of `before` is used by `after` and every welded edge
 // of `before` listed in `shared_edges` (sorted edge keys of edges also used outside the
-// group) is an edge of `after`, used once by `after` when `before` uses it once.
+// group) is an edge of `after`; with BorderUses::kSame, one `before` uses once is used once
+// by `after` (a manifold border stays one: not folded over).
+enum class BorderUses : uint8_t { kAny, kSame };
 bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before,
                              const TriangleSet& after, const std::vector<uint8_t>& locked,
-                             const std::vector<uint64_t>& shared_edges);
+                             const std::vector<uint64_t>& shared_edges, BorderUses uses);
 
 // Spheres, computed in double and rounded outward so containment survives float rounding.
 Sphere sphere_of_points(const Mesh& mesh, const uint32_t* vertices, size_t count);

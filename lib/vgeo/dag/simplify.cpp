@@ -530,7 +530,8 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
 }
 
 bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                             const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
+                             const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges,
+                             BorderUses uses) {
   // Locked welded vertices of `after` in one open addressing set (load ≤ 1/2), keyed
   // (v << 32 | v); the shared edges of both sides as sorted key lists with multiplicity.
   // Only locked ones are looked at, and they lie on the group border (a minority).
@@ -570,7 +571,7 @@ bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before
     size_t j = i;
     while (j < before_shared.size() && before_shared[j] == before_shared[i]) ++j;
     auto [lo, hi] = std::equal_range(after_shared.begin(), after_shared.end(), before_shared[i]);
-    if (lo == hi || (j - i == 1 && hi - lo != 1)) return false;
+    if (lo == hi || (uses == BorderUses::kSame && j - i == 1 && hi - lo != 1)) return false;
     i = j;
   }
   return true;
