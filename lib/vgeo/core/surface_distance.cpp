@@ -220,13 +220,27 @@ double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) c
   double best = std::numeric_limits<double>::infinity();
   if (nodes_.empty()) return best;
   uint32_t best_t = *hint;
-  if (best_t < leaf_of_.size()) best = triangle_d2(p, best_t);
-  uint32_t stack[128];
+  // The hint's whole leaf first: a smaller first bound prunes more of the descent.
+  if (best_t < leaf_of_.size()) {
+    const Node& leaf = nodes_[leaf_of_[best_t]];
+    for (uint32_t t = leaf.first; t < leaf.first + leaf.count; ++t) {
+      const double d = triangle_d2(p, t);
+      if (d < best) best = d, best_t = t;
+    }
+  }
+  // Nodes are pushed with their box distance: compared again with the (smaller) best when
+  // popped, not recomputed.
+  struct Entry {
+    uint32_t node;
+    double d2;
+  };
+  Entry stack[128];
   int top = 0;
-  stack[top++] = 0;
+  stack[top++] = {0, box_d2(p, nodes_[0].lo, nodes_[0].hi)};
   while (top) {
-    const Node& nd = nodes_[stack[--top]];
-    if (box_d2(p, nd.lo, nd.hi) >= best) continue;
+    const Entry e = stack[--top];
+    if (e.d2 >= best) continue;
+    const Node& nd = nodes_[e.node];
     if (nd.count) {
       for (uint32_t i = 0; i < nd.count; ++i) {
         uint32_t t = nd.first + i;
@@ -238,8 +252,8 @@ double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) c
     uint32_t l = nd.first, r = nd.first + 1;
     double dl = box_d2(p, nodes_[l].lo, nodes_[l].hi), dr = box_d2(p, nodes_[r].lo, nodes_[r].hi);
     if (dl > dr) std::swap(l, r), std::swap(dl, dr);
-    if (dr < best) stack[top++] = r;
-    if (dl < best) stack[top++] = l;
+    if (dr < best) stack[top++] = {r, dr};
+    if (dl < best) stack[top++] = {l, dl};
   }
   *hint = best_t;
   return best;
