@@ -3,7 +3,6 @@
 #include <cmath>
 #include <limits>
 #include <map>
-#include <numeric>
 
 #include "vgeo/core/thread_pool.h"
 
@@ -25,7 +24,7 @@ bool point_triangle_within_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c, double th
 
 namespace {
 
-// Triangles per parallel build chunk (box and centroid preparation, reordering, indexing).
+// Triangles (or nodes) per parallel build chunk: centroids, reordering, indexing.
 constexpr size_t kBuildChunk = 1 << 16;
 // Subtrees built as independent tasks per pool thread: enough for the dynamic scheduling to
 // even out their unequal costs.

@@ -45,8 +45,8 @@ class ThreadPool;
 class TriangleDistanceTree {
  public:
   TriangleDistanceTree() = default;
-  // `corners`: 9 floats per triangle (3 corners × xyz). `pool` (optional) builds in parallel;
-  // the tree is the same for any pool (and without one).
+  // `corners`: 9 floats per triangle (3 corners × xyz). `pool` (optional; not from inside one
+  // of its own tasks) builds in parallel; the tree is the same for any pool and without one.
   explicit TriangleDistanceTree(std::vector<float> corners, ThreadPool* pool = nullptr);
   bool empty() const { return nodes_.empty(); }
   // Squared distance to the nearest triangle; `hint` (in/out) is a triangle to start from
