@@ -17,11 +17,8 @@ namespace {
 using build_detail::TriangleSet;
 
 float reference_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified) {
-  std::vector<DVec3> corners(input.corners.size());
-  for (size_t i = 0; i < corners.size(); ++i) {
-    const float* p = &mesh.positions[3 * size_t(input.corners[i])];
-    corners[i] = {p[0], p[1], p[2]};
-  }
+  std::vector<float> corners;
+  for (uint32_t v : input.corners) corners.insert(corners.end(), &mesh.positions[3 * size_t(v)], &mesh.positions[3 * size_t(v)] + 3);
   TriangleDistanceTree tree(std::move(corners));
   double d = sampled_one_sided_distance(mesh.positions.data(), simplified.corners.data(),
                                         simplified.triangle_count(), tree, kErrorLatticeSubdivisions);

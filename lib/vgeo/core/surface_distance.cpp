@@ -2,7 +2,9 @@
 
 #include <cmath>
 #include <limits>
-#include <numeric>
+#include <map>
+
+#include "vgeo/core/thread_pool.h"
 
 namespace vgeo {
 namespace {
@@ -20,137 +22,224 @@ bool point_triangle_within_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c, double th
   return prepared_triangle_within_squared(p, prepare_triangle(a, b, c), threshold, d2);
 }
 
-TriangleDistanceTree::TriangleDistanceTree(std::vector<DVec3> corners) : corners_(std::move(corners)) {
-  const uint32_t n = uint32_t(corners_.size() / 3);
-  order_.resize(n);
-  std::iota(order_.begin(), order_.end(), 0u);
-  // Build-time only: per triangle its box (lo, hi) and centroid, by axis (x of all
-  // triangles, then y, then z) so the median split compares plain doubles.
-  std::vector<DVec3> tri_box(2 * size_t(n));
-  std::vector<double> centroids(3 * size_t(n));
-  for (uint32_t t = 0; t < n; ++t) {
-    const DVec3* c = &corners_[3 * size_t(t)];
-    tri_box[2 * size_t(t)] = {std::min({c[0].x, c[1].x, c[2].x}), std::min({c[0].y, c[1].y, c[2].y}),
-                              std::min({c[0].z, c[1].z, c[2].z})};
-    tri_box[2 * size_t(t) + 1] = {std::max({c[0].x, c[1].x, c[2].x}), std::max({c[0].y, c[1].y, c[2].y}),
-                                  std::max({c[0].z, c[1].z, c[2].z})};
-    centroids[t] = (c[0].x + c[1].x + c[2].x) / 3;
-    centroids[n + size_t(t)] = (c[0].y + c[1].y + c[2].y) / 3;
-    centroids[2 * size_t(n) + t] = (c[0].z + c[1].z + c[2].z) / 3;
-  }
-  if (n) {
-    nodes_.reserve(2 * size_t(n) / kLeafSize + 2);
-    nodes_.resize(1);
-    build(0, 0, n, tri_box.data(), centroids.data());
-    // Corners in tree order: a leaf's triangles are adjacent in memory (queries are bound by
-    // cache misses), and a triangle's id is its tree position.
-    // In place, cycle by cycle (no second copy of the corners at the peak).
-    auto triangle = [&](uint32_t t) { return &corners_[3 * size_t(t)]; };
-    for (uint32_t i = 0; i < n; ++i) {
-      if (order_[i] == i) continue;
-      const DVec3 saved[3] = {triangle(i)[0], triangle(i)[1], triangle(i)[2]};
-      uint32_t j = i;
-      for (uint32_t k = order_[j]; k != i; j = k, k = order_[j]) {
-        std::copy(triangle(k), triangle(k) + 3, triangle(j));
-        order_[j] = j;
-      }
-      std::copy(saved, saved + 3, triangle(j));
-      order_[j] = j;
+namespace {
+
+// Triangles (or nodes) per parallel build chunk: centroids, reordering, indexing.
+constexpr size_t kBuildChunk = 1 << 16;
+// Subtrees built as independent tasks per pool thread: enough for the dynamic scheduling to
+// even out their unequal costs.
+constexpr size_t kSubtreesPerThread = 8;
+
+// Runs fn(begin, end) over [0, n) in chunks, on the pool when there is one.
+template <class Fn>
+void for_chunks(ThreadPool* pool, size_t n, Fn&& fn) {
+  const size_t chunks = (n + kBuildChunk - 1) / kBuildChunk;
+  auto chunk = [&](size_t i) { fn(i * kBuildChunk, std::min(n, (i + 1) * kBuildChunk)); };
+  if (pool && chunks > 1)
+    pool->parallel_for(chunks, chunk);
+  else
+    for (size_t i = 0; i < chunks; ++i) chunk(i);
+}
+
+// Nodes of a subtree over m triangles (median splits: the children take m/2 and m - m/2).
+// Sizes at one depth differ by at most one, so the memo stays small.
+uint32_t subtree_nodes(uint32_t m, std::map<uint32_t, uint32_t>& memo) {
+  if (m <= kLeafSize) return 1;
+  auto it = memo.find(m);
+  if (it != memo.end()) return it->second;
+  const uint32_t count = 1 + subtree_nodes(m / 2, memo) + subtree_nodes(m - m / 2, memo);
+  memo.emplace(m, count);
+  return count;
+}
+
+}  // namespace
+
+TriangleDistanceTree::TriangleDistanceTree(std::vector<float> corners, ThreadPool* pool) {
+  const uint32_t n = uint32_t(corners.size() / 9);
+  if (n == 0) return;
+  std::vector<BuildItem> items(n);  // build-time only
+  for_chunks(pool, n, [&](size_t begin, size_t end) {
+    for (size_t t = begin; t < end; ++t) {
+      const float* c = &corners[9 * t];
+      items[t].triangle = uint32_t(t);
+      for (int k = 0; k < 3; ++k) items[t].centroid[k] = (double(c[k]) + double(c[3 + k]) + double(c[6 + k])) / 3;
     }
-    std::vector<uint32_t>().swap(order_);
-    parent_.assign(nodes_.size(), 0);
-    leaf_of_.resize(n);
-    for (uint32_t i = 0; i < nodes_.size(); ++i) {
+  });
+  std::map<uint32_t, uint32_t> memo;
+  nodes_.resize(subtree_nodes(n, memo));
+  // The structure first (splits; boxes once the corners are in tree order). The top of the
+  // tree breadth first, each level's splits in parallel, until there are enough subtrees to
+  // build as independent tasks. Every node's place is fixed by the triangle counts alone
+  // (subtree_nodes), so the tree is the one the serial depth-first build makes, whatever
+  // the pool.
+  const size_t wanted = pool ? kSubtreesPerThread * pool->size() : 1;
+  std::vector<Subtree> frontier{{0, 0, n, 1}};
+  std::vector<Subtree> top;  // inner nodes split here, parents before children
+  for (;;) {
+    std::vector<size_t> splittable;
+    for (size_t i = 0; i < frontier.size(); ++i)
+      if (frontier[i].last - frontier[i].first > kLeafSize) splittable.push_back(i);
+    if (frontier.size() >= wanted || splittable.empty()) break;
+    std::vector<uint32_t> mids(splittable.size());
+    auto split_one = [&](size_t i) {
+      const Subtree& at = frontier[splittable[i]];
+      mids[i] = split(items.data(), at.first, at.last);
+    };
+    if (pool && splittable.size() > 1)
+      pool->parallel_for(splittable.size(), split_one);
+    else
+      for (size_t i = 0; i < splittable.size(); ++i) split_one(i);
+    std::vector<Subtree> next;
+    for (size_t i = 0, k = 0; i < frontier.size(); ++i) {
+      const Subtree at = frontier[i];
+      if (k == splittable.size() || splittable[k] != i) {
+        next.push_back(at);
+        continue;
+      }
+      const uint32_t mid = mids[k++];
+      nodes_[at.index].first = at.next;
+      nodes_[at.index].count = 0;
+      top.push_back(at);
+      next.push_back({at.next, at.first, mid, at.next + 2});
+      next.push_back({at.next + 1, mid, at.last, at.next + 1 + subtree_nodes(mid - at.first, memo)});
+    }
+    frontier = std::move(next);
+  }
+  auto for_frontier = [&](auto&& fn) {
+    if (pool && frontier.size() > 1)
+      pool->parallel_for(frontier.size(), fn);
+    else
+      for (size_t i = 0; i < frontier.size(); ++i) fn(i);
+  };
+  for_frontier([&](size_t i) { build(frontier[i], items.data()); });
+  // Corners in tree order: a leaf's triangles are adjacent in memory, and a triangle's id
+  // is its tree position.
+  corners_.resize(corners.size());
+  for_chunks(pool, n, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) std::copy_n(&corners[9 * size_t(items[i].triangle)], 9, &corners_[9 * i]);
+  });
+  std::vector<float>().swap(corners);
+  std::vector<BuildItem>().swap(items);
+  // Boxes bottom up: children follow their parent, and a subtree's descendants are the
+  // nodes [next, next + subtree_nodes - 1).
+  std::vector<uint32_t> descendants(frontier.size());
+  for (size_t i = 0; i < frontier.size(); ++i) descendants[i] = subtree_nodes(frontier[i].last - frontier[i].first, memo) - 1;
+  for_frontier([&](size_t i) {
+    const Subtree& at = frontier[i];
+    for (uint32_t j = at.next + descendants[i]; j-- > at.next;) set_box(j);
+    set_box(at.index);
+  });
+  for (size_t i = top.size(); i-- > 0;) set_box(top[i].index);
+  parent_.assign(nodes_.size(), 0);
+  leaf_of_.resize(n);
+  for_chunks(pool, nodes_.size(), [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
       const Node& nd = nodes_[i];
       if (nd.count)
-        for (uint32_t j = nd.first; j < nd.first + nd.count; ++j) leaf_of_[j] = i;
+        for (uint32_t j = nd.first; j < nd.first + nd.count; ++j) leaf_of_[j] = uint32_t(i);
       else
-        parent_[nd.first] = parent_[nd.first + 1] = i;
+        parent_[nd.first] = parent_[nd.first + 1] = uint32_t(i);
     }
-  }
+  });
 }
 
-double TriangleDistanceTree::triangle_d2(DVec3 p, uint32_t t) const {
-  const DVec3* c = &corners_[3 * size_t(t)];
-  return point_triangle_distance_squared(p, c[0], c[1], c[2]);
+// The triangle tests of point_triangle_*, inlined here (the tree's inner loops).
+inline double TriangleDistanceTree::triangle_d2(DVec3 p, uint32_t t) const {
+  return prepared_triangle_distance_squared(p, prepare_triangle(corner(t, 0), corner(t, 1), corner(t, 2)));
 }
 
-static inline double box_d2(DVec3 p, DVec3 lo, DVec3 hi) {
-  double dx = std::max(std::max(lo.x - p.x, 0.0), p.x - hi.x);
-  double dy = std::max(std::max(lo.y - p.y, 0.0), p.y - hi.y);
-  double dz = std::max(std::max(lo.z - p.z, 0.0), p.z - hi.z);
+static inline double box_d2(DVec3 p, const float* lo, const float* hi) {
+  double dx = std::max(std::max(double(lo[0]) - p.x, 0.0), p.x - double(hi[0]));
+  double dy = std::max(std::max(double(lo[1]) - p.y, 0.0), p.y - double(hi[1]));
+  double dz = std::max(std::max(double(lo[2]) - p.z, 0.0), p.z - double(hi[2]));
   return dx * dx + dy * dy + dz * dz;
 }
 
-static double box_centre_d2(DVec3 p, DVec3 lo, DVec3 hi) {
-  const double dx = 0.5 * (lo.x + hi.x) - p.x, dy = 0.5 * (lo.y + hi.y) - p.y, dz = 0.5 * (lo.z + hi.z) - p.z;
+static double box_centre_d2(DVec3 p, const float* lo, const float* hi) {
+  const double dx = 0.5 * (double(lo[0]) + double(hi[0])) - p.x, dy = 0.5 * (double(lo[1]) + double(hi[1])) - p.y,
+               dz = 0.5 * (double(lo[2]) + double(hi[2])) - p.z;
   return dx * dx + dy * dy + dz * dz;
 }
 
-// Median splits keep the depth ≤ log2(n) + 1, so the query's fixed stack (2 entries per
-// level) cannot overflow.
-void TriangleDistanceTree::build(uint32_t index, uint32_t first, uint32_t last, const DVec3* tri_box,
-                                 const double* centroids) {
-  Node nd;
+// The median split of items[first, last) (an inner node's triangles): along the longest axis
+// of the centroids' extent; returns where the second child's triangles begin.
+uint32_t TriangleDistanceTree::split(BuildItem* items, uint32_t first, uint32_t last) {
   const double inf = std::numeric_limits<double>::infinity();
-  const size_t n = order_.size();
-  nd.lo = {inf, inf, inf};
-  nd.hi = {-inf, -inf, -inf};
-  if (last - first <= kLeafSize) {
-    for (uint32_t i = first; i < last; ++i) {
-      uint32_t t = order_[i];
-      const DVec3& lo = tri_box[2 * size_t(t)];
-      const DVec3& hi = tri_box[2 * size_t(t) + 1];
-      nd.lo = {std::min(nd.lo.x, lo.x), std::min(nd.lo.y, lo.y), std::min(nd.lo.z, lo.z)};
-      nd.hi = {std::max(nd.hi.x, hi.x), std::max(nd.hi.y, hi.y), std::max(nd.hi.z, hi.z)};
-    }
-    nd.first = first;
-    nd.count = last - first;
-    nodes_[index] = nd;
-    return;
-  }
-  // Inner node: only the centroid extent is needed to pick the axis; the node's box is the
-  // union of its children's (min/max are exact, so it equals the box over its triangles).
-  DVec3 clo = nd.lo, chi = nd.hi;
+  DVec3 clo{inf, inf, inf}, chi{-inf, -inf, -inf};
   for (uint32_t i = first; i < last; ++i) {
-    uint32_t t = order_[i];
-    const DVec3 c{centroids[t], centroids[n + t], centroids[2 * n + t]};
-    clo = {std::min(clo.x, c.x), std::min(clo.y, c.y), std::min(clo.z, c.z)};
-    chi = {std::max(chi.x, c.x), std::max(chi.y, c.y), std::max(chi.z, c.z)};
+    const double* c = items[i].centroid;
+    clo = {std::min(clo.x, c[0]), std::min(clo.y, c[1]), std::min(clo.z, c[2])};
+    chi = {std::max(chi.x, c[0]), std::max(chi.y, c[1]), std::max(chi.z, c[2])};
   }
   DVec3 ext = surface_distance_detail::sub(chi, clo);
   int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
-  const double* key = centroids + size_t(axis) * n;
   uint32_t mid = first + (last - first) / 2;
   // Ties broken by triangle index: the tree (and so every query) is deterministic.
-  std::nth_element(order_.begin() + first, order_.begin() + mid, order_.begin() + last, [key](uint32_t a, uint32_t b) {
-    double ka = key[a], kb = key[b];
-    return ka < kb || (ka == kb && a < b);
+  std::nth_element(items + first, items + mid, items + last, [axis](const BuildItem& a, const BuildItem& b) {
+    double ka = a.centroid[axis], kb = b.centroid[axis];
+    return ka < kb || (ka == kb && a.triangle < b.triangle);
   });
-  uint32_t child = uint32_t(nodes_.size());
-  nodes_.resize(nodes_.size() + 2);
-  build(child, first, mid, tri_box, centroids);
-  build(child + 1, mid, last, tri_box, centroids);
-  const Node& l = nodes_[child];
-  const Node& r = nodes_[child + 1];
-  nd.lo = {std::min(l.lo.x, r.lo.x), std::min(l.lo.y, r.lo.y), std::min(l.lo.z, r.lo.z)};
-  nd.hi = {std::max(l.hi.x, r.hi.x), std::max(l.hi.y, r.hi.y), std::max(l.hi.z, r.hi.z)};
-  nd.first = child;
+  return mid;
+}
+
+// A leaf's box is over its triangles' corners; an inner node's is the union of its children's
+// (set first: min/max are exact, so it equals the box over its triangles).
+void TriangleDistanceTree::set_box(uint32_t index) {
+  Node& nd = nodes_[index];
+  if (nd.count) {
+    const float inf = std::numeric_limits<float>::infinity();
+    for (int k = 0; k < 3; ++k) nd.lo[k] = inf, nd.hi[k] = -inf;
+    for (const float* c = &corners_[9 * size_t(nd.first)]; c != &corners_[9 * size_t(nd.first + nd.count)]; c += 3)
+      for (int k = 0; k < 3; ++k) nd.lo[k] = std::min(nd.lo[k], c[k]), nd.hi[k] = std::max(nd.hi[k], c[k]);
+    return;
+  }
+  const Node& l = nodes_[nd.first];
+  const Node& r = nodes_[nd.first + 1];
+  for (int k = 0; k < 3; ++k) nd.lo[k] = std::min(l.lo[k], r.lo[k]), nd.hi[k] = std::max(l.hi[k], r.hi[k]);
+}
+
+// Builds the structure of subtree `at` depth first (boxes: set_box); returns the index after
+// its last descendant. Median splits keep the depth ≤ log2(n) + 1, so the query's fixed stack
+// (2 entries per level) cannot overflow.
+uint32_t TriangleDistanceTree::build(Subtree at, BuildItem* items) {
+  Node& nd = nodes_[at.index];
+  if (at.last - at.first <= kLeafSize) {
+    nd.first = at.first;
+    nd.count = at.last - at.first;
+    return at.next;
+  }
+  nd.first = at.next;
   nd.count = 0;
-  nodes_[index] = nd;
+  const uint32_t mid = split(items, at.first, at.last);
+  const uint32_t after_left = build({at.next, at.first, mid, at.next + 2}, items);
+  return build({at.next + 1, mid, at.last, after_left}, items);
 }
 
 double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) const {
   double best = std::numeric_limits<double>::infinity();
   if (nodes_.empty()) return best;
   uint32_t best_t = *hint;
-  if (best_t < leaf_of_.size()) best = triangle_d2(p, best_t);
-  uint32_t stack[128];
+  // The hint's whole leaf first: a smaller first bound prunes more of the descent.
+  if (best_t < leaf_of_.size()) {
+    const Node& leaf = nodes_[leaf_of_[best_t]];
+    for (uint32_t t = leaf.first; t < leaf.first + leaf.count; ++t) {
+      const double d = triangle_d2(p, t);
+      if (d < best) best = d, best_t = t;
+    }
+  }
+  // Nodes are pushed with their box distance: compared again with the (smaller) best when
+  // popped, not recomputed.
+  struct Entry {
+    uint32_t node;
+    double d2;
+  };
+  Entry stack[128];
   int top = 0;
-  stack[top++] = 0;
+  stack[top++] = {0, box_d2(p, nodes_[0].lo, nodes_[0].hi)};
   while (top) {
-    const Node& nd = nodes_[stack[--top]];
-    if (box_d2(p, nd.lo, nd.hi) >= best) continue;
+    const Entry e = stack[--top];
+    if (e.d2 >= best) continue;
+    const Node& nd = nodes_[e.node];
     if (nd.count) {
       for (uint32_t i = 0; i < nd.count; ++i) {
         uint32_t t = nd.first + i;
@@ -162,32 +251,33 @@ double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) c
     uint32_t l = nd.first, r = nd.first + 1;
     double dl = box_d2(p, nodes_[l].lo, nodes_[l].hi), dr = box_d2(p, nodes_[r].lo, nodes_[r].hi);
     if (dl > dr) std::swap(l, r), std::swap(dl, dr);
-    if (dr < best) stack[top++] = r;
-    if (dl < best) stack[top++] = l;
+    if (dr < best) stack[top++] = {r, dr};
+    if (dl < best) stack[top++] = {l, dl};
   }
   *hint = best_t;
   return best;
 }
 
-bool TriangleDistanceTree::triangle_within_squared(DVec3 p, uint32_t t, double threshold) const {
-  const DVec3* c = &corners_[3 * size_t(t)];
+inline bool TriangleDistanceTree::triangle_within_squared(DVec3 p, uint32_t t, double threshold) const {
   double d2;
-  return point_triangle_within_squared(p, c[0], c[1], c[2], threshold, &d2);
+  return prepared_triangle_within_squared(p, prepare_triangle(corner(t, 0), corner(t, 1), corner(t, 2)), threshold, &d2);
 }
 
 bool TriangleDistanceTree::any_within_squared(DVec3 p, double threshold, uint32_t* hint) const {
   if (nodes_.empty()) return false;
-  // Searched from the hint's tree leaf outwards (the leaf, then the sibling subtree of each
-  // ancestor): every triangle is searched, and a query near the last one ends near its leaf
-  // instead of descending from the root.
-  uint32_t node = *hint < leaf_of_.size() ? leaf_of_[*hint] : 0;
+  // Searched from the hint outwards (the hint triangle, the rest of its tree leaf, then the
+  // sibling subtree of each ancestor): every triangle is searched, and a query near the last
+  // one ends near its leaf instead of descending from the root.
+  const bool hinted = *hint < leaf_of_.size();
+  uint32_t node = hinted ? leaf_of_[*hint] : 0;
   uint32_t stack[128];
+  // Searches the subtree at `root`; a node is pushed only once its box passed the test.
   auto search = [&](uint32_t root) {
+    if (box_d2(p, nodes_[root].lo, nodes_[root].hi) > threshold) return false;
     int top = 0;
     stack[top++] = root;
     while (top) {
       const Node& nd = nodes_[stack[--top]];
-      if (box_d2(p, nd.lo, nd.hi) > threshold) continue;
       if (nd.count) {
         for (uint32_t i = 0; i < nd.count; ++i)
           if (triangle_within_squared(p, nd.first + i, threshold)) return *hint = nd.first + i, true;
@@ -205,7 +295,17 @@ bool TriangleDistanceTree::any_within_squared(DVec3 p, double threshold, uint32_
     }
     return false;
   };
-  if (search(node)) return true;
+  if (hinted) {
+    // The hint's leaf, the hint first (the points of one triangle come together).
+    const Node& leaf = nodes_[node];
+    if (box_d2(p, leaf.lo, leaf.hi) <= threshold) {
+      if (triangle_within_squared(p, *hint, threshold)) return true;
+      for (uint32_t t = leaf.first; t < leaf.first + leaf.count; ++t)
+        if (t != *hint && triangle_within_squared(p, t, threshold)) return *hint = t, true;
+    }
+  } else if (search(node)) {
+    return true;
+  }
   while (node != 0) {
     const uint32_t parent = parent_[node];
     const uint32_t sibling = nodes_[parent].first + (nodes_[parent].first == node ? 1 : 0);

@@ -36,11 +36,18 @@ double point_triangle_distance_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c);
 // `*d2` gets the exact squared distance when all of it was computed, else a value ≤ threshold.
 bool point_triangle_within_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c, double threshold, double* d2);
 
+class ThreadPool;
+
 // Nearest-triangle queries against a fixed triangle soup (median-split AABB tree, double).
+// Corners and boxes are stored as float: every coordinate is a float input (mesh positions),
+// and a box's bounds are minima and maxima of them, so widening to double on load gives the
+// same doubles a double copy would, at half the memory (and fewer cache lines per query).
 class TriangleDistanceTree {
  public:
   TriangleDistanceTree() = default;
-  explicit TriangleDistanceTree(std::vector<DVec3> corners);  // 3 per triangle
+  // `corners`: 9 floats per triangle (3 corners × xyz). `pool` (optional; not from inside one
+  // of its own tasks) builds in parallel; the tree is the same for any pool and without one.
+  explicit TriangleDistanceTree(std::vector<float> corners, ThreadPool* pool = nullptr);
   bool empty() const { return nodes_.empty(); }
   // Squared distance to the nearest triangle; `hint` (in/out) is a triangle to start from
   // (pass ~0u initially; an opaque tree position); +inf when empty.
@@ -52,14 +59,32 @@ class TriangleDistanceTree {
 
  private:
   struct Node {
-    DVec3 lo, hi;
-    uint32_t first = 0, count = 0;  // leaf: triangles [first, +count); inner: children first, first+1
+    float lo[3];
+    uint32_t first = 0;  // leaf: triangles [first, +count); inner: children first, first+1
+    float hi[3];
+    uint32_t count = 0;
   };
-  void build(uint32_t index, uint32_t first, uint32_t last, const DVec3* tri_box, const double* centroids);
+  // Build-time, per triangle in tree order: its centroid and input index. The splits reorder
+  // these (not indices into a centroid array): their keys are read in sequence.
+  struct BuildItem {
+    double centroid[3];
+    uint32_t triangle;
+  };
+  // Where a subtree goes: its node, its triangles [first, last) of the build items, and
+  // `next`, the first node index of its descendants (children pairs are laid out depth first).
+  struct Subtree {
+    uint32_t index, first, last, next;
+  };
+  static uint32_t split(BuildItem* items, uint32_t first, uint32_t last);
+  uint32_t build(Subtree at, BuildItem* items);
+  void set_box(uint32_t index);
+  DVec3 corner(uint32_t t, int j) const {
+    const float* c = &corners_[9 * size_t(t) + 3 * size_t(j)];
+    return {c[0], c[1], c[2]};
+  }
   double triangle_d2(DVec3 p, uint32_t t) const;
   bool triangle_within_squared(DVec3 p, uint32_t t, double threshold) const;
-  std::vector<DVec3> corners_;   // 3 per triangle, in tree order after the build
-  std::vector<uint32_t> order_;  // build only: tree position → input triangle
+  std::vector<float> corners_;  // 9 per triangle, in tree order
   std::vector<Node> nodes_;
   std::vector<uint32_t> parent_;   // per node (root: 0)
   std::vector<uint32_t> leaf_of_;  // per triangle: its tree leaf

@@ -517,7 +517,7 @@ void build_leaves(BuildState& s) {
   const double te = now_seconds();
   std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
   for (size_t i = 0; i < s.clusters.size(); ++i) leaf_sets[i] = &s.clusters[i].triangles;
-  s.leaf_surface = build_leaf_surface(s.mesh, leaf_sets);
+  s.leaf_surface = build_leaf_surface(s.mesh, leaf_sets, s.pool);
   s.report.seconds_error += now_seconds() - te;
 }
 

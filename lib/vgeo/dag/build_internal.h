@@ -196,7 +196,7 @@ inline float round_up_to_float(double d) {
 struct LeafSurface {
   TriangleDistanceTree tree;  // triangle ids: the leaves' triangles in order
 };
-LeafSurface build_leaf_surface(const Mesh& mesh, const std::vector<const TriangleSet*>& leaves);
+LeafSurface build_leaf_surface(const Mesh& mesh, const std::vector<const TriangleSet*>& leaves, ThreadPool& pool);
 // max(floor, the distance lib/vgeo/verify measures from `simplified` to the leaves), rounded
 // up to float: the lattice of surface_distance.h, exact nearest leaf triangle, the same
 // points. `floor` = the largest stored error of the group's members (`input`); the search

@@ -25,16 +25,16 @@ constexpr uint64_t kNoEdge = ~uint64_t(0);
 
 }  // namespace
 
-LeafSurface build_leaf_surface(const Mesh& mesh, const std::vector<const TriangleSet*>& leaves) {
-  size_t n = 0;
-  for (const TriangleSet* t : leaves) n += t->triangle_count();
-  std::vector<DVec3> corners;
-  corners.reserve(3 * n);
-  for (const TriangleSet* t : leaves)
-    for (uint32_t v : t->corners)
-      corners.push_back({mesh.positions[3 * size_t(v)], mesh.positions[3 * size_t(v) + 1], mesh.positions[3 * size_t(v) + 2]});
+LeafSurface build_leaf_surface(const Mesh& mesh, const std::vector<const TriangleSet*>& leaves, ThreadPool& pool) {
+  std::vector<size_t> offset(leaves.size() + 1, 0);  // per leaf: its first corner float
+  for (size_t i = 0; i < leaves.size(); ++i) offset[i + 1] = offset[i] + 3 * leaves[i]->corners.size();
+  std::vector<float> corners(offset.back());
+  pool.parallel_for(leaves.size(), [&](size_t i) {
+    float* out = &corners[offset[i]];
+    for (uint32_t v : leaves[i]->corners) out = std::copy_n(&mesh.positions[3 * size_t(v)], 3, out);
+  });
   LeafSurface s;
-  s.tree = TriangleDistanceTree(std::move(corners));
+  s.tree = TriangleDistanceTree(std::move(corners), &pool);
   return s;
 }
 

@@ -16,17 +16,17 @@ namespace vgeo {
 
 ClusterDeviation measure_cluster_deviation(const ClusterDag& dag, const VerifyOptions& options) {
   const size_t nc = dag.clusters.size();
-  auto corner = [&](const DagCluster& k, uint32_t t, int j) {
-    size_t v = size_t(k.vertex_offset) + dag.indices[3 * (size_t(k.triangle_offset) + t) + j];
-    return DVec3{dag.positions[3 * v], dag.positions[3 * v + 1], dag.positions[3 * v + 2]};
-  };
-  std::vector<DVec3> leaf_corners;
+  std::vector<float> leaf_corners;
   for (const DagCluster& k : dag.clusters) {
     if (k.generating_group != kNone) continue;
     for (uint32_t t = 0; t < k.triangle_count; ++t)
-      for (int j = 0; j < 3; ++j) leaf_corners.push_back(corner(k, t, j));
+      for (int j = 0; j < 3; ++j) {
+        const float* p = &dag.positions[3 * (size_t(k.vertex_offset) + dag.indices[3 * (size_t(k.triangle_offset) + t) + j])];
+        leaf_corners.insert(leaf_corners.end(), p, p + 3);
+      }
   }
-  TriangleDistanceTree bvh(std::move(leaf_corners));
+  ThreadPool pool(options.threads);
+  TriangleDistanceTree bvh(std::move(leaf_corners), &pool);
   ClusterDeviation out;
   out.distance.assign(nc, 0.0);
   out.worst.assign(nc, DVec3{});
@@ -36,7 +36,6 @@ ClusterDeviation measure_cluster_deviation(const ClusterDag& dag, const VerifyOp
   std::vector<uint64_t> samples(targets.size(), 0);
   const uint32_t k_sub = std::max(1u, options.error_samples_per_edge);
   if (!bvh.empty()) {
-    ThreadPool pool(options.threads);
     std::atomic<size_t> next{0};
     pool.run_on_all([&](unsigned) {
       for (size_t i; (i = next.fetch_add(1)) < targets.size();) {

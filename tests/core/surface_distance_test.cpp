@@ -1,0 +1,60 @@
+// TriangleDistanceTree (lib/vgeo/core/surface_distance.h): its queries are the brute-force
+// minimum over all triangles bit-exactly, for any start hint, and the tree a pool builds in
+// parallel answers exactly as the serial build.
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "vgeo/core/surface_distance.h"
+#include "vgeo/core/thread_pool.h"
+
+namespace vgeo {
+namespace {
+
+double brute_nearest(const std::vector<float>& c, DVec3 p) {
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t t = 0; t < c.size() / 9; ++t) {
+    const float* q = &c[9 * t];
+    best = std::min(best, point_triangle_distance_squared(p, {q[0], q[1], q[2]}, {q[3], q[4], q[5]}, {q[6], q[7], q[8]}));
+  }
+  return best;
+}
+
+// Corners on a coarse grid (coincident, collinear and degenerate triangles common), enough
+// triangles that a pool of 3 splits the top of the tree in parallel (8 subtrees per thread).
+RC_GTEST_PROP(TriangleDistanceTree, QueriesEqualBruteForceForAnyPool, ()) {
+  const uint32_t triangles = *rc::gen::inRange<uint32_t>(1, 400);
+  std::vector<float> corners;
+  for (uint32_t i = 0; i < 9 * triangles; ++i) corners.push_back(float(*rc::gen::inRange(-8, 9)) * 0.25f);
+  ThreadPool pool(3);
+  const TriangleDistanceTree serial(corners), parallel(corners, &pool);
+  uint32_t hint_serial = ~0u, hint_parallel = ~0u, hint_any = ~0u;
+  for (int k = 0; k < 20; ++k) {
+    const DVec3 p{double(*rc::gen::inRange(-80, 81)) / 32, double(*rc::gen::inRange(-80, 81)) / 32,
+                  double(*rc::gen::inRange(-80, 81)) / 32};
+    const double expected = brute_nearest(corners, p);
+    RC_ASSERT(serial.nearest_distance_squared(p, &hint_serial) == expected);
+    RC_ASSERT(parallel.nearest_distance_squared(p, &hint_parallel) == expected);
+    // The decision at the distance itself and one ulp either side, from the last hint.
+    for (double threshold : {expected, std::nextafter(expected, 0.0), std::nextafter(expected, 1e300)}) {
+      RC_ASSERT(parallel.any_within_squared(p, threshold, &hint_any) == (expected <= threshold));
+      uint32_t fresh = ~0u;
+      RC_ASSERT(serial.any_within_squared(p, threshold, &fresh) == (expected <= threshold));
+    }
+  }
+}
+
+TEST(TriangleDistanceTree, EmptyTree) {
+  ThreadPool pool(2);
+  const TriangleDistanceTree tree(std::vector<float>{}, &pool);
+  uint32_t hint = ~0u;
+  EXPECT_TRUE(tree.empty());
+  EXPECT_EQ(tree.nearest_distance_squared({0, 0, 0}, &hint), std::numeric_limits<double>::infinity());
+  EXPECT_FALSE(tree.any_within_squared({0, 0, 0}, 1.0, &hint));
+}
+
+}  // namespace
+}  // namespace vgeo
