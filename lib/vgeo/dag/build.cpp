@@ -670,12 +670,9 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
       simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target, s.fins);
     }
     if (!reduces_enough(merged, simplified.triangles)) break;
-    if (!locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked, blk.shared_edges,
-                                 BorderUses::kAny) ||
-        simplification_folds(s.welded, merged, simplified.triangles))
-      continue;
-    sealed = locked_border_preserved(s.welded, merged, simplified.triangles, s.locks.locked, blk.shared_edges,
-                                     BorderUses::kSame);
+    const BorderState border = locked_border_state(s.welded, merged, simplified.triangles, s.locks.locked, blk.shared_edges);
+    if (border == BorderState::kBroken || simplification_folds(s.welded, merged, simplified.triangles)) continue;
+    sealed = border == BorderState::kKept;
     if (!sealed && !have_folded) folded_over_border = simplified, have_folded = true;
   }
   if (!sealed && have_folded) simplified = std::move(folded_over_border), sealed = true;

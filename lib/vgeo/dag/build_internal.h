@@ -222,14 +222,14 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
 // that edge's parity, a crack to `vgeo verify` (spec/dag.md §2.3).
 bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after);
 
-// True when every locked welded vertex of `before` is used by `after` and every welded edge
-// of `before` listed in `shared_edges` (sorted edge keys of edges also used outside the
-// group) is an edge of `after`; with BorderUses::kSame, one `before` uses once is used once
-// by `after` (a manifold border stays one: not folded over).
-enum class BorderUses : uint8_t { kAny, kSame };
-bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before,
-                             const TriangleSet& after, const std::vector<uint8_t>& locked,
-                             const std::vector<uint64_t>& shared_edges, BorderUses uses);
+// The border check of spec/dag.md §2.3. kBroken: some locked welded vertex of `before` is
+// not used by `after`, or some welded edge of `before` listed in `shared_edges` (sorted edge
+// keys of edges also used outside the group) is not an edge of `after`. kFoldedOver: not
+// broken, but a shared edge `before` uses once is used more often by `after` (folded over
+// the border; parity is the fold check's business). kKept: neither.
+enum class BorderState : uint8_t { kBroken, kFoldedOver, kKept };
+BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
+                                const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges);
 
 // Spheres, computed in double and rounded outward so containment survives float rounding.
 Sphere sphere_of_points(const Mesh& mesh, const uint32_t* vertices, size_t count);

@@ -529,9 +529,8 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
   return false;
 }
 
-bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                             const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges,
-                             BorderUses uses) {
+BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
+                                const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
   // Locked welded vertices of `after` in one open addressing set (load ≤ 1/2), keyed
   // (v << 32 | v); the shared edges of both sides as sorted key lists with multiplicity.
   // Only locked ones are looked at, and they lie on the group border (a minority).
@@ -562,19 +561,21 @@ bool locked_border_preserved(const WeldedMesh& welded, const TriangleSet& before
     if (table[slot((uint64_t(a) << 32) | a)] == kEmpty) preserved = false;
     if (is_shared(a, b)) before_shared.push_back(edge_key(a, b));
   });
-  if (!preserved) return false;
+  if (!preserved) return BorderState::kBroken;
   // Every shared edge of `before` is an edge of `after`; one used once (a manifold border)
-  // stays used once: a second and third use is a fold over the border (spec/dag.md §2.3).
+  // should stay used once: more uses are a fold over the border (spec/dag.md §2.3).
   std::sort(before_shared.begin(), before_shared.end());
   std::sort(after_shared.begin(), after_shared.end());
+  BorderState state = BorderState::kKept;
   for (size_t i = 0; i < before_shared.size();) {
     size_t j = i;
     while (j < before_shared.size() && before_shared[j] == before_shared[i]) ++j;
     auto [lo, hi] = std::equal_range(after_shared.begin(), after_shared.end(), before_shared[i]);
-    if (lo == hi || (uses == BorderUses::kSame && j - i == 1 && hi - lo != 1)) return false;
+    if (lo == hi) return BorderState::kBroken;
+    if (j - i == 1 && hi - lo != 1) state = BorderState::kFoldedOver;
     i = j;
   }
-  return true;
+  return state;
 }
 
 }  // namespace vgeo::build_detail
