@@ -27,12 +27,25 @@ struct DagQuality {
   uint64_t cut_stored[2] = {0, 0};    // triangles of the stored-error cut at kCutEpsilons
   std::vector<double> ratios;         // measured / stored lod_error, non-leaf clusters
   uint64_t roots = 0, root_triangles = 0;
+  std::vector<uint64_t> cut_curve;    // measured-hull cut at kCurveEpsilons(i)
+  struct Level {
+    uint64_t clusters = 0, triangles = 0;
+    double hull_median = 0;  // of its clusters' measured hull, / diagonal
+  };
+  std::vector<Level> levels;  // by DAG level (of the cluster's group)
 };
 
 namespace {
 
 // Cut errors as fractions of the mesh diagonal (issue 15 §2).
 constexpr double kCutEpsilons[2] = {1e-3, 1e-2};
+// The cut as a curve over eps: a DAG's levels halve the triangle count, so the cut at one eps
+// jumps by up to 2x as eps crosses a level's typical hull (a sawtooth); two builders compared
+// at one eps compare where their sawteeth fall. kCurvePoints log-spaced eps from 1e-3 to 1e-2
+// (16 steps per decade: finer than one level's 2x error step) give the curve and its
+// geometric mean, which averages the sawtooth out.
+constexpr int kCurvePoints = 17;
+double curve_epsilon(int i) { return 1e-3 * std::pow(10.0, double(i) / (kCurvePoints - 1)); }
 
 double diagonal(const ClusterDag& dag) {
   double d2 = 0;
@@ -92,6 +105,21 @@ DagQuality measure_dag_quality(const ClusterDag& dag, unsigned threads) {
   for (int e = 0; e < 2; ++e) {
     q.cut_measured[e] = cut_triangles(dag, self_hull, parent_hull, kCutEpsilons[e] * diag);
     q.cut_stored[e] = cut_triangles(dag, self_stored, parent_stored, kCutEpsilons[e] * diag);
+  }
+  for (int i = 0; i < kCurvePoints; ++i) q.cut_curve.push_back(cut_triangles(dag, self_hull, parent_hull, curve_epsilon(i) * diag));
+  std::vector<std::vector<double>> level_hulls;
+  for (size_t c = 0; c < nc; ++c) {
+    const uint32_t level = dag.groups[dag.clusters[c].group].level;
+    if (level >= q.levels.size()) q.levels.resize(level + 1), level_hulls.resize(level + 1);
+    ++q.levels[level].clusters;
+    q.levels[level].triangles += dag.clusters[c].triangle_count;
+    level_hulls[level].push_back(self_hull[c] / diag);
+  }
+  for (size_t l = 0; l < q.levels.size(); ++l) {
+    std::vector<double>& h = level_hulls[l];
+    if (h.empty()) continue;
+    std::nth_element(h.begin(), h.begin() + h.size() / 2, h.end());
+    q.levels[l].hull_median = h[h.size() / 2];
   }
   return q;
 }
@@ -199,6 +227,13 @@ void run_dagquality_suite(const BenchConfig& cfg, SuiteReport& out) {
           {"mesh", "builder", "group size", "input tris", "cut 1e-3 (measured)", "cut 1e-2 (measured)", "cut 1e-3 (stored)", "cut 1e-2 (stored)",
            "measured/stored median", "p5", "max", "levels", "stored x", "roots", "build s"},
           {}};
+  Table curve{"Cut triangles over eps (measured hull; eps / diagonal, log-spaced): the level sawtooth",
+              {"mesh", "builder", "group size", "1e-3", "1.33e-3", "1.78e-3", "2.37e-3", "3.16e-3", "5.62e-3", "1e-2",
+               "min", "max", "geometric mean (17 eps)"},
+              {}};
+  Table level_table{"Levels: triangles and median measured hull / diagonal (the ladder the cut picks from)",
+                    {"mesh", "builder", "group size", "level: triangles @ median hull"},
+                    {}};
   nlohmann::json rows = nlohmann::json::array();
   const std::vector<QualityInput> inputs = quality_inputs(cfg.quick);
   Progress progress("bench dagquality", inputs.size(), cfg.progress);
@@ -244,6 +279,26 @@ void run_dagquality_suite(const BenchConfig& cfg, SuiteReport& out) {
                       std::to_string(q.cut_measured[1]), std::to_string(q.cut_stored[0]), std::to_string(q.cut_stored[1]),
                       median_str(q.ratios, 0.5), median_str(q.ratios, 0.05), median_str(q.ratios, 1.0),
                       std::to_string(dag.level_count), fmt(stored_x), std::to_string(q.roots), fmt(build_s)});
+    {
+      std::vector<std::string> row{in.label, variant.label(), std::to_string(group_size)};
+      for (int i : {0, 2, 4, 6, 8, 12, 16}) row.push_back(std::to_string(q.cut_curve[size_t(i)]));
+      double log_sum = 0;
+      for (uint64_t c : q.cut_curve) log_sum += std::log(double(std::max<uint64_t>(c, 1)));
+      row.push_back(std::to_string(*std::min_element(q.cut_curve.begin(), q.cut_curve.end())));
+      row.push_back(std::to_string(*std::max_element(q.cut_curve.begin(), q.cut_curve.end())));
+      row.push_back(std::to_string(uint64_t(std::llround(std::exp(log_sum / kCurvePoints)))));
+      curve.rows.push_back(row);
+      std::string ladder;
+      for (size_t l = 0; l < q.levels.size(); ++l)
+        if (q.levels[l].triangles)
+          ladder += (ladder.empty() ? "" : ", ") + std::to_string(l) + ": " + std::to_string(q.levels[l].triangles) + " @ " +
+                    fmt(q.levels[l].hull_median);
+      level_table.rows.push_back({in.label, variant.label(), std::to_string(group_size), ladder});
+    }
+    nlohmann::json curve_json = nlohmann::json::array(), levels_json = nlohmann::json::array();
+    for (int i = 0; i < kCurvePoints; ++i) curve_json.push_back({{"eps", curve_epsilon(i)}, {"triangles", q.cut_curve[size_t(i)]}});
+    for (const DagQuality::Level& l : q.levels)
+      levels_json.push_back({{"clusters", l.clusters}, {"triangles", l.triangles}, {"hull_median", l.hull_median}});
     rows.push_back({{"mesh", in.label},
                     {"builder", variant.label()},
                     {"group_target_clusters", group_size},
@@ -257,11 +312,15 @@ void run_dagquality_suite(const BenchConfig& cfg, SuiteReport& out) {
                     {"stored_x", stored_x},
                     {"roots", q.roots},
                     {"root_triangles", q.root_triangles},
-                    {"build_seconds", build_s}});
+                    {"build_seconds", build_s},
+                    {"cut_curve", curve_json},
+                    {"levels_by_hull", levels_json}});
     }
     progress.advance();
   }
   out.tables.push_back(t);
+  out.tables.push_back(curve);
+  out.tables.push_back(level_table);
   out.data["meshes"] = rows;
 }
 
