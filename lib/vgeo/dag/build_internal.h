@@ -175,15 +175,6 @@ void drop_reversed_pairs(const WeldedMesh& welded, TriangleSet& triangles);
 struct SimplifyResult {
   TriangleSet triangles;  // references original vertex ids only (no new positions)
 };
-// The simplification's own error as stored: the sampled one-sided distance from the
-// simplified triangles to the group's input triangles on the shared error lattice
-// (lib/vgeo/core/surface_distance.h), rounded up to float.
-float measured_simplification_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified);
-// max(estimate, measured_simplification_error(...)), bit-identical, but the lattice search
-// stops early for points that cannot raise the maximum (lib/vgeo/dag/measure_error.cpp).
-float simplification_error(const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
-                           float estimate);
-
 // The smallest float ≥ d: stored errors are rounded up, never below the measured double.
 inline float round_up_to_float(double d) {
   float e = float(d);

@@ -1,0 +1,114 @@
+// The builder's stored-error measurement (lib/vgeo/dag/leaf_error.cpp) takes shortcuts in *how*
+// it finds the maximum (points within the floor or the running maximum of some leaf triangle,
+// edges of a simplified input, corners); these properties pin that its value is bit-identical
+// to the reference sampled_one_sided_distance of lib/vgeo/core to the leaves on the same
+// lattice (what lib/vgeo/verify checks as ERROR_BOUND), max the floor.
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "vgeo/core/surface_distance.h"
+#include "vgeo/core/thread_pool.h"
+#include "vgeo/dag/build_internal.h"
+
+namespace vgeo::test {
+namespace {
+
+using build_detail::TriangleSet;
+
+double reference_distance(const Mesh& mesh, const TriangleSet& leaves, const TriangleSet& from) {
+  std::vector<float> corners;
+  for (uint32_t v : leaves.corners) corners.insert(corners.end(), &mesh.positions[3 * size_t(v)], &mesh.positions[3 * size_t(v)] + 3);
+  TriangleDistanceTree tree(std::move(corners));
+  return sampled_one_sided_distance(mesh.positions.data(), from.corners.data(), from.triangle_count(), tree,
+                                    kErrorLatticeSubdivisions);
+}
+
+uint32_t bits(float f) {
+  uint32_t b;
+  std::memcpy(&b, &f, 4);
+  return b;
+}
+
+float leaf_deviation_of(const Mesh& mesh, const TriangleSet& leaves, const TriangleSet& input,
+                        const TriangleSet& simplified, float floor, unsigned threads) {
+  ThreadPool pool(threads);
+  const build_detail::LeafSurface surface = build_detail::build_leaf_surface(mesh, {&leaves}, pool);
+  return build_detail::leaf_deviation(surface, mesh, input, simplified, floor);
+}
+
+// Triangles over vertices drawn from `from` (corners of leaf triangles: both backends only
+// remove vertices), or over all vertices when `from` is empty.
+TriangleSet random_triangles(uint32_t vertex_count, const TriangleSet* from, uint32_t min_count, uint32_t max_count) {
+  TriangleSet t;
+  const uint32_t count = *rc::gen::inRange<uint32_t>(min_count, max_count);
+  for (uint32_t i = 0; i < count; ++i) {
+    for (int k = 0; k < 3; ++k)
+      t.corners.push_back(from ? from->corners[*rc::gen::inRange<size_t>(0, from->corners.size())]
+                               : *rc::gen::inRange<uint32_t>(0, vertex_count));
+    t.materials.push_back(0);
+  }
+  return t;
+}
+
+// Positions on a grid, leaf triangles over them; the group's input and its simplification over leaf vertices. The floor is either 0
+// (nothing skipped), or at least the input's own deviation (the builder's invariant: the
+// members' stored errors bound their lattice points, so the input's edge points are skipped).
+RC_GTEST_PROP(LeafError, BitIdenticalToReferenceLattice, ()) {
+  const uint32_t vertex_count = *rc::gen::inRange<uint32_t>(3, 40);
+  Mesh mesh;
+  // Coarse or fine grid steps (exact floats): coarse makes coincident and collinear points
+  // common, fine makes many distinct distances (each a chance for a wrong skip to show).
+  const float step = *rc::gen::element(0.25f, 1.0f / 64);
+  const int extent = step == 0.25f ? 4 : 64;
+  for (uint32_t v = 0; v < 3 * vertex_count; ++v) mesh.positions.push_back(float(*rc::gen::inRange(-extent, extent + 1)) * step);
+  const TriangleSet leaves = random_triangles(vertex_count, nullptr, 1, 60);
+  const TriangleSet input = random_triangles(vertex_count, &leaves, 1, 40);
+  const TriangleSet simplified = random_triangles(vertex_count, &leaves, 1, 40);
+  const float input_deviation = build_detail::round_up_to_float(reference_distance(mesh, leaves, input));
+  const float floor = *rc::gen::element(0.0f, input_deviation, std::nextafter(input_deviation, INFINITY),
+                                        input_deviation * 2.0f + 0.25f);
+  const float expected = std::max(floor, build_detail::round_up_to_float(reference_distance(mesh, leaves, simplified)));
+  const unsigned threads = *rc::gen::inRange(1u, 3u);
+  RC_ASSERT(bits(leaf_deviation_of(mesh, leaves, input, simplified, floor, threads)) == bits(expected));
+}
+
+// Many tiny leaf triangles and a few that span the whole sheet; simplified triangles far
+// apart over the tiny ones' vertices (interior points off the surface): long searches, and
+// the value must still be the reference's, bit for bit, for every floor.
+TEST(LeafError, HugeAmongTinyTrianglesStillBitIdentical) {
+  Mesh mesh;
+  TriangleSet leaves, simplified;
+  auto vertex = [&](float x, float y, float z) {
+    mesh.positions.insert(mesh.positions.end(), {x, y, z});
+    return uint32_t(mesh.vertex_count() - 1);
+  };
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) {  // 1600 tiny triangles on a wavy sheet
+      const float x = float(i), y = float(j), z = 0.3f * float((i * 7 + j * 3) % 5);
+      leaves.corners.insert(leaves.corners.end(), {vertex(x, y, z), vertex(x + 0.01f, y, z), vertex(x, y + 0.01f, z)});
+      leaves.materials.push_back(0);
+    }
+  for (int k = 0; k < 60; ++k) {  // 60 huge ones across the sheet, at several heights
+    const float z = 0.05f * float(k % 11);
+    leaves.corners.insert(leaves.corners.end(), {vertex(-1, -1, z), vertex(45, -1, z + 0.5f), vertex(-1, 45, z + 1.0f)});
+    leaves.materials.push_back(0);
+  }
+  const size_t tiny_vertices = 3 * 1600;
+  for (uint32_t t = 0; t < 200; ++t) {
+    const uint32_t a = (t * 97) % tiny_vertices, b = (t * 389 + 11) % tiny_vertices, c = (t * 1013 + 5) % tiny_vertices;
+    simplified.corners.insert(simplified.corners.end(), {a, b, c});
+    simplified.materials.push_back(0);
+  }
+  const float reference = build_detail::round_up_to_float(reference_distance(mesh, leaves, simplified));
+  EXPECT_GT(reference, 0.0f);
+  for (float floor : {0.0f, reference * 0.5f, reference, reference * 2.0f})
+    for (unsigned threads : {1u, 2u})
+      EXPECT_EQ(bits(leaf_deviation_of(mesh, leaves, leaves, simplified, floor, threads)), bits(std::max(floor, reference)));
+}
+
+}  // namespace
+}  // namespace vgeo::test
