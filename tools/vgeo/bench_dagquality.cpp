@@ -27,7 +27,7 @@ struct DagQuality {
   uint64_t cut_stored[2] = {0, 0};    // triangles of the stored-error cut at kCutEpsilons
   std::vector<double> ratios;         // measured / stored lod_error, non-leaf clusters
   uint64_t roots = 0, root_triangles = 0;
-  std::vector<uint64_t> cut_curve;    // measured-hull cut at kCurveEpsilons(i)
+  std::vector<uint64_t> cut_curve;    // measured-hull cut at curve_epsilon(i)
   struct Level {
     uint64_t clusters = 0, triangles = 0;
     double hull_median = 0;  // of its clusters' measured hull, / diagonal
