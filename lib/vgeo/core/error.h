@@ -19,7 +19,7 @@ enum ExitCode : int {
 };
 
 struct Error {
-  std::string code;   // stable, e.g. "GLTF_INDEX_OUT_OF_RANGE"
+  std::string code;   // stable, e.g. "GLTF_PARSE_ERROR" (spec/errors.md)
   std::string where;  // file path (or "<memory>")
   std::string what;   // one-line human explanation
   int exit_code = kExitBadInput;
