@@ -1,4 +1,7 @@
 #pragma once
+// Based on: Karis, Stone, Wihlidal, "Nanite: A Deep Dive", SIGGRAPH 2021 Advances in
+// Real-Time Rendering (LOD by projected error: a cluster is drawn when its own error is small
+// and its parent's is not).
 // The LOD test shared by the builder's checks, lib/vgeo/verify and the runtime (one
 // implementation, spec/invariants.md §LOD). Error is projected from the point of the
 // sphere nearest to the eye: err * scale / max(d - r, z_near). Properties relied upon:

@@ -1,3 +1,6 @@
+// Hierarchical depth buffer: a max-depth mip chain of the visibility buffer, tested by a
+// sphere's screen rectangle. Based on: Greene, Kass, Miller, "Hierarchical Z-Buffer
+// Visibility", SIGGRAPH 1993; used two-pass as in Karis et al., "Nanite: A Deep Dive" (2021).
 #include "vgeo/cull/hzb.h"
 
 #include <algorithm>

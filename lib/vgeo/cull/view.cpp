@@ -1,3 +1,6 @@
+// View tests for bounding spheres: frustum rejection against the side planes through the eye
+// and the sphere's screen rectangle from its view-space box. Based on: the conservative
+// sphere tests of Haar, Aaltonen, "GPU-Driven Rendering Pipelines", SIGGRAPH 2015 Advances.
 #include "vgeo/cull/view.h"
 
 #include <algorithm>

@@ -1,3 +1,6 @@
+// CRC-32C, table driven. Based on: Castagnoli, Bräuer, Herrmann, "Optimization of Cyclic
+// Redundancy-Check Codes with 24 and 32 Parity Bits", IEEE Trans. Commun. 41(6), 1993; the
+// check value of RFC 3720 §B.4.
 #include "vgeo/format/crc32c.h"
 
 #include <array>

@@ -1,6 +1,8 @@
 // Loop subdivision through OpenMesh, with our own manifold pre-check (OpenMesh's add_face
 // reports complex edges/vertices only on stderr and silently drops the face) and our own
 // attribute carrying (LoopT moves positions only).
+// Based on: Loop, "Smooth Subdivision Surfaces Based on Triangles", MS thesis, University of
+// Utah, 1987 (OpenMesh's LoopT).
 #include "vgeo/mesh/subdivide.h"
 
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>

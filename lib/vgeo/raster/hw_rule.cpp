@@ -1,4 +1,6 @@
 // Hardware raster rule (hw_rule.h, spec/raster.md §13.3).
+// Based on: the Vulkan specification's polygon rasterization (coverage of sample points, a
+// tie-break rule for samples on a shared edge), as fixed-function hardware applies it.
 #include "vgeo/raster/hw_rule.h"
 
 #include <algorithm>

@@ -7,6 +7,9 @@
 // bounding box, exact scanline spans, brute-force reference). All loops share one
 // coverage predicate and one depth function, so they produce bit-identical buffers.
 // Design source: Nanite deep dive (Karis et al. 2021), "Software Rasterization".
+// Based on: Pineda, "A Parallel Algorithm for Polygon Rasterization", SIGGRAPH 1988 (edge
+// functions); Sutherland, Hodgman, "Reentrant Polygon Clipping", CACM 1974; the software
+// micro-triangle raster of Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021.
 #include "vgeo/raster/raster.h"
 
 #include <algorithm>

@@ -1,3 +1,6 @@
+// Shading from the visibility buffer: decode (instance, cluster, triangle) per pixel, re-fetch
+// the triangle and shade it. Based on: Burns, Hunt, "The Visibility Buffer: A Cache-Friendly
+// Approach to Deferred Shading", JCGT 2(2), 2013; Nanite's material pass (Karis et al. 2021).
 #include "vgeo/shade/shade.h"
 
 #include <algorithm>

@@ -2,6 +2,8 @@
 // spec/invariants.md §2–§4. The view-dependent checks share random views: each view is
 // tested for projected-error monotonicity and then cut at several pixel thresholds; every
 // cut is checked for exact leaf coverage, sibling agreement and open edges.
+// Based on: the cut conditions of Cignoni et al., "Batched Multi Triangulation", IEEE
+// Visualization 2005, as Nanite applies them to cluster groups (Karis et al. 2021).
 #include <algorithm>
 #include <atomic>
 #include <cmath>
