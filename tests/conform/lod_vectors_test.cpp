@@ -449,7 +449,9 @@ TEST(LodVectors, ConformLodFindsBrokenRuntimes) {
   cases = test::checked_junit((dir / "f32.xml").string());
   for (const auto& v : manifest["vectors"]) {
     const std::string name = v["name"];
-    if (v["kind"] != "tie") EXPECT_NE(cases.find("." + name + ": passed"), std::string::npos) << name << "\n" << cases;
+    if (v["kind"] != "tie") {
+      EXPECT_NE(cases.find("." + name + ": passed"), std::string::npos) << name << "\n" << cases;
+    }
   }
   EXPECT_EQ(float_rt.output.find("comparison-direction"), std::string::npos) << float_rt.output;
   Runtime naive;
@@ -523,6 +525,39 @@ TEST(LodVectors, ConformLodFindsBrokenRuntimes) {
   auto unknown = run("unknown.txt", "no_such_vector: 1\n");
   EXPECT_EQ(unknown.exit_code, 3) << unknown.output;
   EXPECT_NE(unknown.output.find("error[CONFORM_LOD_UNKNOWN_VECTOR]"), std::string::npos) << unknown.output;
+  fs::remove_all(dir);
+}
+
+TEST(LodVectors, CorruptedVectorsAreRejected) {
+  // A vector whose expected set is not the reference cut, a vector claiming to be an exact tie
+  // that is not one, and an unknown kind: CONFORM_LOD_VECTOR_INVALID (exit 3), never a pass.
+  const fs::path dir = fs::temp_directory_path() / ("vgeo_lod_corrupt_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::ifstream f(kDir / "manifest.json");
+  const nlohmann::json manifest = nlohmann::json::parse(f);
+  auto check = [&](const std::string& what, const std::function<void(nlohmann::json&)>& corrupt,
+                   const std::string& expected_text) {
+    const fs::path vectors = dir / what;
+    fs::create_directories(vectors);
+    fs::copy_file(kDir / kDagName, vectors / kDagName, fs::copy_options::overwrite_existing);
+    nlohmann::json m = manifest;
+    corrupt(m);
+    std::ofstream(vectors / "manifest.json") << m.dump(1);
+    auto r = test::run_cli("conform lod --vectors '" + vectors.string() + "' --write-reference '" +
+                           (vectors / "ref.txt").string() + "'");
+    EXPECT_EQ(r.exit_code, 3) << what << "\n" << r.output;
+    EXPECT_NE(r.output.find("error[CONFORM_LOD_VECTOR_INVALID]"), std::string::npos) << what << "\n" << r.output;
+    EXPECT_NE(r.output.find(expected_text), std::string::npos) << what << "\n" << r.output;
+  };
+  auto named = [](nlohmann::json& m, const std::string& name) -> nlohmann::json& {
+    for (auto& v : m["vectors"])
+      if (v["name"] == name) return v;
+    ADD_FAILURE() << name;
+    return m;
+  };
+  check("expected", [&](nlohmann::json& m) { named(m, "framing_mid")["expected"].erase(0); }, "framing_mid");
+  check("claim", [&](nlohmann::json& m) { named(m, "tie_level0")["kind"] = "exact_tie"; }, "not an exact tie");
+  check("kind", [&](nlohmann::json& m) { named(m, "tau_tiny")["kind"] = "fuzzy"; }, "unknown kind");
   fs::remove_all(dir);
 }
 
