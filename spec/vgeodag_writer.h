@@ -68,16 +68,34 @@ typedef struct vgeodag_cluster {
   float lod_error, parent_error;                    /* filled by vgeodag_derive() */
 } vgeodag_cluster;
 
+/* parent_error, the one definition (spec/dag.md D6, spec/invariants.md §5): for a non-terminal
+ * group, a value >= max(every member's lod_error, D), where D is the largest distance from a
+ * point of the triangles this group generated to the nearest LEAF (level-0) triangle — the
+ * deviation from the original surface, not from the group's own input, and a maximum, not a
+ * sum of per-level errors. `vgeo verify` samples D on a barycentric lattice (3 steps per edge)
+ * and reports ERROR_BOUND when it exceeds the stored value; a quadric estimate is not a bound.
+ *
+ * Winding (spec/dag.md D12): simplified triangles keep the leaves' winding (counter-clockwise
+ * seen from the front, facing the way the input surface they replace faced).
+ *
+ * builder_sphere: your own sphere for the group's simplified result, if you have one. Present
+ * iff r > 0; a zero-initialised group (r = 0), a negative or a NaN radius means "none". When
+ * present it is folded in FIRST, so when it already encloses every member's lod_bounds (as a
+ * builder's sphere of the simplified result usually does) parent_bounds is that sphere, rounded
+ * outward by one ulp, rather than a re-fold of the members that can grow up to ~1.26x. */
 typedef struct vgeodag_group {
   uint32_t first_cluster, cluster_count;     /* members */
   uint32_t first_generated, generated_count; /* into generated_clusters; 0 iff terminal */
   uint32_t level;                            /* of its members */
   uint32_t flags;                            /* VGEODAG_GROUP_TERMINAL or 0 */
   vgeodag_sphere bounds, parent_bounds;      /* filled by vgeodag_derive() */
-  float parent_error; /* yours: ≥ every member's lod_error + the deviation of the simplification */
-  vgeodag_sphere builder_sphere; /* optional (r < 0: none): your one sphere per group, merged into parent_bounds */
+  float parent_error; /* yours: >= max(every member's lod_error, deviation of its output from the leaves) */
+  vgeodag_sphere builder_sphere; /* optional, present iff r > 0 (zero = absent): folded into parent_bounds first */
 } vgeodag_group;
 
+/* A BVH node. Your own BVH: fill child_count, group_mask and children (node 0 the root, every
+ * group under exactly one slot), optionally your own spheres in bounds / lod_bounds (present
+ * iff r > 0, folded in first as for builder_sphere), then call vgeodag_derive_bvh(). */
 typedef struct vgeodag_bvh_node {
   vgeodag_sphere bounds, lod_bounds;
   float max_parent_error;
@@ -132,11 +150,21 @@ vgeodag_sphere vgeodag_enclose_spheres(const vgeodag_sphere* spheres, size_t n);
 
 /* Computes every sphere and every shared value from the structure, positions and the groups'
  * parent_error (spec/dag.md §8): cluster bounds from its vertices; leaves lod_error 0 and
- * lod_bounds = bounds; group bounds ⊇ member bounds; group parent_bounds ⊇ member lod_bounds
- * (and builder_sphere when r ≥ 0), terminal groups included; members get the group's parent
- * values and generated clusters get them as their lod values, bit for bit. Terminal groups
- * get parent_error +inf. Needs groups sorted by level and generating groups of lower level. */
+ * lod_bounds = bounds; group bounds ⊇ member bounds; group parent_bounds ⊇ builder_sphere (when
+ * r > 0, folded first) and every member's lod_bounds, terminal groups included; members get the
+ * group's parent values and generated clusters get them as their lod values, bit for bit.
+ * Terminal groups get parent_error +inf. Needs groups sorted by level and generating groups of
+ * lower level. */
 int vgeodag_derive(vgeodag_mesh* mesh);
+
+/* Completes YOUR BVH (after vgeodag_derive): for every node reached from node 0, children
+ * before parents, bounds ⊇ your node sphere (if r > 0, folded first) and every child's bounds
+ * (a group's bounds, a node's bounds), lod_bounds likewise from your sphere and every child
+ * group's parent_bounds / child node's lod_bounds, max_parent_error = the largest below.
+ * Returns VGEODAG_ERROR_ARGUMENT when the nodes do not form a tree from node 0 (a slot out of
+ * range, child_count 0 or > 8, a node reached twice or not at all). Then set
+ * mesh->bvh_nodes = nodes, mesh->bvh_node_count = node_count. */
+int vgeodag_derive_bvh(const vgeodag_mesh* mesh, vgeodag_bvh_node* nodes, uint32_t node_count);
 
 /* Writes the scene (VGEODAG1, little-endian on every host). */
 int vgeodag_write_file(const char* path, const vgeodag_scene* scene);
@@ -231,7 +259,7 @@ vgeodag_sphere vgeodag_enclose_spheres(const vgeodag_sphere* spheres, size_t n) 
 }
 
 int vgeodag_derive(vgeodag_mesh* m) {
-  uint32_t c, g, i, max_level = 0;
+  uint32_t c, g, i, n, max_level = 0;
   int have_leaf = 0;
   vgeodag_sphere* scratch;
   size_t scratch_n = 1;
@@ -285,9 +313,12 @@ int vgeodag_derive(vgeodag_mesh* m) {
       scratch[i] = k->bounds;
     }
     G->bounds = vgeodag_enclose_spheres(scratch, G->cluster_count);
-    for (i = 0; i < G->cluster_count; ++i) scratch[i] = m->clusters[G->first_cluster + i].lod_bounds;
-    if (G->builder_sphere.r >= 0.0f) scratch[i++] = G->builder_sphere;
-    G->parent_bounds = vgeodag_enclose_spheres(scratch, i);
+    /* The builder's own sphere first (present iff r > 0: zero-initialised means none): the
+     * fold keeps it whole when it encloses the members, instead of growing a re-fold. */
+    n = 0;
+    if (G->builder_sphere.r > 0.0f) scratch[n++] = G->builder_sphere;
+    for (i = 0; i < G->cluster_count; ++i) scratch[n++] = m->clusters[G->first_cluster + i].lod_bounds;
+    G->parent_bounds = vgeodag_enclose_spheres(scratch, n);
     if (G->flags & VGEODAG_GROUP_TERMINAL) G->parent_error = VGEODAG_TERMINAL_ERROR;
     for (i = 0; i < G->cluster_count; ++i) {
       vgeodag_cluster* k = &m->clusters[G->first_cluster + i];
@@ -306,6 +337,65 @@ int vgeodag_derive(vgeodag_mesh* m) {
   }
   free(scratch);
   return VGEODAG_OK;
+}
+
+int vgeodag_derive_bvh(const vgeodag_mesh* m, vgeodag_bvh_node* nodes, uint32_t node_count) {
+  /* Pre-order from the root, each node at most once; reverse pre-order visits children before
+   * their parents. */
+  uint32_t* order;
+  unsigned char* seen;
+  uint32_t head = 0, tail = 0, k;
+  int rc = VGEODAG_OK;
+  if (!m || !nodes || node_count == 0 || (m->group_count && !m->groups)) return VGEODAG_ERROR_ARGUMENT;
+  order = (uint32_t*)malloc(node_count * sizeof *order);
+  seen = (unsigned char*)calloc(node_count, 1);
+  if (!order || !seen) {
+    free(order), free(seen);
+    return VGEODAG_ERROR_MEMORY;
+  }
+  order[tail++] = 0, seen[0] = 1;
+  while (head < tail && rc == VGEODAG_OK) {
+    const vgeodag_bvh_node* N = &nodes[order[head++]];
+    if (N->child_count == 0 || N->child_count > VGEODAG_BVH_MAX_CHILDREN) rc = VGEODAG_ERROR_ARGUMENT;
+    for (k = 0; rc == VGEODAG_OK && k < N->child_count; ++k) {
+      uint32_t ch = N->children[k];
+      if (N->group_mask & (1u << k)) {
+        if (ch >= m->group_count) rc = VGEODAG_ERROR_ARGUMENT;
+      } else if (ch >= node_count || seen[ch]) {
+        rc = VGEODAG_ERROR_ARGUMENT;
+      } else {
+        seen[ch] = 1, order[tail++] = ch;
+      }
+    }
+  }
+  if (rc == VGEODAG_OK && tail != node_count) rc = VGEODAG_ERROR_ARGUMENT; /* a node not reached */
+  while (rc == VGEODAG_OK && tail-- > 0) {
+    vgeodag_bvh_node* N = &nodes[order[tail]];
+    vgeodag_sphere b[VGEODAG_BVH_MAX_CHILDREN + 1], lb[VGEODAG_BVH_MAX_CHILDREN + 1];
+    uint32_t nb = 0, nlb = 0;
+    float e = 0.0f;
+    if (N->bounds.r > 0.0f) b[nb++] = N->bounds;      /* your sphere first, as for builder_sphere */
+    if (N->lod_bounds.r > 0.0f) lb[nlb++] = N->lod_bounds;
+    for (k = 0; k < N->child_count; ++k) {
+      uint32_t ch = N->children[k];
+      float ce;
+      if (N->group_mask & (1u << k)) {
+        const vgeodag_group* G = &m->groups[ch];
+        b[nb++] = G->bounds, lb[nlb++] = G->parent_bounds, ce = G->parent_error;
+      } else {
+        const vgeodag_bvh_node* C = &nodes[ch];
+        b[nb++] = C->bounds, lb[nlb++] = C->lod_bounds, ce = C->max_parent_error;
+      }
+      if (!(ce <= e)) e = ce; /* NaN propagates: verify reports it */
+    }
+    for (k = N->child_count; k < VGEODAG_BVH_MAX_CHILDREN; ++k) N->children[k] = VGEODAG_NONE;
+    N->group_mask &= (1u << N->child_count) - 1u;
+    N->bounds = vgeodag_enclose_spheres(b, nb);
+    N->lod_bounds = vgeodag_enclose_spheres(lb, nlb);
+    N->max_parent_error = e;
+  }
+  free(order), free(seen);
+  return rc;
 }
 
 /* ---- BVH8 over the groups, bottom-up: up to 8 consecutive groups per node, then up to 8

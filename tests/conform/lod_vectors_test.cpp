@@ -34,7 +34,10 @@ namespace {
 
 const fs::path kDir = test::source_dir() / "spec" / "vectors" / "lod";
 constexpr const char* kDagName = "terrain.vgeodag";
-constexpr uint64_t kDagTriangles = 2000;  // ≈ 30 clusters over 5 levels: small, every level present
+constexpr uint64_t kDagTriangles = 2000;  // 30 clusters, 5 groups over 4 levels: small, every level present
+// Exact-tie views: z_near ≥ 4 bounding radii while every sphere's d - r from the centre is at
+// most ~1 radius, so the near clamp decides every denominator with a margin no rounding reaches.
+constexpr double kExactTieNearInRadii = 4.0;
 
 bool updating() {
   const char* u = std::getenv("VGEO_UPDATE_VECTORS");
@@ -100,7 +103,9 @@ std::vector<Vector> make_vectors(const ClusterDag& dag) {
           view_at(offset(0, 0, 1.5f * radius), 0.01f * radius));
   add("far_1e4_radii", "plain", "eye 10^4 bounding radii away, tau 1 px: only coarse clusters",
       view_at(offset(0, 0, 1e4f * radius), 0.01f * radius), 1.0f);
-  add("very_far_1e30", "plain", "eye at x = 1e30, tau 1 px: the roots", view_at(Vec3{1e30f, 0, 0}, 0.01f * radius), 1.0f);
+  add("very_far_1e30", "plain",
+      "eye at x = 1e30, tau 1 px: the roots (binary32 runtimes: |E - c| must not overflow, spec/conform.md §3.1)",
+      view_at(Vec3{1e30f, 0, 0}, 0.01f * radius), 1.0f);
   add("tau_tiny", "plain", "tau 1e-6 px: the leaves", framing, 1e-6f);
   add("tau_huge", "plain", "tau 1e30 px: the roots", framing, 1e30f);
   {
@@ -131,12 +136,36 @@ std::vector<Vector> make_vectors(const ClusterDag& dag) {
         "tau = the projected parent error of the first level-" + std::to_string(level) + " cluster (lod.h arithmetic)",
         framing, tau);
   }
+  // Exact ties (issue 24 finding 4): τ equals a projected error that every IEEE arithmetic
+  // computes exactly, so a mismatch cannot be rounding. The eye sits at the DAG's centre and
+  // z_near is a power of two ≥ kExactTieNearInRadii bounding radii, so d - r ≤ ~1 radius is far
+  // below z_near for every sphere and every denominator is z_near itself; k = 1. Then
+  // projected = error·1/z_near is a scaling by a power of two: exact in binary32 and binary64,
+  // whatever the evaluation order or the distance's rounding.
+  {
+    const double z_near = std::exp2(std::ceil(std::log2(kExactTieNearInRadii * double(radius))));
+    LodView exact;
+    exact.eye = centre;
+    exact.pixels_per_unit_at_1 = 1.0f;
+    exact.z_near = float(z_near);
+    for (uint32_t level = 0; level + 1 < dag.level_count && level < 3; ++level) {
+      const DagCluster& c = first_of_level(level);
+      if (!std::isfinite(c.parent_error)) continue;
+      const float tau = projected_error(c.parent_bounds, c.parent_error, exact);
+      add("exact_tie_level" + std::to_string(level), "exact_tie",
+          "tau = the projected parent error of the first level-" + std::to_string(level) +
+              " cluster, with k = 1 and every denominator clamped to z_near (a power of two): exact in every "
+              "IEEE arithmetic, so a mismatch is a comparison bug (>= for >, < for <=), never rounding",
+          exact, tau);
+    }
+  }
   // Residency (spec/stream.md §Usable groups, §Cut).
   const uint32_t ng = uint32_t(dag.groups.size());
   auto residency = [&](std::string name, std::string what, std::vector<uint8_t> resident) {
     Vector* v = add(std::move(name), "residency", std::move(what), framing, 1.0f);
     v->has_residency = true;
     v->resident = std::move(resident);
+    return v;
   };
   residency("resident_all", "every group resident: the plain cut", std::vector<uint8_t>(ng, 1));
   {
@@ -159,6 +188,21 @@ std::vector<Vector> make_vectors(const ClusterDag& dag) {
     residency("resident_missing_level1_group",
               "the first level-1 group missing: the leaf groups below it are unusable too (fixed point)", r);
   }
+  // Depth ≥ 2 (issue 24 finding 3): a level-2 group missing makes the level-1 groups below it
+  // unusable and, through them, the leaf groups two levels down, although each leaf group and
+  // its own parent group are resident. A selector that checks "resident and parent resident"
+  // (one level) draws those leaves together with coarser clusters; the transitive closure of
+  // spec/stream.md §Usable groups does not.
+  for (uint32_t g = 0; g < ng; ++g)
+    if (dag.groups[g].level == 2 && !(dag.groups[g].flags & kGroupTerminal)) {
+      std::vector<uint8_t> r(ng, 1);
+      r[g] = 0;
+      residency("resident_missing_level2_group",
+                "the first non-terminal level-2 group missing: the level-1 groups below it and the leaf groups below "
+                "those are unusable (transitive closure, depth 2), although every leaf group and its parent are resident",
+                r);
+      break;
+    }
   return out;
 }
 
@@ -220,13 +264,32 @@ TEST(LodVectors, CommittedManifestIsTheLodPredicate) {
   // the cut, the far/huge vectors select roots only and tau_tiny the leaves only.
   std::map<std::string, nlohmann::json> by_name;
   for (const auto& v : generated["vectors"]) by_name[v["name"]] = v;
-  EXPECT_EQ(generated["vectors"].size(), 19u);  // 12 plain, 3 ties, 4 residency
+  EXPECT_EQ(generated["vectors"].size(), 23u);  // 12 plain, 3 ties, 3 exact ties, 5 residency
   EXPECT_NE(by_name["resident_roots_only"]["expected"], by_name["resident_all"]["expected"]);
   EXPECT_NE(by_name["resident_missing_level1_group"]["expected"], by_name["resident_all"]["expected"]);
   EXPECT_EQ(by_name["resident_all"]["expected"], by_name["framing_tau1"]["expected"]);
   EXPECT_NE(by_name["framing_mid"]["expected"], by_name["framing_tau1"]["expected"]);
   EXPECT_NE(by_name["resident_missing_leaf_group"]["expected"], by_name["resident_all"]["expected"]);
+  EXPECT_NE(by_name["resident_missing_level2_group"]["expected"], by_name["resident_all"]["expected"]);
   for (uint32_t c : by_name["tau_tiny"]["expected"]) EXPECT_EQ(dag.clusters[c].level, 0u);
+  // Exact ties hold what their kind claims (spec/conform.md §3.1): k = 1, z_near a power of two,
+  // every sphere's d - r at most half of z_near (so any rounding of the distance still clamps),
+  // τ·z_near is a stored parent error bit for bit, and the tie changes the answer.
+  int exact = 0;
+  for (const Vector& v : make_vectors(dag)) {
+    if (v.kind != "exact_tie") continue;
+    ++exact;
+    int exponent = 0;
+    EXPECT_EQ(v.view.pixels_per_unit_at_1, 1.0f) << v.name;
+    EXPECT_EQ(std::frexp(v.view.z_near, &exponent), 0.5f) << v.name;
+    for (const DagCluster& c : dag.clusters)
+      for (const Sphere* sphere : {&c.lod_bounds, &c.parent_bounds})
+        EXPECT_LE(distance_d(sphere->center, v.view.eye) - double(sphere->radius), 0.5 * double(v.view.z_near)) << v.name;
+    const double error = double(v.tau) * double(v.view.z_near);
+    EXPECT_TRUE(std::any_of(dag.clusters.begin(), dag.clusters.end(),
+                            [&](const DagCluster& c) { return double(c.parent_error) == error; })) << v.name;
+  }
+  EXPECT_EQ(exact, 3);
   for (const char* roots : {"tau_huge", "very_far_1e30"})
     for (uint32_t c : by_name[roots]["expected"])
       EXPECT_TRUE(dag.groups[dag.clusters[c].group].flags & kGroupTerminal) << roots;
@@ -243,6 +306,73 @@ std::string selections_text(const nlohmann::json& manifest,
     s << "\n";
   }
   return s.str();
+}
+
+// A runtime as an outsider might write one, with the mistakes the conformance kit must name.
+struct Runtime {
+  enum class Arithmetic { kReference, kFloat32, kFloat32Naive } arithmetic = Arithmetic::kReference;
+  bool parent_ge = false;         // parent test `>= τ` instead of `> τ`
+  bool lod_lt = false;            // lod test `< τ` instead of `<= τ`
+  bool one_level_usable = false;  // usable = resident and every parent group resident (not transitive)
+};
+
+// binary32 evaluation of the projected error: the distance with the overflow-safe norm
+// (scaled by the largest component, spec/conform.md §3.1) or naively (dx² overflows binary32
+// beyond |dx| ≈ 1.8e19), then d - r, the near clamp and error·k/d, all in float.
+float float32_projected(const Sphere& s, float error, const LodView& v, bool overflow_safe) {
+  if (error == 0.0f) return 0.0f;
+  const float dx = s.center.x - v.eye.x, dy = s.center.y - v.eye.y, dz = s.center.z - v.eye.z;
+  float dist;
+  if (overflow_safe) {
+    const float m = std::max({std::fabs(dx), std::fabs(dy), std::fabs(dz)});
+    const float x = m > 0 ? dx / m : 0.0f, y = m > 0 ? dy / m : 0.0f, z = m > 0 ? dz / m : 0.0f;
+    dist = m * std::sqrt(x * x + y * y + z * z);
+  } else {
+    dist = std::sqrt(dx * dx + dy * dy + dz * dz);
+  }
+  float d = dist - s.radius;
+  if (!(d > v.z_near)) d = v.z_near;
+  return error * v.pixels_per_unit_at_1 / d;
+}
+
+std::vector<uint32_t> runtime_select(const ClusterDag& dag, const nlohmann::json& v, const Runtime& rt) {
+  LodView view;
+  view.eye = {float(v["eye"][0].get<double>()), float(v["eye"][1].get<double>()), float(v["eye"][2].get<double>())};
+  view.pixels_per_unit_at_1 = float(v["pixels_per_unit_at_1"].get<double>());
+  view.z_near = float(v["z_near"].get<double>());
+  const float tau = float(v["tau"].get<double>());
+  const size_t ng = dag.groups.size();
+  std::vector<uint8_t> resident(ng, 1), usable(ng, 1);
+  if (v.contains("resident_groups")) {
+    resident.assign(ng, 0);
+    for (uint32_t g : v["resident_groups"]) resident[g] = 1;
+    usable = usable_groups_of_resident(dag, resident);
+  }
+  if (rt.one_level_usable) {
+    for (size_t g = 0; g < ng; ++g) {
+      usable[g] = resident[g];
+      const DagGroup& G = dag.groups[g];
+      for (uint32_t i = 0; i < G.generated_count; ++i)
+        if (!resident[dag.clusters[dag.generated_clusters[G.first_generated + i]].group]) usable[g] = 0;
+    }
+  }
+  auto project = [&](const Sphere& s, float e) {
+    switch (rt.arithmetic) {
+      case Runtime::Arithmetic::kFloat32: return float32_projected(s, e, view, true);
+      case Runtime::Arithmetic::kFloat32Naive: return float32_projected(s, e, view, false);
+      default: return projected_error(s, e, view);
+    }
+  };
+  std::vector<uint32_t> out;
+  for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
+    const DagCluster& k = dag.clusters[c];
+    const float parent = project(k.parent_bounds, k.parent_error), lod = project(k.lod_bounds, k.lod_error);
+    const bool parent_passes = rt.parent_ge ? parent >= tau : parent > tau;
+    const bool lod_passes = rt.lod_lt ? lod < tau : lod <= tau;
+    const bool finer_unusable = k.generating_group != kNone && !usable[k.generating_group];
+    if (usable[k.group] && parent_passes && (lod_passes || finer_unusable)) out.push_back(c);
+  }
+  return out;
 }
 
 TEST(LodVectors, ConformLodFindsBrokenRuntimes) {
@@ -271,36 +401,81 @@ TEST(LodVectors, ConformLodFindsBrokenRuntimes) {
   auto same = test::run_cli("conform lod --vectors '" + kDir.string() + "' --selections '" + reference.string() + "'");
   EXPECT_EQ(same.exit_code, 0) << same.output;
 
-  // Broken 1: ties decided with >= / < (parent test `>= tau`, lod test `< tau`), residency honoured.
-  auto ge = run("ties_ge.txt", selections_text(manifest, [&](const nlohmann::json& v) {
-                  std::vector<uint32_t> out;
-                  LodView view = view_of(v);
-                  float tau = float(v["tau"].get<double>());
-                  std::vector<uint8_t> usable(dag.groups.size(), 1);
-                  if (v.contains("resident_groups")) {
-                    std::vector<uint8_t> r(dag.groups.size(), 0);
-                    for (uint32_t g : v["resident_groups"]) r[g] = 1;
-                    usable = usable_groups_of_resident(dag, r);
-                  }
-                  for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
-                    const DagCluster& k = dag.clusters[c];
-                    if (!usable[k.group] || !(projected_error(k.parent_bounds, k.parent_error, view) >= tau)) continue;
-                    bool leaf = k.generating_group == kNone;
-                    if (leaf || projected_error(k.lod_bounds, k.lod_error, view) < tau || !usable[k.generating_group])
-                      out.push_back(c);
-                  }
-                  return out;
-                }), "--junit '" + (dir / "ge.xml").string() + "'");
+  // The reference arithmetic through runtime_select agrees everywhere (the simulation is sound).
+  auto reference_rt = run("reference_rt.txt", selections_text(manifest, [&](const nlohmann::json& v) {
+                            return runtime_select(dag, v, Runtime{});
+                          }));
+  EXPECT_EQ(reference_rt.exit_code, 0) << reference_rt.output;
+
+  // Broken 1: ties decided with >= / < (parent test `>= tau`, lod test `< tau`), residency
+  // honoured. Every exact tie fails as a comparison-direction bug, named as such; the
+  // rounding-sensitive ties fail as tie mismatches that equal the flipped cut.
+  Runtime ge_rt;
+  ge_rt.parent_ge = ge_rt.lod_lt = true;
+  auto ge = run("ties_ge.txt", selections_text(manifest, [&](const nlohmann::json& v) { return runtime_select(dag, v, ge_rt); }),
+                "--junit '" + (dir / "ge.xml").string() + "'");
   EXPECT_EQ(ge.exit_code, 1) << ge.output;
   std::string cases = test::checked_junit((dir / "ge.xml").string());
   for (const auto& v : manifest["vectors"]) {
     const std::string name = v["name"];
     if (v["kind"] == "tie") {
       EXPECT_NE(cases.find("." + name + ": failed CONFORM_LOD_TIE_MISMATCH"), std::string::npos) << name << "\n" << cases;
+    } else if (v["kind"] == "exact_tie") {
+      EXPECT_NE(cases.find("." + name + ": failed CONFORM_LOD_TIE_DIRECTION"), std::string::npos) << name << "\n" << cases;
     } else if (name.rfind("framing", 0) == 0 || name.rfind("far", 0) == 0) {
       EXPECT_NE(cases.find("." + name + ": passed"), std::string::npos) << name << "\n" << cases;
     }
   }
+  EXPECT_NE(ge.output.find("the selection is the cut with proj(parent) >= tau and proj(lod) < tau"), std::string::npos)
+      << ge.output;
+  EXPECT_NE(ge.output.find("exact ties: 3 of 3 disagree: a comparison-direction bug"), std::string::npos) << ge.output;
+  // Only the parent test flipped: named as that half.
+  Runtime parent_ge_rt;
+  parent_ge_rt.parent_ge = true;
+  auto half = run("parent_ge.txt", selections_text(manifest, [&](const nlohmann::json& v) {
+                    return runtime_select(dag, v, parent_ge_rt);
+                  }));
+  EXPECT_EQ(half.exit_code, 1) << half.output;
+  EXPECT_NE(half.output.find("the selection is the cut with proj(parent) >= tau and proj(lod) <= tau"), std::string::npos)
+      << half.output;
+
+  // A binary32 runtime with the overflow-safe distance and the right comparisons agrees on
+  // every vector except, at most, rounding-sensitive ties (spec/conform.md §3.1); the exact
+  // ties and very_far_1e30 pass. A naive binary32 distance overflows at 1e30 and draws nothing.
+  Runtime f32;
+  f32.arithmetic = Runtime::Arithmetic::kFloat32;
+  auto float_rt = run("float32.txt", selections_text(manifest, [&](const nlohmann::json& v) { return runtime_select(dag, v, f32); }),
+                      "--junit '" + (dir / "f32.xml").string() + "'");
+  cases = test::checked_junit((dir / "f32.xml").string());
+  for (const auto& v : manifest["vectors"]) {
+    const std::string name = v["name"];
+    if (v["kind"] != "tie") {
+      EXPECT_NE(cases.find("." + name + ": passed"), std::string::npos) << name << "\n" << cases;
+    }
+  }
+  EXPECT_EQ(float_rt.output.find("comparison-direction"), std::string::npos) << float_rt.output;
+  Runtime naive;
+  naive.arithmetic = Runtime::Arithmetic::kFloat32Naive;
+  auto naive_rt = run("naive.txt", selections_text(manifest, [&](const nlohmann::json& v) { return runtime_select(dag, v, naive); }),
+                      "--junit '" + (dir / "naive.xml").string() + "'");
+  EXPECT_EQ(naive_rt.exit_code, 1) << naive_rt.output;
+  cases = test::checked_junit((dir / "naive.xml").string());
+  EXPECT_NE(cases.find(".very_far_1e30: failed CONFORM_LOD_MISMATCH"), std::string::npos) << cases;
+
+  // Broken 4: usability checked one level deep (resident and parent resident). It agrees with
+  // every vector but the depth-2 one (issue 24 finding 3).
+  Runtime one_level;
+  one_level.one_level_usable = true;
+  auto shallow = run("one_level.txt", selections_text(manifest, [&](const nlohmann::json& v) {
+                       return runtime_select(dag, v, one_level);
+                     }), "--junit '" + (dir / "shallow.xml").string() + "'");
+  EXPECT_EQ(shallow.exit_code, 1) << shallow.output;
+  cases = test::checked_junit((dir / "shallow.xml").string());
+  EXPECT_NE(cases.find(".resident_missing_level2_group: failed CONFORM_LOD_MISMATCH"), std::string::npos) << cases;
+  EXPECT_NE(shallow.output.find(" of " + std::to_string(manifest["vectors"].size()) + " LOD vectors agree"),
+            std::string::npos);
+  EXPECT_NE(shallow.output.find(std::to_string(manifest["vectors"].size() - 1) + " of "), std::string::npos)
+      << shallow.output;
 
   // Broken 2: residency ignored (always the plain lod_selects cut).
   auto ignore = run("no_residency.txt", selections_text(manifest, [&](const nlohmann::json& v) {
@@ -329,6 +504,20 @@ TEST(LodVectors, ConformLodFindsBrokenRuntimes) {
   EXPECT_NE(cases.find(".tau_tiny: failed CONFORM_LOD_NO_SELECTION"), std::string::npos) << cases;
   EXPECT_NE(dropped.output.find("framing_mid: 1 missing"), std::string::npos) << dropped.output;
 
+  // A leading UTF-8 byte-order mark is ignored (spec/conform.md §3.2); an index beyond the
+  // DAG's clusters is an extra cluster of that vector (a mismatch), not a syntax error.
+  std::ifstream ref_in(reference);
+  std::stringstream ref_text;
+  ref_text << ref_in.rdbuf();
+  auto bom = run("bom.txt", "\xEF\xBB\xBF" + ref_text.str());
+  EXPECT_EQ(bom.exit_code, 0) << bom.output;
+  std::string beyond = ref_text.str();
+  beyond.insert(beyond.find('\n', beyond.find("tau_huge:")), " 99999");
+  auto out_of_range = run("beyond.txt", beyond);
+  EXPECT_EQ(out_of_range.exit_code, 1) << out_of_range.output;
+  EXPECT_NE(out_of_range.output.find("CONFORM_LOD_MISMATCH tau_huge: 0 missing [], 1 extra [99999]"), std::string::npos)
+      << out_of_range.output;
+
   // Malformed selections: a line without a name, an unknown vector (exit 3, with the code).
   auto syntax = run("syntax.txt", "framing_tau1 3 4\n");
   EXPECT_EQ(syntax.exit_code, 3) << syntax.output;
@@ -336,6 +525,39 @@ TEST(LodVectors, ConformLodFindsBrokenRuntimes) {
   auto unknown = run("unknown.txt", "no_such_vector: 1\n");
   EXPECT_EQ(unknown.exit_code, 3) << unknown.output;
   EXPECT_NE(unknown.output.find("error[CONFORM_LOD_UNKNOWN_VECTOR]"), std::string::npos) << unknown.output;
+  fs::remove_all(dir);
+}
+
+TEST(LodVectors, CorruptedVectorsAreRejected) {
+  // A vector whose expected set is not the reference cut, a vector claiming to be an exact tie
+  // that is not one, and an unknown kind: CONFORM_LOD_VECTOR_INVALID (exit 3), never a pass.
+  const fs::path dir = fs::temp_directory_path() / ("vgeo_lod_corrupt_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::ifstream f(kDir / "manifest.json");
+  const nlohmann::json manifest = nlohmann::json::parse(f);
+  auto check = [&](const std::string& what, const std::function<void(nlohmann::json&)>& corrupt,
+                   const std::string& expected_text) {
+    const fs::path vectors = dir / what;
+    fs::create_directories(vectors);
+    fs::copy_file(kDir / kDagName, vectors / kDagName, fs::copy_options::overwrite_existing);
+    nlohmann::json m = manifest;
+    corrupt(m);
+    std::ofstream(vectors / "manifest.json") << m.dump(1);
+    auto r = test::run_cli("conform lod --vectors '" + vectors.string() + "' --write-reference '" +
+                           (vectors / "ref.txt").string() + "'");
+    EXPECT_EQ(r.exit_code, 3) << what << "\n" << r.output;
+    EXPECT_NE(r.output.find("error[CONFORM_LOD_VECTOR_INVALID]"), std::string::npos) << what << "\n" << r.output;
+    EXPECT_NE(r.output.find(expected_text), std::string::npos) << what << "\n" << r.output;
+  };
+  auto named = [](nlohmann::json& m, const std::string& name) -> nlohmann::json& {
+    for (auto& v : m["vectors"])
+      if (v["name"] == name) return v;
+    ADD_FAILURE() << name;
+    return m;
+  };
+  check("expected", [&](nlohmann::json& m) { named(m, "framing_mid")["expected"].erase(0); }, "framing_mid");
+  check("claim", [&](nlohmann::json& m) { named(m, "tie_level0")["kind"] = "exact_tie"; }, "not an exact tie");
+  check("kind", [&](nlohmann::json& m) { named(m, "tau_tiny")["kind"] = "fuzzy"; }, "unknown kind");
   fs::remove_all(dir);
 }
 

@@ -2,6 +2,9 @@
 // corruption is caught with its stable code (spec/invariants.md).
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <set>
+
 #include <nlohmann/json.hpp>
 
 #include "hand_dag.h"
@@ -155,6 +158,30 @@ TEST(Verify, RemovedTriangleIsCaught) {
   EXPECT_FALSE(c.ok());
   ASSERT_FALSE(c.violations.empty());
   EXPECT_EQ(c.violations[0].code, "CRACK_OPEN_EDGE");
+}
+
+TEST(Verify, CrackLinesNameTheEdge) {
+  // Each CRACK_OPEN_EDGE line names its edge (welded ids and positions of both ends), so the
+  // lines of one cut never read as duplicates without --json (issue 24 finding 8).
+  ClusterDag dag = make_hand_dag();
+  dag.clusters[16].triangle_count -= 1;
+  CutCheck c = check_cut(dag, range(16, 24));
+  ASSERT_GE(c.violations.size(), 2u);
+  std::set<std::string> messages;
+  for (const Violation& v : c.violations) {
+    ASSERT_EQ(v.code, "CRACK_OPEN_EDGE");
+    const std::string& m = v.message;
+    EXPECT_EQ(m.rfind("edge v", 0), 0u) << m;
+    ASSERT_EQ(v.values.size(), 6u) << m;
+    // Both ends' coordinates are in the line, as %.9g of the stored floats.
+    for (const VerifyValue& value : v.values) {
+      char coordinate[64];
+      std::snprintf(coordinate, sizeof coordinate, "%.9g", value.value);
+      EXPECT_NE(m.find(coordinate), std::string::npos) << value.name << " " << m;
+    }
+    messages.insert(m);
+  }
+  EXPECT_EQ(messages.size(), c.violations.size());
 }
 
 TEST(Verify, MovedBorderVertexInGeneratedClusterIsCaught) {

@@ -1,7 +1,9 @@
 // DAG quality of builder variants on CGAL meshes (run tools/fetch-data first; VGEO_DATA_DIR
-// overrides ./data). Quality = triangles of the cut at a uniform object-space error
-// threshold ε (a cluster is in the cut iff parent_error > ε ≥ lod_error): fewer triangles
-// at the same ε is a better DAG. ε = 1e-4, 1e-3, 1e-2 × bounding-box diagonal.
+// overrides ./data). Quality = triangles of the cut at equal *measured* error ε (the measured
+// hull cut of lib/vgeo/verify/measured_cut.h, the one implementation `vgeo compare` and
+// `vgeo bench dagquality` report): fewer triangles at the same ε is a better DAG. Counters:
+// the cut at ε = 1e-3 and 1e-2 × diagonal and the 17-ε curve's geometric mean; the cut by
+// *stored* errors at the same ε (what the runtime draws given the builder's claims) beside it.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -12,6 +14,7 @@
 #include "vgeo/dag/build_internal.h"
 #include "vgeo/dag/cluster_dag.h"
 #include "vgeo/mesh/import.h"
+#include "vgeo/verify/measured_cut.h"
 
 namespace {
 
@@ -44,14 +47,12 @@ void BM_DagQuality(benchmark::State& state) {
   BuildReport report;
   ClusterDag dag;
   for (auto _ : state) dag = build_dag_internal(mesh, options, internal, &report);
-  double diag = length(dag.bounds.max - dag.bounds.min);
-  for (double f : {1e-4, 1e-3, 1e-2}) {
-    double eps = f * diag;
-    uint64_t tris = 0;
-    for (const DagCluster& c : dag.clusters)
-      if (double(c.parent_error) > eps && double(c.lod_error) <= eps) tris += c.triangle_count;
-    state.counters["cut_" + std::to_string(int(std::round(-std::log10(f))))] = double(tris);
-  }
+  const DagQuality q = measure_dag_quality(dag, options.threads);
+  state.counters["cut_3"] = double(q.cut_measured[0]);
+  state.counters["cut_2"] = double(q.cut_measured[1]);
+  state.counters["cut_gmean"] = q.cut_curve_geometric_mean;
+  state.counters["stored_cut_3"] = double(q.cut_stored[0]);
+  state.counters["stored_cut_2"] = double(q.cut_stored[1]);
   uint64_t stuck = 0;
   for (const BuildLevelReport& l : report.levels) stuck += l.stuck_groups;
   state.SetLabel(std::string(kMeshes[state.range(0)]) + " " + variant);

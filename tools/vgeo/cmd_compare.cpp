@@ -1,8 +1,11 @@
 // `vgeo compare A B [--mesh N] [--tau PX] [--fail-if EXPR]... [--json F] [--junit F]`: two
 // builds (VGEODAG1 or page files) of the same mesh side by side — levels, stored and root
-// triangles, the measured/stored error distribution, triangles drawn at equal τ over the
-// standard view set, file sizes — and `--fail-if` thresholds on B against A, so CI can fail a
-// builder change that makes LOD quality or size worse. spec/conform.md §2.
+// triangles, triangles of the cut at equal *measured* error (builder-independent: the measured
+// hull cut of lib/vgeo/verify/measured_cut.h), ERROR_BOUND violations, the measured/stored error
+// distribution, triangles drawn at equal τ by the stored errors over the standard view set
+// (what the runtime draws given the builder's claims), file sizes — and `--fail-if` thresholds
+// on B against A, so CI can fail a builder change that makes LOD quality or size worse, and a
+// builder cannot pass by under-stating its errors. spec/conform.md §2.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -22,6 +25,7 @@
 #include "vgeo/core/lod.h"
 #include "vgeo/format/asset_file.h"
 #include "vgeo/core/file_io.h"
+#include "vgeo/verify/measured_cut.h"
 #include "vgeo/verify/verify.h"
 
 namespace vgeo::cli {
@@ -65,9 +69,22 @@ std::vector<LodView> standard_views(const Aabb& bounds) {
 }
 
 // Metric names, in table order (also the names `--fail-if` takes).
-const char* const kMetrics[] = {"levels",          "clusters",           "stored_triangles", "root_clusters",
-                                "root_triangles",  "file_bytes",         "drawn_triangles",  "error_ratio_median",
-                                "error_ratio_p95", "error_ratio_max",    "error_bound_violations"};
+// The measured-error cut comes first: it is the quality gate (spec/conform.md §2); the
+// stored-error cut `drawn_triangles` trusts each builder's own errors.
+const char* const kMetrics[] = {"levels",
+                                "clusters",
+                                "stored_triangles",
+                                "root_clusters",
+                                "root_triangles",
+                                "file_bytes",
+                                "measured_cut_gmean",
+                                "measured_cut_1e-3",
+                                "measured_cut_1e-2",
+                                "error_bound_violations",
+                                "drawn_triangles",
+                                "error_ratio_median",
+                                "error_ratio_p95",
+                                "error_ratio_max"};
 constexpr size_t kMetricCount = sizeof kMetrics / sizeof kMetrics[0];
 
 struct Summary {
@@ -82,8 +99,9 @@ size_t metric_index(const std::string& name) {
   return kMetricCount;
 }
 
+// `diagonal`: the ε unit of the measured cut, A's leaf diagonal for both builds (the same ε).
 Summary summarize(const ClusterDag& dag, uint64_t file_bytes, const std::vector<LodView>& views, float tau,
-                  unsigned threads) {
+                  double diagonal, unsigned threads) {
   Summary s;
   uint64_t stored = 0, root_clusters = 0, root_triangles = 0, drawn = 0;
   for (const DagCluster& c : dag.clusters) {
@@ -99,10 +117,21 @@ Summary summarize(const ClusterDag& dag, uint64_t file_bytes, const std::vector<
   options.checks = kCheckStructure | kCheckErrorBound;
   options.threads = threads;
   VerifyReport report = verify_dag(dag, options);
-  const double v[kMetricCount] = {double(dag.level_count), double(dag.clusters.size()), double(stored),
-                                  double(root_clusters),   double(root_triangles),      double(file_bytes),
-                                  double(drawn),           report.error_ratio.median,   report.error_ratio.p95,
-                                  report.error_ratio.max,  double(report.count("ERROR_BOUND"))};
+  const DagQuality quality = measure_dag_quality(dag, threads, diagonal);
+  const double v[kMetricCount] = {double(dag.level_count),
+                                  double(dag.clusters.size()),
+                                  double(stored),
+                                  double(root_clusters),
+                                  double(root_triangles),
+                                  double(file_bytes),
+                                  quality.cut_curve_geometric_mean,
+                                  double(quality.cut_measured[0]),
+                                  double(quality.cut_measured[1]),
+                                  double(report.count("ERROR_BOUND")),
+                                  double(drawn),
+                                  report.error_ratio.median,
+                                  report.error_ratio.p95,
+                                  report.error_ratio.max};
   std::copy(v, v + kMetricCount, s.value);
   s.bounds = dag.bounds;
   return s;
@@ -196,8 +225,9 @@ int run_compare(const CompareArgs& args) {
 
   ClusterDag dag_a = load_mesh(args.a, args.mesh), dag_b = load_mesh(args.b, args.mesh);
   const std::vector<LodView> views = standard_views(dag_a.bounds);
-  Summary a = summarize(dag_a, std::filesystem::file_size(args.a), views, args.tau, args.threads);
-  Summary b = summarize(dag_b, std::filesystem::file_size(args.b), views, args.tau, args.threads);
+  const double diagonal = distance_d(dag_a.bounds.min, dag_a.bounds.max);
+  Summary a = summarize(dag_a, std::filesystem::file_size(args.a), views, args.tau, diagonal, args.threads);
+  Summary b = summarize(dag_b, std::filesystem::file_size(args.b), views, args.tau, diagonal, args.threads);
   const std::string suite_name = args.a + " vs " + args.b;
 
   std::string why;
@@ -220,8 +250,13 @@ int run_compare(const CompareArgs& args) {
   }
 
   if (!args.quiet) {
-    std::printf("A: %s\nB: %s\nmesh %u, %zu standard views at tau %s px (drawn_triangles: sum over views)\n",
-                args.a.c_str(), args.b.c_str(), args.mesh, views.size(), number_text(args.tau).c_str());
+    std::printf("A: %s\nB: %s\nmesh %u\n", args.a.c_str(), args.b.c_str(), args.mesh);
+    std::printf("measured_cut_*: triangles of the cut at equal MEASURED error (deviation from the leaves, whatever the\n"
+                "  builder claims; eps = 1e-3 and 1e-2 of A's diagonal %s, gmean over 17 eps in between): the quality gate\n",
+                number_text(diagonal).c_str());
+    std::printf("drawn_triangles: the cut by STORED errors over %zu standard views at tau %s px, summed: what the runtime\n"
+                "  draws given the builder's claims (fewer when a builder under-states its errors)\n",
+                views.size(), number_text(args.tau).c_str());
     std::printf("  %-24s %14s %14s %9s\n", "metric", "A", "B", "B/A");
     for (size_t i = 0; i < kMetricCount; ++i)
       std::printf("  %-24s %14s %14s %9s\n", kMetrics[i], number_text(a.value[i]).c_str(),
@@ -232,7 +267,8 @@ int run_compare(const CompareArgs& args) {
   }
 
   if (!args.json_path.empty()) {
-    nlohmann::json j{{"a", args.a}, {"b", args.b}, {"mesh", args.mesh}, {"tau", args.tau}, {"views", views.size()}};
+    nlohmann::json j{{"a", args.a},   {"b", args.b},         {"mesh", args.mesh},
+                     {"tau", args.tau}, {"views", views.size()}, {"measured_cut_diagonal", diagonal}};
     auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(v > 0 ? "inf" : "-inf"); };
     for (size_t i = 0; i < kMetricCount; ++i) {
       j["metrics"][kMetrics[i]] = {{"a", num(a.value[i])}, {"b", num(b.value[i])}, {"ratio", num(ratio(a.value[i], b.value[i]))}};

@@ -148,9 +148,15 @@ void check_cracks(const CutCheckContext& ctx, CutScratch& s, Sink& sink, const s
     std::vector<VerifyValue> values{{"ax", pa[0]}, {"ay", pa[1]}, {"az", pa[2]},
                                     {"bx", pb[0]}, {"by", pb[1]}, {"bz", pb[2]}};
     values.insert(values.end(), extra.begin(), extra.end());
+    // The line names the edge (welded vertex ids and positions): two violations of one cut
+    // never read as duplicates, and the edge can be found without --json.
+    auto end = [&](uint32_t id, const float* p) {
+      return "v" + std::to_string(id) + " (" + fmt_float(p[0]) + ", " + fmt_float(p[1]) + ", " + fmt_float(p[2]) + ")";
+    };
+    const std::string edge = "edge " + end(a, pa) + " - " + end(b, pb);
     std::string msg = owner == kNone
-                          ? "an open edge of the leaves is not open in the cut (covered or moved)"
-                          : "edge open in the cut but not in the leaves (hole, T-junction or moved vertex)";
+                          ? "an open " + edge + " of the leaves is not open in the cut (covered or moved)"
+                          : edge + " open in the cut but not in the leaves (hole, T-junction or moved vertex)";
     sink.stored.push_back({code, "crack", owner == kNone ? "edge" : "cluster",
                            owner == kNone ? uint64_t(kNone) : owner, msg + where, std::move(values)});
   });

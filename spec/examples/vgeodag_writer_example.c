@@ -1,15 +1,30 @@
-/* A foreign builder's export through spec/vgeodag_writer.h (C99, no C++): a 2x2-quad grid whose
- * centre is raised, two leaf clusters (one column of quads each) in one group that generated a
- * single 2-triangle cluster (the flat square), which forms the terminal root group.
+/* Worked example: a foreign builder's export through spec/vgeodag_writer.h (C99, no C++).
+ * The DAG: a 2x2-quad grid whose centre is raised by 0.1, two leaf clusters (one column of quads
+ * each) in one group (group 0, level 0) that generated a single 2-triangle cluster (the flat
+ * square, level 1), which forms the terminal root group (group 1).
  *
- *   vgeodag_writer_example GOOD.vgeodag BROKEN.vgeodag
+ *   cc -std=c99 -I spec spec/examples/vgeodag_writer_example.c -lm -o example
+ *   ./example GOOD.vgeodag BROKEN.vgeodag && vgeo verify GOOD.vgeodag
+ *
+ * Steps, as a real exporter takes them:
+ *   1. copy each cluster's vertices (own copies; shared surface points bit-identical) and
+ *      8-bit local indices, counter-clockwise like the input (simplified ones too: D12);
+ *   2. fill the structure: member ranges, generated ranges, levels, the terminal flag;
+ *   3. give each non-terminal group its parent_error: >= max(members' lod_error, the distance
+ *      from the triangles it generated to the leaves) — here the flat square misses the raised
+ *      centre by < 0.1, so 0.125 is a true bound;
+ *   4. optionally your own sphere per group (builder_sphere, r > 0; zero = none) and your own
+ *      BVH (vgeodag_derive_bvh), then vgeodag_derive() computes every other value;
+ *   5. vgeodag_write_file().
  *
  * GOOD passes `vgeo verify`. BROKEN carries two planted faults a real builder makes:
  * a stored error below the measured deviation (ERROR_BOUND) and a cluster sphere computed
  * without outward rounding, missing its farthest vertex by about two float ulps
- * (STRUCT_CLUSTER_BOUNDS). tests/conform/dag_writer_test.cpp checks both outcomes. */
+ * (STRUCT_CLUSTER_BOUNDS). tests/conform/dag_writer_test.cpp compiles this file (strict C99,
+ * warnings as errors) and checks both outcomes. */
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 #define VGEODAG_WRITER_IMPLEMENTATION
 #include "vgeodag_writer.h"
@@ -32,6 +47,7 @@ static int write_dag(const char* path, float group_error, int shrink_ulps) {
   vgeodag_cluster clusters[3] = {{0}};
   vgeodag_group groups[2] = {{0}};
   static const uint32_t generated[1] = {2};
+  vgeodag_bvh_node bvh[1];
   vgeodag_mesh mesh = {0};
   vgeodag_scene scene = {0};
   uint32_t c, v = 0, t = 0;
@@ -62,15 +78,24 @@ static int write_dag(const char* path, float group_error, int shrink_ulps) {
 
   groups[0].first_cluster = 0, groups[0].cluster_count = 2, groups[0].first_generated = 0;
   groups[0].generated_count = 1, groups[0].level = 0, groups[0].parent_error = group_error;
-  groups[0].builder_sphere.r = -1.0f;
+  /* The builder's own sphere of group 0's simplified result (here: of the square's corners);
+   * vgeodag_derive folds the members' lod_bounds into it. Group 1 has none (zero = absent). */
+  groups[0].builder_sphere = vgeodag_enclose_points(positions + 3 * clusters[2].vertex_offset, 4);
   groups[1].first_cluster = 2, groups[1].cluster_count = 1, groups[1].level = 1;
-  groups[1].flags = VGEODAG_GROUP_TERMINAL, groups[1].builder_sphere.r = -1.0f;
+  groups[1].flags = VGEODAG_GROUP_TERMINAL; /* parent_error: +inf, set by vgeodag_derive */
 
   mesh.clusters = clusters, mesh.cluster_count = 3, mesh.groups = groups, mesh.group_count = 2;
   mesh.generated_clusters = generated, mesh.generated_count = 1;
   mesh.positions = positions, mesh.vertex_count = v, mesh.indices = indices, mesh.triangle_count = t;
   rc = vgeodag_derive(&mesh);
   if (rc != VGEODAG_OK) return rc;
+  /* The builder's own BVH: one node over both groups (spheres left zero: derived). Without
+   * one, leave mesh.bvh_nodes NULL and the writer builds a BVH8 itself. */
+  memset(bvh, 0, sizeof bvh);
+  bvh[0].child_count = 2, bvh[0].group_mask = 3u, bvh[0].children[0] = 0, bvh[0].children[1] = 1;
+  rc = vgeodag_derive_bvh(&mesh, bvh, 1);
+  if (rc != VGEODAG_OK) return rc;
+  mesh.bvh_nodes = bvh, mesh.bvh_node_count = 1;
   for (i = 0; i < shrink_ulps; ++i) /* a sphere that was not rounded outward */
     clusters[0].bounds.r = nextafterf(clusters[0].bounds.r, 0.0f);
   clusters[0].lod_bounds = clusters[0].bounds; /* leaves: lod_bounds == bounds */
