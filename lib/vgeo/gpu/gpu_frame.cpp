@@ -90,11 +90,11 @@ void GpuRendererDeleter::operator()(GpuRenderer* r) const { delete r; }
 
 namespace {
 
-// Raster shader bindings: pages, locations, meshes, instances, visible, vis, counters.
-// Shade shader bindings: the raster ones less counters, then shade instances, shade clusters,
-// materials, overdraw, image.
-constexpr uint32_t kShadeBindings = 11;
 constexpr uint32_t kShadeGroupSize = 64;  // shaders/shade.comp local_size_x
+
+GpuGeometryBuffers geometry(const GpuRenderer& r) {
+  return {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis};
+}
 
 template <class T>
 GpuBuffer upload(GpuContext& gpu, const std::vector<T>& data) {
@@ -134,7 +134,7 @@ void raster_range(GpuRenderer& r, uint32_t width, uint32_t height, float z_near,
   request.hw_min_triangle_area_px = r.options.hw_min_triangle_area_px;
   request.cull_backfaces = cull_backfaces;
   uint32_t t0 = cmd_timestamp(rec);
-  const GpuRasterBuffers buffers{&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.counters};
+  const GpuRasterBuffers buffers{geometry(r), &r.counters};
   record_gpu_raster(rec, *r.raster, buffers, request);
   RasterSplitStats tiled;
   if (request.mode != GpuRasterMode::kHw) {
@@ -238,10 +238,13 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
   params.max_overdraw = max_overdraw;
   GpuRecorder& rec = *r.recorder;
   begin_commands(rec);
-  cmd_dispatch(rec, r.shade,
-               {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.shade_instances,
-                &r.shade_clusters, &r.materials, &r.overdraw, &r.image},
-               &params, uint32_t((pixels + kShadeGroupSize - 1) / kShadeGroupSize));
+  std::vector<GpuBinding> bindings = geometry_bindings(geometry(r));
+  bindings.insert(bindings.end(), {{kShadeBindInstances, &r.shade_instances},
+                                   {kShadeBindClusters, &r.shade_clusters},
+                                   {kShadeBindMaterials, &r.materials},
+                                   {kShadeBindOverdraw, &r.overdraw},
+                                   {kShadeBindImage, &r.image}});
+  cmd_dispatch(rec, r.shade, gpu_bindings(kShadeBindingCount, bindings), &params, uint32_t((pixels + kShadeGroupSize - 1) / kShadeGroupSize));
   submit_and_wait(rec);
 
   out->image.width = camera.width;
@@ -282,7 +285,7 @@ GpuRendererPtr create_renderer_common(GpuContext& gpu, const RenderScene& scene,
   r->cull_meshes = upload_cull_meshes(gpu, scene.meshes);
   r->recorder = create_gpu_recorder(gpu);
   r->raster = create_gpu_raster_passes(gpu, cluster_raster_infos(scene));
-  r->shade = create_compute_pipeline(gpu, kShaderShade, kShadeBindings, sizeof(GpuShadeParams));
+  r->shade = create_compute_pipeline(gpu, kShaderShade, kShadeBindingCount, sizeof(GpuShadeParams));
   r->counters = create_gpu_buffer(gpu, 64);
   std::vector<GpuMaterial> materials(scene.materials.size());
   for (size_t i = 0; i < materials.size(); ++i)

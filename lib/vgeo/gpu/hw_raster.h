@@ -17,6 +17,7 @@
 
 #include "vgeo/gpu/context.h"
 #include "vgeo/gpu/hw_raster_records.h"
+#include "vgeo/gpu/shader_bindings.h"
 
 namespace vgeo {
 
@@ -80,9 +81,19 @@ std::unique_ptr<GpuRasterPasses> create_gpu_raster_passes(GpuContext& gpu,
 // (sizes the path and command buffers).
 void prepare_gpu_raster(GpuRasterPasses& passes, const std::vector<float>& instance_scale, uint32_t visible_total);
 
-// The buffers the passes read and write, owned by the caller (bindings of shaders/raster.comp).
+// The geometry every raster and shade shader reads (shaders/geometry.glsl) and the visibility
+// buffer, owned by the caller; geometry_bindings places them at their kGeomBind* indices
+// (shader_bindings.h), to which each shader appends its own.
+struct GpuGeometryBuffers {
+  const GpuBuffer *pages, *locations, *meshes, *instances, *visible, *vis;
+};
+std::vector<GpuBinding> geometry_bindings(const GpuGeometryBuffers& g);
+
+// The buffers the passes read and write, owned by the caller: the geometry and the raster
+// counters (kRasterBindCounters).
 struct GpuRasterBuffers {
-  const GpuBuffer *pages, *locations, *meshes, *instances, *visible, *vis, *counters;
+  GpuGeometryBuffers geometry;
+  const GpuBuffer* counters;
 };
 
 struct GpuRasterRequest {
