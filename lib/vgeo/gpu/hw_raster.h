@@ -18,6 +18,7 @@
 #include "vgeo/gpu/context.h"
 #include "vgeo/gpu/hw_raster_records.h"
 #include "vgeo/gpu/shader_bindings.h"
+#include "vgeo/render/frame_plan.h"  // RasterSplitStats
 
 namespace vgeo {
 
@@ -37,20 +38,6 @@ const char* gpu_raster_mode_name(GpuRasterMode mode);
 // (docs/bench/report.md §raster; on lavapipe the sides are inverted, see spec §13.4).
 inline constexpr float kAutoHwMinTriangleAreaPx = 64.0f;
 
-struct RasterSplitStats {
-  uint64_t sw_clusters = 0, hw_clusters = 0, sw_triangles = 0, hw_triangles = 0;
-  // Of the compute path's (fan) triangles, those drawn tile by tile, and their tiles
-  // (spec/raster.md §13.5).
-  uint64_t sw_tiled_triangles = 0, sw_tiles = 0;
-  void add(const RasterSplitStats& o) {
-    sw_clusters += o.sw_clusters;
-    hw_clusters += o.hw_clusters;
-    sw_triangles += o.sw_triangles;
-    hw_triangles += o.hw_triangles;
-    sw_tiled_triangles += o.sw_tiled_triangles;
-    sw_tiles += o.sw_tiles;
-  }
-};
 
 // Pipelines of the three passes and the buffers only they use. Move-only; frees itself.
 struct GpuRasterPasses {
