@@ -4,9 +4,10 @@
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_explicit_arithmetic_types : require
 #include "vgeo/core/cull_shared.h"
+#include "vgeo/gpu/shader_bindings.h"
 
 layout(local_size_x = 1) in;
-layout(std430, binding = 0) coherent buffer QueueBuf { GpuQueueHeader queue; };
+layout(std430, binding = kAdvanceBindQueue) coherent buffer QueueBuf { GpuQueueHeader queue; };
 
 void main() {
   queue.level_begin = queue.level_end;

@@ -9,22 +9,23 @@
 #extension GL_EXT_shader_atomic_int64 : require
 
 #include "vgeo/core/cull_shared.h"
+#include "vgeo/gpu/shader_bindings.h"
 
-layout(std430, binding = 0) readonly buffer ParamsBuf { GpuCullParams params; };
-layout(std430, binding = 1) readonly buffer MeshBuf { GpuCullMesh meshes[]; };
-layout(std430, binding = 2) readonly buffer ClusterBuf { GpuCluster clusters[]; };
-layout(std430, binding = 3) readonly buffer GroupBuf { GpuGroup groups[]; };
-layout(std430, binding = 4) readonly buffer NodeBuf { GpuBvhNode nodes[]; };
-layout(std430, binding = 5) readonly buffer InstanceBuf { GpuCullInstance instances[]; };
-layout(std430, binding = 6) readonly buffer OcclusionInstanceBuf { GpuCullInstance occlusion_instances[]; };
-layout(std430, binding = 7) readonly buffer HzbBuf { uint32_t hzb[]; };  // float bits, all mips
-layout(std430, binding = 8) coherent buffer QueueBuf { GpuQueueHeader queue; uint64_t slots[]; };
-layout(std430, binding = 9) coherent buffer BitsBuf { uint32_t bits[]; };
-layout(std430, binding = 10) buffer CounterBuf { uint64_t counters[]; };
-layout(std430, binding = 11) readonly buffer ListInBuf { uint32_t list_in[]; };
-layout(std430, binding = 12) buffer ListOutBuf { uint32_t list_out[]; };
+layout(std430, binding = kCullBindParams) readonly buffer ParamsBuf { GpuCullParams params; };
+layout(std430, binding = kCullBindMeshes) readonly buffer MeshBuf { GpuCullMesh meshes[]; };
+layout(std430, binding = kCullBindClusters) readonly buffer ClusterBuf { GpuCluster clusters[]; };
+layout(std430, binding = kCullBindGroups) readonly buffer GroupBuf { GpuGroup groups[]; };
+layout(std430, binding = kCullBindNodes) readonly buffer NodeBuf { GpuBvhNode nodes[]; };
+layout(std430, binding = kCullBindInstances) readonly buffer InstanceBuf { GpuCullInstance instances[]; };
+layout(std430, binding = kCullBindOcclusionInstances) readonly buffer OcclusionInstanceBuf { GpuCullInstance occlusion_instances[]; };
+layout(std430, binding = kCullBindHzb) readonly buffer HzbBuf { uint32_t hzb[]; };  // float bits, all mips
+layout(std430, binding = kCullBindQueue) coherent buffer QueueBuf { GpuQueueHeader queue; uint64_t slots[]; };
+layout(std430, binding = kCullBindBits) coherent buffer BitsBuf { uint32_t bits[]; };
+layout(std430, binding = kCullBindCounters) buffer CounterBuf { uint64_t counters[]; };
+layout(std430, binding = kCullBindListIn) readonly buffer ListInBuf { uint32_t list_in[]; };
+layout(std430, binding = kCullBindListOut) buffer ListOutBuf { uint32_t list_out[]; };
 // Streaming words per mesh (GpuCullMesh::stream_base): streams flag, usable, requests.
-layout(std430, binding = 13) coherent buffer StreamBuf { uint32_t stream_words[]; };
+layout(std430, binding = kCullBindStream) coherent buffer StreamBuf { uint32_t stream_words[]; };
 
 layout(push_constant) uniform Push { GpuCullPush push; };
 

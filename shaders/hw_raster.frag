@@ -7,10 +7,11 @@
 #extension GL_EXT_shader_atomic_int64 : require
 #extension GL_GOOGLE_include_directive : require
 #include "vgeo/core/vis_key.h"
+#include "vgeo/gpu/shader_bindings.h"
 #include "vgeo/gpu/shader_records.h"
 
-layout(std430, binding = 5) buffer Vis { uint64_t vis[]; };
-layout(std430, binding = 6) buffer Counters { uint64_t pixels_written; };
+layout(std430, binding = kGeomBindVis) buffer Vis { uint64_t vis[]; };
+layout(std430, binding = kRasterBindCounters) buffer Counters { uint64_t pixels_written; };
 layout(push_constant) uniform Push { GpuRasterParams params; };
 
 layout(location = 0) flat in uint32_t id_bits;

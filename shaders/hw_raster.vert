@@ -11,11 +11,7 @@
 #include "vgeo/core/vis_key.h"
 #include "vgeo/gpu/shader_records.h"
 
-layout(std430, binding = 0) readonly buffer Pages { uint32_t page_words[]; };
-layout(std430, binding = 1) readonly buffer Locations { GpuClusterLocation locations[]; };
-layout(std430, binding = 2) readonly buffer Meshes { GpuMesh meshes[]; };
-layout(std430, binding = 3) readonly buffer Instances { GpuInstance instances[]; };
-layout(std430, binding = 4) readonly buffer Visible { GpuVisibleCluster visible[]; };
+#include "geometry.glsl"
 layout(push_constant) uniform Push { GpuRasterParams params; };
 
 #define VGEO_PAGE_WORD(i) page_words[i]

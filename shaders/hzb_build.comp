@@ -6,11 +6,12 @@
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_explicit_arithmetic_types : require
 #include "vgeo/core/cull_shared.h"
+#include "vgeo/gpu/shader_bindings.h"
 
 layout(local_size_x = VGEO_HZB_GROUP_SIZE) in;
-layout(std430, binding = 0) readonly buffer ParamsBuf { GpuCullParams params; };
-layout(std430, binding = 1) readonly buffer VisBuf { uint32_t vis[]; };  // uint64 keys as (low, high) pairs
-layout(std430, binding = 2) buffer HzbBuf { uint32_t hzb[]; };
+layout(std430, binding = kHzbBindParams) readonly buffer ParamsBuf { GpuCullParams params; };
+layout(std430, binding = kHzbBindVis) readonly buffer VisBuf { uint32_t vis[]; };  // uint64 keys as (low, high) pairs
+layout(std430, binding = kHzbBindHzb) buffer HzbBuf { uint32_t hzb[]; };
 layout(push_constant) uniform Push { GpuCullPush push; };
 
 void main() {

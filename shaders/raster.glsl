@@ -19,19 +19,15 @@ const bool kTilePass = VGEO_RASTER_TILE_PASS != 0;
 
 layout(local_size_x = 128) in;  // kGpuRasterGroupSize = kMaxClusterTriangles
 
-layout(std430, binding = 0) readonly buffer Pages { uint32_t page_words[]; };
-layout(std430, binding = 1) readonly buffer Locations { GpuClusterLocation locations[]; };
-layout(std430, binding = 2) readonly buffer Meshes { GpuMesh meshes[]; };
-layout(std430, binding = 3) readonly buffer Instances { GpuInstance instances[]; };
-layout(std430, binding = 4) readonly buffer Visible { GpuVisibleCluster visible[]; };
-layout(std430, binding = 5) buffer Vis { uint64_t vis[]; };
+#include "geometry.glsl"
+layout(std430, binding = kGeomBindVis) buffer Vis { uint64_t vis[]; };
 // Word kGpuRasterOverflowWord (after pixels_written): triangles whose pixel loops did not run
 // to the end (llvmpipe's loop limiter, spec/raster.md §13.5); the host fails on any.
 // Word kGpuRasterBigWord: the big triangles deferred to the tile pass (GpuBigTriangle).
-layout(std430, binding = 6) buffer Counters { uint64_t pixels_written; uint32_t loop_overflow; uint32_t big_count; };
-layout(std430, binding = 7) readonly buffer Paths { uint32_t path_of_visible[]; };
-layout(std430, binding = 8) buffer BigTriangles { GpuBigTriangle big[]; };
-layout(std430, binding = 9) readonly buffer Tiles { GpuRasterTile tiles[]; };
+layout(std430, binding = kRasterBindCounters) buffer Counters { uint64_t pixels_written; uint32_t loop_overflow; uint32_t big_count; };
+layout(std430, binding = kRasterBindPaths) readonly buffer Paths { uint32_t path_of_visible[]; };
+layout(std430, binding = kRasterBindBig) buffer BigTriangles { GpuBigTriangle big[]; };
+layout(std430, binding = kRasterBindTiles) readonly buffer Tiles { GpuRasterTile tiles[]; };
 layout(push_constant) uniform Push { GpuRasterParams params; };
 
 #define VGEO_PAGE_WORD(i) page_words[i]

@@ -7,17 +7,18 @@
 #extension GL_GOOGLE_include_directive : require
 #include "vgeo/gpu/shader_records.h"
 #include "vgeo/gpu/hw_raster_records.h"
+#include "vgeo/gpu/shader_bindings.h"
 
 layout(local_size_x = 64) in;  // kGpuRasterSplitGroupSize
 
-layout(std430, binding = 0) readonly buffer Meshes { GpuMesh meshes[]; };
-layout(std430, binding = 1) readonly buffer Instances { GpuInstance instances[]; };
-layout(std430, binding = 2) readonly buffer Visible { GpuVisibleCluster visible[]; };
-layout(std430, binding = 3) readonly buffer Infos { GpuClusterRasterInfo infos[]; };
-layout(std430, binding = 4) readonly buffer RasterInstances { GpuRasterInstance raster_instances[]; };
-layout(std430, binding = 5) buffer Paths { uint32_t path_of_visible[]; };
-layout(std430, binding = 6) buffer Commands { GpuDrawCommand commands[]; };
-layout(std430, binding = 7) buffer SplitCounters { GpuRasterSplitCounters split; };
+layout(std430, binding = kSplitBindMeshes) readonly buffer Meshes { GpuMesh meshes[]; };
+layout(std430, binding = kSplitBindInstances) readonly buffer Instances { GpuInstance instances[]; };
+layout(std430, binding = kSplitBindVisible) readonly buffer Visible { GpuVisibleCluster visible[]; };
+layout(std430, binding = kSplitBindInfos) readonly buffer Infos { GpuClusterRasterInfo infos[]; };
+layout(std430, binding = kSplitBindRasterInstances) readonly buffer RasterInstances { GpuRasterInstance raster_instances[]; };
+layout(std430, binding = kSplitBindPaths) buffer Paths { uint32_t path_of_visible[]; };
+layout(std430, binding = kSplitBindCommands) buffer Commands { GpuDrawCommand commands[]; };
+layout(std430, binding = kSplitBindCounters) buffer SplitCounters { GpuRasterSplitCounters split; };
 layout(push_constant) uniform Push { GpuRasterSplitParams params; };
 
 const float kPi = 3.14159265358979;

@@ -10,17 +10,13 @@
 
 layout(local_size_x = 64) in;
 
-layout(std430, binding = 0) readonly buffer Pages { uint32_t page_words[]; };
-layout(std430, binding = 1) readonly buffer Locations { GpuClusterLocation locations[]; };
-layout(std430, binding = 2) readonly buffer Meshes { GpuMesh meshes[]; };
-layout(std430, binding = 3) readonly buffer Instances { GpuInstance instances[]; };
-layout(std430, binding = 4) readonly buffer Visible { GpuVisibleCluster visible[]; };
-layout(std430, binding = 5) readonly buffer Vis { uint64_t vis[]; };
-layout(std430, binding = 6) readonly buffer ShadeInstances { GpuShadeInstance shade_instances[]; };
-layout(std430, binding = 7) readonly buffer ShadeClusters { GpuShadeCluster shade_clusters[]; };
-layout(std430, binding = 8) readonly buffer Materials { GpuMaterial materials[]; };
-layout(std430, binding = 9) readonly buffer Overdraw { uint32_t overdraw[]; };
-layout(std430, binding = 10) writeonly buffer Image { uint32_t image[]; };
+#include "geometry.glsl"
+layout(std430, binding = kGeomBindVis) readonly buffer Vis { uint64_t vis[]; };
+layout(std430, binding = kShadeBindInstances) readonly buffer ShadeInstances { GpuShadeInstance shade_instances[]; };
+layout(std430, binding = kShadeBindClusters) readonly buffer ShadeClusters { GpuShadeCluster shade_clusters[]; };
+layout(std430, binding = kShadeBindMaterials) readonly buffer Materials { GpuMaterial materials[]; };
+layout(std430, binding = kShadeBindOverdraw) readonly buffer Overdraw { uint32_t overdraw[]; };
+layout(std430, binding = kShadeBindImage) writeonly buffer Image { uint32_t image[]; };
 layout(push_constant) uniform Push { GpuShadeParams params; };
 
 #define VGEO_PAGE_WORD(i) page_words[i]

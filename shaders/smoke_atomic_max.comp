@@ -5,10 +5,11 @@
 #extension GL_EXT_shader_atomic_int64 : require
 #extension GL_GOOGLE_include_directive : require
 #include "vgeo/core/vis_key.h"
+#include "vgeo/gpu/shader_bindings.h"
 
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Values { uint64_t values[]; };
-layout(std430, binding = 1) buffer Slots { uint64_t slots[]; };
+layout(std430, binding = kSmokeBindValues) readonly buffer Values { uint64_t values[]; };
+layout(std430, binding = kSmokeBindSlots) buffer Slots { uint64_t slots[]; };
 layout(push_constant) uniform Push { uint32_t value_count; uint32_t slot_count; };
 
 void main() {

@@ -76,11 +76,6 @@ SceneFile load_golden_scene(const Golden& g) {
   return sf;
 }
 
-std::string hex64(uint64_t v) {
-  char buf[24];
-  std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)v);
-  return buf;
-}
 
 class GoldenTest : public ::testing::TestWithParam<Golden> {};
 
@@ -91,7 +86,7 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
   fs::create_directories(out_dir);
   SceneFile sf = load_golden_scene(g);
 
-  BackendRunRequest cpu;
+  RenderRequest cpu;
   cpu.backend = Backend::kCpu;
   cpu.view = g.view;
   cpu.frames = g.frames;
@@ -101,7 +96,7 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
   // The GPU's pages: the scene's own encodings transcoded (a streamed scene's page-file meshes
   // are drawn from each renderer's Streamer).
   const MemoryFormPages memory_form = memory_form_pages(sf);
-  BackendRunReport ref = run_backend(sf, memory_form, cpu);
+  RenderReport ref = run_backend(sf, cpu, {nullptr, &memory_form});
   const fs::path expected_json = expected_dir / (std::string(g.name) + ".json");
   if (update) {
     nlohmann::ordered_json j;
@@ -119,17 +114,17 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
     EXPECT_EQ(j["image_hash"].get<std::string>(), hex64(ref.image_hash)) << g.name;
   }
 
-  BackendRunRequest vk = cpu;
+  RenderRequest vk = cpu;
   vk.backend = Backend::kVulkan;
   vk.compare_cpu = true;
-  vk.gpu.validate = true;
+  vk.gpu_validate = true;
   vk.output_png = (out_dir / "vulkan.png").string();
   vk.diff_png = (out_dir / "diff.png").string();
   vk.failure_dir = out_dir.string();
   GpuOptions gpu_options;
   gpu_options.validate = true;
   std::unique_ptr<GpuContext> gpu = create_gpu_context(gpu_options);
-  BackendRunReport got = run_backend(sf, memory_form, vk, gpu.get());
+  RenderReport got = run_backend(sf, vk, {gpu.get(), &memory_form});
   EXPECT_TRUE(got.rule_holds) << g.name << ":\n" << got.table() << "diff PNG and differing pixels in " << out_dir;
   EXPECT_EQ(got.vis_hash, ref.vis_hash) << g.name;
   EXPECT_EQ(got.cluster_set_hash, ref.cluster_set_hash) << g.name;
@@ -159,22 +154,22 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
   for (GpuRasterMode mode : {GpuRasterMode::kHw, GpuRasterMode::kAuto}) {
     const fs::path mode_dir = out_dir / gpu_raster_mode_name(mode);
     fs::create_directories(mode_dir);
-    BackendRunRequest m = vk;
+    RenderRequest m = vk;
     m.raster = mode;
     m.output_png = (mode_dir / "vulkan.png").string();
     m.diff_png = (mode_dir / "diff.png").string();
     m.failure_dir = mode_dir.string();
-    BackendRunReport r = run_backend(sf, memory_form, m, gpu.get());
+    RenderReport r = run_backend(sf, m, {gpu.get(), &memory_form});
     const char* name = gpu_raster_mode_name(mode);
     EXPECT_TRUE(r.rule_holds) << g.name << " --raster " << name << ":\n" << r.table() << "output in " << mode_dir;
     EXPECT_EQ(r.cluster_set_hash, ref.cluster_set_hash) << g.name << " --raster " << name;
     EXPECT_TRUE(r.validation_messages.empty()) << g.name << " --raster " << name << ": " << r.validation_messages.size()
                                                << " validation message(s), first: "
                                                << (r.validation_messages.empty() ? "" : r.validation_messages[0]);
-    ASSERT_EQ(r.raster_split.size(), r.frames.size());
     HwRasterAgreement total;
     for (size_t f = 0; f < r.frames.size(); ++f) {
-      const RasterSplitStats& split = r.raster_split[f];
+      ASSERT_TRUE(r.frames[f].has_raster_split) << g.name << " frame " << f;
+      const RasterSplitStats& split = r.frames[f].raster_split;
       EXPECT_EQ(split.sw_clusters + split.hw_clusters, r.frames[f].clusters_drawn) << g.name << " frame " << f;
       EXPECT_EQ(split.sw_triangles + split.hw_triangles, r.frames[f].triangles_drawn) << g.name << " frame " << f;
       if (mode == GpuRasterMode::kHw) EXPECT_EQ(split.sw_clusters, 0u) << g.name << " frame " << f;
@@ -183,8 +178,8 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
     std::printf("%s --raster %s: sw/hw clusters %llu/%llu (last frame); pixels differing in depth only %llu, inside "
                 "the mask %llu (ambiguous depth %llu, clip coverage %llu, snap coverage %llu), max depth error %.3g x "
                 "tolerance\n",
-                g.name, name, (unsigned long long)r.raster_split.back().sw_clusters,
-                (unsigned long long)r.raster_split.back().hw_clusters,
+                g.name, name, (unsigned long long)r.frames.back().raster_split.sw_clusters,
+                (unsigned long long)r.frames.back().raster_split.hw_clusters,
                 (unsigned long long)total.count(HwPixel::kDepthOnly), (unsigned long long)total.in_mask(),
                 (unsigned long long)total.count(HwPixel::kAmbiguousDepth),
                 (unsigned long long)total.count(HwPixel::kAmbiguousClipCoverage),

@@ -5,6 +5,7 @@
 
 #include <fstream>
 
+#include "render/frame_loop_flags.h"
 #include "render/stream_fixture.h"
 #include "support/run_command.h"
 
@@ -28,6 +29,17 @@ TEST(GpuCli, CompareCpuHoldsWithValidationAndReportsHashes) {
   nlohmann::json k = nlohmann::json::parse(c.output);
   EXPECT_EQ(k["vis_hash"], j["vis_hash"]);
   EXPECT_EQ(k["cluster_set_hash"], j["cluster_set_hash"]);
+}
+
+// The frame loop's flags on --backend vulkan (render/frame_loop_flags.h: PNGs with --out-dir
+// --save-every 1, --frame-ms pacing, the stream summary; before the one loop the first two
+// were ignored and the summary not printed), and the same vis_hash as the CPU for the same
+// frames (--stream-sync: both load the same pages).
+TEST(GpuCli, FrameLoopFlagsOnTheVulkanBackendAndTheCpuVisHash) {
+  const std::string vulkan = test::check_frame_loop_flags("--backend vulkan", "vulkan");
+  const std::string cpu = test::check_frame_loop_flags("--backend cpu", "vulkan_cpu");
+  EXPECT_FALSE(vulkan.empty());
+  EXPECT_EQ(vulkan, cpu);
 }
 
 TEST(GpuCli, UnknownDeviceIsAOneLineCodedError) {

@@ -404,7 +404,7 @@ TEST(GpuCull, SceneFramesEqualCpu) {
     for (size_t k = 0; k < cameras.size(); ++k) {
       FrameHistory previous = history;  // the history this frame's pass 1 tests against
       Frame frame;
-      render_frame(sf.scene, cameras[k], settings, pool, &history, &frame, true);
+      render_frame({sf.scene, cameras[k], settings, pool, &history, true}, &frame);
       CullCase c;
       c.meshes = sf.scene.meshes;
       c.instances = sf.scene.instances;

@@ -113,11 +113,11 @@ TEST(GpuMemoryForm, PageFileWithNonDefaultOptionsIsDrawnFromItsOwnPages) {
     for (const std::vector<uint32_t>& p : pages.pages) all.insert(all.end(), p.begin(), p.end());
     EXPECT_EQ(gpu_page_words(*renderer), all);
   }
-  BackendRunRequest vk;
+  RenderRequest vk;
   vk.backend = Backend::kVulkan;
   vk.compare_cpu = true;
   vk.threads = 2;
-  const BackendRunReport r = run_backend(sf, pages, vk, gpu.get());
+  const RenderReport r = run_backend(sf, vk, {gpu.get(), &pages});
   ASSERT_EQ(r.comparisons.size(), 1u);
   EXPECT_TRUE(r.rule_holds) << r.table();
   EXPECT_EQ(r.comparisons[0].vis_pixels_differing, 0u) << r.table();
@@ -147,11 +147,11 @@ TEST(GpuMemoryForm, StreamedSceneWithABuiltMeshKeepsTheRule) {
   ASSERT_NE(sf.mesh_forms[1].encoding, kNone);
   auto gpu = testing::make_test_gpu();
   ASSERT_TRUE(gpu);
-  BackendRunRequest vk;
+  RenderRequest vk;
   vk.backend = Backend::kVulkan;
   vk.compare_cpu = true;
   vk.threads = 2;
-  const BackendRunReport r = run_backend(sf, memory_form_pages(sf), vk, gpu.get());
+  const RenderReport r = run_backend(sf, vk, {gpu.get(), nullptr});
   ASSERT_EQ(r.comparisons.size(), 3u);
   EXPECT_TRUE(r.rule_holds) << r.table();
   for (const FrameComparison& c : r.comparisons) EXPECT_EQ(c.vis_pixels_differing, 0u) << r.table();

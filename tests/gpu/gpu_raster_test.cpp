@@ -38,8 +38,8 @@ TEST(GpuRaster, DefaultSceneBitIdenticalToCpu) {
   cameras.push_back(inside);
   for (size_t i = 0; i < cameras.size(); ++i) {
     Frame cpu, vk;
-    render_frame(sf.scene, cameras[i], settings, pool, nullptr, &cpu);
-    render_frame_vulkan(*renderer, sf.scene, cameras[i], settings, pool, nullptr, &vk);
+    render_frame({sf.scene, cameras[i], settings, pool, nullptr}, &cpu);
+    render_frame_vulkan(*renderer, {sf.scene, cameras[i], settings, pool, nullptr}, &vk);
     ASSERT_EQ(cpu.visible, vk.visible) << "camera " << i;
     KeyDiff d = diff_keys(cpu.vis, vk.vis);
     uint64_t covered = 0;
@@ -68,8 +68,8 @@ TEST(GpuShade, EveryViewWithinOneOf255) {
     RenderSettings settings = sf.settings;
     settings.view = view;
     Frame cpu, vk;
-    render_frame(sf.scene, sf.cameras[0], settings, pool, nullptr, &cpu);
-    render_frame_vulkan(*renderer, sf.scene, sf.cameras[0], settings, pool, nullptr, &vk);
+    render_frame({sf.scene, sf.cameras[0], settings, pool, nullptr}, &cpu);
+    render_frame_vulkan(*renderer, {sf.scene, sf.cameras[0], settings, pool, nullptr}, &vk);
     ASSERT_EQ(cpu.image.rgb.size(), vk.image.rgb.size());
     int max_diff = 0;
     uint64_t over = 0, differing = 0;

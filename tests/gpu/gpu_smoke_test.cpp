@@ -6,6 +6,7 @@
 #include <random>
 
 #include "gpu/gpu_testing.h"
+#include "vgeo/gpu/shader_bindings.h"
 #include "vgeo/gpu/shaders.h"
 
 namespace vgeo {
@@ -43,13 +44,13 @@ TEST(GpuSmoke, AtomicMax64MatchesCpu) {
   GpuBuffer in = create_gpu_buffer(*gpu, values.size() * 8);
   GpuBuffer out = create_gpu_buffer(*gpu, slot_count * 8);
   std::copy(values.begin(), values.end(), in.data<uint64_t>());
-  ComputePipeline pipeline = create_compute_pipeline(*gpu, kShaderSmokeAtomicMax, 2, sizeof(SmokePush));
+  ComputePipeline pipeline = create_compute_pipeline(*gpu, kShaderSmokeAtomicMax, kSmokeBindingCount, sizeof(SmokePush));
   auto rec = create_gpu_recorder(*gpu);
   begin_commands(*rec);
   cmd_fill(*rec, out, 0);
   SmokePush push{value_count, slot_count};
   uint32_t t0 = cmd_timestamp(*rec);
-  cmd_dispatch(*rec, pipeline, {&in, &out}, &push, (value_count + 63) / 64);
+  cmd_dispatch(*rec, pipeline, gpu_bindings(kSmokeBindingCount, {{kSmokeBindValues, &in}, {kSmokeBindSlots, &out}}), &push, (value_count + 63) / 64);
   uint32_t t1 = cmd_timestamp(*rec);
   submit_and_wait(*rec);
   EXPECT_GE(timestamp_ms(*rec, t0, t1), 0.0);

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "render/frame_loop_flags.h"
 #include "render/stream_fixture.h"
 #include "vgeo/stream/stream.h"
 #include "support/paths.h"
@@ -105,6 +106,28 @@ TEST(RenderCli, StreamBudget) {
   CliRun off = run_cli("render " + scene("camera_path.json") + " --no-cache --threads 2 --frames 1 --stream-budget 64MiB");
   ASSERT_EQ(off.exit_code, 0) << off.output;
   EXPECT_EQ(off.output.rfind("streaming: off", 0), 0u) << off.output;
+}
+
+// The frame loop's flags (--out-dir/--save-every, --frame-ms, the stream summary) on the
+// default backend and on --backend cpu, and one vis_hash for the same frame: both run the one
+// frame loop (render/run.h). --backend vulkan: tests/gpu/gpu_cli_test.cpp.
+TEST(RenderCli, FrameLoopFlagsOnTheDefaultBackend) {
+  EXPECT_FALSE(test::check_frame_loop_flags("", "default").empty());
+}
+
+TEST(RenderCli, FrameLoopFlagsOnTheCpuBackendAndTheSameVisHash) {
+  const std::string cpu = test::check_frame_loop_flags("--backend cpu", "cpu");
+  EXPECT_FALSE(cpu.empty());
+  // Before the one loop, the default path printed FNV-1a of the raw keys (16f4a4f2… for the
+  // default scene) and --backend cpu the order-independent hash (e7791fdc…) of the same frame.
+  CliRun a = run_cli("render " + scene("spheres.json") + " --no-cache --threads 2 --json");
+  CliRun b = run_cli("render " + scene("spheres.json") + " --no-cache --threads 2 --json --backend cpu");
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  ASSERT_EQ(b.exit_code, 0) << b.output;
+  auto ja = nlohmann::json::parse(a.output), jb = nlohmann::json::parse(b.output);
+  EXPECT_EQ(ja["vis_hash"], jb["vis_hash"]);
+  EXPECT_EQ(ja["cluster_set_hash"], jb["cluster_set_hash"]);
+  EXPECT_EQ(ja["image_hash"], jb["image_hash"]);
 }
 
 // `vgeo build --page-size`: a bad size is BUILD_PAGE_SIZE (one line, exit 2, checked before

@@ -6,23 +6,30 @@
 #include <vector>
 
 #include "render/render_helpers.h"
+#include <algorithm>
+
+#include "vgeo/render/frame.h"
 #include "vgeo/render/frame_plan.h"
 
 namespace vgeo {
 namespace {
 
-// An executor that runs nothing: records the steps it is asked for, reports the given facts
-// and counts one drawn cluster per step (so a pass's counters show how many of its steps ran).
+// An executor that runs nothing: records the steps it is asked for, returns the given results
+// (pass 1 occluded something; pass 2 found one cluster) and counts one visited node per step
+// (so a pass's counters show how many of its steps ran); finish() covers 7 pixels.
 struct RecordingExecutor final : FrameExecutor {
   FrameFacts report;
+  Frame* frame = nullptr;
   std::vector<FrameStep> steps;
-  void run(FrameStep step, PassStats* stats, FrameFacts* facts) override {
+  StepResult run(FrameStep step, const FrameState&, PassStats* stats) override {
     steps.push_back(step);
-    stats->clusters_drawn += 1;
-    if (step == FrameStep::kClusterCull) facts->pass1_occluded = report.pass1_occluded;
-    if (step == FrameStep::kClusterCullPost) facts->pass2_found_visible = report.pass2_found_visible;
+    stats->nodes_visited += 1;
+    StepResult r;
+    if (step == FrameStep::kClusterCull) r.occluded = report.pass1_occluded;
+    if (step == FrameStep::kClusterCullPost && report.pass2_found_visible) r.visible.push_back({0, 0});
+    return r;
   }
-  void finish(FrameStats* stats) override { stats->pixels_covered = 7; }
+  void finish() override { std::fill(frame->vis.keys.begin(), frame->vis.keys.begin() + 7, 1); }
 };
 
 std::string reason_of(const FrameStats& s, const std::string& pass) {
@@ -102,11 +109,17 @@ TEST(FramePlan, ExecutorRunsExactlyThePlannedStepsInOrderAndStatisticsFollowTheR
                     S::kInstanceCullPost, S::kClusterCullPost, S::kStreamBindPost, S::kRasterPost, S::kHzbNext,
                     S::kStreamEnd, S::kShade}, ""},
   };
+  scene.meshes.resize(1);
+  scene.meshes[0].clusters.resize(1);
+  scene.meshes[0].clusters[0].triangle_count = 5;
   for (const Case& c : cases) {
     RecordingExecutor ex;
     ex.report = {c.occluded, c.found};
-    FrameStats stats;
-    execute_frame_plan(plan, ex, 3, 100, &stats);
+    Frame frame;
+    frame.vis.resize(10, 10);
+    ex.frame = &frame;
+    execute_frame_plan(plan, ex, scene, nullptr, nullptr, &frame);
+    const FrameStats& stats = frame.stats;
     EXPECT_EQ(ex.steps, c.steps) << c.occluded << c.found;
     EXPECT_EQ(reason_of(stats, "raster_post"), c.raster_post_reason);
     EXPECT_EQ(reason_of(stats, "overdraw"), "overdraw view not requested");
@@ -122,8 +135,13 @@ TEST(FramePlan, ExecutorRunsExactlyThePlannedStepsInOrderAndStatisticsFollowTheR
     }
     EXPECT_EQ(stats.passes.size() + stats.skipped.size(), kFramePassCount);
     ASSERT_NE(stats.find("stream"), nullptr);
-    EXPECT_EQ(stats.find("stream")->clusters_drawn, c.found ? 4u : 3u);
-    EXPECT_EQ(stats.clusters_drawn, c.steps.size());
+    EXPECT_EQ(stats.find("stream")->nodes_visited, c.found ? 4u : 3u);
+    // The plan layer applies the results: pass 2's cluster is appended after pass 1's (none)
+    // and counted by raster_post with its triangles.
+    EXPECT_EQ(frame.visible.size(), c.found ? 1u : 0u);
+    EXPECT_EQ(frame.pass1_visible, 0u);
+    EXPECT_EQ(stats.clusters_drawn, c.found ? 1u : 0u);
+    EXPECT_EQ(stats.triangles_drawn, c.found ? 5u : 0u);
     EXPECT_EQ(stats.instances, 3u);
     EXPECT_EQ(stats.pixels, 100u);
     EXPECT_EQ(stats.pixels_covered, 7u);
@@ -140,9 +158,10 @@ TEST(FramePlan, CpuExecutorReportsEveryPassAsRunOrSkippedWithTheConditionsReason
   for (int f = 0; f < 6; ++f) {
     double x = -1.5 + 3.0 * f / 5;
     Camera cam = test::look_camera({x, 1.5, 6}, {0, 1.2, -10});
-    const FramePlan plan = plan_frame(scene, settings, frame_context(scene, cam, &history, f < 5, nullptr));
+    const FrameInputs in{scene, cam, settings, pool, &history, f < 5};
+    const FramePlan plan = plan_frame(scene, settings, frame_context(in));
     Frame frame;
-    render_planned_frame(plan, scene, cam, settings, pool, &history, &frame, nullptr);
+    render_planned_frame(plan, in, &frame);
     EXPECT_EQ(frame.stats.passes.size() + frame.stats.skipped.size(), kFramePassCount) << f;
     for (const auto& [name, reason] : frame.stats.skipped) EXPECT_FALSE(reason.empty()) << name;
     saw_pass2 |= frame.stats.find("cluster_cull_post") != nullptr;
@@ -159,7 +178,7 @@ TEST(FramePlan, APlanForStreamingIsRefusedWithoutAStreamingState) {
   ThreadPool pool(1);
   Frame frame;
   try {
-    render_planned_frame(plan, scene, test::look_camera({0, 2, 6}, {0, 1, 0}), {}, pool, nullptr, &frame, nullptr);
+    render_planned_frame(plan, {scene, test::look_camera({0, 2, 6}, {0, 1, 0}), {}, pool}, &frame);
     FAIL() << "no error";
   } catch (const VgeoError& e) {
     EXPECT_EQ(e.error().code, "RENDER_PLAN_MISMATCH");

@@ -16,7 +16,7 @@ Frame render(const RenderScene& scene, const Camera& cam, unsigned threads, Rend
              FrameHistory* history = nullptr) {
   ThreadPool pool(threads);
   Frame f;
-  render_frame(scene, cam, settings, pool, history, &f);
+  render_frame({scene, cam, settings, pool, history}, &f);
   return f;
 }
 
@@ -61,8 +61,8 @@ TEST(RenderFrame, OcclusionCullingNeverChangesTheVisibilityBufferAlongACameraPat
     double x = -1.5 + 3.0 * f / (kFrames - 1);
     Camera cam = look_camera({x, 1.5, 6}, {0, 1.2, -10});
     Frame with, without;
-    render_frame(scene, cam, on, pool, &history, &with);
-    render_frame(scene, cam, off, pool, nullptr, &without);
+    render_frame({scene, cam, on, pool, &history}, &with);
+    render_frame({scene, cam, off, pool, nullptr}, &without);
     EXPECT_TRUE(decode(with) == decode(without)) << "frame " << f;
     for (const PassStats& p : with.stats.passes) occluded_total += p.clusters_occluded;
     pass2_frames += with.stats.find("cluster_cull_post") != nullptr;
@@ -87,11 +87,11 @@ TEST(RenderFrame, ClustersPostponedByAStaleHzbAreDrawnByPass2) {
   on.threshold_px = off.threshold_px = kFineThresholdPx;  // as above: clusters small enough to hide
   FrameHistory history;
   Frame previous, with, without;
-  render_frame(scene, cam, on, pool, &history, &previous);
+  render_frame({scene, cam, on, pool, &history}, &previous);
   ASSERT_TRUE(history.valid);
   scene.instances[1].object_to_world = test::translate_scale(0, 100, 0, 1.0);  // out of view
-  render_frame(scene, cam, on, pool, &history, &with);
-  render_frame(scene, cam, off, pool, nullptr, &without);
+  render_frame({scene, cam, on, pool, &history}, &with);
+  render_frame({scene, cam, off, pool, nullptr}, &without);
   EXPECT_TRUE(decode(with) == decode(without));
   const PassStats* pass1 = with.stats.find("cluster_cull");
   ASSERT_NE(pass1, nullptr);
@@ -214,7 +214,7 @@ TEST(RenderFrame, HardCasesGiveFiniteImagesAndNoCrash) {
     FrameHistory h;
     ThreadPool pool(2);
     Frame f;
-    for (int i = 0; i < 2; ++i) render_frame(scene, cam, {}, pool, &h, &f);
+    for (int i = 0; i < 2; ++i) render_frame({scene, cam, {}, pool, &h}, &f);
     EXPECT_TRUE(image_finite_and_sized(f)) << c.name;
     for (uint64_t k : f.vis.keys) {
       if (!k) continue;

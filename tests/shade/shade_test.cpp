@@ -32,7 +32,7 @@ TEST(Shade, FlatQuadIsUniformlyLitByLambertPlusAmbient) {
   Camera cam = test::look_camera({0, 0, 3}, {0, 0, 0}, 64, 64);
   ThreadPool pool(2);
   Frame f;
-  render_frame(s, cam, {}, pool, nullptr, &f);
+  render_frame({s, cam, {}, pool, nullptr}, &f);
   // Expected: base × (0.25 + 0.75 · n·l), n = +Z, l = normalize(0.4, 0.8, 0.45).
   double l = 0.45 / std::sqrt(0.4 * 0.4 + 0.8 * 0.8 + 0.45 * 0.45), k = 0.25 + 0.75 * l;
   auto srgb = [](double c) {
@@ -57,7 +57,7 @@ TEST(Shade, DebugViewsColourByTheirId) {
     RenderSettings settings;
     settings.view = view;
     Frame f;
-    render_frame(s, cam, settings, pool, nullptr, &f);
+    render_frame({s, cam, settings, pool, nullptr}, &f);
     // Pixels of the same id share a colour; more than one colour appears.
     std::map<uint64_t, uint32_t> colour_of;
     std::set<uint32_t> colours;
@@ -84,7 +84,7 @@ TEST(Shade, OverdrawCountsEveryDrawnClusterCoveringAPixel) {
   RenderSettings settings;
   settings.view = ShadeView::kOverdraw;
   Frame f;
-  render_frame(s, cam, settings, pool, nullptr, &f);
+  render_frame({s, cam, settings, pool, nullptr}, &f);
   ASSERT_EQ(f.overdraw.size(), f.vis.keys.size());
   uint32_t max_count = 0;
   for (size_t p = 0; p < f.vis.keys.size(); ++p) {

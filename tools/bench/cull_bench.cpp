@@ -177,7 +177,7 @@ void BM_DefaultSceneFrame(benchmark::State& state) {
   if (!scene) scene = std::make_unique<SceneFile>(make_default_scene(1280, 720, 1, {}));
   ThreadPool pool(unsigned(state.range(0)));
   Frame frame;
-  for (auto _ : state) render_frame(scene->scene, scene->cameras[0], scene->settings, pool, nullptr, &frame);
+  for (auto _ : state) render_frame({scene->scene, scene->cameras[0], scene->settings, pool, nullptr}, &frame);
   for (const PassStats& p : frame.stats.passes) state.counters[p.name + "_ms"] = p.ms;
   state.counters["triangles"] = double(frame.stats.triangles_drawn);
 }
@@ -201,7 +201,7 @@ void BM_Scaling(benchmark::State& state) {
   RenderSettings settings;
   settings.occlusion = false;  // one frame: no history to test against
   Frame frame;
-  for (auto _ : state) render_frame(scene, cam, settings, pool, nullptr, &frame);
+  for (auto _ : state) render_frame({scene, cam, settings, pool, nullptr}, &frame);
   state.counters["mesh_triangles"] = double(scene.meshes[0].triangle_count());
   state.counters["triangles_drawn"] = double(frame.stats.triangles_drawn);
   state.counters["pixels_covered"] = double(frame.stats.pixels_covered);

@@ -103,9 +103,9 @@ void run_backend_suite(const BenchConfig& cfg, SuiteReport& out) {
     const RenderSettings settings;
     auto render = [&](size_t v) {
       if (kBackendVariants[v].vulkan)
-        render_frame_vulkan(*renderers[v], ms, cam, settings, pool, &history[v], &frames[v], true);
+        render_frame_vulkan(*renderers[v], {ms.scene, cam, settings, pool, &history[v], true}, &frames[v]);
       else
-        render_frame(ms.scene, cam, settings, pool, &history[v], &frames[v], true);
+        render_frame({ms.scene, cam, settings, pool, &history[v], true}, &frames[v]);
     };
     for (int w = 0; w < kWarmupFrames; ++w)
       for (size_t v = 0; v < kBackendVariantCount; ++v) render(v);

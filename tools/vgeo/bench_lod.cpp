@@ -92,7 +92,7 @@ void run_lod_suite(const BenchConfig& cfg, SuiteReport& out) {
       return s;
     };
     auto totals = time_interleaved(reps, variants, [&](size_t v) {
-      render_frame(scene, camera, settings(v), pool, nullptr, &frames[v], false);
+      render_frame({scene, camera, settings(v), pool, nullptr, false}, &frames[v]);
       const FrameStats& fs = frames[v].stats;
       cull[v].push_back(passes_ms(fs, {"instance_cull", "cluster_cull"}));
       raster[v].push_back(passes_ms(fs, {"raster"}));

@@ -73,7 +73,7 @@ void run_occlusion_suite(const BenchConfig& cfg, SuiteReport& out) {
     RenderSettings s;
     s.occlusion = kOcclusionVariants[v].occlusion;
     s.hzb_policy = kOcclusionVariants[v].policy;
-    render_frame(scene, cam, s, pool, &history[v], &frames[v], true);
+    render_frame({scene, cam, s, pool, &history[v], true}, &frames[v]);
   };
   for (size_t v = 0; v < kOcclusionVariantCount; ++v) render(v);  // warm-up: builds each history
   std::vector<std::vector<double>> occl_ms(kOcclusionVariantCount), raster_ms(kOcclusionVariantCount);

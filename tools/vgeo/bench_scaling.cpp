@@ -89,7 +89,7 @@ void run_scaling_suite(const BenchConfig& cfg, SuiteReport& out) {
     scene.instances = placements[v];
     analyze_render_scene(&scene);
   };
-  auto render = [&](size_t v) { render_frame(scene, cam, settings, pool, &history[v], &frames[v], true); };
+  auto render = [&](size_t v) { render_frame({scene, cam, settings, pool, &history[v], true}, &frames[v]); };
   for (size_t v = 0; v < configs.size(); ++v) {  // warm-up: builds each configuration's history
     use_config(v);
     render(v);

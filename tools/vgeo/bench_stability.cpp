@@ -144,7 +144,7 @@ void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
       RenderSettings s;
       s.occlusion = false;
       s.threshold_px = v == 1 ? kFullDetailTau : kTau;
-      render_frame(scene, c.camera, s, pool, nullptr, &frames[v], false);
+      render_frame({scene, c.camera, s, pool, nullptr, false}, &frames[v]);
     });
     ImageError e = compare_frames(frames[0], frames[1]);
     Stats cpu = summarize(samples.cpu[0]), ratio = ratio_stats(samples.cpu[0], samples.cpu[1]);

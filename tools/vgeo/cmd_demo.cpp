@@ -90,21 +90,10 @@ void add_demo_command(CLI::App& app, Context& ctx) {
     RenderRequest request;
     request.output_png = (std::filesystem::path(args->out_dir) / "frame.png").string();
     request.threads = args->threads;
-    if (backend == Backend::kVulkan) {
-      BackendRunRequest br;
-      br.backend = Backend::kVulkan;
-      br.threads = args->threads;
-      br.output_png = request.output_png;
-      SceneLoadOptions options;
-      options.build.threads = args->threads;
-      BackendRunReport frame = run_backend(make_default_scene(args->width, args->height, 1, options), br);
-      std::printf("\n== 4. frame %ux%u -> %s\n%s", frame.width, frame.height, request.output_png.c_str(),
-                  frame.table().c_str());
-    } else {
-      RenderReport frame = render_default_scene(request, args->width, args->height);
-      std::printf("\n== 4. frame %ux%u -> %s\n%s", frame.width, frame.height, request.output_png.c_str(),
-                  frame.table().c_str());
-    }
+    request.backend = backend;
+    RenderReport frame = run_backend(load_default_scene(request, args->width, args->height), request);
+    std::printf("\n== 4. frame %ux%u -> %s\n%s", frame.width, frame.height, request.output_png.c_str(),
+                frame.table().c_str());
     std::printf("\ndemo: %s\n", verdict.ok() ? "all invariants hold" : "INVARIANT VIOLATIONS (see verify.json)");
     ctx.exit_code = verdict.ok() ? kExitOk : kExitInvariantViolation;
   });

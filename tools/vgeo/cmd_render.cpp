@@ -1,5 +1,7 @@
-// vgeo render SCENE.json -o frame.png: the CPU reference frame pipeline (spec/scene.md),
-// optionally streaming page-file meshes through a fixed pool (spec/stream.md §Renderer).
+// vgeo render SCENE.json -o frame.png: a scene's frames on the CPU reference (spec/scene.md) or
+// the Vulkan backend (spec/gpu.md), optionally streaming page-file meshes through a fixed pool
+// (spec/stream.md §Renderer); every option means the same on every backend (one request, one
+// frame loop: lib/vgeo/render/run.h).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -25,62 +27,37 @@ struct RenderArgs {
   double disk_latency_ms = 0, disk_bandwidth_mbs = 0, frame_ms = 0;
   uint32_t save_every = 0, stream_issues = 8;
   bool stream_sync = false;
-  // Backends (spec/gpu.md): any of these selects the backend runner (decoded memory form).
+  // Backends (spec/gpu.md).
   std::string backend, compare, device, diff_png, traversal, raster;
   bool validate = false;
 };
 
-// --backend / --compare: render the decoded memory form on the chosen backend (and the CPU).
-void run_backend_command(const RenderArgs& args, const RenderRequest& request, SceneLoadOptions options,
-                         const std::string& cache, Context& ctx) {
-  BackendRunRequest br;
-  br.backend = args.compare.empty() ? Backend::kCpu : Backend::kVulkan;
-  if (!args.backend.empty() && !parse_backend(args.backend, &br.backend))
+// --backend / --compare / --raster / --traversal / --device / --validate into the request.
+void resolve_backend_args(const RenderArgs& args, RenderRequest* request) {
+  if (!args.backend.empty() && !parse_backend(args.backend, &request->backend))
     fail("RENDER_BAD_OPTION", "vgeo render", "--backend must be cpu or vulkan", kExitUsage);
   if (!args.compare.empty()) {
     if (args.compare != "cpu") fail("RENDER_BAD_OPTION", "vgeo render", "--compare supports only cpu", kExitUsage);
-    if (br.backend != Backend::kVulkan)
+    if (args.backend.empty()) request->backend = Backend::kVulkan;
+    if (request->backend != Backend::kVulkan)
       fail("RENDER_BAD_OPTION", "vgeo render", "--compare cpu needs --backend vulkan", kExitUsage);
-    br.compare_cpu = true;
+    request->compare_cpu = true;
   }
-  if (args.traversal == "level") br.traversal = GpuTraversal::kLevel;
-  else if (args.traversal == "persistent") br.traversal = GpuTraversal::kPersistent;
+  if (args.traversal == "level") request->traversal = GpuTraversal::kLevel;
+  else if (args.traversal == "persistent") request->traversal = GpuTraversal::kPersistent;
   else if (!args.traversal.empty())
     fail("RENDER_BAD_OPTION", "vgeo render", "--traversal must be level or persistent", kExitUsage);
+  if (request->traversal && request->backend != Backend::kVulkan)
+    fail("RENDER_BAD_OPTION", "vgeo render", "--traversal needs --backend vulkan", kExitUsage);
   if (!args.raster.empty()) {
-    if (!parse_gpu_raster_mode(args.raster, &br.raster))
+    if (!parse_gpu_raster_mode(args.raster, &request->raster))
       fail("RENDER_BAD_OPTION", "vgeo render", "--raster must be sw, hw or auto", kExitUsage);
-    if (br.backend != Backend::kVulkan)
+    if (request->backend != Backend::kVulkan)
       fail("RENDER_BAD_OPTION", "vgeo render", "--raster needs --backend vulkan", kExitUsage);
   }
-  br.gpu.device = args.device;
-  br.gpu.validate = args.validate;
-  br.threads = request.threads;
-  br.frames = request.frames;
-  br.camera = request.camera;
-  br.threshold_px = request.threshold_px;
-  br.view = request.view;
-  br.occlusion = request.occlusion;
-  br.output_png = request.output_png;
-  br.diff_png = args.diff_png;
-  options.cache_dir = cache;
-  options.build.threads = request.threads;
-  SceneFile scene = args.scene.empty() ? make_default_scene(1280, 720, std::max<uint32_t>(request.frames, 1), options)
-                                       : load_scene_file(args.scene, options);
-  if (!args.camera_path.empty()) scene.path = load_camera_path_file(args.camera_path, scene.cameras[0]);
-  BackendRunReport report = run_backend(scene, br);
-  if (!args.json_file.empty()) write_file_atomic(args.json_file, report.json() + "\n");
-  std::printf("%s", (args.json ? report.json() + "\n" : report.table()).c_str());
-  if (!report.validation_messages.empty())
-    fail("GPU_VALIDATION", "vulkan",
-         std::to_string(report.validation_messages.size()) + " validation message(s), first: " +
-             report.validation_messages[0],
-         kExitInternal);
-  if (!report.rule_holds)
-    fail("RENDER_BACKENDS_DIFFER", "vgeo render",
-         "the Vulkan frames break the rule of spec/raster.md §Backends agree (see the comparison above)",
-         kExitInvariantViolation);
-  ctx.exit_code = kExitOk;
+  request->gpu_device = args.device;
+  request->gpu_validate = args.validate;
+  request->diff_png = args.diff_png;
 }
 
 std::string default_cache_dir() {
@@ -96,7 +73,7 @@ std::string default_cache_dir() {
 
 void add_render_command(CLI::App& app, Context& ctx) {
   auto args = std::make_shared<RenderArgs>();
-  auto* cmd = app.add_subcommand("render", "Render a scene with the CPU reference pipeline (cull, raster, shade)");
+  auto* cmd = app.add_subcommand("render", "Render a scene on the CPU reference or the Vulkan backend (cull, raster, shade)");
   cmd->add_option("scene", args->scene, "scene JSON file (spec/scene.md); omit for the embedded default scene");
   cmd->add_option("-o,--output", args->output, "PNG of the last frame");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores); output is identical for any value");
@@ -121,7 +98,7 @@ void add_render_command(CLI::App& app, Context& ctx) {
   cmd->add_flag("--stream-sync", args->stream_sync, "deterministic loader: each read completes at the next frame");
   cmd->add_option("--out-dir", args->out_dir, "write PNGs of frames here (frame_NNNNN.png): every --save-every-th and the last");
   cmd->add_option("--save-every", args->save_every, "with --out-dir: save every K-th frame (0 = only the last)");
-  cmd->add_option("--backend", args->backend, "cpu|vulkan: render the decoded memory form on this backend (spec/gpu.md)");
+  cmd->add_option("--backend", args->backend, "cpu|vulkan: the backend that renders the scene's memory form (default cpu; spec/gpu.md)");
   cmd->add_option("--compare", args->compare, "cpu: with --backend vulkan, render every frame on the CPU too and compare "
                                               "(spec/raster.md; exit 1 when the rule fails)");
   cmd->add_option("--traversal", args->traversal,
@@ -175,25 +152,19 @@ void add_render_command(CLI::App& app, Context& ctx) {
     request.save_every = args->save_every;
     if (!args->out_dir.empty()) create_output_directory(args->out_dir);
     std::string cache = args->no_cache ? "" : (args->cache_dir.empty() ? default_cache_dir() : args->cache_dir);
-    if (!args->traversal.empty() && args->backend.empty() && args->compare.empty())
-      fail("RENDER_BAD_OPTION", "vgeo render", "--traversal needs --backend vulkan", kExitUsage);
-    if (!args->backend.empty() || !args->compare.empty() || !args->raster.empty()) {
-      if (args->scene.empty() && options.stream) bad_stream_option("--stream-budget needs a scene file");
-      run_backend_command(*args, request, options, cache, ctx);
-      return;
-    }
-    RenderReport report;
+    resolve_backend_args(*args, &request);
+    SceneFile scene;
     if (args->scene.empty()) {
       if (!args->stream_budget.empty() || !args->camera_path.empty())
         bad_stream_option("--stream-budget and --camera-path need a scene file");
-      report = render_default_scene(request, 1280, 720, cache);
+      scene = load_default_scene(request, 1280, 720, cache);
     } else {
       options.cache_dir = cache;
       options.build.threads = args->threads;
-      SceneFile scene = load_scene_file(args->scene, options);
+      scene = load_scene_file(args->scene, options);
       if (!args->camera_path.empty()) scene.path = load_camera_path_file(args->camera_path, scene.cameras[0]);
-      report = render_scene(scene, request);
     }
+    const RenderReport report = run_backend(scene, request);
     if (!args->json_file.empty()) write_file_atomic(args->json_file, report.json() + "\n");
     if (args->json) {
       std::printf("%s\n", report.json().c_str());
@@ -201,6 +172,15 @@ void add_render_command(CLI::App& app, Context& ctx) {
       std::printf("%s", report.stream_table().c_str());
       std::printf("%s", report.table().c_str());
     }
+    if (!report.validation_messages.empty())
+      fail("GPU_VALIDATION", "vulkan",
+           std::to_string(report.validation_messages.size()) + " validation message(s), first: " +
+               report.validation_messages[0],
+           kExitInternal);
+    if (!report.rule_holds)
+      fail("RENDER_BACKENDS_DIFFER", "vgeo render",
+           "the Vulkan frames break the rule of spec/raster.md §Backends agree (see the comparison above)",
+           kExitInvariantViolation);
     ctx.exit_code = kExitOk;
   });
 }

@@ -460,6 +460,20 @@ void cmd_fill(GpuRecorder& rec, const GpuBuffer& buffer, uint32_t value) {
   full_barrier(rec.commands);
 }
 
+std::vector<const GpuBuffer*> gpu_bindings(uint32_t count, const std::vector<GpuBinding>& buffers) {
+  std::vector<const GpuBuffer*> out(count, nullptr);
+  for (const GpuBinding& b : buffers) {
+    if (b.index >= count || out[b.index] != nullptr || b.buffer == nullptr)
+      fail("GPU_ERROR", "vulkan", "binding " + std::to_string(b.index) + " of a " + std::to_string(count) +
+                                      "-binding shader is out of range, null or given twice", kExitInternal);
+    out[b.index] = b.buffer;
+  }
+  if (buffers.size() != count)
+    fail("GPU_ERROR", "vulkan", std::to_string(buffers.size()) + " buffers for a shader with " +
+                                    std::to_string(count) + " bindings", kExitInternal);
+  return out;
+}
+
 VkDescriptorSet storage_buffer_set(GpuRecorder& rec, VkDescriptorSetLayout layout,
                                    const std::vector<const GpuBuffer*>& buffers) {
   VkDevice d = rec.context->device;

@@ -142,6 +142,17 @@ struct GpuRecorder {
 std::unique_ptr<GpuRecorder> create_gpu_recorder(GpuContext& context);
 void begin_commands(GpuRecorder& rec);
 void cmd_fill(GpuRecorder& rec, const GpuBuffer& buffer, uint32_t value);
+// One shader's storage buffers by binding index (gpu/shader_bindings.h: the indices the GLSL
+// declares), as cmd_dispatch and storage_buffer_set take them: `count` slots (the shader's
+// k<Shader>BindingCount), each pair placed at its index. Fails GPU_ERROR (internal) when a
+// slot is left empty, given twice or out of range, so a host list that disagrees with the
+// shader is an error at record time, never a wrong image.
+struct GpuBinding {
+  uint32_t index;
+  const GpuBuffer* buffer;
+};
+std::vector<const GpuBuffer*> gpu_bindings(uint32_t count, const std::vector<GpuBinding>& buffers);
+
 // A descriptor set of this submission whose bindings 0..n-1 are the storage buffers `buffers`
 // (for cmd_dispatch and the graphics pipeline of hw_raster.h).
 VkDescriptorSet storage_buffer_set(GpuRecorder& rec, VkDescriptorSetLayout layout,

@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "vgeo/core/error.h"
+#include "vgeo/gpu/shader_bindings.h"
 #include "vgeo/gpu/shaders.h"
 
 namespace vgeo {
@@ -49,8 +50,6 @@ constexpr uint32_t kItemLoopOverhead = 64;
 // Part of kGpuLoopBudget an invocation may plan to use: the rest is margin for the few
 // loops outside the per-item bound (counter clear/flush: kCounterCount each).
 constexpr uint32_t kPlannedLoopBudget = kGpuLoopBudget - 1024;
-constexpr uint32_t kCullBindings = 14;  // cull_common.glsl bindings 0..13
-constexpr uint32_t kHzbBindings = 3;
 constexpr VkDeviceSize kQueueDispatchOffset = offsetof(GpuQueueHeader, dispatch_x);
 
 uint32_t groups_for(uint64_t n, uint32_t size) { return uint32_t((n + size - 1) / size); }
@@ -103,13 +102,25 @@ GpuCullView gpu_view(const ViewParams& v) {
   return g;
 }
 
-// The 14 bindings of cull_common.glsl for pass `pass`.
+// The bindings of cull_common.glsl (shader_bindings.h) for pass `pass`.
 std::vector<const GpuBuffer*> cull_bindings(const GpuCullMeshes& m, GpuCullFrame& f, uint32_t pass, bool previous,
                                             const GpuBuffer& counters, const GpuBuffer& list_in,
                                             const GpuBuffer& list_out) {
-  return {&f.params[pass], &m.meshes, &m.clusters, &m.groups, &m.nodes, &f.instances,
-          previous ? &f.previous_instances : &f.instances, previous ? &f.previous_hzb : &f.hzb,
-          &f.queue, &f.bits, &counters, &list_in, &list_out, &m.stream};
+  return gpu_bindings(kCullBindingCount,
+                      {{kCullBindParams, &f.params[pass]},
+                       {kCullBindMeshes, &m.meshes},
+                       {kCullBindClusters, &m.clusters},
+                       {kCullBindGroups, &m.groups},
+                       {kCullBindNodes, &m.nodes},
+                       {kCullBindInstances, &f.instances},
+                       {kCullBindOcclusionInstances, previous ? &f.previous_instances : &f.instances},
+                       {kCullBindHzb, previous ? &f.previous_hzb : &f.hzb},
+                       {kCullBindQueue, &f.queue},
+                       {kCullBindBits, &f.bits},
+                       {kCullBindCounters, &counters},
+                       {kCullBindListIn, &list_in},
+                       {kCullBindListOut, &list_out},
+                       {kCullBindStream, &m.stream}});
 }
 
 // The most loop back edges one HZB test of `params` runs (cull_common.glsl): the 4x4 / 2x2
@@ -161,13 +172,13 @@ void cmd_compact(GpuRecorder& rec, const GpuCullPipelines& p, const std::vector<
 GpuCullPipelines create_cull_pipelines(GpuContext& gpu) {
   const uint32_t push = sizeof(GpuCullPush);
   GpuCullPipelines p;
-  p.instances = create_compute_pipeline(gpu, kShaderCullInstances, kCullBindings, push);
-  p.seed = create_compute_pipeline(gpu, kShaderCullSeed, kCullBindings, push);
-  p.traverse_persistent = create_compute_pipeline(gpu, kShaderCullTraversePersistent, kCullBindings, push);
-  p.traverse_level = create_compute_pipeline(gpu, kShaderCullTraverseLevel, kCullBindings, push);
-  p.advance = create_compute_pipeline(gpu, kShaderCullAdvance, 1, 0);
-  p.compact = create_compute_pipeline(gpu, kShaderCullCompact, kCullBindings, push);
-  p.hzb = create_compute_pipeline(gpu, kShaderHzbBuild, kHzbBindings, push);
+  p.instances = create_compute_pipeline(gpu, kShaderCullInstances, kCullBindingCount, push);
+  p.seed = create_compute_pipeline(gpu, kShaderCullSeed, kCullBindingCount, push);
+  p.traverse_persistent = create_compute_pipeline(gpu, kShaderCullTraversePersistent, kCullBindingCount, push);
+  p.traverse_level = create_compute_pipeline(gpu, kShaderCullTraverseLevel, kCullBindingCount, push);
+  p.advance = create_compute_pipeline(gpu, kShaderCullAdvance, kAdvanceBindingCount, 0);
+  p.compact = create_compute_pipeline(gpu, kShaderCullCompact, kCullBindingCount, push);
+  p.hzb = create_compute_pipeline(gpu, kShaderHzbBuild, kHzbBindingCount, push);
   return p;
 }
 
@@ -419,11 +430,11 @@ void cmd_cull_clusters(GpuRecorder& rec, const GpuCullPipelines& p, const GpuCul
     }
   } else {
     // One item per invocation: its bound is the invocation's.
-    cmd_dispatch(rec, p.advance, {&f.queue}, nullptr, 1);
+    cmd_dispatch(rec, p.advance, gpu_bindings(kAdvanceBindingCount, {{kAdvanceBindQueue, &f.queue}}), nullptr, 1);
     for (uint32_t level = 0; level < m.levels; ++level) {
       cmd_dispatch_indirect(rec, p.traverse_level, bind(seed_instances, visible_out), &push, f.queue,
                             kQueueDispatchOffset);
-      cmd_dispatch(rec, p.advance, {&f.queue}, nullptr, 1);
+      cmd_dispatch(rec, p.advance, gpu_bindings(kAdvanceBindingCount, {{kAdvanceBindQueue, &f.queue}}), nullptr, 1);
     }
   }
   cmd_compact(rec, p, bind(seed_instances, visible_out), kCompactClusters, params.visible_bits, params.visible_words,
@@ -437,7 +448,9 @@ void cmd_build_hzb(GpuRecorder& rec, const GpuCullPipelines& p, GpuCullFrame& f,
   const GpuHzbLayout& h = f.hzb_layout;
   for (uint32_t level = 0; level < h.levels; ++level) {
     GpuCullPush push{level, 0, 0, 0, 0};
-    cmd_dispatch(rec, p.hzb, {&f.params[0], &vis, &hzb_out}, &push,
+    cmd_dispatch(rec, p.hzb,
+                 gpu_bindings(kHzbBindingCount, {{kHzbBindParams, &f.params[0]}, {kHzbBindVis, &vis}, {kHzbBindHzb, &hzb_out}}),
+                 &push,
                  groups_for(uint64_t(h.mip_width[level]) * h.mip_height[level], kHzbGroupSize));
   }
 }

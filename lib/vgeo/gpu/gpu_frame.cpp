@@ -90,11 +90,11 @@ void GpuRendererDeleter::operator()(GpuRenderer* r) const { delete r; }
 
 namespace {
 
-// Raster shader bindings: pages, locations, meshes, instances, visible, vis, counters.
-// Shade shader bindings: the raster ones less counters, then shade instances, shade clusters,
-// materials, overdraw, image.
-constexpr uint32_t kShadeBindings = 11;
 constexpr uint32_t kShadeGroupSize = 64;  // shaders/shade.comp local_size_x
+
+GpuGeometryBuffers geometry(const GpuRenderer& r) {
+  return {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis};
+}
 
 template <class T>
 GpuBuffer upload(GpuContext& gpu, const std::vector<T>& data) {
@@ -134,7 +134,7 @@ void raster_range(GpuRenderer& r, uint32_t width, uint32_t height, float z_near,
   request.hw_min_triangle_area_px = r.options.hw_min_triangle_area_px;
   request.cull_backfaces = cull_backfaces;
   uint32_t t0 = cmd_timestamp(rec);
-  const GpuRasterBuffers buffers{&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.counters};
+  const GpuRasterBuffers buffers{geometry(r), &r.counters};
   record_gpu_raster(rec, *r.raster, buffers, request);
   RasterSplitStats tiled;
   if (request.mode != GpuRasterMode::kHw) {
@@ -238,10 +238,13 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
   params.max_overdraw = max_overdraw;
   GpuRecorder& rec = *r.recorder;
   begin_commands(rec);
-  cmd_dispatch(rec, r.shade,
-               {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis, &r.shade_instances,
-                &r.shade_clusters, &r.materials, &r.overdraw, &r.image},
-               &params, uint32_t((pixels + kShadeGroupSize - 1) / kShadeGroupSize));
+  std::vector<GpuBinding> bindings = geometry_bindings(geometry(r));
+  bindings.insert(bindings.end(), {{kShadeBindInstances, &r.shade_instances},
+                                   {kShadeBindClusters, &r.shade_clusters},
+                                   {kShadeBindMaterials, &r.materials},
+                                   {kShadeBindOverdraw, &r.overdraw},
+                                   {kShadeBindImage, &r.image}});
+  cmd_dispatch(rec, r.shade, gpu_bindings(kShadeBindingCount, bindings), &params, uint32_t((pixels + kShadeGroupSize - 1) / kShadeGroupSize));
   submit_and_wait(rec);
 
   out->image.width = camera.width;
@@ -282,7 +285,7 @@ GpuRendererPtr create_renderer_common(GpuContext& gpu, const RenderScene& scene,
   r->cull_meshes = upload_cull_meshes(gpu, scene.meshes);
   r->recorder = create_gpu_recorder(gpu);
   r->raster = create_gpu_raster_passes(gpu, cluster_raster_infos(scene));
-  r->shade = create_compute_pipeline(gpu, kShaderShade, kShadeBindings, sizeof(GpuShadeParams));
+  r->shade = create_compute_pipeline(gpu, kShaderShade, kShadeBindingCount, sizeof(GpuShadeParams));
   r->counters = create_gpu_buffer(gpu, 64);
   std::vector<GpuMaterial> materials(scene.materials.size());
   for (size_t i = 0; i < materials.size(); ++i)
@@ -476,11 +479,13 @@ namespace {
 // Overdraw (only for the overdraw view) is counted on the host, as frame.cpp does.
 class VulkanFrameExecutor final : public FrameExecutor {
  public:
-  VulkanFrameExecutor(GpuRenderer& r, const FramePlan& plan, const RenderScene& scene, const Camera& camera,
-                      const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                      FrameStreaming* streaming, RasterSplitStats* split)
-      : r_(r), scene_(scene), camera_(camera), settings_(settings), pool_(pool), history_(history), out_(out),
-        streaming_(streaming), split_(split) {
+  VulkanFrameExecutor(GpuRenderer& r, const FramePlan& plan, const FrameInputs& in, Frame* out,
+                      RasterSplitStats* split)
+      : r_(r), in_(in), out_(out), split_(split) {
+    const RenderScene& scene = in.scene;
+    const Camera& camera = in.camera;
+    const RenderSettings& settings = in.settings;
+    FrameHistory* history = in.history;
     GpuContext& gpu = *r.gpu;
     object_to_clip_ = begin_frame(scene, camera, out);  // the CPU executor's matrices, bit for bit
     std::vector<GpuInstance> instances(scene.instances.size());
@@ -512,18 +517,19 @@ class VulkanFrameExecutor final : public FrameExecutor {
     write_cull_params(f, 1, out->view, settings.threshold_px, defaults.frustum, &current);
   }
 
-  void run(FrameStep step, PassStats* p, FrameFacts* facts) override {
+  StepResult run(FrameStep step, const FrameState& state, PassStats* p) override {
     GpuRecorder& rec = *r_.recorder;
     GpuCullFrame& f = *r_.cull_frame;
     const GpuCullPipelines& cp = r_.cull;
     GpuCullMeshes& m = r_.cull_meshes;
+    StepResult r;
     switch (step) {
       case FrameStep::kStreamBegin:
         // The Streamer installs completed reads; the pool mirrors its residency; the cull
         // passes get the usable masks (the same ones the CPU executor's traversal reads).
-        begin_streamed_frame(scene_, streaming_);
-        sync_page_pool(r_, *streaming_);
-        write_cull_usable(m, streaming_->usable);
+        begin_streamed_frame(in_.scene, in_.streaming);
+        sync_page_pool(r_, *in_.streaming);
+        write_cull_usable(m, in_.streaming->usable);
         break;
       case FrameStep::kStreamBind:
         check_bound(0);
@@ -532,14 +538,14 @@ class VulkanFrameExecutor final : public FrameExecutor {
         check_bound(out_->pass1_visible);
         break;
       case FrameStep::kStreamEnd:
-        end_streamed_frame(streaming_, requests_, clusters_coarser_, out_->visible.size());
+        end_streamed_frame(in_.streaming, state.requests, state.clusters_coarser, out_->visible.size());
         break;
       case FrameStep::kInstanceCull: {
         begin_commands(rec);
         cmd_cull_instances(rec, cp, m, f, 0, f.candidates, f.visible_instances, &f.occluded_instances, f.counters[0]);
         submit_and_wait(rec);
         add_instance_counters(read_cull_counters(f.counters[0]), p);
-        facts->pass1_occluded |= list_count(f.occluded_instances) != 0;
+        r.occluded = list_count(f.occluded_instances) != 0;
         break;
       }
       case FrameStep::kClusterCull: {
@@ -549,12 +555,10 @@ class VulkanFrameExecutor final : public FrameExecutor {
         submit_and_wait(rec);
         const CullCounters cc = read_cull_counters(f.counters[1]);
         add_cull_counters(cc, p);
-        requests_ = take_cull_requests(m);
-        clusters_coarser_ = cc.clusters_coarser;
-        out_->visible = read_visible_list(f.visible[0]);
-        out_->pass1_visible = uint32_t(std::min<size_t>(out_->visible.size(), kMaxVisibleClusters));
-        check_visible_count(out_->visible.size());
-        facts->pass1_occluded |= list_count(f.occluded_items) != 0;
+        r.requests = take_cull_requests(m);
+        r.clusters_coarser = cc.clusters_coarser;
+        r.visible = read_visible_list(f.visible[0]);
+        r.occluded = list_count(f.occluded_items) != 0;
         break;
       }
       case FrameStep::kRaster:
@@ -564,7 +568,6 @@ class VulkanFrameExecutor final : public FrameExecutor {
         begin_commands(rec);
         cmd_build_hzb(rec, cp, f, r_.vis, f.hzb);
         submit_and_wait(rec);
-        hzb_is_complete_ = true;
         break;
       case FrameStep::kInstanceCullPost:
         begin_commands(rec);
@@ -579,46 +582,37 @@ class VulkanFrameExecutor final : public FrameExecutor {
         submit_and_wait(rec);
         const CullCounters cc = read_cull_counters(f.counters[3]);
         add_cull_counters(cc, p);
-        const std::vector<GroupRequest> requests = take_cull_requests(m);
-        requests_.insert(requests_.end(), requests.begin(), requests.end());
-        clusters_coarser_ += cc.clusters_coarser;
-        const std::vector<VisibleCluster> pass2 = read_visible_list(f.visible[1]);
-        check_visible_count(out_->visible.size() + pass2.size());
-        out_->visible.insert(out_->visible.end(), pass2.begin(), pass2.end());
-        facts->pass2_found_visible = !pass2.empty();
+        r.requests = take_cull_requests(m);
+        r.clusters_coarser = cc.clusters_coarser;
+        r.visible = read_visible_list(f.visible[1]);
         break;
       }
       case FrameStep::kRasterPost:
         raster(out_->pass1_visible, p);
-        hzb_is_complete_ = false;  // drawn after the pass-1 HZB
         break;
       case FrameStep::kHzbNext:
-        if (!hzb_is_complete_) {
+        if (!state.hzb_is_complete) {
           begin_commands(rec);
           cmd_build_hzb(rec, cp, f, r_.vis, f.hzb);
           submit_and_wait(rec);
         }
-        history_->hzb = read_hzb(f, f.hzb);
-        history_->view = out_->view;
-        history_->instance_views = out_->instance_views;
-        history_->valid = true;
+        in_.history->hzb = read_hzb(f, f.hzb);
         break;
       case FrameStep::kOverdraw:
         // On the host, as frame.cpp; a streamed frame's geometry is decoded from its pages here.
-        if (streaming_) bind_streamed_geometry(streaming_, scene_, out_->visible, 0, pool_);
-        overdraw_pass(scene_, streaming_ ? streaming_->geometry : scene_.meshes, out_->visible, object_to_clip_,
-                      out_->instance_views, out_->view, pool_, &out_->overdraw);
+        if (in_.streaming) bind_streamed_geometry(in_.streaming, in_.scene, out_->visible, 0, in_.pool);
+        overdraw_pass(in_.scene, in_.streaming ? in_.streaming->geometry : in_.scene.meshes, out_->visible, object_to_clip_,
+                      out_->instance_views, out_->view, in_.pool, &out_->overdraw);
         break;
       case FrameStep::kShade:
-        shade_pass(r_, scene_, settings_, camera_, out_);
+        shade_pass(r_, in_.scene, in_.settings, in_.camera, out_);
         break;
     }
+    return r;
   }
 
-  void finish(FrameStats* stats) override {
+  void finish() override {
     std::memcpy(out_->vis.keys.data(), r_.vis.mapped, out_->vis.keys.size() * sizeof(uint64_t));
-    for (uint64_t k : out_->vis.keys) stats->pixels_covered += k != 0;
-    if (streaming_) stats->stream = streaming_->stats;
   }
 
  private:
@@ -626,11 +620,11 @@ class VulkanFrameExecutor final : public FrameExecutor {
   // group is usable), so the raster and shade passes read installed pages only. (Meshes not
   // streamed have all their pages placed after the pool.)
   void check_bound(uint32_t first) const {
-    const FormatContainer& c = streaming_->streamer->container();
+    const FormatContainer& c = in_.streaming->streamer->container();
     for (size_t i = first; i < out_->visible.size(); ++i) {
-      const uint32_t m = scene_.instances[out_->visible[i].instance].mesh;
-      if (streaming_->stream_mesh[m] == kNone) continue;
-      const uint32_t page = c.meshes[streaming_->stream_mesh[m]].cluster_page[out_->visible[i].cluster];
+      const uint32_t m = in_.scene.instances[out_->visible[i].instance].mesh;
+      if (in_.streaming->stream_mesh[m] == kNone) continue;
+      const uint32_t page = c.meshes[in_.streaming->stream_mesh[m]].cluster_page[out_->visible[i].cluster];
       if (r_.slot_of_page[page] == kNone)
         fail("GPU_ERROR", "vulkan", "visible cluster " + std::to_string(out_->visible[i].cluster) +
                                         " of a page not in the GPU pool", kExitInternal);
@@ -638,7 +632,7 @@ class VulkanFrameExecutor final : public FrameExecutor {
   }
   const ViewParams& history_view() const {
     static const ViewParams none;
-    return history_ ? history_->view : none;
+    return in_.history ? in_.history->view : none;
   }
   static uint32_t list_count(const GpuBuffer& list) { return list.data<uint32_t>()[0]; }
   // Rasterizes visible[first, n) (frame.cpp raster_pass's counters; the time is the step's).
@@ -648,59 +642,37 @@ class VulkanFrameExecutor final : public FrameExecutor {
     const uint32_t n = uint32_t(visible.size());
     ensure_size(*r_.gpu, r_.visible, visible.size() * sizeof(GpuVisibleCluster));
     if (!visible.empty()) std::memcpy(r_.visible.mapped, visible.data(), visible.size() * sizeof(GpuVisibleCluster));
-    std::vector<float> scale(scene_.instances.size());
+    std::vector<float> scale(in_.scene.instances.size());
     for (size_t i = 0; i < scale.size(); ++i) scale[i] = float(out_->instance_views[i].scale);
     prepare_gpu_raster(*r_.raster, scale, n);
     PassStats gpu;
     // frame.cpp raster_pass: RasterOptions::z_near = float(z_near), default back-face culling.
-    raster_range(r_, camera_.width, camera_.height, float(camera_.z_near), out_->view.pixels_per_unit_at_1,
+    raster_range(r_, in_.camera.width, in_.camera.height, float(in_.camera.z_near), out_->view.pixels_per_unit_at_1,
                  RasterOptions{}.cull_backfaces, first, n - first, &gpu, split_);
-    p->pixels_written += gpu.pixels_written;
-    p->clusters_drawn += n - first;
-    for (uint32_t i = first; i < n; ++i)
-      p->triangles_drawn +=
-          scene_.meshes[scene_.instances[visible[i].instance].mesh].clusters[visible[i].cluster].triangle_count;
+    p->pixels_written += gpu.pixels_written;  // clusters and triangles drawn: execute_frame_plan
   }
 
   GpuRenderer& r_;
-  const RenderScene& scene_;
-  const Camera& camera_;
-  const RenderSettings& settings_;
-  ThreadPool& pool_;
-  FrameHistory* history_;
+  const FrameInputs& in_;
   Frame* out_;
-  FrameStreaming* streaming_;
   RasterSplitStats* split_;  // clusters and triangles per raster path, summed over the passes
   std::vector<Mat4> object_to_clip_;
-  bool hzb_is_complete_ = false;  // f.hzb is the HZB of the complete frame
-  std::vector<GroupRequest> requests_;  // both cull passes' (scene mesh ids), as frame.cpp's
-  uint64_t clusters_coarser_ = 0;
 };
 
 }  // namespace
 
-void render_frame_vulkan(GpuRenderer& r, const MemoryFormScene& mscene, const Camera& camera,
-                         const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                         bool has_next_frame, RasterSplitStats* split) {
-  render_frame_vulkan(r, mscene.scene, camera, settings, pool, history, out, has_next_frame, nullptr, "no stream budget",
-                      split);
-}
-
-void render_frame_vulkan(GpuRenderer& r, const RenderScene& scene, const Camera& camera,
-                         const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                         bool has_next_frame, FrameStreaming* streaming, const std::string& no_stream_reason,
-                         RasterSplitStats* split) {
-  if ((streaming != nullptr) != r.streamed)
+void render_frame_vulkan(GpuRenderer& r, const FrameInputs& in, Frame* out) {
+  if ((in.streaming != nullptr) != r.streamed)
     fail("GPU_ERROR", "vulkan", "a streamed frame needs a streamed renderer and only it", kExitInternal);
   RasterSplitStats frame_split;
-  const FramePlan plan =
-      plan_frame(scene, settings, frame_context(scene, camera, history, has_next_frame, streaming, no_stream_reason));
+  const FramePlan plan = plan_frame(in.scene, in.settings, frame_context(in));
   const auto frame_start = std::chrono::steady_clock::now();
-  VulkanFrameExecutor executor(r, plan, scene, camera, settings, pool, history, out, streaming, &frame_split);
-  execute_frame_plan(plan, executor, scene.instances.size(), uint64_t(camera.width) * camera.height, &out->stats);
+  VulkanFrameExecutor executor(r, plan, in, out, &frame_split);
+  execute_frame_plan(plan, executor, in.scene, in.history, in.streaming, out);
   out->stats.total_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame_start).count();
-  if (split) *split = frame_split;
+  out->stats.has_raster_split = true;
+  out->stats.raster_split = frame_split;
 }
 
 void raster_visible_vulkan(GpuRenderer& r, const GpuRasterInput& in, GpuRasterOutput* out) {

@@ -15,6 +15,7 @@
 #include "vgeo/gpu/gpu_cull.h"
 #include "vgeo/gpu/hw_raster.h"
 #include "vgeo/render/frame.h"
+#include "vgeo/render/run.h"  // GpuPoolStats
 #include "vgeo/render/scene_file.h"
 #include "vgeo/render/streaming.h"
 
@@ -104,23 +105,13 @@ GpuRendererPtr create_gpu_renderer_streamed(GpuContext& gpu, const RenderScene& 
                                             const MemoryFormPages& in_memory,
                                             GpuTraversal traversal = kDefaultGpuTraversal,
                                             const GpuRendererOptions& options = {});
-struct GpuPoolStats {
-  uint32_t slots = 0;
-  uint64_t pool_bytes = 0, pages_uploaded = 0, pages_freed = 0, bytes_uploaded = 0;  // since creation
-};
 const GpuPoolStats& gpu_pool_stats(const GpuRenderer& renderer);
 
-// Renders one frame of `scene.scene` (as render_frame: plan_frame, then the Vulkan executor).
-// `split`, when given, receives the frame's clusters and triangles per raster path.
-void render_frame_vulkan(GpuRenderer& renderer, const MemoryFormScene& scene, const Camera& camera,
-                         const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                         bool has_next_frame = true, RasterSplitStats* split = nullptr);
-// The same for any scene the renderer was made for; `streaming` non-null exactly for a
-// streamed renderer: the traversal reads its usable masks and writes its requests into a
-// buffer read back after each cull pass, handed to its Streamer at stream_end (as the CPU).
-void render_frame_vulkan(GpuRenderer& renderer, const RenderScene& scene, const Camera& camera,
-                         const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                         bool has_next_frame = true, FrameStreaming* streaming = nullptr,
-                         const std::string& no_stream_reason = "no stream budget", RasterSplitStats* split = nullptr);
+// Renders one frame of in.scene, a scene the renderer was made for (as render_frame:
+// plan_frame, then the Vulkan executor); FrameStats::raster_split counts the frame's clusters
+// and triangles per raster path. in.streaming is non-null exactly for a streamed renderer: the
+// traversal reads its usable masks and writes its requests into a buffer read back after each
+// cull pass, handed to its Streamer at stream_end (as the CPU).
+void render_frame_vulkan(GpuRenderer& renderer, const FrameInputs& in, Frame* out);
 
 }  // namespace vgeo

@@ -31,15 +31,9 @@ const char* gpu_raster_mode_name(GpuRasterMode mode) {
 
 namespace {
 
-// shaders/raster.comp and raster_tiles.comp bindings: pages, locations, meshes, instances,
-// visible, vis, counters, paths, big triangles, tiles.
-constexpr uint32_t kSwBindings = 10;
-// shaders/raster_split.comp bindings: meshes, instances, visible, cluster info, raster
-// instances, paths, commands, split counters.
-constexpr uint32_t kSplitBindings = 8;
-// The graphics pipeline's set: raster.comp's first seven bindings (the vertex stage reads
-// 0–4, the fragment stage writes 5–6).
-constexpr uint32_t kHwBindings = 7;
+// The graphics pipeline's set: raster.comp's first kHwRasterBindingCount bindings (the vertex
+// stage reads the geometry, the fragment stage writes the visibility buffer and counters).
+constexpr uint32_t kHwBindings = kHwRasterBindingCount;
 constexpr VkShaderStageFlags kHwStages = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
 
 VkShaderModule make_module(GpuContext& c, const ShaderBinary& shader) {
@@ -131,8 +125,9 @@ void barrier(GpuRecorder& rec, VkPipelineStageFlags2 src, VkPipelineStageFlags2 
 // The hardware draw: one dynamic-rendering pass with no attachments over the viewport.
 void record_hw_draw(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuffers& b, const GpuRasterParams& params,
                     uint32_t max_draws) {
-  VkDescriptorSet set = storage_buffer_set(
-      rec, p.hw_set_layout, {b.pages, b.locations, b.meshes, b.instances, b.visible, b.vis, b.counters});
+  std::vector<GpuBinding> bindings = geometry_bindings(b.geometry);
+  bindings.push_back({kRasterBindCounters, b.counters});
+  VkDescriptorSet set = storage_buffer_set(rec, p.hw_set_layout, gpu_bindings(kHwBindings, bindings));
 
   VkRenderingInfo rendering{VK_STRUCTURE_TYPE_RENDERING_INFO};
   rendering.renderArea = {{0, 0}, {params.width, params.height}};
@@ -165,11 +160,22 @@ GpuRasterParams sw_params(const GpuRasterRequest& q) {
   return params;
 }
 
+// raster.glsl's bindings.
 std::vector<const GpuBuffer*> sw_buffers(const GpuRasterPasses& p, const GpuRasterBuffers& b) {
-  return {b.pages, b.locations, b.meshes, b.instances, b.visible, b.vis, b.counters, &p.paths, &p.big_triangles, &p.tiles};
+  std::vector<GpuBinding> bindings = geometry_bindings(b.geometry);
+  bindings.insert(bindings.end(), {{kRasterBindCounters, b.counters},
+                                   {kRasterBindPaths, &p.paths},
+                                   {kRasterBindBig, &p.big_triangles},
+                                   {kRasterBindTiles, &p.tiles}});
+  return gpu_bindings(kRasterBindingCount, bindings);
 }
 
 }  // namespace
+
+std::vector<GpuBinding> geometry_bindings(const GpuGeometryBuffers& g) {
+  return {{kGeomBindPages, g.pages},         {kGeomBindLocations, g.locations}, {kGeomBindMeshes, g.meshes},
+          {kGeomBindInstances, g.instances}, {kGeomBindVisible, g.visible},     {kGeomBindVis, g.vis}};
+}
 
 GpuRasterPasses::~GpuRasterPasses() {
   if (!context) return;
@@ -183,9 +189,9 @@ std::unique_ptr<GpuRasterPasses> create_gpu_raster_passes(GpuContext& gpu,
                                                           const std::vector<GpuClusterRasterInfo>& cluster_info) {
   auto p = std::make_unique<GpuRasterPasses>();
   p->context = &gpu;
-  p->sw = create_compute_pipeline(gpu, kShaderRaster, kSwBindings, sizeof(GpuRasterParams));
-  p->sw_tiles = create_compute_pipeline(gpu, kShaderRasterTiles, kSwBindings, sizeof(GpuRasterParams));
-  p->split = create_compute_pipeline(gpu, kShaderRasterSplit, kSplitBindings, sizeof(GpuRasterSplitParams));
+  p->sw = create_compute_pipeline(gpu, kShaderRaster, kRasterBindingCount, sizeof(GpuRasterParams));
+  p->sw_tiles = create_compute_pipeline(gpu, kShaderRasterTiles, kRasterBindingCount, sizeof(GpuRasterParams));
+  p->split = create_compute_pipeline(gpu, kShaderRasterSplit, kSplitBindingCount, sizeof(GpuRasterSplitParams));
   create_hw_pipeline(gpu, *p);
   p->cluster_info = create_gpu_buffer(gpu, cluster_info.size() * sizeof(GpuClusterRasterInfo));
   if (!cluster_info.empty())
@@ -216,8 +222,15 @@ void record_gpu_raster(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuff
   split.z_near = q.z_near;
   split.pixels_per_unit_at_1 = q.pixels_per_unit_at_1;
   split.hw_min_triangle_area_px = q.hw_min_triangle_area_px;
-  cmd_dispatch(rec, p.split, {b.meshes, b.instances, b.visible, &p.cluster_info, &p.raster_instances, &p.paths, &p.commands,
-                              &p.split_counters},
+  cmd_dispatch(rec, p.split,
+               gpu_bindings(kSplitBindingCount, {{kSplitBindMeshes, b.geometry.meshes},
+                                                 {kSplitBindInstances, b.geometry.instances},
+                                                 {kSplitBindVisible, b.geometry.visible},
+                                                 {kSplitBindInfos, &p.cluster_info},
+                                                 {kSplitBindRasterInstances, &p.raster_instances},
+                                                 {kSplitBindPaths, &p.paths},
+                                                 {kSplitBindCommands, &p.commands},
+                                                 {kSplitBindCounters, &p.split_counters}}),
                &split, split.groups_x, split.groups_x ? (split_groups + split.groups_x - 1) / split.groups_x : 0);
 
   GpuRasterParams params = sw_params(q);

@@ -17,6 +17,8 @@
 
 #include "vgeo/gpu/context.h"
 #include "vgeo/gpu/hw_raster_records.h"
+#include "vgeo/gpu/shader_bindings.h"
+#include "vgeo/render/frame_plan.h"  // RasterSplitStats
 
 namespace vgeo {
 
@@ -36,20 +38,6 @@ const char* gpu_raster_mode_name(GpuRasterMode mode);
 // (docs/bench/report.md §raster; on lavapipe the sides are inverted, see spec §13.4).
 inline constexpr float kAutoHwMinTriangleAreaPx = 64.0f;
 
-struct RasterSplitStats {
-  uint64_t sw_clusters = 0, hw_clusters = 0, sw_triangles = 0, hw_triangles = 0;
-  // Of the compute path's (fan) triangles, those drawn tile by tile, and their tiles
-  // (spec/raster.md §13.5).
-  uint64_t sw_tiled_triangles = 0, sw_tiles = 0;
-  void add(const RasterSplitStats& o) {
-    sw_clusters += o.sw_clusters;
-    hw_clusters += o.hw_clusters;
-    sw_triangles += o.sw_triangles;
-    hw_triangles += o.hw_triangles;
-    sw_tiled_triangles += o.sw_tiled_triangles;
-    sw_tiles += o.sw_tiles;
-  }
-};
 
 // Pipelines of the three passes and the buffers only they use. Move-only; frees itself.
 struct GpuRasterPasses {
@@ -80,9 +68,19 @@ std::unique_ptr<GpuRasterPasses> create_gpu_raster_passes(GpuContext& gpu,
 // (sizes the path and command buffers).
 void prepare_gpu_raster(GpuRasterPasses& passes, const std::vector<float>& instance_scale, uint32_t visible_total);
 
-// The buffers the passes read and write, owned by the caller (bindings of shaders/raster.comp).
+// The geometry every raster and shade shader reads (shaders/geometry.glsl) and the visibility
+// buffer, owned by the caller; geometry_bindings places them at their kGeomBind* indices
+// (shader_bindings.h), to which each shader appends its own.
+struct GpuGeometryBuffers {
+  const GpuBuffer *pages, *locations, *meshes, *instances, *visible, *vis;
+};
+std::vector<GpuBinding> geometry_bindings(const GpuGeometryBuffers& g);
+
+// The buffers the passes read and write, owned by the caller: the geometry and the raster
+// counters (kRasterBindCounters).
 struct GpuRasterBuffers {
-  const GpuBuffer *pages, *locations, *meshes, *instances, *visible, *vis, *counters;
+  GpuGeometryBuffers geometry;
+  const GpuBuffer* counters;
 };
 
 struct GpuRasterRequest {

@@ -81,12 +81,7 @@ void raster_pass(const RenderScene& scene, const std::vector<ClusterDag>& geomet
   });
   RasterStats total;
   for (const RasterStats& s : chunk_stats) total.add(s);
-  stats->clusters_drawn = n;
-  for (size_t i = first; i < visible.size(); ++i) {
-    const VisibleCluster& v = visible[i];
-    stats->triangles_drawn += scene.meshes[scene.instances[v.instance].mesh].clusters[v.cluster].triangle_count;
-  }
-  stats->pixels_written = total.pixels_written;
+  stats->pixels_written = total.pixels_written;  // clusters and triangles drawn: execute_frame_plan
 }
 
 }  // namespace
@@ -140,6 +135,7 @@ std::vector<Mat4> begin_frame(const RenderScene& scene, const Camera& camera, Fr
   out->vis.resize(camera.width, camera.height);
   out->visible.clear();
   out->overdraw.clear();
+  out->image = {};  // shaded only when the plan says so: no stale image of an earlier frame
   out->pass1_visible = 0;
   const Mat4d view_to_clip =
       perspective_reversed_z(camera.fov_y, double(camera.width) / double(camera.height), camera.z_near);
@@ -170,67 +166,63 @@ void analyze_render_scene(RenderScene* scene) {
 
 namespace {
 
-// The CPU executor: each step is today's reference code; state passes between steps here.
+// The CPU executor: each step is the reference code of its pass; the frame's bookkeeping is
+// execute_frame_plan's (frame_plan.h), this keeps only what its own later steps read.
 class CpuFrameExecutor final : public FrameExecutor {
  public:
-  CpuFrameExecutor(const FramePlan& plan, const RenderScene& scene, const Camera& camera,
-                   const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                   FrameStreaming* streaming)
-      : scene_(scene), camera_(camera), settings_(settings), pool_(pool), history_(history), out_(out),
-        streaming_(streaming), geometry_(streaming ? streaming->geometry : scene.meshes) {
-    object_to_clip_ = begin_frame(scene, camera, out);
-    options_.threshold_px = settings.threshold_px;
-    if (streaming) options_.usable_groups = &streaming->usable;
+  CpuFrameExecutor(const FramePlan& plan, const FrameInputs& in, Frame* out)
+      : in_(in), out_(out), geometry_(in.streaming ? in.streaming->geometry : in.scene.meshes) {
+    object_to_clip_ = begin_frame(in_.scene, in_.camera, out);
+    options_.threshold_px = in_.settings.threshold_px;
+    if (in_.streaming) options_.usable_groups = &in_.streaming->usable;
     if (plan.previous_hzb) {
-      options_.occlusion.hzb = &history->hzb;
-      options_.occlusion.view = &history->view;
-      options_.occlusion.instances = &history->instance_views;
-      options_.occlusion.policy = settings.hzb_policy;
+      options_.occlusion.hzb = &in_.history->hzb;
+      options_.occlusion.view = &in_.history->view;
+      options_.occlusion.instances = &in_.history->instance_views;
+      options_.occlusion.policy = in_.settings.hzb_policy;
     }
   }
 
-  void run(FrameStep step, PassStats* p, FrameFacts* facts) override {
+  StepResult run(FrameStep step, const FrameState& state, PassStats* p) override {
     const ViewParams& view = out_->view;
+    StepResult r;
     switch (step) {
       case FrameStep::kStreamBegin:
-        begin_streamed_frame(scene_, streaming_);
+        begin_streamed_frame(in_.scene, in_.streaming);
         break;
       case FrameStep::kInstanceCull: {
-        std::vector<uint32_t> all(scene_.instances.size());
+        std::vector<uint32_t> all(in_.scene.instances.size());
         for (uint32_t i = 0; i < all.size(); ++i) all[i] = i;
         CullCounters cc;
-        cull_instances(scene_.meshes, scene_.instances, out_->instance_views, all, view, options_,
+        cull_instances(in_.scene.meshes, in_.scene.instances, out_->instance_views, all, view, options_,
                        &visible_instances_, &occluded_instances_, &cc);
         add_instance_counters(cc, p);
-        facts->pass1_occluded |= !occluded_instances_.empty();
+        r.occluded = !occluded_instances_.empty();
         break;
       }
       case FrameStep::kClusterCull: {
         std::vector<CullItem> seeds;
         for (uint32_t i : visible_instances_) seeds.push_back({i, 0, CullItem::kNode});
-        cull_clusters(scene_.meshes, scene_.instances, out_->instance_views, seeds, view, options_, pool_, &pass1_);
+        cull_clusters(in_.scene.meshes, in_.scene.instances, out_->instance_views, seeds, view, options_, in_.pool, &pass1_);
         add_cull_counters(pass1_.counters, p);
-        out_->visible = pass1_.visible;
-        out_->pass1_visible = uint32_t(std::min<size_t>(out_->visible.size(), kMaxVisibleClusters));
-        check_visible_count(out_->visible.size());
-        requests_ = std::move(pass1_.requests);
-        clusters_coarser_ = pass1_.counters.clusters_coarser;
-        facts->pass1_occluded |= !pass1_.occluded.empty();
+        r.visible = pass1_.visible;
+        r.requests = std::move(pass1_.requests);
+        r.clusters_coarser = pass1_.counters.clusters_coarser;
+        r.occluded = !pass1_.occluded.empty();
         break;
       }
       case FrameStep::kStreamBind:
-        bind_streamed_geometry(streaming_, scene_, out_->visible, 0, pool_);
+        bind_streamed_geometry(in_.streaming, in_.scene, out_->visible, 0, in_.pool);
         break;
       case FrameStep::kRaster:
-        raster_pass(scene_, geometry_, out_->visible, 0, object_to_clip_, settings_, camera_.z_near, pool_, out_->vis, p);
+        raster_pass(in_.scene, geometry_, out_->visible, 0, object_to_clip_, in_.settings, in_.camera.z_near, in_.pool, out_->vis, p);
         break;
       case FrameStep::kHzb:
-        build_hzb(out_->vis.keys.data(), camera_.width, camera_.height, pool_, &hzb_);
-        hzb_is_complete_ = true;
+        build_hzb(out_->vis.keys.data(), in_.camera.width, in_.camera.height, in_.pool, &hzb_);
         break;
       case FrameStep::kInstanceCullPost: {
         CullCounters cc;
-        cull_instances(scene_.meshes, scene_.instances, out_->instance_views, occluded_instances_, view, post_options(),
+        cull_instances(in_.scene.meshes, in_.scene.instances, out_->instance_views, occluded_instances_, view, post_options(),
                        &post_instances_, nullptr, &cc);
         add_instance_counters(cc, p);
         break;
@@ -239,36 +231,30 @@ class CpuFrameExecutor final : public FrameExecutor {
         std::vector<CullItem> seeds = pass1_.occluded;
         for (uint32_t i : post_instances_) seeds.push_back({i, 0, CullItem::kNode});
         CullResult pass2;
-        cull_clusters(scene_.meshes, scene_.instances, out_->instance_views, seeds, view, post_options(), pool_, &pass2);
+        cull_clusters(in_.scene.meshes, in_.scene.instances, out_->instance_views, seeds, view, post_options(), in_.pool, &pass2);
         add_cull_counters(pass2.counters, p);
-        check_visible_count(out_->visible.size() + pass2.visible.size());
-        requests_.insert(requests_.end(), pass2.requests.begin(), pass2.requests.end());
-        clusters_coarser_ += pass2.counters.clusters_coarser;
-        out_->visible.insert(out_->visible.end(), pass2.visible.begin(), pass2.visible.end());
-        facts->pass2_found_visible = !pass2.visible.empty();
+        r.visible = std::move(pass2.visible);
+        r.requests = std::move(pass2.requests);
+        r.clusters_coarser = pass2.counters.clusters_coarser;
         break;
       }
       case FrameStep::kStreamBindPost:
-        bind_streamed_geometry(streaming_, scene_, out_->visible, out_->pass1_visible, pool_);
+        bind_streamed_geometry(in_.streaming, in_.scene, out_->visible, out_->pass1_visible, in_.pool);
         break;
       case FrameStep::kRasterPost:
-        raster_pass(scene_, geometry_, out_->visible, out_->pass1_visible, object_to_clip_, settings_, camera_.z_near,
-                    pool_, out_->vis, p);
-        hzb_is_complete_ = false;  // drawn after the pass-1 HZB
+        raster_pass(in_.scene, geometry_, out_->visible, out_->pass1_visible, object_to_clip_, in_.settings, in_.camera.z_near,
+                    in_.pool, out_->vis, p);
         break;
       case FrameStep::kHzbNext:
-        if (hzb_is_complete_) history_->hzb = std::move(hzb_);
-        else build_hzb(out_->vis.keys.data(), camera_.width, camera_.height, pool_, &history_->hzb);
-        history_->view = view;
-        history_->instance_views = out_->instance_views;
-        history_->valid = true;
+        if (state.hzb_is_complete) in_.history->hzb = std::move(hzb_);
+        else build_hzb(out_->vis.keys.data(), in_.camera.width, in_.camera.height, in_.pool, &in_.history->hzb);
         break;
       case FrameStep::kStreamEnd:
         // Every cluster of this frame is bound: reads may now be issued and pages evicted.
-        end_streamed_frame(streaming_, requests_, clusters_coarser_, out_->visible.size());
+        end_streamed_frame(in_.streaming, state.requests, state.clusters_coarser, out_->visible.size());
         break;
       case FrameStep::kOverdraw:
-        overdraw_pass(scene_, geometry_, out_->visible, object_to_clip_, out_->instance_views, view, pool_,
+        overdraw_pass(in_.scene, geometry_, out_->visible, object_to_clip_, out_->instance_views, view, in_.pool,
                       &out_->overdraw);
         break;
       case FrameStep::kShade: {
@@ -276,22 +262,20 @@ class CpuFrameExecutor final : public FrameExecutor {
         in.vis = &out_->vis;
         in.visible = &out_->visible;
         in.meshes = &geometry_;
-        in.materials = &scene_.materials;
-        in.instances = &scene_.instances;
+        in.materials = &in_.scene.materials;
+        in.instances = &in_.scene.instances;
         in.instance_views = &out_->instance_views;
         in.view = &view;
-        in.threshold_px = settings_.threshold_px;
+        in.threshold_px = in_.settings.threshold_px;
         in.overdraw = &out_->overdraw;
-        shade_frame(in, settings_.view, pool_, &out_->image);
+        shade_frame(in, in_.settings.view, in_.pool, &out_->image);
         break;
       }
     }
+    return r;
   }
 
-  void finish(FrameStats* stats) override {
-    for (uint64_t k : out_->vis.keys) stats->pixels_covered += k != 0;
-    if (streaming_) stats->stream = streaming_->stats;
-  }
+  void finish() override {}  // the visibility buffer is Frame::vis already
 
  private:
   // Pass 2 tests against this frame's pass-1 HZB with this frame's view and transforms.
@@ -300,58 +284,46 @@ class CpuFrameExecutor final : public FrameExecutor {
     post.occlusion.hzb = &hzb_;
     post.occlusion.view = &out_->view;
     post.occlusion.instances = &out_->instance_views;
-    post.occlusion.policy = settings_.hzb_policy;
+    post.occlusion.policy = in_.settings.hzb_policy;
     return post;
   }
 
-  const RenderScene& scene_;
-  const Camera& camera_;
-  const RenderSettings& settings_;
-  ThreadPool& pool_;
-  FrameHistory* history_;
+  const FrameInputs& in_;
   Frame* out_;
-  FrameStreaming* streaming_;
   const std::vector<ClusterDag>& geometry_;  // the scene's meshes, or the streamed frame's
   std::vector<Mat4> object_to_clip_;
   CullOptions options_;
   std::vector<uint32_t> visible_instances_, occluded_instances_, post_instances_;
-  CullResult pass1_;
-  Hzb hzb_;
-  bool hzb_is_complete_ = false;  // hzb_ is the HZB of the complete frame
-  std::vector<GroupRequest> requests_;
-  uint64_t clusters_coarser_ = 0;
+  CullResult pass1_;  // its occluded items seed pass 2
+  Hzb hzb_;           // step hzb's pyramid
 };
 
 }  // namespace
 
-FrameContext frame_context(const RenderScene& scene, const Camera& camera, const FrameHistory* history,
-                           bool has_next_frame, const FrameStreaming* streaming, const std::string& no_stream_reason) {
+FrameContext frame_context(const FrameInputs& in) {
+  const FrameHistory* history = in.history;
   FrameContext c;
-  c.previous_hzb = history && history->valid && history->hzb.width == camera.width &&
-                   history->hzb.height == camera.height && history->instance_views.size() == scene.instances.size();
+  c.previous_hzb = history && history->valid && history->hzb.width == in.camera.width &&
+                   history->hzb.height == in.camera.height &&
+                   history->instance_views.size() == in.scene.instances.size();
   c.keep_history = history != nullptr;
-  c.has_next_frame = has_next_frame;
-  c.streamed = streaming != nullptr;
-  c.no_stream_reason = no_stream_reason;
+  c.has_next_frame = in.has_next_frame;
+  c.streamed = in.streaming != nullptr;
+  c.no_stream_reason = in.no_stream_reason;
   return c;
 }
 
-void render_planned_frame(const FramePlan& plan, const RenderScene& scene, const Camera& camera,
-                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                          FrameStreaming* streaming) {
-  if (plan.streamed != (streaming != nullptr))
+void render_planned_frame(const FramePlan& plan, const FrameInputs& in, Frame* out) {
+  if (plan.streamed != (in.streaming != nullptr))
     fail("RENDER_PLAN_MISMATCH", "render", "the frame plan's streaming disagrees with the streaming state", kExitInternal);
   const auto frame_start = std::chrono::steady_clock::now();
-  CpuFrameExecutor executor(plan, scene, camera, settings, pool, history, out, streaming);
-  execute_frame_plan(plan, executor, scene.instances.size(), uint64_t(camera.width) * camera.height, &out->stats);
+  CpuFrameExecutor executor(plan, in, out);
+  execute_frame_plan(plan, executor, in.scene, in.history, in.streaming, out);
   out->stats.total_ms = ms_since(frame_start);
 }
 
-void render_frame(const RenderScene& scene, const Camera& camera, const RenderSettings& settings,
-                  ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame,
-                  FrameStreaming* streaming) {
-  const FramePlan plan = plan_frame(scene, settings, frame_context(scene, camera, history, has_next_frame, streaming));
-  render_planned_frame(plan, scene, camera, settings, pool, history, out, streaming);
+void render_frame(const FrameInputs& in, Frame* out) {
+  render_planned_frame(plan_frame(in.scene, in.settings, frame_context(in)), in, out);
 }
 
 }  // namespace vgeo

@@ -63,16 +63,28 @@ struct Frame {
   FrameStats stats;
 };
 
-// Renders one frame: plan_frame from frame_context, then render_planned_frame. `streaming` null:
-// every mesh fully in memory (the path without streaming, unchanged). Otherwise the traversal
-// applies its usable masks, drawn clusters' geometry comes from resident pages and the
-// traversal's requests go to its streamer (spec/stream.md §Renderer). `history` may be null (no
-// occlusion history at all); otherwise pass 1 tests against it when valid, and when
-// `has_next_frame` it is replaced by this frame's (pass hzb_next). Throws VgeoError
-// RENDER_TOO_MANY_VISIBLE_CLUSTERS when the visibility-buffer id space overflows.
-void render_frame(const RenderScene& scene, const Camera& camera, const RenderSettings& settings,
-                  ThreadPool& pool, FrameHistory* history, Frame* out, bool has_next_frame = true,
-                  FrameStreaming* streaming = nullptr);
+// What one frame is rendered from, on every backend (render_frame, render_frame_vulkan).
+// `history` null: no occlusion history at all; otherwise pass 1 tests against it when valid,
+// and when `has_next_frame` it is replaced by this frame's (pass hzb_next). `streaming` null:
+// every mesh fully in memory; otherwise the traversal applies its usable masks, drawn
+// clusters' geometry comes from resident pages and the traversal's requests go to its
+// streamer (spec/stream.md §Renderer); `no_stream_reason` is the stream pass's skip reason
+// when it is null.
+struct FrameInputs {
+  const RenderScene& scene;
+  const Camera& camera;
+  const RenderSettings& settings;
+  ThreadPool& pool;
+  FrameHistory* history = nullptr;
+  bool has_next_frame = true;
+  FrameStreaming* streaming = nullptr;
+  std::string no_stream_reason = "no stream budget";
+};
+
+// Renders one frame on the CPU: plan_frame from frame_context, then render_planned_frame.
+// Throws VgeoError RENDER_TOO_MANY_VISIBLE_CLUSTERS when the visibility-buffer id space
+// overflows.
+void render_frame(const FrameInputs& in, Frame* out);
 
 // What every frame executor does first and shares (CPU: frame.cpp; Vulkan: gpu_frame.cpp):
 // resets `out` for `camera` (view, instance views, an empty visibility buffer, no visible
@@ -92,16 +104,11 @@ void overdraw_pass(const RenderScene& scene, const std::vector<ClusterDag>& geom
                    const std::vector<InstanceView>& views, const ViewParams& view, ThreadPool& pool,
                    std::vector<uint32_t>* counts);
 
-// The plan's context from the history and streaming state (`no_stream_reason`: the stream pass's
-// skip reason when `streaming` is null).
-FrameContext frame_context(const RenderScene& scene, const Camera& camera, const FrameHistory* history,
-                           bool has_next_frame, const FrameStreaming* streaming,
-                           const std::string& no_stream_reason = "no stream budget");
+// The plan's context from the inputs' history and streaming state.
+FrameContext frame_context(const FrameInputs& in);
 
-// Executes `plan` (from plan_frame for these arguments) on the CPU; `streaming` must be non-null
-// exactly when plan.streamed.
-void render_planned_frame(const FramePlan& plan, const RenderScene& scene, const Camera& camera,
-                          const RenderSettings& settings, ThreadPool& pool, FrameHistory* history, Frame* out,
-                          FrameStreaming* streaming);
+// Executes `plan` (plan_frame of in.scene, in.settings and frame_context(in)) on the CPU;
+// in.streaming must be non-null exactly when plan.streamed.
+void render_planned_frame(const FramePlan& plan, const FrameInputs& in, Frame* out);
 
 }  // namespace vgeo

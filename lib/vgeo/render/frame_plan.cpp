@@ -98,24 +98,80 @@ bool step_runs(const StepPlan& step, const FrameFacts& facts, std::string* reaso
   return false;
 }
 
-void execute_frame_plan(const FramePlan& plan, FrameExecutor& executor, uint64_t instances, uint64_t pixels,
-                        FrameStats* stats) {
+namespace {
+
+// Applies what `step` produced to the frame and the state (the one place the frame's
+// bookkeeping is written, for every executor).
+void apply_step_result(FrameStep step, StepResult&& r, const RenderScene& scene, FrameHistory* history,
+                       FrameState* state, Frame* frame, PassStats* pass) {
+  switch (step) {
+    case FrameStep::kInstanceCull:
+      state->facts.pass1_occluded |= r.occluded;
+      break;
+    case FrameStep::kClusterCull:
+      check_visible_count(r.visible.size());
+      frame->visible = std::move(r.visible);
+      frame->pass1_visible = uint32_t(frame->visible.size());
+      state->requests = std::move(r.requests);
+      state->clusters_coarser = r.clusters_coarser;
+      state->facts.pass1_occluded |= r.occluded;
+      break;
+    case FrameStep::kClusterCullPost:
+      check_visible_count(frame->visible.size() + r.visible.size());
+      state->facts.pass2_found_visible = !r.visible.empty();
+      frame->visible.insert(frame->visible.end(), r.visible.begin(), r.visible.end());
+      state->requests.insert(state->requests.end(), r.requests.begin(), r.requests.end());
+      state->clusters_coarser += r.clusters_coarser;
+      break;
+    case FrameStep::kRaster:
+    case FrameStep::kRasterPost: {
+      const size_t first = step == FrameStep::kRaster ? 0 : frame->pass1_visible;
+      pass->clusters_drawn += frame->visible.size() - first;
+      for (size_t i = first; i < frame->visible.size(); ++i) {
+        const VisibleCluster& v = frame->visible[i];
+        pass->triangles_drawn += scene.meshes[scene.instances[v.instance].mesh].clusters[v.cluster].triangle_count;
+      }
+      if (step == FrameStep::kRasterPost) state->hzb_is_complete = false;  // drawn after the pass-1 HZB
+      break;
+    }
+    case FrameStep::kHzb:
+      state->hzb_is_complete = true;
+      break;
+    case FrameStep::kHzbNext:
+      // The executor stored the HZB; the rest of the history is the frame's.
+      if (history) {
+        history->view = frame->view;
+        history->instance_views = frame->instance_views;
+        history->valid = true;
+      }
+      break;
+    default:
+      break;
+  }
+}
+
+}  // namespace
+
+void execute_frame_plan(const FramePlan& plan, FrameExecutor& executor, const RenderScene& scene,
+                        FrameHistory* history, const FrameStreaming* streaming, Frame* frame) {
+  FrameStats* stats = &frame->stats;
   *stats = {};
   std::array<PassStats, kFramePassCount> pass{};
   std::array<bool, kFramePassCount> ran{};
   std::array<std::string, kFramePassCount> reason;
-  FrameFacts facts;
+  FrameState state;
   for (size_t s = 0; s < kFrameStepCount; ++s) {
     const size_t p = size_t(kStepPass[s]);
     std::string why;
-    if (!step_runs(plan.steps[s], facts, &why)) {
+    if (!step_runs(plan.steps[s], state.facts, &why)) {
       if (reason[p].empty()) reason[p] = why;
       continue;
     }
     const auto t0 = std::chrono::steady_clock::now();
-    executor.run(FrameStep(s), &pass[p], &facts);
+    StepResult result = executor.run(FrameStep(s), state, &pass[p]);
     pass[p].ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     ran[p] = true;
+    apply_step_result(FrameStep(s), std::move(result), scene, history, &state, frame, &pass[p]);
   }
   for (size_t p = 0; p < kFramePassCount; ++p) {
     if (ran[p]) {
@@ -127,10 +183,12 @@ void execute_frame_plan(const FramePlan& plan, FrameExecutor& executor, uint64_t
       stats->skipped.push_back({frame_pass_name(FramePass(p)), reason[p]});
     }
   }
-  stats->instances = instances;
-  stats->pixels = pixels;
+  stats->instances = scene.instances.size();
+  stats->pixels = uint64_t(frame->vis.width) * frame->vis.height;
   stats->streamed = plan.streamed;
-  executor.finish(stats);
+  executor.finish();
+  for (uint64_t k : frame->vis.keys) stats->pixels_covered += k != 0;
+  if (streaming) stats->stream = streaming->stats;
 }
 
 std::string frame_stats_table(const FrameStats& s) {
@@ -210,6 +268,13 @@ std::string frame_stats_json(const FrameStats& s) {
   j["skipped"] = nlohmann::ordered_json::array();
   for (const auto& [name, reason] : s.skipped) j["skipped"].push_back({{"name", name}, {"reason", reason}});
   if (s.streamed) j["stream"] = nlohmann::ordered_json::parse(stream_frame_stats_json(s.stream));
+  if (s.has_raster_split)
+    j["raster_split"] = {{"sw_clusters", s.raster_split.sw_clusters},
+                         {"sw_triangles", s.raster_split.sw_triangles},
+                         {"hw_clusters", s.raster_split.hw_clusters},
+                         {"hw_triangles", s.raster_split.hw_triangles},
+                         {"sw_tiled_triangles", s.raster_split.sw_tiled_triangles},
+                         {"sw_tiles", s.raster_split.sw_tiles}};
   return j.dump();
 }
 

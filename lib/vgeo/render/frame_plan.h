@@ -5,8 +5,12 @@
 // lib/vgeo/render/frame.cpp; a Vulkan executor in lib/vgeo/gpu implements the same steps).
 // Where a decision depends on a pass's result (pass 2 runs only when pass 1 occluded something),
 // the plan states the condition and execute_frame_plan evaluates it, in one place, from the
-// FrameFacts the executor reports. Statistics, their table and JSON are assembled here from what
-// the executor counts, so they have the same shape for every executor.
+// StepResult the executor returns. The frame's bookkeeping lives here too, once for every
+// executor: an executor step returns what it produced (StepResult) and execute_frame_plan
+// applies it to the frame (the visible list and its pass-1 part, the stream requests and cut
+// counters, the facts, the drawn clusters and triangles, the history's view). Statistics,
+// their table and JSON are assembled here from what the executor counts, so they have the same
+// shape for every executor.
 //
 // Steps, in execution order, with what each consumes and produces. "Visible list": the frame's
 // visible clusters (instance, cluster) in draw order; a visibility-buffer key's cluster field is
@@ -47,12 +51,16 @@
 #include <utility>
 #include <vector>
 
+#include "vgeo/cull/cull.h"
 #include "vgeo/stream/stream.h"
 
 namespace vgeo {
 
 struct RenderScene;
 struct RenderSettings;
+struct Frame;
+struct FrameHistory;
+struct FrameStreaming;
 
 // Passes of the statistics, in the order they are reported.
 enum class FramePass : uint8_t {
@@ -120,6 +128,23 @@ struct PassStats {
            pixels_written = 0;
 };
 
+// The GPU rasterizers' split of a frame's clusters (spec/raster.md §13; the Vulkan executor
+// counts it, FrameStats::raster_split).
+struct RasterSplitStats {
+  uint64_t sw_clusters = 0, hw_clusters = 0, sw_triangles = 0, hw_triangles = 0;
+  // Of the compute path's (fan) triangles, those drawn tile by tile, and their tiles
+  // (spec/raster.md §13.5).
+  uint64_t sw_tiled_triangles = 0, sw_tiles = 0;
+  void add(const RasterSplitStats& o) {
+    sw_clusters += o.sw_clusters;
+    hw_clusters += o.hw_clusters;
+    sw_triangles += o.sw_triangles;
+    hw_triangles += o.hw_triangles;
+    sw_tiled_triangles += o.sw_tiled_triangles;
+    sw_tiles += o.sw_tiles;
+  }
+};
+
 struct FrameStats {
   std::vector<PassStats> passes;                                  // only passes that ran
   std::vector<std::pair<std::string, std::string>> skipped;       // (pass, reason)
@@ -127,6 +152,8 @@ struct FrameStats {
   double total_ms = 0;
   bool streamed = false;        // the frame ran with streaming (pass "stream")
   StreamFrameStats stream;      // when streamed
+  bool has_raster_split = false;  // the Vulkan executor's frames: clusters and triangles per raster path
+  RasterSplitStats raster_split;
   const PassStats* find(const std::string& name) const {
     for (const PassStats& p : passes)
       if (p.name == name) return &p;
@@ -134,23 +161,52 @@ struct FrameStats {
   }
 };
 
+// What a step produced, returned by FrameExecutor::run; execute_frame_plan applies it.
+struct StepResult {
+  // instance_cull, cluster_cull: the pass occluded something (FrameFacts::pass1_occluded).
+  bool occluded = false;
+  // cluster_cull, cluster_cull_post: the visible clusters found, in draw order (appended to
+  // Frame::visible; cluster_cull's are visible[0, pass1_visible)), the stream requests (scene
+  // mesh ids) and the cut's coarser-than-ideal cluster count.
+  std::vector<VisibleCluster> visible;
+  std::vector<GroupRequest> requests;
+  uint64_t clusters_coarser = 0;
+};
+
+// What execute_frame_plan keeps between steps (besides the Frame it fills); executors read it.
+struct FrameState {
+  FrameFacts facts;
+  std::vector<GroupRequest> requests;  // both cull passes' (stream_end hands them to the Streamer)
+  uint64_t clusters_coarser = 0;
+  // The executor's pass-1 HZB (step hzb) is the HZB of the complete frame: hzb ran and
+  // raster_post did not run after it, so hzb_next may keep it instead of building another.
+  bool hzb_is_complete = false;
+};
+
 // A backend's frame. execute_frame_plan calls run() once per step that runs, in FrameStep
 // order, and times each call (host wall time; an executor that waits for its device per step
-// therefore reports device time per pass). `stats` is the step's pass's slot: counters are
-// added (a pass's steps share it; `name` and `ms` are filled by the caller). Facts a later
-// condition reads are set in `facts`. finish() runs after the last step and sets what only the
-// executor knows: pixels_covered and, when streamed, the streamer's frame statistics.
+// therefore reports device time per pass). The executor only runs the step on its device and
+// returns what it produced; it reads the frame's state (`state`, and the Frame it was made for:
+// the visible list, visible[0, pass1_visible) drawn by pass 1) but never changes the
+// bookkeeping. `stats` is the step's pass's slot: the executor adds its device counters
+// (nodes, candidates, pixels written; a pass's steps share it; `name`, `ms`, clusters and
+// triangles drawn are filled by execute_frame_plan). finish() runs after the last step and
+// leaves the frame's visibility buffer in Frame::vis.
 class FrameExecutor {
  public:
   virtual ~FrameExecutor() = default;
-  virtual void run(FrameStep step, PassStats* stats, FrameFacts* facts) = 0;
-  virtual void finish(FrameStats* stats) = 0;
+  virtual StepResult run(FrameStep step, const FrameState& state, PassStats* stats) = 0;
+  virtual void finish() = 0;
 };
 
-// Runs `plan` on `executor` and fills `stats` (total_ms excluded: the caller's frame time).
-// `instances`, `pixels`: the scene's instance count and the view's pixel count.
-void execute_frame_plan(const FramePlan& plan, FrameExecutor& executor, uint64_t instances, uint64_t pixels,
-                        FrameStats* stats);
+// Runs `plan` on `executor` for `frame` (reset by begin_frame, frame.h) of `scene` and fills
+// frame->stats (total_ms excluded: the caller's frame time): applies each step's result to the
+// frame (visible list, pass-1 count, RENDER_TOO_MANY_VISIBLE_CLUSTERS beyond
+// kMaxVisibleClusters), counts the drawn clusters and triangles of each raster step, and at
+// hzb_next stores this frame's view and instance views in `history` (the executor stores the
+// HZB). `streaming`, when the plan streams: its frame statistics go into the stats.
+void execute_frame_plan(const FramePlan& plan, FrameExecutor& executor, const RenderScene& scene,
+                        FrameHistory* history, const FrameStreaming* streaming, Frame* frame);
 
 // Human-readable per-pass table and JSON (object) of one frame's statistics.
 std::string frame_stats_table(const FrameStats& stats);

@@ -1,18 +1,29 @@
+// The frame loop (run.h): one for every backend.
 #include "vgeo/render/run.h"
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <thread>
-#include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include "vgeo/core/error.h"
 #include "vgeo/core/hash.h"
 
 namespace vgeo {
+
+bool parse_backend(const std::string& name, Backend* out) {
+  if (name == "cpu") *out = Backend::kCpu;
+  else if (name == "vulkan") *out = Backend::kVulkan;
+  else return false;
+  return true;
+}
+
+const char* backend_name(Backend backend) { return backend == Backend::kCpu ? "cpu" : "vulkan"; }
 
 bool parse_byte_size(const std::string& text, uint64_t* out) {
   size_t i = 0;
@@ -46,7 +57,7 @@ std::string format_bytes(uint64_t bytes) {
   return buf;
 }
 
-RenderSettings resolve_render_options(const SceneFile& file, const RenderOverrides& o, uint32_t* frames) {
+RenderSettings resolve_render_options(const SceneFile& file, const RenderRequest& o, uint32_t* frames) {
   RenderSettings settings = file.settings;
   if (o.threshold_px) settings.threshold_px = *o.threshold_px;
   if (o.view) settings.view = *o.view;
@@ -90,116 +101,163 @@ std::unique_ptr<SceneStreaming> start_scene_streaming(const SceneFile& file, flo
   return out;
 }
 
-RenderReport render_scene(const SceneFile& file, const RenderRequest& request,
-                          const std::function<void(uint32_t, const Frame&, const FrameStreaming*)>& on_frame) {
-  uint32_t frames = 0;
-  const RenderSettings settings = resolve_render_options(
-      file, {request.threshold_px, request.view, request.occlusion, request.camera, request.frames}, &frames);
+namespace {
 
-  RenderReport report;
-  StreamSummary& sum = report.stream;
-  sum.requested = file.stream.has_value();
-  sum.budget_bytes = file.stream ? file.stream->budget_bytes : 0;
-  sum.page_bytes = file.page_bytes;
-  sum.stop_frame = file.path.empty() ? 0 : uint32_t(file.path.size() - 1);
-  if (sum.requested) sum.note = file.stream_note();
-
-  std::unique_ptr<SceneStreaming> streaming;
-  if (file.streaming) {
-    streaming = start_scene_streaming(file, settings.threshold_px, false);
-    sum.active = true;
-    sum.file_bytes = streaming->streamer->container().file_size;
+// The CPU reference: plan_frame and the CPU executor (frame.cpp) on the scene, or on its own
+// streamed copy.
+class CpuFrameRenderer final : public SceneFrameRenderer {
+ public:
+  using SceneFrameRenderer::SceneFrameRenderer;
+  void render(const Camera& camera, const RenderSettings& settings, bool has_next_frame, Frame* out) override {
+    render_frame(frame_inputs(camera, settings, has_next_frame), out);
   }
-  Streamer* streamer = streaming ? streaming->streamer.get() : nullptr;
-  const RenderScene& scene = streaming ? streaming->scene : file.scene;
+};
 
-  ThreadPool pool(request.threads);
-  FrameHistory history;
-  Frame frame;
+// Frame f's camera: the path's (held at its last camera past its end), else the request's.
+const Camera& frame_camera(const SceneFile& file, const RenderRequest& request, uint32_t f) {
+  return file.path.empty() ? file.cameras[request.camera] : file.path[std::min<size_t>(f, file.path.size() - 1)];
+}
+
+// Whether frame f's image is kept: the last frame's always (output_png, image_hash), and every
+// save_every-th with an out_dir.
+bool frame_is_saved(const RenderRequest& request, uint32_t f, bool last) {
+  return !request.out_dir.empty() && (last || (request.save_every > 0 && f % request.save_every == 0));
+}
+
+std::string saved_png_path(const std::string& dir, uint32_t f) {
+  char name[32];
+  std::snprintf(name, sizeof name, "frame_%05u.png", f);
+  return (std::filesystem::path(dir) / name).string();
+}
+
+void start_stream_summary(const SceneFile& file, const FrameRenderer& renderer, StreamSummary* sum) {
+  sum->requested = file.stream.has_value();
+  sum->budget_bytes = file.stream ? file.stream->budget_bytes : 0;
+  sum->page_bytes = file.page_bytes;
+  sum->stop_frame = file.path.empty() ? 0 : uint32_t(file.path.size() - 1);
+  if (sum->requested) sum->note = file.stream_note();
+  if (const FrameStreaming* fs = renderer.streaming()) {
+    sum->active = true;
+    sum->file_bytes = fs->streamer->container().file_size;
+  }
+}
+
+// Over all frames: totals, the traffic after the camera stopped, pop-in frames and convergence.
+void finish_stream_summary(const std::vector<FrameStats>& frames, StreamSummary* sum) {
+  std::vector<double> ms;
+  for (const FrameStats& fs : frames) ms.push_back(fs.total_ms);
+  std::sort(ms.begin(), ms.end());
+  if (!ms.empty()) sum->median_frame_ms = ms[ms.size() / 2];
+  if (!sum->active) return;
+  int64_t converged_from = -1;
+  for (uint32_t f = 0; f < frames.size(); ++f) {
+    const StreamFrameStats& st = frames[f].stream;
+    sum->bytes_read += st.bytes_read;
+    sum->pages_loaded += st.pages_loaded;
+    sum->pages_evicted += st.pages_evicted;
+    sum->faults += st.read_failures + st.checksum_failures + st.decode_failures;
+    sum->pages_marked_bad += st.pages_marked_bad;
+    sum->peak_reserved_bytes = std::max(sum->peak_reserved_bytes, st.reserved_bytes);
+    if (f >= sum->stop_frame) {
+      sum->bytes_read_after_stop += st.bytes_read;
+      sum->pages_loaded_after_stop += st.pages_loaded;
+    }
+    sum->stop_required_bytes = st.required_bytes;
+    if (!st.cut_is_ideal) {
+      sum->popin_frames++;
+      converged_from = -1;
+    } else if (converged_from < 0) {
+      converged_from = f;
+    }
+  }
+  if (converged_from >= 0) sum->frames_to_converge = std::max<int64_t>(0, converged_from - int64_t(sum->stop_frame));
+}
+
+}  // namespace
+
+SceneFrameRenderer::SceneFrameRenderer(const SceneFile& file, const RenderSettings& settings, ThreadPool& pool,
+                                       bool synchronous_stream)
+    : file_(file), pool_(pool) {
+  if (file.streaming) streaming_ = start_scene_streaming(file, settings.threshold_px, synchronous_stream);
+}
+
+FrameInputs SceneFrameRenderer::frame_inputs(const Camera& camera, const RenderSettings& settings, bool has_next_frame) {
+  FrameInputs in{scene(), camera, settings, pool_};
+  in.history = &history_;
+  in.has_next_frame = has_next_frame;
+  in.streaming = streaming_ ? &streaming_->frame : nullptr;
+  in.no_stream_reason = file_.stream_reason;
+  return in;
+}
+
+std::unique_ptr<FrameRenderer> make_cpu_renderer(const SceneFile& file, const RenderSettings& settings,
+                                                 ThreadPool& pool, bool synchronous_stream) {
+  return std::make_unique<CpuFrameRenderer>(file, settings, pool, synchronous_stream);
+}
+
+RenderReport run_frames(const SceneFile& file, const RenderRequest& request, const RenderSettings& settings,
+                        uint32_t frames, FrameRenderer& renderer, FrameRenderer* reference,
+                        const FrameCallback& on_frame) {
+  RenderReport report;
+  report.backend = request.backend;
+  start_stream_summary(file, renderer, &report.stream);
+  Frame frame, reference_frame;
   for (uint32_t f = 0; f < frames; ++f) {
     const auto frame_start = std::chrono::steady_clock::now();
-    const Camera& cam = file.path.empty() ? file.cameras[request.camera]
-                                          : file.path[std::min<size_t>(f, file.path.size() - 1)];
-    bool last = f + 1 == frames;
-    bool save = !request.out_dir.empty() && (last || (request.save_every > 0 && f % request.save_every == 0));
+    const Camera& camera = frame_camera(file, request, f);
+    const bool last = f + 1 == frames;
+    const bool save = frame_is_saved(request, f, last);
     RenderSettings s = settings;
-    // Only images that are kept are shaded; other frames stop at the visibility buffer.
-    s.shade = last || save;
-    FrameStreaming* fs = streaming ? &streaming->frame : nullptr;
-    const FramePlan plan = plan_frame(scene, s, frame_context(scene, cam, &history, !last, fs, file.stream_reason));
-    render_planned_frame(plan, scene, cam, s, pool, &history, &frame, fs);
+    s.shade = last || save;  // only images that are kept are shaded; the others stop at the visibility buffer
+    renderer.render(camera, s, !last, &frame);
     report.frames.push_back(frame.stats);
+    if (reference) {
+      reference->render(camera, s, !last, &reference_frame);
+      report.comparisons.push_back(compare_frames(reference->scene(), reference->geometry(), camera, reference_frame,
+                                                  frame, request.raster != GpuRasterMode{}));
+      report.rule_holds = report.rule_holds && report.comparisons.back().holds();
+      if (!report.comparisons.back().holds() && !request.failure_dir.empty())
+        write_comparison_failure(request.failure_dir, f, reference_frame, frame);
+    }
     if (save) {
-      char name[32];
-      std::snprintf(name, sizeof name, "frame_%05u.png", f);
-      std::string png = (std::filesystem::path(request.out_dir) / name).string();
+      const std::string png = saved_png_path(request.out_dir, f);
       write_png(png, frame.image);
       report.saved_pngs.push_back(png);
     }
-    if (on_frame) on_frame(f, frame, fs);
+    if (on_frame) on_frame(f, frame, renderer.streaming());
     if (request.frame_interval_ms > 0 && !last)
       std::this_thread::sleep_until(frame_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                       std::chrono::duration<double, std::milli>(request.frame_interval_ms)));
   }
   report.width = frame.vis.width;
   report.height = frame.vis.height;
-  report.vis_hash = fnv1a64(frame.vis.keys.data(), frame.vis.keys.size() * sizeof(uint64_t));
+  report.vis_hash = vis_buffer_hash(frame.vis, frame.visible);
+  report.cluster_set_hash = cluster_set_hash(frame.visible);
   report.image_hash = fnv1a64(frame.image.rgb.data(), frame.image.rgb.size());
   if (!request.output_png.empty()) write_png(request.output_png, frame.image);
-
-  std::vector<double> ms;
-  for (const FrameStats& fs : report.frames) ms.push_back(fs.total_ms);
-  std::sort(ms.begin(), ms.end());
-  if (!ms.empty()) sum.median_frame_ms = ms[ms.size() / 2];
-  if (streamer) {
-    int64_t converged_from = -1;
-    for (uint32_t f = 0; f < report.frames.size(); ++f) {
-      const StreamFrameStats& st = report.frames[f].stream;
-      sum.bytes_read += st.bytes_read;
-      sum.pages_loaded += st.pages_loaded;
-      sum.pages_evicted += st.pages_evicted;
-      sum.faults += st.read_failures + st.checksum_failures + st.decode_failures;
-      sum.pages_marked_bad += st.pages_marked_bad;
-      sum.peak_reserved_bytes = std::max(sum.peak_reserved_bytes, st.reserved_bytes);
-      if (f >= sum.stop_frame) {
-        sum.bytes_read_after_stop += st.bytes_read;
-        sum.pages_loaded_after_stop += st.pages_loaded;
-      }
-      sum.stop_required_bytes = st.required_bytes;
-      if (!st.cut_is_ideal) {
-        sum.popin_frames++;
-        converged_from = -1;
-      } else if (converged_from < 0) {
-        converged_from = f;
-      }
-    }
-    if (converged_from >= 0) sum.frames_to_converge = std::max<int64_t>(0, converged_from - int64_t(sum.stop_frame));
-  }
+  if (reference && !request.diff_png.empty()) write_png(request.diff_png, diff_image(reference_frame, frame));
+  finish_stream_summary(report.frames, &report.stream);
+  renderer.finish(&report);
   return report;
 }
 
-RenderReport render_default_scene(const RenderRequest& request, uint32_t width, uint32_t height,
-                                  const std::string& cache_dir) {
+RenderReport render_scene(const SceneFile& file, const RenderRequest& request, const FrameCallback& on_frame) {
+  if (request.backend != Backend::kCpu || request.compare_cpu)
+    fail("RENDER_BAD_OPTION", "render", "render_scene renders on the CPU only (run_backend: every backend)",
+         kExitInternal);
+  uint32_t frames = 0;
+  const RenderSettings settings = resolve_render_options(file, request, &frames);
+  ThreadPool pool(request.threads);
+  std::unique_ptr<FrameRenderer> cpu = make_cpu_renderer(file, settings, pool, false);
+  return run_frames(file, request, settings, frames, *cpu, nullptr, on_frame);
+}
+
+SceneFile load_default_scene(const RenderRequest& request, uint32_t width, uint32_t height,
+                             const std::string& cache_dir) {
   SceneLoadOptions options;
   options.cache_dir = cache_dir;
   options.build.threads = request.threads;
-  SceneFile scene = make_default_scene(width, height, std::max<uint32_t>(request.frames, 1), options);
-  return render_scene(scene, request);
-}
-
-std::string RenderReport::table() const {
-  if (frames.empty()) return "";
-  std::string out = frame_stats_table(frames.back());
-  if (frames.size() > 1) {
-    std::vector<double> ms;
-    for (const FrameStats& f : frames) ms.push_back(f.total_ms);
-    std::sort(ms.begin(), ms.end());
-    char line[128];
-    std::snprintf(line, sizeof line, "%zu frames: median %.3f ms, min %.3f ms, max %.3f ms\n", ms.size(),
-                  ms[ms.size() / 2], ms.front(), ms.back());
-    out += line;
-  }
-  return out;
+  return make_default_scene(width, height, std::max<uint32_t>(request.frames, 1), options);
 }
 
 std::string RenderReport::stream_table() const {
@@ -245,15 +303,86 @@ std::string RenderReport::stream_table() const {
   return out;
 }
 
+std::string RenderReport::table() const {
+  std::string out = "backend: " + std::string(backend_name(backend)) + (device.empty() ? "" : " (" + device + ")") + "\n";
+  if (!frames.empty()) out += frame_stats_table(frames.back());
+  if (frames.size() > 1) {
+    std::vector<double> ms;
+    for (const FrameStats& f : frames) ms.push_back(f.total_ms);
+    std::sort(ms.begin(), ms.end());
+    char line[128];
+    std::snprintf(line, sizeof line, "%zu frames: median %.3f ms, min %.3f ms, max %.3f ms\n", ms.size(),
+                  ms[ms.size() / 2], ms.front(), ms.back());
+    out += line;
+  }
+  if (!frames.empty() && frames.back().has_raster_split) {
+    const RasterSplitStats& r = frames.back().raster_split;
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "raster paths (--raster %s): sw %llu clusters %llu triangles | hw %llu clusters %llu triangles\n",
+                  raster.c_str(), (unsigned long long)r.sw_clusters, (unsigned long long)r.sw_triangles,
+                  (unsigned long long)r.hw_clusters, (unsigned long long)r.hw_triangles);
+    out += line;
+    if (r.sw_tiled_triangles) {
+      std::snprintf(line, sizeof line, "sw big triangles drawn by tiles: %llu triangles, %llu tiles\n",
+                    (unsigned long long)r.sw_tiled_triangles, (unsigned long long)r.sw_tiles);
+      out += line;
+    }
+  }
+  out += "vis_hash " + hex64(vis_hash) + "  cluster_set_hash " + hex64(cluster_set_hash) + "\n";
+  if (pool.slots) {
+    char line[200];
+    std::snprintf(line, sizeof line, "gpu page pool: %u slots (%llu bytes), %llu pages uploaded (%llu bytes), %llu freed\n",
+                  pool.slots, (unsigned long long)pool.pool_bytes, (unsigned long long)pool.pages_uploaded,
+                  (unsigned long long)pool.bytes_uploaded, (unsigned long long)pool.pages_freed);
+    out += line;
+  }
+  if (!comparisons.empty()) {
+    uint64_t vis_diff = 0, over = 0;
+    int max_diff = 0;
+    uint32_t cluster_mismatch = 0;
+    for (const FrameComparison& c : comparisons) {
+      vis_diff += c.vis_pixels_differing;
+      over += c.pixels_over;
+      max_diff = std::max(max_diff, c.max_channel_diff);
+      cluster_mismatch += !c.clusters_equal;
+    }
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "compare cpu: %zu frame(s); cluster sets %s; vis pixels differing %llu; shaded max channel diff "
+                  "%d/255, pixels over 1/255 %llu: rule %s\n",
+                  comparisons.size(), cluster_mismatch ? "DIFFER" : "equal", (unsigned long long)vis_diff, max_diff,
+                  (unsigned long long)over, rule_holds ? "holds" : "FAILS");
+    out += line;
+    HwRasterAgreement hw;
+    bool any_hw = false;
+    for (const FrameComparison& c : comparisons)
+      if (c.hw_rule) {
+        hw.add(c.hw);
+        any_hw = true;
+      }
+    if (any_hw) {
+      out += "hardware rule (spec/raster.md §13.3), pixels over all frames:";
+      for (int k = 0; k < kHwPixelKinds; ++k)
+        out += std::string(" ") + hw_pixel_name(HwPixel(k)) + " " + std::to_string(hw.pixels[k]);
+      char ratio[64];
+      std::snprintf(ratio, sizeof ratio, "; max same-triangle depth error %.3g x tolerance\n", hw.max_depth_error_ratio);
+      out += ratio;
+    }
+  }
+  return out;
+}
+
 std::string RenderReport::json() const {
   nlohmann::ordered_json j;
+  j["backend"] = backend_name(backend);
+  if (!device.empty()) j["device"] = device;
   j["width"] = width;
   j["height"] = height;
-  char hex[32];
-  std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)vis_hash);
-  j["vis_hash"] = hex;
-  std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)image_hash);
-  j["image_hash"] = hex;
+  j["vis_hash"] = hex64(vis_hash);
+  j["cluster_set_hash"] = hex64(cluster_set_hash);
+  j["image_hash"] = hex64(image_hash);
+  if (!raster.empty()) j["raster"] = raster;
   j["frames"] = nlohmann::ordered_json::array();
   for (const FrameStats& f : frames) j["frames"].push_back(nlohmann::ordered_json::parse(frame_stats_json(f)));
   if (stream.requested) {
@@ -279,6 +408,37 @@ std::string RenderReport::json() const {
     j["stream_summary"] = s;
   }
   if (!saved_pngs.empty()) j["saved_pngs"] = saved_pngs;
+  if (!comparisons.empty()) {
+    nlohmann::ordered_json c = nlohmann::ordered_json::array();
+    for (const FrameComparison& fc : comparisons) {
+      nlohmann::ordered_json e;
+      e["clusters_equal"] = fc.clusters_equal;
+      e["vis_pixels_differing"] = fc.vis_pixels_differing;
+      if (fc.hw_rule) {
+        nlohmann::ordered_json h;
+        for (int k = 0; k < kHwPixelKinds; ++k) h[hw_pixel_name(HwPixel(k))] = fc.hw.pixels[k];
+        h["max_depth_error_ratio"] = fc.hw.max_depth_error_ratio;
+        e["hw_rule"] = h;
+      }
+      if (fc.shaded) {
+        e["max_channel_diff"] = fc.max_channel_diff;
+        e["pixels_over"] = fc.pixels_over;
+      }
+      c.push_back(e);
+    }
+    j["compare_cpu"] = c;
+    j["rule_holds"] = rule_holds;
+  }
+  if (pool.slots) {
+    nlohmann::ordered_json p;
+    p["slots"] = pool.slots;
+    p["pool_bytes"] = pool.pool_bytes;
+    p["pages_uploaded"] = pool.pages_uploaded;
+    p["bytes_uploaded"] = pool.bytes_uploaded;
+    p["pages_freed"] = pool.pages_freed;
+    j["gpu_page_pool"] = p;
+  }
+  j["validation_messages"] = validation_messages.size();
   return j.dump(2);
 }
 

@@ -1,0 +1,94 @@
+#ifndef VGEO_GPU_SHADER_BINDINGS_H
+#define VGEO_GPU_SHADER_BINDINGS_H
+// Every storage-buffer binding index of every shader, declared once and included by the host
+// (descriptor writes: gpu_bindings(), context.h) and by the shaders (`layout(binding = ...)`),
+// as vk_lod_clusters' shaderio headers do: a binding that moves moves on both sides, and a
+// host list that leaves one out fails at record time instead of drawing a wrong image. Set 0
+// only; each shader's bindings are 0..k<Shader>BindingCount-1 (the pipeline's layout).
+// Common C++/GLSL subset: core/shared_glsl.h. Records the buffers hold: core/cull_shared.h,
+// gpu/shader_records.h, gpu/hw_raster_records.h.
+#include "vgeo/core/shared_glsl.h"
+
+#ifdef __cplusplus
+namespace vgeo {
+#endif
+
+// ---- the cull passes: cull_common.glsl (cull_instances, cull_seed, cull_traverse_*,
+// cull_compact), gpu_cull.cpp cull_bindings ----
+VGEO_CONSTANT uint32_t kCullBindParams = 0u;              // GpuCullParams of the pass
+VGEO_CONSTANT uint32_t kCullBindMeshes = 1u;              // GpuCullMesh[]
+VGEO_CONSTANT uint32_t kCullBindClusters = 2u;            // GpuCluster[]
+VGEO_CONSTANT uint32_t kCullBindGroups = 3u;              // GpuGroup[]
+VGEO_CONSTANT uint32_t kCullBindNodes = 4u;               // GpuBvhNode[]
+VGEO_CONSTANT uint32_t kCullBindInstances = 5u;           // GpuCullInstance[] (this frame)
+VGEO_CONSTANT uint32_t kCullBindOcclusionInstances = 6u;  // GpuCullInstance[] the HZB was drawn with
+VGEO_CONSTANT uint32_t kCullBindHzb = 7u;                 // float bits, all mips
+VGEO_CONSTANT uint32_t kCullBindQueue = 8u;               // GpuQueueHeader, then uint64 slots
+VGEO_CONSTANT uint32_t kCullBindBits = 9u;                // output bit sets
+VGEO_CONSTANT uint32_t kCullBindCounters = 10u;           // uint64 per kCounter*
+VGEO_CONSTANT uint32_t kCullBindListIn = 11u;             // seeds (instance list or CullItems)
+VGEO_CONSTANT uint32_t kCullBindListOut = 12u;            // compacted list (kListHeaderWords, records)
+VGEO_CONSTANT uint32_t kCullBindStream = 13u;             // streaming words (GpuCullMesh::stream_base)
+VGEO_CONSTANT uint32_t kCullBindingCount = 14u;
+
+// cull_advance.comp: the traversal queue alone.
+VGEO_CONSTANT uint32_t kAdvanceBindQueue = 0u;
+VGEO_CONSTANT uint32_t kAdvanceBindingCount = 1u;
+
+// hzb_build.comp.
+VGEO_CONSTANT uint32_t kHzbBindParams = 0u;  // GpuCullParams (mip table)
+VGEO_CONSTANT uint32_t kHzbBindVis = 1u;     // the visibility buffer (uint64 keys as uint pairs)
+VGEO_CONSTANT uint32_t kHzbBindHzb = 2u;     // the pyramid written
+VGEO_CONSTANT uint32_t kHzbBindingCount = 3u;
+
+// ---- the geometry every raster and shade shader reads (shaders/geometry.glsl: raster.glsl,
+// hw_raster.vert, shade.comp), then the visibility buffer ----
+VGEO_CONSTANT uint32_t kGeomBindPages = 0u;      // memory-form page words
+VGEO_CONSTANT uint32_t kGeomBindLocations = 1u;  // GpuClusterLocation per (mesh, cluster)
+VGEO_CONSTANT uint32_t kGeomBindMeshes = 2u;     // GpuMesh[]
+VGEO_CONSTANT uint32_t kGeomBindInstances = 3u;  // GpuInstance[]
+VGEO_CONSTANT uint32_t kGeomBindVisible = 4u;    // GpuVisibleCluster per visible index
+VGEO_CONSTANT uint32_t kGeomBindVis = 5u;        // uint64 visibility keys
+VGEO_CONSTANT uint32_t kGeomBindingCount = 6u;
+
+// raster.comp / raster_tiles.comp (raster.glsl): the geometry, then these.
+VGEO_CONSTANT uint32_t kRasterBindCounters = 6u;  // pixels written, loop overflow, big count
+VGEO_CONSTANT uint32_t kRasterBindPaths = 7u;     // kGpuRasterPath* per visible cluster
+VGEO_CONSTANT uint32_t kRasterBindBig = 8u;       // GpuBigTriangle[]
+VGEO_CONSTANT uint32_t kRasterBindTiles = 9u;     // GpuRasterTile[]
+VGEO_CONSTANT uint32_t kRasterBindingCount = 10u;
+// The hardware raster pipeline (hw_raster.vert reads the geometry, hw_raster.frag writes the
+// visibility buffer and the counters): the compute rasterizer's first bindings.
+VGEO_CONSTANT uint32_t kHwRasterBindingCount = 7u;
+
+// shade.comp: the geometry, then these.
+VGEO_CONSTANT uint32_t kShadeBindInstances = 6u;  // GpuShadeInstance[]
+VGEO_CONSTANT uint32_t kShadeBindClusters = 7u;   // GpuShadeCluster per visible cluster
+VGEO_CONSTANT uint32_t kShadeBindMaterials = 8u;  // GpuMaterial[]
+VGEO_CONSTANT uint32_t kShadeBindOverdraw = 9u;   // uint per pixel (overdraw view)
+VGEO_CONSTANT uint32_t kShadeBindImage = 10u;     // RGBA8 per pixel
+VGEO_CONSTANT uint32_t kShadeBindingCount = 11u;
+
+// raster_split.comp.
+VGEO_CONSTANT uint32_t kSplitBindMeshes = 0u;           // GpuMesh[]
+VGEO_CONSTANT uint32_t kSplitBindInstances = 1u;        // GpuInstance[]
+VGEO_CONSTANT uint32_t kSplitBindVisible = 2u;          // GpuVisibleCluster[]
+VGEO_CONSTANT uint32_t kSplitBindInfos = 3u;            // GpuClusterRasterInfo per (mesh, cluster)
+VGEO_CONSTANT uint32_t kSplitBindRasterInstances = 4u;  // GpuRasterInstance[]
+VGEO_CONSTANT uint32_t kSplitBindPaths = 5u;            // kGpuRasterPath* per visible cluster (written)
+VGEO_CONSTANT uint32_t kSplitBindCommands = 6u;         // GpuDrawCommand[] (written)
+VGEO_CONSTANT uint32_t kSplitBindCounters = 7u;         // GpuRasterSplitCounters
+VGEO_CONSTANT uint32_t kSplitBindingCount = 8u;
+
+// smoke_atomic_max.comp (tests/gpu: the device's 64-bit atomicMax).
+VGEO_CONSTANT uint32_t kSmokeBindValues = 0u;
+VGEO_CONSTANT uint32_t kSmokeBindSlots = 1u;
+VGEO_CONSTANT uint32_t kSmokeBindingCount = 2u;
+
+#ifdef __cplusplus
+// The raster and shade shaders share the geometry bindings and extend them.
+static_assert(kRasterBindCounters == kGeomBindingCount && kShadeBindInstances == kGeomBindingCount);
+static_assert(kHwRasterBindingCount == kRasterBindCounters + 1);  // through the counters
+}  // namespace vgeo
+#endif
+#endif
