@@ -23,6 +23,8 @@
 #include "format_test_util.h"
 #include "support/paths.h"
 #include "vgeo/format/crc32c.h"
+#include "vgeo/format/lz4_block.h"
+#include "vgeo/format/page_codec.h"
 
 namespace vgeo {
 namespace {
@@ -297,6 +299,20 @@ void add_rule_vectors(std::vector<Vector>& v, const std::vector<uint8_t>& sphere
   });
   invalid("lz4_output_shorter_than_raw_size.vgp", grid_lz4, kErrDecompress, [](auto& f) {
     edit_meta(f, [](auto& m, const MetaLayout& L) { meta_put32(m, L.pages, 0, 8, meta_get32(m, L.pages, 0, 8) + 1); });
+  });
+
+  // A match offset of 0 (every offset MUST be >= 1): LZ4_decompress_safe alone accepts it and
+  // copies whatever the output buffer held.
+  invalid("lz4_match_offset_zero.vgp", grid_lz4, kErrDecompress, [](auto& f) {
+    edit_page(f, 0, [](std::vector<uint8_t>& p) {
+      bool set = false;
+      walk_lz4_block(p.data(), p.size(), [&](const Lz4Sequence& s) {
+        if (!s.has_match) return true;
+        p[s.offset_at] = 0, p[s.offset_at + 1] = 0, set = true;
+        return false;
+      });
+      if (!set) generator_bug("lz4_match_offset_zero.vgp: page 0 holds no match");
+    }, false);
   });
 
   // ---- raw page (§5.2), first page of grid_none ----

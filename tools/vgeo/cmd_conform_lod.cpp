@@ -3,6 +3,7 @@
 // Every vector's expected set is first recomputed with lib/vgeo/core/lod.h (select_resident_cut,
 // spec/stream.md §Cut) so a corrupted vector cannot pass silently.
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -33,7 +34,7 @@ struct LodVector {
 };
 
 struct ConformLodArgs {
-  std::string vectors = "spec/vectors/lod", selections, reference, junit_path;
+  std::string vectors, selections, reference, junit_path;  // vectors: "" = spec/vectors/lod (resolve_vectors_dir)
   bool quiet = false;
 };
 
@@ -156,9 +157,10 @@ void judge(const LodVector& v, const std::map<std::string, std::vector<uint32_t>
 int run_conform_lod(const ConformLodArgs& a) {
   if (a.selections.empty() && a.reference.empty())
     fail("CONFORM_USAGE", "vgeo conform lod", "give --selections FILE (check) and/or --write-reference FILE", kExitUsage);
-  std::vector<LodVector> vectors = load_vectors(a.vectors);
+  const std::string dir = resolve_vectors_dir(a.vectors, "spec/vectors/lod", "manifest.json");
+  std::vector<LodVector> vectors = load_vectors(dir);
   if (!a.reference.empty()) {
-    std::string text = "# vgeo-lod-selections 1 (vgeo's reference selections of " + a.vectors + ")\n";
+    std::string text = "# vgeo-lod-selections 1 (vgeo's reference selections of " + dir + ")\n";
     for (const LodVector& v : vectors) {
       text += v.name + ":";
       for (uint32_t c : v.expected) text += " " + std::to_string(c);
@@ -172,7 +174,9 @@ int run_conform_lod(const ConformLodArgs& a) {
   size_t failed = 0;
   for (const LodVector& v : vectors) {
     JunitCase tc = junit_case("vgeo.conform.lod", v.name);
+    const auto started = std::chrono::steady_clock::now();
     judge(v, selections, &tc);
+    tc.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     if (tc.failed) {
       ++failed;
       if (!a.quiet) std::printf("%s %s\n", tc.failure_type.c_str(), tc.failure_message.c_str());
@@ -189,7 +193,7 @@ int run_conform_lod(const ConformLodArgs& a) {
 void add_conform_lod_command(CLI::App& conform, Context& ctx) {
   auto args = std::make_shared<ConformLodArgs>();
   auto* cmd = conform.add_subcommand("lod", "check a runtime's LOD selections against spec/vectors/lod");
-  cmd->add_option("--vectors", args->vectors, "the vector directory (manifest.json + DAG; default spec/vectors/lod)");
+  cmd->add_option("--vectors", args->vectors, "the vector directory (manifest.json + DAG; default spec/vectors/lod, found in the working directory or above the vgeo binary)");
   cmd->add_option("--selections", args->selections, "the runtime's selections: `NAME: cluster ids...` per vector");
   cmd->add_option("--write-reference", args->reference, "write vgeo's own selections in that format");
   cmd->add_option("--junit", args->junit_path, "write a JUnit XML report (one testcase per vector)");
