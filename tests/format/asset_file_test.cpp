@@ -89,7 +89,7 @@ TEST(AssetFile, RejectsUnknownTruncatedAndMissingFiles) {
 // reader when neither magic matches), and every valid one is read.
 TEST(AssetFile, EveryVectorIsRejectedWithItsManifestCode) {
   size_t checked = 0;
-  for (const std::filesystem::path dir : {test::source_dir() / "spec" / "vectors", test::source_dir() / "spec" / "vectors" / "dag"}) {
+  for (const std::filesystem::path& dir : {test::source_dir() / "spec" / "vectors", test::source_dir() / "spec" / "vectors" / "dag"}) {
     std::ifstream manifest(dir / "manifest.txt");
     ASSERT_TRUE(manifest) << dir;
     for (std::string line; std::getline(manifest, line);) {

@@ -185,7 +185,6 @@ TEST(FormatHardening, MalformedFieldsMapToStableCodes) {
 // accepts 0 (it copies whatever the output buffer held), so a file with such a block decoded
 // (to its twin's hash, the buffer being zeroed) until the decoder checked the offsets.
 TEST(FormatHardening, Lz4MatchOffsetZeroIsRejected) {
-  using Lz4Sequence;
   const std::vector<uint8_t> f = small_file(Compression::kLz4, 8);
   ASSERT_EQ(decode_code(f), "OK");
   const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
@@ -195,7 +194,9 @@ TEST(FormatHardening, Lz4MatchOffsetZeroIsRejected) {
     std::vector<size_t> offsets;
     // Every stored page parses whole into sequences, each match offset >= 1.
     EXPECT_TRUE(walk_lz4_block(block, p.stored_size, [&](const Lz4Sequence& s) {
-      if (s.has_match) offsets.push_back(s.offset_at), EXPECT_GE(s.offset, 1u);
+      if (!s.has_match) return true;
+      offsets.push_back(s.offset_at);
+      EXPECT_GE(s.offset, 1u);
       return true;
     }));
     // Each match in turn set to offset 0 (CRCs fixed): FORMAT_DECOMPRESS, never a decode.

@@ -7,6 +7,7 @@
 // (the encoder's output is pinned per format version).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -302,16 +303,30 @@ void add_rule_vectors(std::vector<Vector>& v, const std::vector<uint8_t>& sphere
   });
 
   // A match offset of 0 (every offset MUST be >= 1): LZ4_decompress_safe alone accepts it and
-  // copies whatever the output buffer held.
+  // copies the output buffer's own bytes — zeros in a zeroed buffer. The match chosen copies
+  // zeros, so such a decoder decodes the file to its twin's hash (as vgeo did).
   invalid("lz4_match_offset_zero.vgp", grid_lz4, kErrDecompress, [](auto& f) {
     edit_page(f, 0, [](std::vector<uint8_t>& p) {
-      bool set = false;
+      uint64_t raw_size = 0;
       walk_lz4_block(p.data(), p.size(), [&](const Lz4Sequence& s) {
-        if (!s.has_match) return true;
-        p[s.offset_at] = 0, p[s.offset_at + 1] = 0, set = true;
-        return false;
+        raw_size += s.literal_count + s.match_length;
+        return true;
       });
-      if (!set) generator_bug("lz4_match_offset_zero.vgp: page 0 holds no match");
+      std::vector<uint8_t> raw(raw_size);
+      format_detail::decompress(p.data(), p.size(), Compression::kLz4, raw.data(), raw.size(), "gen");
+      size_t out = 0, zero_match = 0, first_match = 0;
+      walk_lz4_block(p.data(), p.size(), [&](const Lz4Sequence& s) {
+        out += s.literal_count;
+        if (s.has_match && first_match == 0) first_match = s.offset_at;
+        if (s.has_match && zero_match == 0 &&
+            std::all_of(raw.begin() + long(out), raw.begin() + long(out + s.match_length), [](uint8_t b) { return b == 0; }))
+          zero_match = s.offset_at;
+        out += size_t(s.match_length);
+        return true;
+      });
+      const size_t at = zero_match ? zero_match : first_match;
+      if (at == 0) generator_bug("lz4_match_offset_zero.vgp: page 0 holds no match");
+      p[at] = 0, p[at + 1] = 0;
     }, false);
   });
 
