@@ -58,7 +58,9 @@ TEST(ConformDecoder, OwnDecoderAgreesEverywhere) {
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("0 verdict, 0 hash, 0 protocol, 0 code disagreements"), std::string::npos) << r.output;
   // Structure-aware mutants keep the checksums valid and reach the rules behind them.
-  EXPECT_NE(r.output.find("  page-field: FORMAT_NON_CANONICAL 1 FORMAT_OUT_OF_RANGE 4"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("  page-field: FORMAT_OUT_OF_RANGE 5 FORMAT_TRUNCATED 1"), std::string::npos) << r.output;
+  // ... and the compressed-stream mutants reach the decompressors.
+  EXPECT_NE(r.output.find("  stream: FORMAT_DECOMPRESS 1"), std::string::npos) << r.output;
   std::string cases = vgeo::test::checked_junit(xml);
   EXPECT_NE(cases.find("vgeo.conform.decoder.v1_valid_sphere_zstd.vgp: passed"), std::string::npos) << cases;
   EXPECT_EQ(cases.find("failed"), std::string::npos) << cases;
@@ -200,7 +202,9 @@ TEST(ConformDecoder, ProtocolFailureShowsTheDecodersStderr) {
 
 // `conform hash` gives the reason of a rejection on stderr, as every vgeo error does.
 TEST(ConformDecoder, HashGivesTheReasonOnStderr) {
-  auto r = run_cli("conform hash '" + (fs::path(all_vectors()) / "lz4_match_offset_zero.vgp").string() + "' 2>&1 >/dev/null");
+  // (stderr alone: run_command merges stderr into stdout after the subshell.)
+  auto r = vgeo::test::run_command("( '" + vgeo::test::cli_path() + "' conform hash '" +
+                                   (fs::path(all_vectors()) / "lz4_match_offset_zero.vgp").string() + "' 2>&1 >/dev/null )");
   EXPECT_EQ(r.exit_code, 3) << r.output;
   EXPECT_NE(r.output.find("error[FORMAT_DECOMPRESS]: "), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("lz4 match offset 0"), std::string::npos) << r.output;
@@ -293,7 +297,7 @@ TEST(ConformDecoder, HashReadsVgeodagAsTheDagManifestSays) {
     std::istringstream words(line);
     std::string name, expected, hash;
     words >> name >> expected >> hash;
-    auto r = run_cli("conform hash '" + (dir / name).string() + "' 2>/dev/null");
+    auto r = vgeo::test::run_command("( '" + vgeo::test::cli_path() + "' conform hash '" + (dir / name).string() + "' 2>/dev/null )");
     EXPECT_EQ(r.output, (expected == "OK" ? hash : "error[" + expected + "]") + "\n") << name;
     EXPECT_EQ(r.exit_code, expected == "OK" ? 0 : 3) << name;
     ++checked;
@@ -318,7 +322,7 @@ TEST(ConformDecoder, HashReadsVgeodagAsTheDagManifestSays) {
   auto code_of = [&](const std::vector<uint8_t>& f, const std::string& name) {
     const fs::path p = tmp.path / name;
     std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(f.data()), std::streamsize(f.size()));
-    return run_cli("conform hash '" + p.string() + "' 2>/dev/null").output;
+    return vgeo::test::run_command("( '" + vgeo::test::cli_path() + "' conform hash '" + p.string() + "' 2>/dev/null )").output;
   };
   std::vector<uint8_t> f = leaf;
   put32(f, instance0, 7);  // instance 0 names mesh 7 of 1

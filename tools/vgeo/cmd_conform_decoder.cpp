@@ -550,12 +550,13 @@ bool page_holding(const std::vector<uint8_t>& f, size_t at, size_t len, uint32_t
   return false;
 }
 
-// The candidates of one shrink step, bytes [at, at + len) removed, best first: (1) inside one
-// page's stored bytes, the page edited (stored size — and raw size when uncompressed —
-// file_size and every CRC fixed: format_edit.h); elsewhere past the header, the bytes removed
-// with file_size (and metadata_size inside the metadata) moved and the checksums recomputed;
-// (2) the bytes removed and the checksums recomputed, nothing else. So a CRC-protected file
-// shrinks past its checksums and sizes to the rule that disagrees.
+// The candidates of one shrink step, bytes [at, at + len) removed, in the order tried: (1) the
+// bytes removed and the checksums recomputed, nothing else (cheapest when the disagreement
+// does not depend on the sizes, e.g. a truncated file); (2) inside one page's stored bytes,
+// the page edited (stored size — and raw size when uncompressed — file_size and every CRC
+// fixed: format_edit.h); elsewhere past the header, the bytes removed with file_size (and
+// metadata_size inside the metadata) moved and the checksums recomputed. So a CRC-protected
+// file shrinks past its checksums and sizes to the rule that disagrees.
 std::vector<std::vector<uint8_t>> shrink_candidates(const std::vector<uint8_t>& bytes, size_t at, size_t len) {
   constexpr size_t kHeaderBytes = 64;
   std::vector<uint8_t> plain = bytes;
@@ -585,7 +586,7 @@ std::vector<std::vector<uint8_t>> shrink_candidates(const std::vector<uint8_t>& 
   if (!done) return {plain};
   fix_checksums(structural);
   if (structural == plain) return {plain};
-  return {structural, plain};
+  return {plain, structural};
 }
 
 // Shrinks a reproducer (spec/conform.md §5.4): removes byte ranges — halves, then quarters, ...
@@ -595,6 +596,16 @@ std::vector<std::vector<uint8_t>> shrink_candidates(const std::vector<uint8_t>& 
 std::vector<uint8_t> minimize(std::vector<uint8_t> bytes, const std::string& kind,
                               const std::function<std::string(const std::vector<uint8_t>&)>& kind_of, size_t max_runs,
                               size_t* runs) {
+  // Compressed metadata first stored uncompressed (one run, kept when the disagreement stays):
+  // a page edit rewrites the metadata uncompressed (format_edit.h), which would make every
+  // structural candidate larger than the file it shrinks.
+  if (bytes.size() >= 64 && le32_at(&bytes[8]) >= 2 && le32_at(&bytes[48]) != 0 && *runs < max_runs) {
+    std::vector<uint8_t> plain_meta = bytes;
+    if (edit_metadata(plain_meta, [](std::vector<uint8_t>&, const MetaLayout&) {})) {
+      ++*runs;
+      if (kind_of(plain_meta) == kind) bytes = std::move(plain_meta);
+    }
+  }
   for (size_t chunk = std::max<size_t>(1, bytes.size() / 2); *runs < max_runs; chunk /= 2) {
     for (size_t at = 0; at < bytes.size() && *runs < max_runs;) {
       bool kept = false;
