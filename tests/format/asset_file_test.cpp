@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
+#include <string>
 #include <unistd.h>
 
 #include "support/paths.h"
@@ -79,6 +81,32 @@ TEST(AssetFile, RejectsUnknownTruncatedAndMissingFiles) {
   write_asset_file(page_path.string(), small_scene(), AssetFileKind::kPages);
   std::filesystem::resize_file(page_path, std::filesystem::file_size(page_path) - 1);
   EXPECT_EQ(error_code_of(page_path.string()), "FORMAT_TRUNCATED");
+}
+
+// One reader, one code: every invalid vector of spec/vectors (page format) and
+// spec/vectors/dag (VGEODAG1) is rejected by read_asset_file — what `vgeo verify` reads with —
+// with exactly the code its manifest gives (a bad magic included: the extension picks the
+// reader when neither magic matches), and every valid one is read.
+TEST(AssetFile, EveryVectorIsRejectedWithItsManifestCode) {
+  size_t checked = 0;
+  for (const std::filesystem::path& dir : {test::source_dir() / "spec" / "vectors", test::source_dir() / "spec" / "vectors" / "dag"}) {
+    std::ifstream manifest(dir / "manifest.txt");
+    ASSERT_TRUE(manifest) << dir;
+    for (std::string line; std::getline(manifest, line);) {
+      if (line.empty() || line[0] == '#') continue;
+      std::istringstream words(line);
+      std::string name, expected;
+      words >> name >> expected;
+      EXPECT_EQ(error_code_of((dir / name).string()), expected == "OK" ? "" : expected) << dir / name;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 150u);
+  // A file named as neither format keeps ASSET_FILE_UNKNOWN (above); a bad magic under either
+  // page extension is the page decoder's.
+  auto named_vgeo = scratch("bad_magic.vgeo");
+  std::ofstream(named_vgeo) << "VGEOPAGX and more bytes than a header would need, all of them wrong....";
+  EXPECT_EQ(error_code_of(named_vgeo.string()), "FORMAT_BAD_MAGIC");
 }
 
 }  // namespace

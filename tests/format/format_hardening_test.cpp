@@ -10,6 +10,7 @@
 #include "format_file_edit.h"
 #include "format_test_util.h"
 #include "vgeo/format/crc32c.h"
+#include "vgeo/format/lz4_block.h"
 #include "vgeo/format/page_codec.h"
 
 namespace vgeo {
@@ -178,6 +179,48 @@ TEST(FormatHardening, MalformedFieldsMapToStableCodes) {
     EXPECT_EQ(plain_edited([](auto& g) { put32(&g[68], 5000); }), kErrOutOfRange) << version;
     EXPECT_EQ(plain_edited([](auto& g) { put32(&g[64], 0x7FFFFFFF); }), kErrTruncated) << version;
   }
+}
+
+// spec/format.md §5.1: every lz4 match offset MUST be >= 1. LZ4_decompress_safe itself
+// accepts 0 (it copies whatever the output buffer held), so a file with such a block decoded
+// (to its twin's hash, the buffer being zeroed) until the decoder checked the offsets.
+TEST(FormatHardening, Lz4MatchOffsetZeroIsRejected) {
+  const std::vector<uint8_t> f = small_file(Compression::kLz4, 8);
+  ASSERT_EQ(decode_code(f), "OK");
+  const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
+  size_t matches = 0;
+  for (const PageEntry& p : fc.pages) {
+    const uint8_t* block = f.data() + p.file_offset;
+    std::vector<size_t> offsets;
+    // Every stored page parses whole into sequences, each match offset >= 1.
+    EXPECT_TRUE(walk_lz4_block(block, p.stored_size, [&](const Lz4Sequence& s) {
+      if (!s.has_match) return true;
+      offsets.push_back(s.offset_at);
+      EXPECT_GE(s.offset, 1u);
+      return true;
+    }));
+    // Each match in turn set to offset 0 (CRCs fixed): FORMAT_DECOMPRESS, never a decode.
+    for (size_t at : offsets) {
+      std::vector<uint8_t> g = f;
+      g[p.file_offset + at] = 0, g[p.file_offset + at + 1] = 0;
+      fix_crcs(g);
+      EXPECT_EQ(decode_code(g), "FORMAT_DECOMPRESS") << "page at " << p.file_offset << ", offset at " << at;
+    }
+    matches += offsets.size();
+  }
+  EXPECT_GT(matches, 0u) << "the lz4 pages hold no match: the test pins nothing";
+  // A hand-made block: 8 literals "abcdefgh", a 4-byte match at offset 4, 8 final literals
+  // (raw size 20; the match starts 12 bytes before the end, as the block format requires).
+  std::vector<uint8_t> block = {0x80, 'a', 'b', 'c', 'd', 'e', 'f', 'g', 'h', 4, 0,
+                                0x80, 'i', 'j', 'k', 'l', 'm', 'n', 'o', 'p'};
+  std::vector<uint8_t> out(20);
+  format_detail::decompress(block.data(), block.size(), Compression::kLz4, out.data(), out.size(), "<test>");
+  EXPECT_EQ(std::string(out.begin(), out.end()), "abcdefghefghijklmnop");
+  block[9] = 0;
+  EXPECT_EQ(error_code_of([&] {
+              format_detail::decompress(block.data(), block.size(), Compression::kLz4, out.data(), out.size(), "<test>");
+            }),
+            "FORMAT_DECOMPRESS");
 }
 
 TEST(FormatHardening, MutatedPagesWithFixedChecksumsNeverCrash) {

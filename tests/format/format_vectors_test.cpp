@@ -7,6 +7,7 @@
 // (the encoder's output is pinned per format version).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -23,6 +24,8 @@
 #include "format_test_util.h"
 #include "support/paths.h"
 #include "vgeo/format/crc32c.h"
+#include "vgeo/format/lz4_block.h"
+#include "vgeo/format/page_codec.h"
 
 namespace vgeo {
 namespace {
@@ -297,6 +300,34 @@ void add_rule_vectors(std::vector<Vector>& v, const std::vector<uint8_t>& sphere
   });
   invalid("lz4_output_shorter_than_raw_size.vgp", grid_lz4, kErrDecompress, [](auto& f) {
     edit_meta(f, [](auto& m, const MetaLayout& L) { meta_put32(m, L.pages, 0, 8, meta_get32(m, L.pages, 0, 8) + 1); });
+  });
+
+  // A match offset of 0 (every offset MUST be >= 1): LZ4_decompress_safe alone accepts it and
+  // copies the output buffer's own bytes — zeros in a zeroed buffer. The match chosen copies
+  // zeros, so such a decoder decodes the file to its twin's hash (as vgeo did).
+  invalid("lz4_match_offset_zero.vgp", grid_lz4, kErrDecompress, [](auto& f) {
+    edit_page(f, 0, [](std::vector<uint8_t>& p) {
+      uint64_t raw_size = 0;
+      walk_lz4_block(p.data(), p.size(), [&](const Lz4Sequence& s) {
+        raw_size += s.literal_count + s.match_length;
+        return true;
+      });
+      std::vector<uint8_t> raw(raw_size);
+      format_detail::decompress(p.data(), p.size(), Compression::kLz4, raw.data(), raw.size(), "gen");
+      size_t out = 0, zero_match = 0, first_match = 0;
+      walk_lz4_block(p.data(), p.size(), [&](const Lz4Sequence& s) {
+        out += s.literal_count;
+        if (s.has_match && first_match == 0) first_match = s.offset_at;
+        if (s.has_match && zero_match == 0 &&
+            std::all_of(raw.begin() + long(out), raw.begin() + long(out + s.match_length), [](uint8_t b) { return b == 0; }))
+          zero_match = s.offset_at;
+        out += size_t(s.match_length);
+        return true;
+      });
+      const size_t at = zero_match ? zero_match : first_match;
+      if (at == 0) generator_bug("lz4_match_offset_zero.vgp: page 0 holds no match");
+      p[at] = 0, p[at + 1] = 0;
+    }, false);
   });
 
   // ---- raw page (§5.2), first page of grid_none ----

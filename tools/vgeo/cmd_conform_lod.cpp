@@ -5,6 +5,7 @@
 // too. Mismatches at ties are named by the comparisons the selection equals (>= for >, < for <=),
 // and exact ties, which no rounding can move, tell a comparison bug from rounding.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iterator>
 #include <cstdio>
@@ -87,7 +88,7 @@ std::string exact_tie_claim_fails(const ClusterDag& dag, const LodVector& v) {
 }
 
 struct ConformLodArgs {
-  std::string vectors = "spec/vectors/lod", selections, reference, junit_path;
+  std::string vectors, selections, reference, junit_path;  // vectors: "" = spec/vectors/lod (resolve_vectors_dir)
   bool quiet = false;
 };
 
@@ -242,10 +243,11 @@ void judge(const ClusterDag& dag, const LodVector& v, const std::map<std::string
 int run_conform_lod(const ConformLodArgs& a) {
   if (a.selections.empty() && a.reference.empty())
     fail("CONFORM_USAGE", "vgeo conform lod", "give --selections FILE (check) and/or --write-reference FILE", kExitUsage);
-  const LodVectorSet set = load_vectors(a.vectors);
+  const std::string dir = resolve_vectors_dir(a.vectors, "spec/vectors/lod", "manifest.json");
+  const LodVectorSet set = load_vectors(dir);
   const std::vector<LodVector>& vectors = set.vectors;
   if (!a.reference.empty()) {
-    std::string text = "# vgeo-lod-selections 1 (vgeo's reference selections of " + a.vectors + ")\n";
+    std::string text = "# vgeo-lod-selections 1 (vgeo's reference selections of " + dir + ")\n";
     for (const LodVector& v : vectors) {
       text += v.name + ":";
       for (uint32_t c : v.expected) text += " " + std::to_string(c);
@@ -259,7 +261,9 @@ int run_conform_lod(const ConformLodArgs& a) {
   size_t failed = 0, exact_ties = 0, exact_failed = 0, ties_failed = 0;
   for (const LodVector& v : vectors) {
     JunitCase tc = junit_case("vgeo.conform.lod", v.name);
+    const auto started = std::chrono::steady_clock::now();
     judge(set.dag, v, selections, &tc);
+    tc.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     exact_ties += v.kind == "exact_tie";
     if (tc.failed) {
       ++failed;
@@ -288,7 +292,7 @@ int run_conform_lod(const ConformLodArgs& a) {
 void add_conform_lod_command(CLI::App& conform, Context& ctx) {
   auto args = std::make_shared<ConformLodArgs>();
   auto* cmd = conform.add_subcommand("lod", "check a runtime's LOD selections against spec/vectors/lod");
-  cmd->add_option("--vectors", args->vectors, "the vector directory (manifest.json + DAG; default spec/vectors/lod)");
+  cmd->add_option("--vectors", args->vectors, "the vector directory (manifest.json + DAG; default spec/vectors/lod, found in the working directory or above the vgeo binary)");
   cmd->add_option("--selections", args->selections, "the runtime's selections: `NAME: cluster ids...` per vector");
   cmd->add_option("--write-reference", args->reference, "write vgeo's own selections in that format");
   cmd->add_option("--junit", args->junit_path, "write a JUnit XML report (one testcase per vector)");

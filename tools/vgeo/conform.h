@@ -20,4 +20,10 @@ inline constexpr uint64_t kMaxConformTextBytes = 64ull << 20;
 std::vector<uint8_t> read_conform_file(const std::string& path, uint64_t max_bytes, const std::string& what);
 std::string read_conform_text(const std::string& path, const std::string& what);
 
+// The vector folder of a conform command: `given` when --vectors was set; otherwise
+// `relative` (e.g. "spec/vectors") holding `marker` (its manifest), looked up in the working
+// directory, then in each folder above the running vgeo binary (a build tree inside the
+// repository: build/release/bin/vgeo). Neither: CONFORM_USAGE naming --vectors (exit 2).
+std::string resolve_vectors_dir(const std::string& given, const std::string& relative, const std::string& marker);
+
 }  // namespace vgeo::cli

@@ -1,4 +1,4 @@
-// VGEODAG1: uncompressed little-endian serialization of a BuiltScene (spec/dag.md §File).
+// VGEODAG1: uncompressed little-endian serialization of a BuiltScene (spec/dag.md §7).
 // The decoder is hardened for files from other implementations: every count is checked
 // against the remaining bytes before anything is allocated, every index is range-checked,
 // padding is not stored (so valid data has exactly one encoding), trailing bytes are an error.

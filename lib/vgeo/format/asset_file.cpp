@@ -11,7 +11,7 @@
 namespace vgeo {
 
 AssetFileKind asset_file_kind_for_path(const std::string& path) {
-  return std::filesystem::path(path).extension() == ".vgeodag" ? AssetFileKind::kDagFile : AssetFileKind::kPages;
+  return std::filesystem::path(path).extension() == kDagFileExtension ? AssetFileKind::kDagFile : AssetFileKind::kPages;
 }
 
 BuiltScene read_asset_file(const std::string& path) {
@@ -22,6 +22,13 @@ BuiltScene read_asset_file(const std::string& path) {
   // "VGEODAG" + version digit: the DAG decoder reports a wrong digit as DAGFILE_BAD_VERSION.
   if (bytes.size() >= 7 && std::memcmp(bytes.data(), kDagFileMagic, 7) == 0)
     return decode_dag_file(bytes.data(), bytes.size(), path);
+  // Neither magic: a file named as one of the two formats is that format's reader's to reject
+  // (one reader, one code: DAGFILE_BAD_MAGIC / FORMAT_BAD_MAGIC, as the vectors' manifests and
+  // `vgeo conform hash` say); any other name is not an asset file.
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext == kDagFileExtension) return decode_dag_file(bytes.data(), bytes.size(), path);
+  for (const char* page_ext : kPageFileExtensions)
+    if (ext == page_ext) return decode_format(bytes.data(), bytes.size(), path);
   fail("ASSET_FILE_UNKNOWN", path, "neither a page-format file (VGEOPAGE) nor a DAG file (VGEODAG1)");
 }
 

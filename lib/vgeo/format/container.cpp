@@ -18,6 +18,7 @@
 #include "vgeo/format/bitstream.h"
 #include "vgeo/format/crc32c.h"
 #include "vgeo/format/format.h"
+#include "vgeo/format/lz4_block.h"
 #include "vgeo/format/page_codec.h"
 
 namespace vgeo {
@@ -113,6 +114,17 @@ void decompress(const uint8_t* src, size_t src_size, Compression c, uint8_t* dst
     if (n != raw_size) fail(kErrDecompress, where, "zstd output shorter than declared");
     return;
   }
+  // LZ4_decompress_safe accepts a match offset of 0 (it copies the output buffer's own
+  // bytes: whatever the buffer held), which lz4_Block_format.md calls invalid and §5.1
+  // rejects. Any block it decodes parses into the same sequences as this walk (it succeeds
+  // only when the final literals end exactly at the block's end), so checking the walk's
+  // offsets first rejects exactly those blocks; a block the walk cannot parse is left to
+  // LZ4_decompress_safe, which rejects it with the same code.
+  walk_lz4_block(src, src_size, [&](const Lz4Sequence& s) {
+    if (s.has_match && s.offset == 0)
+      fail(kErrDecompress, where, "lz4 match offset 0 at block byte " + std::to_string(s.offset_at));
+    return true;
+  });
   const int n = LZ4_decompress_safe(reinterpret_cast<const char*>(src), reinterpret_cast<char*>(dst),
                                     int(src_size), int(raw_size));
   if (n < 0) fail(kErrDecompress, where, "lz4 block invalid");

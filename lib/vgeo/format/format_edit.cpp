@@ -138,6 +138,42 @@ bool edit_metadata(std::vector<uint8_t>& f, const MetadataEdit& edit) {
   return true;
 }
 
+bool edit_stored_metadata(std::vector<uint8_t>& f, const std::function<void(std::vector<uint8_t>&)>& edit) {
+  if (!has_metadata(f)) return false;
+  const uint32_t meta_size = le32_at(&f[36]);
+  std::vector<uint8_t> stored(f.begin() + long(kHeaderBytes), f.begin() + long(kHeaderBytes + meta_size));
+  edit(stored);
+  f.erase(f.begin() + long(kHeaderBytes), f.begin() + long(kHeaderBytes + meta_size));
+  f.insert(f.begin() + long(kHeaderBytes), stored.begin(), stored.end());
+  set_file_size(f, file_size_of(f) - meta_size + stored.size());
+  put_le32_at(&f[36], uint32_t(stored.size()));
+  put_le32_at(&f[40], crc32c(stored.data(), stored.size()));
+  fix_header_crc(f);
+  return true;
+}
+
+void fix_checksums(std::vector<uint8_t>& f) {
+  if (f.size() < kHeaderBytes) return;
+  if (has_metadata(f)) {
+    const uint32_t version = le32_at(&f[8]), meta_size = le32_at(&f[36]);
+    const bool stored_raw = version < 2 || le32_at(&f[48]) == 0;
+    std::vector<uint8_t> raw(f.begin() + long(kHeaderBytes), f.begin() + long(kHeaderBytes + meta_size));
+    MetaLayout L;
+    if (stored_raw && walk_metadata(raw, version, &L)) {
+      uint64_t offset = kHeaderBytes + meta_size;
+      for (uint32_t p = 0; p < L.pages.count; ++p) {
+        const uint32_t stored = meta_get32(raw, L.pages, p, 4);
+        if (offset + stored > f.size()) break;
+        meta_put32(raw, L.pages, p, 20, crc32c(&f[size_t(offset)], stored));
+        offset += stored;
+      }
+      std::copy(raw.begin(), raw.end(), f.begin() + long(kHeaderBytes));
+    }
+    put_le32_at(&f[40], crc32c(raw.data(), raw.size()));
+  }
+  fix_header_crc(f);
+}
+
 bool page_offset(const std::vector<uint8_t>& f, uint32_t p, size_t* offset) {
   std::vector<uint8_t> raw;
   MetaLayout L;

@@ -62,6 +62,16 @@ bool edit_stored_page(std::vector<uint8_t>& file, uint32_t p, const std::functio
                       bool raw_too = true);
 // The same on the page's raw (decompressed) bytes, recompressed with the file's codec.
 bool edit_raw_page(std::vector<uint8_t>& file, uint32_t p, const std::function<void(std::vector<uint8_t>&)>& edit);
+// Replaces the *stored* metadata bytes (compressed or not) by what `edit` makes of them:
+// metadata_size and file_size move by the size change, the metadata CRC and the header CRC are
+// recomputed (page CRCs are untouched: the pages are). False without a header and metadata.
+bool edit_stored_metadata(std::vector<uint8_t>& file, const std::function<void(std::vector<uint8_t>&)>& edit);
+// Recomputes every checksum the file's own bytes allow, changing nothing else: with
+// uncompressed metadata (version 1, or metadata_compression 0) each page CRC the page table
+// reaches within the file, then the metadata CRC (when the metadata lies within the file),
+// then the header CRC. For a file whose bytes were cut or edited (`vgeo conform decoder
+// --minimize`), so that the next check past the CRCs is reached.
+void fix_checksums(std::vector<uint8_t>& file);
 // Recomputes the header CRC only.
 void fix_header_crc(std::vector<uint8_t>& file);
 

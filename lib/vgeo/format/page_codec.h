@@ -24,7 +24,7 @@ inline constexpr uint32_t kCopyRefBytes = 4;
 // memory field, refs are whole bytes); pages close before reaching this bound.
 inline uint32_t max_raw_page_size(uint32_t page_size) { return 2 * page_size; }
 
-// Strip control byte (spec/format.md §Topology code).
+// Strip control byte (spec/format.md §5.2).
 inline constexpr uint8_t kCtlReset = 1u << 0;
 inline constexpr uint8_t kCtlSide = 1u << 1;   // 0: (c, b, d) across edge b-c; 1: (a, c, d) across c-a
 inline constexpr uint8_t kCtlRef0 = 1u << 2;   // corner is an explicit reference (not a new vertex)
