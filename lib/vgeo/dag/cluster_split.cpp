@@ -58,6 +58,11 @@ WeldedMesh weld_positions(const Mesh& mesh) {
       slot = (slot + 1) & (cap - 1);
     }
   }
+  w.copies.assign(n, 0);
+  for (size_t v = 0; v < n; ++v) {
+    uint8_t& c = w.copies[w.weld[v]];
+    if (c < 255) ++c;  // saturates: only "more than kMaxSeamWedges" is asked
+  }
   return w;
 }
 
