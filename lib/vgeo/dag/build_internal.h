@@ -89,6 +89,10 @@ struct WeldedMesh {
   // weld[v] = smallest vertex index whose position has the same bits as v's. Adjacency,
   // borders and locks are computed on welded ids, so attribute seams do not cut the graph.
   std::vector<uint32_t> weld;
+  // copies[w] = input vertices at welded position w (saturating at 255; 0 for other ids).
+  // More than two make w a per-corner position (simplify.cpp, kMaxSeamWedges) at every level,
+  // also where a group holds only one or two of its copies.
+  std::vector<uint8_t> copies;
 };
 WeldedMesh weld_positions(const Mesh& mesh);
 

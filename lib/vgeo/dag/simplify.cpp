@@ -140,7 +140,11 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
     }
     slot_of[i] = uint32_t(h);
   }
-  // Positions with more than kMaxSeamWedges wedges are welded: their keys become
+  // Positions with more than kMaxSeamWedges wedges in the group, or more than kMaxSeamWedges
+  // input vertices in the mesh, are welded: the second because above the leaves a group of a
+  // per-corner mesh holds only the corners earlier levels kept (often one or two per position,
+  // not a seam: meshopt 0.18 locks such a pair, and per-corner groups stopped reducing at
+  // level 5 on bunny00). Their keys become
   // (welded id, material). Sorted welded ids, so the sub-mesh does not depend on corner order.
   std::vector<std::pair<uint32_t, uint32_t>> wedge_of(unique_slots.size());  // (welded id, vertex)
   for (size_t u = 0; u < unique_slots.size(); ++u) {
@@ -152,7 +156,8 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
   for (size_t i = 0; i < wedge_of.size();) {
     size_t j = i;
     while (j < wedge_of.size() && wedge_of[j].first == wedge_of[i].first) ++j;
-    if (j - i > kMaxSeamWedges) welded_positions.push_back(wedge_of[i].first);
+    if (j - i > kMaxSeamWedges || welded.copies[wedge_of[i].first] > kMaxSeamWedges)
+      welded_positions.push_back(wedge_of[i].first);
     i = j;
   }
   auto is_welded = [&](uint32_t w) {
