@@ -57,7 +57,7 @@ TEST(FormatParallelEncode, SameBytesAndReportForAnyThreadCount) {
       one.version = version;
       FormatReport r1;
       const std::vector<uint8_t> f1 = encode_format(s, one, &r1);
-      ASSERT_GT(r1.pages.size(), 8u) << "the scene must give every thread pages";
+      ASSERT_GE(r1.pages.size(), 6u) << "the scene must give every thread several pages";
       EXPECT_EQ(f1, encode_format(s, one)) << "the report must not change the bytes";
       for (unsigned threads : {2u, 3u, 0u}) {
         FormatOptions many = one;

@@ -31,7 +31,7 @@ struct CompressionInput {
   bool keep_normals = false;   // generated: keep generate_mesh's smooth normals (else positions only, as OFF)
 };
 
-// VGEO_COMPRESSION_INPUTS: comma-separated mesh files or "sphere:N" / "sphere+normals:N"
+// VGEO_COMPRESSION_INPUTS: comma-separated mesh files or "sphere:N" / "sphere+normals:N" (normals and uvs)
 // (replaces the defaults). Defaults: the meshes of issue 23's side-by-side table when
 // tools/fetch-data has fetched them, and one mesh with normals (their streams compress
 // differently from positions).
@@ -42,7 +42,7 @@ std::vector<CompressionInput> compression_inputs(bool quick) {
     if (t.rfind("sphere:", 0) == 0) {
       in.push_back({"sphere " + t.substr(colon + 1), "", std::stoull(t.substr(colon + 1)), false});
     } else if (t.rfind("sphere+normals:", 0) == 0) {
-      in.push_back({"sphere " + t.substr(colon + 1) + " + normals", "", std::stoull(t.substr(colon + 1)), true});
+      in.push_back({"sphere " + t.substr(colon + 1) + " + normals + uvs", "", std::stoull(t.substr(colon + 1)), true});
     } else {
       in.push_back({std::filesystem::path(t).stem().string(), t, 0, false});
     }
@@ -53,13 +53,13 @@ std::vector<CompressionInput> compression_inputs(bool quick) {
       if (!t.empty()) add_token(t);
     return in;
   }
-  if (quick) return {{"sphere 20000", "", 20000, false}, {"sphere 20000 + normals", "", 20000, true}};
+  if (quick) return {{"sphere 20000", "", 20000, false}, {"sphere 20000 + normals + uvs", "", 20000, true}};
   in.push_back({"sphere 1000000", "", 1000000, false});
   for (const char* name : {"bunny00", "armadillo"}) {
     const std::string p = std::string("data/cgal/meshes/") + name + ".off";
     if (std::filesystem::exists(p)) in.push_back({name, p, 0, false});
   }
-  in.push_back({"sphere 200000 + normals", "", 200000, true});
+  in.push_back({"sphere 200000 + normals + uvs", "", 200000, true});
   return in;
 }
 
@@ -90,8 +90,12 @@ BuiltScene build_input(const CompressionInput& in, const BenchConfig& cfg, std::
     g.seed = 1;
     g.threads = cfg.threads;
     scene = generate_scene(g);
-    if (!in.keep_normals) scene.meshes[0].normals.clear();  // as `vgeo gen sphere -o X.off` writes it
-    *description = in.label + ": generate_mesh sphere, seed 1" + (in.keep_normals ? ", smooth normals" : ", positions only");
+    if (!in.keep_normals) {  // as `vgeo gen sphere -o X.off` writes it
+      scene.meshes[0].normals.clear();
+      scene.meshes[0].uvs.clear();
+    }
+    *description = in.label + ": generate_mesh sphere, seed 1" +
+                   (in.keep_normals ? ", smooth normals and uvs" : ", positions only (as an OFF file)");
   } else {
     scene = import_scene(in.path).scene;
     *description = in.label + ": " + in.path;
