@@ -77,8 +77,12 @@ enum class Compression : uint32_t { kNone = 0, kZstd = 1, kLz4 = 2 };
 // zstd levels the encoder accepts: zstd's own range of regular levels (ZSTD_maxCLevel() is 22;
 // its negative "fast" levels are not offered).
 inline constexpr int kMinZstdLevel = 1, kMaxZstdLevel = 22;
-// Default page and metadata level: DEFAULT_LEVEL_PLACEHOLDER
-inline constexpr int kDefaultZstdLevel = 19;
+// Default page and metadata level, from `vgeo bench compression` (docs/acceptance/issue23_asset.md):
+// on bunny00 / armadillo, levels 1-12 give files 1.09-1.05x level 19's at no measurable CPU,
+// level 13 steps to 1.01x for ~45 ms of compression per 150k stored triangles, and 15-22 gain
+// under 1% more for 2.5-6x that CPU (level 19: ~210 ms, 1.00x). 13 is the knee: within 1% of
+// the smallest file for about a quarter of level 19's compression time.
+inline constexpr int kDefaultZstdLevel = 13;
 
 struct FormatOptions {
   uint32_t page_size = kDefaultPageSize;  // power of two in [kMinPageSize, kMaxPageSize]
