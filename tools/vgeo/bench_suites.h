@@ -25,6 +25,7 @@ void run_scaling_suite(const BenchConfig& cfg, SuiteReport& out);
 void run_stability_suite(const BenchConfig& cfg, SuiteReport& out);
 void run_dagquality_suite(const BenchConfig& cfg, SuiteReport& out);
 void run_backend_suite(const BenchConfig& cfg, SuiteReport& out);
+void run_compression_suite(const BenchConfig& cfg, SuiteReport& out);
 
 // In report order.
 inline std::vector<SuiteDef> suite_list() {
@@ -37,6 +38,7 @@ inline std::vector<SuiteDef> suite_list() {
       {"scaling", "instances and triangles per mesh vs triangles drawn and frame time", run_scaling_suite},
       {"stability", "far instances, extreme scales, camera inside/near plane, slivers", run_stability_suite},
       {"backend", "CPU reference vs Vulkan (lavapipe) per pass, level-by-level vs persistent GPU traversal", run_backend_suite},
+      {"compression", "page format: file size against encode CPU over zstd levels, per-component sizes, parallel encode", run_compression_suite},
       {"dagquality", "cut triangles at equal measured error (1e-3, 1e-2 of the diagonal), measured/stored error", run_dagquality_suite},
   };
 }

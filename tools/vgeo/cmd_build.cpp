@@ -1,9 +1,11 @@
 // `vgeo build INPUT -o OUT [--simplifier meshopt|openmesh] [--threads N] [--page-size SIZE]
-// [--report R.json]`: builds the cluster DAG of every mesh of INPUT and writes the page format
-// (spec/format.md), or a VGEODAG1 file (spec/dag.md) when OUT ends in .vgeodag.
+// [--zstd-level L] [--report R.json]`: builds the cluster DAG of every mesh of INPUT and writes
+// the page format (spec/format.md), or a VGEODAG1 file (spec/dag.md) when OUT ends in .vgeodag.
 #include <chrono>
 #include <cstdio>
 #include <map>
+#include <stdexcept>
+#include <string>
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
@@ -21,7 +23,7 @@ namespace vgeo::cli {
 namespace {
 
 struct BuildArgs {
-  std::string input, output, report, simplifier = "meshopt", page_size;
+  std::string input, output, report, simplifier = "meshopt", page_size, zstd_level;
   unsigned threads = 0;
 };
 
@@ -72,11 +74,80 @@ uint32_t parse_page_size(const std::string& text) {
   return uint32_t(bytes);
 }
 
+// --zstd-level: an integer in [kMinZstdLevel, kMaxZstdLevel]. Higher levels give smaller pages
+// for much more CPU; `vgeo bench compression` measures the curve behind kDefaultZstdLevel.
+int parse_zstd_level(const std::string& text) {
+  int level = 0;
+  size_t used = 0;
+  bool ok = false;
+  try {
+    level = std::stoi(text, &used);
+    ok = used == text.size() && level >= kMinZstdLevel && level <= kMaxZstdLevel;
+  } catch (const std::exception&) {
+  }
+  if (!ok)
+    fail("BUILD_ZSTD_LEVEL", "vgeo build",
+         "--zstd-level '" + text + "' is not an integer in [" + std::to_string(kMinZstdLevel) + ", " +
+             std::to_string(kMaxZstdLevel) + "]",
+         kExitUsage);
+  return level;
+}
+
+const char* compression_name(Compression c) {
+  return c == Compression::kZstd ? "zstd" : c == Compression::kLz4 ? "lz4" : "none";
+}
+
+// The page format's sizes: raw disk-form bytes per component (exact, free: the encoder knows
+// them) and the compressed total. Pages are compressed whole, so a per-component compressed
+// size would be an estimate costing a second compression of the asset: `vgeo bench
+// compression` measures it.
+nlohmann::json format_report_json(const FormatReport& r, const FormatOptions& o) {
+  auto components = [](const ComponentBytes& c) {
+    return nlohmann::json{{"positions", c.positions},   {"normals", c.normals},
+                          {"uvs", c.uvs},               {"topology", c.topology},
+                          {"materials", c.materials},   {"cluster_headers", c.cluster_headers},
+                          {"vertex_refs", c.vertex_refs}, {"total", c.total()}};
+  };
+  uint64_t raw_pages = 0;
+  for (const PageFill& p : r.pages) raw_pages += p.raw_bytes;
+  nlohmann::json j;
+  j["compression"] = compression_name(o.compression);
+  if (o.compression == Compression::kZstd) j["zstd_level"] = o.zstd_level;
+  j["page_size"] = o.page_size;
+  j["pages"] = r.pages.size();
+  j["file_bytes"] = r.file_bytes;
+  j["metadata_bytes"] = r.metadata_bytes;
+  j["metadata_raw_bytes"] = r.metadata_raw_bytes;
+  j["pages_stored_bytes"] = r.pages_stored_bytes;
+  j["pages_raw_bytes"] = raw_pages;
+  j["disk_raw_bytes"] = components(r.disk_raw);
+  j["memory_bytes"] = components(r.memory);
+  j["stored_triangles"] = r.triangles;
+  j["copied_vertices"] = r.copied_vertices;
+  return j;
+}
+
+// One line per component: its share of the raw disk form, then the compressed total.
+void print_format_sizes(const FormatReport& r) {
+  const ComponentBytes& d = r.disk_raw;
+  const double raw = d.total();
+  if (raw <= 0) return;
+  auto pct = [&](double v) { return 100.0 * v / raw; };
+  std::printf("  disk form %.0f bytes before compression: positions %.0f%%, normals %.0f%%, uvs %.0f%%, topology %.0f%%, "
+              "materials %.0f%%, headers %.0f%%, vertex copies %.0f%%; pages compressed to %llu bytes (%.2fx)\n",
+              raw, pct(d.positions), pct(d.normals), pct(d.uvs), pct(d.topology), pct(d.materials),
+              pct(d.cluster_headers), pct(d.vertex_refs), static_cast<unsigned long long>(r.pages_stored_bytes),
+              r.pages_stored_bytes ? raw / double(r.pages_stored_bytes) : 0.0);
+}
+
 }  // namespace
 
 void add_build_command(CLI::App& app, Context& ctx) {
   auto args = std::make_shared<BuildArgs>();
-  auto* cmd = app.add_subcommand("build", "Build the cluster DAG of a mesh file (writes VGEODAG1, spec/dag.md)");
+  auto* cmd = app.add_subcommand(
+      "build",
+      "Build the cluster DAG of a mesh file and write the compressed page format (spec/format.md), or a "
+      "lossless VGEODAG1 DAG file (spec/dag.md) when OUT ends in .vgeodag");
   cmd->add_option("input", args->input, "input scene (glTF/GLB, OBJ, PLY, OFF, STL)")->required();
   cmd->add_option("-o,--output", args->output,
                  "output asset: the page format (spec/format.md), or a lossless VGEODAG1 DAG file if it ends in .vgeodag")
@@ -86,10 +157,16 @@ void add_build_command(CLI::App& app, Context& ctx) {
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores); output is identical for any value");
   cmd->add_option("--page-size", args->page_size,
                   "page size of the page format: power of two in [16KiB, 16MiB] (default 128KiB); ignored for .vgeodag");
+  cmd->add_option("--zstd-level", args->zstd_level,
+                  "zstd level of the page format's pages and metadata: " + std::to_string(kMinZstdLevel) + ".." +
+                      std::to_string(kMaxZstdLevel) + " (default " + std::to_string(kDefaultZstdLevel) +
+                      "; `vgeo bench compression` measures size against CPU); ignored for .vgeodag");
   cmd->add_option("--report", args->report, "write the build report as JSON");
   cmd->callback([args, &ctx] {
     FormatOptions format_options;
     if (!args->page_size.empty()) format_options.page_size = parse_page_size(args->page_size);  // before the build
+    if (!args->zstd_level.empty()) format_options.zstd_level = parse_zstd_level(args->zstd_level);
+    format_options.threads = args->threads;  // pages encode in parallel; the bytes do not depend on it
     using clock = std::chrono::steady_clock;
     auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
     const clock::time_point t_import = clock::now();
@@ -110,7 +187,10 @@ void add_build_command(CLI::App& app, Context& ctx) {
     const double seconds_write = seconds_since(t_write);
     if (kind == AssetFileKind::kPages)
     {
-      std::printf("wrote %s: page format, %zu pages\n", args->output.c_str(), format_report.pages.size());
+      std::printf("wrote %s: page format, %zu pages, %llu bytes (%s level %d)\n", args->output.c_str(),
+                  format_report.pages.size(), static_cast<unsigned long long>(format_report.file_bytes),
+                  compression_name(format_options.compression), format_options.zstd_level);
+      print_format_sizes(format_report);
       // Quantization per mesh (spec/format.md §2): the steps chosen and the error they cause.
       for (size_t i = 0; i < format_report.meshes.size(); ++i) {
         const FormatReport::MeshQuantizationReport& m = format_report.meshes[i];
@@ -133,6 +213,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
       j["seconds"] = {{"import", seconds_import}, {"build", seconds_build}, {"write", seconds_write}};
       j["output"] = args->output;
       j["simplifier"] = args->simplifier;
+      if (kind == AssetFileKind::kPages) j["format"] = format_report_json(format_report, format_options);
       j["meshes"] = nlohmann::json::array();
       for (size_t i = 0; i < reports.size(); ++i) {
         nlohmann::json m = report_json(reports[i]);

@@ -8,6 +8,8 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <exception>
+#include <functional>
 #include <limits>
 #include <numeric>
 
@@ -15,6 +17,7 @@
 #include "vgeo/core/error.h"
 #include "vgeo/core/file_io.h"
 #include "vgeo/core/math.h"
+#include "vgeo/core/thread_pool.h"
 #include "vgeo/format/bitstream.h"
 #include "vgeo/format/crc32c.h"
 #include "vgeo/format/format.h"
@@ -205,6 +208,9 @@ void check_options(const FormatOptions& o) {
     encode_fail("position step outside 2^-40..2^40");
   if (o.compression != Compression::kNone && o.compression != Compression::kZstd && o.compression != Compression::kLz4)
     encode_fail("unknown compression");
+  if (o.compression == Compression::kZstd && (o.zstd_level < kMinZstdLevel || o.zstd_level > kMaxZstdLevel))
+    encode_fail("zstd level " + std::to_string(o.zstd_level) + " outside " + std::to_string(kMinZstdLevel) + ".." +
+                std::to_string(kMaxZstdLevel));
   if (o.version < kMinFormatVersion || o.version > kFormatVersion) encode_fail("unsupported format version");
 }
 
@@ -345,6 +351,176 @@ void octahedral_decode(const uint32_t q[2], uint32_t bits, float n[3]) {
 
 // ================================================================ encoder
 
+namespace {
+
+// One page of the output, encoded by one task of the pool.
+struct PageOut {
+  uint32_t mesh = 0, clusters = 0, raw = 0, memory = 0, crc = 0;
+  std::vector<uint8_t> stored;
+  // Size report (only when one is asked for): raw disk bytes per component, vertices stored
+  // as copies, memory-form bytes per component.
+  ComponentBytes disk_raw, memory_sizes;
+  uint64_t copies = 0;
+};
+
+// A page's clusters: slots [first, first + count) of the mesh's page order.
+struct PageRange {
+  size_t first = 0, count = 0;
+  uint64_t memory_bytes = 0, raw_bound = 0;  // exact memory form; raw disk form bound (exact in version 1)
+};
+
+// Runs fn(i) for every i in [0, n) on the pool. When calls throw, the exception of the lowest
+// index is rethrown, so which error a bad input gets does not depend on the thread count.
+void parallel_for_ordered_errors(ThreadPool& pool, size_t n, const std::function<void(size_t)>& fn) {
+  std::vector<std::exception_ptr> errors(n);
+  pool.parallel_for(n, [&](size_t i) {
+    try {
+      fn(i);
+    } catch (...) {
+      errors[i] = std::current_exception();
+    }
+  });
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
+}
+
+// Every cluster of the mesh quantized and in canonical order (each cluster independently).
+void canonicalize_clusters(const ClusterDag& dag, const MeshQuantization& q, ThreadPool& pool,
+                           std::vector<CanonicalCluster>* canon) {
+  canon->clear();
+  canon->resize(dag.clusters.size());
+  parallel_for_ordered_errors(pool, dag.clusters.size(),
+                              [&](size_t c) { canonicalize_cluster(dag, uint32_t(c), q, &(*canon)[c]); });
+}
+
+// Placement: coarsest level first (root page = top of the DAG), then spatial order of the
+// groups (Morton code of the bounds centre), clusters of a group consecutively. Returns the
+// cluster ids in page order.
+std::vector<uint32_t> place_clusters(const ClusterDag& dag) {
+  const uint32_t nc = uint32_t(dag.clusters.size()), ng = uint32_t(dag.groups.size());
+  std::vector<uint32_t> group_order(ng);
+  std::iota(group_order.begin(), group_order.end(), 0u);
+  std::vector<uint32_t> key(ng, 0);
+  const Aabb& box = dag.bounds;
+  for (uint32_t g = 0; g < ng; ++g) {
+    uint32_t cell[3] = {0, 0, 0};
+    for (int k = 0; k < 3; ++k) {
+      const double lo = box.empty() ? 0 : box.min[k], hi = box.empty() ? 1 : box.max[k];
+      const double t = hi > lo ? (double(dag.groups[g].bounds.center[k]) - lo) / (hi - lo) : 0.0;
+      cell[k] = uint32_t(std::clamp(t, 0.0, 1.0) * 1023.0);
+    }
+    key[g] = morton_code(cell[0], cell[1], cell[2]);
+  }
+  std::stable_sort(group_order.begin(), group_order.end(), [&](uint32_t a, uint32_t b) {
+    if (dag.groups[a].level != dag.groups[b].level) return dag.groups[a].level > dag.groups[b].level;
+    return key[a] < key[b];
+  });
+  std::vector<uint32_t> slots;
+  slots.reserve(nc);
+  std::vector<uint8_t> placed(nc, 0);
+  for (uint32_t g : group_order)
+    for (uint32_t c = dag.groups[g].first_cluster; c < dag.groups[g].first_cluster + dag.groups[g].cluster_count; ++c) {
+      if (placed[c]) encode_fail("cluster is a member of two groups");
+      if (dag.clusters[c].group != g) encode_fail("cluster's group disagrees with the group's member range");
+      placed[c] = 1;
+      slots.push_back(c);
+    }
+  if (slots.size() != nc) encode_fail("cluster not a member of any group");
+  return slots;
+}
+
+// Page breaks (sizes only, no encoding): clusters fill a page in page order until the next
+// one would exceed the page size in memory form or the raw disk bound.
+constexpr uint64_t kPageHeadMem = 4, kPageHeadRaw = 12;  // cluster count; magic, count, ref total
+std::vector<PageRange> break_pages(const std::vector<CanonicalCluster>& canon, const std::vector<uint32_t>& slots,
+                                   const MeshQuantization& q, const FormatOptions& o) {
+  const uint32_t max_raw = max_raw_page_size(o.page_size);
+  std::vector<PageRange> pages;
+  PageRange cur{0, 0, kPageHeadMem, kPageHeadRaw};
+  for (size_t i = 0; i < slots.size(); ++i) {
+    const CanonicalCluster& c = canon[slots[i]];
+    const uint64_t m = 4ull * memory_cluster_words(c, q.channel_count());
+    const uint64_t r = disk_cluster_bytes(c, q.channel_count(), o.version);
+    if (cur.count && (cur.memory_bytes + m > o.page_size || cur.raw_bound + r > max_raw)) {
+      pages.push_back(cur);
+      cur = PageRange{i, 0, kPageHeadMem, kPageHeadRaw};
+    }
+    assert(cur.memory_bytes + m <= o.page_size && cur.raw_bound + r <= max_raw);
+    cur.count += 1;
+    cur.memory_bytes += m;
+    cur.raw_bound += r;
+  }
+  if (cur.count) pages.push_back(cur);
+  return pages;
+}
+
+// One page: disk form, memory form (its size goes to the page table), compression, CRC.
+PageOut encode_page(const std::vector<CanonicalCluster>& canon, const std::vector<uint32_t>& slots,
+                    const PageRange& range, const MeshQuantization& q, uint32_t mesh, const FormatOptions& o,
+                    bool want_report) {
+  std::vector<const CanonicalCluster*> clusters;
+  clusters.reserve(range.count);
+  for (size_t k = 0; k < range.count; ++k) clusters.push_back(&canon[slots[range.first + k]]);
+  PageOut p;
+  p.mesh = mesh;
+  p.clusters = uint32_t(range.count);
+  DiskStreams streams;
+  const std::vector<uint8_t> raw = encode_disk_page(clusters, q, o.version, want_report ? &streams : nullptr);
+  const std::vector<uint32_t> mem = encode_memory_page(clusters, q);
+  assert((o.version == 1 ? raw.size() == range.raw_bound : raw.size() <= range.raw_bound) &&
+         mem.size() * 4 == range.memory_bytes);
+  p.raw = uint32_t(raw.size());
+  p.memory = uint32_t(mem.size() * 4);
+  p.stored = compress(raw, o.compression, o.zstd_level);
+  p.crc = crc32c(p.stored.data(), p.stored.size());
+  if (want_report) {
+    p.disk_raw.cluster_headers = double(streams.headers.size());
+    p.disk_raw.topology = double(streams.topology.size());
+    p.disk_raw.materials = double(streams.materials.size());
+    p.disk_raw.positions = double(streams.positions.size());
+    p.disk_raw.normals = double(streams.normals.size());
+    p.disk_raw.uvs = double(streams.uvs.size());
+    p.disk_raw.vertex_refs = double(streams.vertex_refs.size());
+    p.copies = streams.copies;
+    for (const CanonicalCluster* c : clusters) add_memory_sizes(*c, q, &p.memory_sizes);
+    p.memory_sizes.cluster_headers += 4;  // the page's cluster count
+  }
+  return p;
+}
+
+// Every page of one mesh, encoded in parallel; the result is in page order whatever the
+// thread count.
+std::vector<PageOut> encode_pages(const std::vector<CanonicalCluster>& canon, const std::vector<uint32_t>& slots,
+                                  const MeshQuantization& q, uint32_t mesh, const FormatOptions& o, ThreadPool& pool,
+                                  bool want_report) {
+  const std::vector<PageRange> ranges = break_pages(canon, slots, q, o);
+  std::vector<PageOut> pages(ranges.size());
+  parallel_for_ordered_errors(pool, ranges.size(), [&](size_t i) {
+    pages[i] = encode_page(canon, slots, ranges[i], q, mesh, o, want_report);
+  });
+  return pages;
+}
+
+void add_components(const ComponentBytes& a, ComponentBytes* sum) {
+  sum->positions += a.positions;
+  sum->normals += a.normals;
+  sum->uvs += a.uvs;
+  sum->topology += a.topology;
+  sum->materials += a.materials;
+  sum->cluster_headers += a.cluster_headers;
+  sum->vertex_refs += a.vertex_refs;
+}
+
+void add_page_report(const PageOut& p, uint32_t page_size, FormatReport* rep) {
+  rep->pages.push_back({p.mesh, p.clusters, p.memory, page_size - p.memory, p.raw, uint32_t(p.stored.size())});
+  add_components(p.disk_raw, &rep->disk_raw);
+  add_components(p.memory_sizes, &rep->memory);
+  rep->copied_vertices += p.copies;
+}
+
+}  // namespace
+
+
 std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions& o, FormatReport* report) {
   check_options(o);
   ByteWriter meta;
@@ -367,7 +543,7 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
   }
   meta.u32(uint32_t(scene.meshes.size()));
 
-  struct PageOut { uint32_t mesh, clusters, raw, memory, crc; std::vector<uint8_t> stored; };
+  ThreadPool pool(o.threads);
   std::vector<PageOut> pages;
   FormatReport rep;
   std::vector<CanonicalCluster> canon;
@@ -395,94 +571,21 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
     for (uint32_t id : dag.generated_clusters)
       if (id >= nc) encode_fail("generated cluster id outside the DAG");
 
-    canon.assign(nc, CanonicalCluster{});
-    for (uint32_t c = 0; c < nc; ++c) canonicalize_cluster(dag, c, q, &canon[c]);
-
-    // Placement: coarsest level first (root page = top of the DAG), then spatial order of
-    // the groups (Morton code of the bounds centre), clusters of a group consecutively.
-    std::vector<uint32_t> group_order(ng);
-    std::iota(group_order.begin(), group_order.end(), 0u);
-    std::vector<uint32_t> key(ng, 0);
-    const Aabb& box = dag.bounds;
-    for (uint32_t g = 0; g < ng; ++g) {
-      uint32_t cell[3] = {0, 0, 0};
-      for (int k = 0; k < 3; ++k) {
-        const double lo = box.empty() ? 0 : box.min[k], hi = box.empty() ? 1 : box.max[k];
-        const double t = hi > lo ? (double(dag.groups[g].bounds.center[k]) - lo) / (hi - lo) : 0.0;
-        cell[k] = uint32_t(std::clamp(t, 0.0, 1.0) * 1023.0);
-      }
-      key[g] = morton_code(cell[0], cell[1], cell[2]);
-    }
-    std::stable_sort(group_order.begin(), group_order.end(), [&](uint32_t a, uint32_t b) {
-      if (dag.groups[a].level != dag.groups[b].level) return dag.groups[a].level > dag.groups[b].level;
-      return key[a] < key[b];
-    });
-    std::vector<uint32_t> slots;
-    std::vector<uint8_t> placed(nc, 0);
-    for (uint32_t g : group_order)
-      for (uint32_t c = dag.groups[g].first_cluster; c < dag.groups[g].first_cluster + dag.groups[g].cluster_count; ++c) {
-        if (placed[c]) encode_fail("cluster is a member of two groups");
-        if (dag.clusters[c].group != g) encode_fail("cluster's group disagrees with the group's member range");
-        placed[c] = 1;
-        slots.push_back(c);
-      }
-    if (slots.size() != nc) encode_fail("cluster not a member of any group");
-
-    const uint32_t first_page = uint32_t(pages.size());
-    const uint32_t max_raw = max_raw_page_size(o.page_size);
-    std::vector<const CanonicalCluster*> cur;
-    constexpr uint64_t kPageHeadMem = 4, kPageHeadRaw = 12;  // cluster count; magic, count, ref total
-    uint64_t cur_mem = kPageHeadMem, cur_raw = kPageHeadRaw;
-    auto flush = [&] {
-      if (cur.empty()) return;
-      PageOut p;
-      p.mesh = mi;
-      p.clusters = uint32_t(cur.size());
-      DiskStreams streams;
-      const std::vector<uint8_t> raw = encode_disk_page(cur, q, o.version, report ? &streams : nullptr);
-      const std::vector<uint32_t> mem = encode_memory_page(cur, q);
-      assert((o.version == 1 ? raw.size() == cur_raw : raw.size() <= cur_raw) && mem.size() * 4 == cur_mem);
-      p.raw = uint32_t(raw.size());
-      p.memory = uint32_t(mem.size() * 4);
-      p.stored = compress(raw, o.compression, o.zstd_level);
-      p.crc = crc32c(p.stored.data(), p.stored.size());
-      if (report) {
-        rep.pages.push_back({mi, p.clusters, p.memory, o.page_size - p.memory, p.raw, uint32_t(p.stored.size())});
-        auto add = [&](double* raw_total, double* comp_total, const std::vector<uint8_t>& s) {
-          *raw_total += double(s.size());
-          if (!s.empty()) *comp_total += double(compress(s, o.compression, o.zstd_level).size());
-        };
-        add(&rep.disk_raw.cluster_headers, &rep.disk_compressed.cluster_headers, streams.headers);
-        add(&rep.disk_raw.topology, &rep.disk_compressed.topology, streams.topology);
-        add(&rep.disk_raw.materials, &rep.disk_compressed.materials, streams.materials);
-        add(&rep.disk_raw.positions, &rep.disk_compressed.positions, streams.positions);
-        add(&rep.disk_raw.normals, &rep.disk_compressed.normals, streams.normals);
-        add(&rep.disk_raw.uvs, &rep.disk_compressed.uvs, streams.uvs);
-        add(&rep.disk_raw.vertex_refs, &rep.disk_compressed.vertex_refs, streams.vertex_refs);
-        rep.copied_vertices += streams.copies;
-        for (const auto* c : cur) add_memory_sizes(*c, q, &rep.memory);
-        rep.memory.cluster_headers += 4;
-      }
-      pages.push_back(std::move(p));
-      cur.clear();
-      cur_mem = kPageHeadMem, cur_raw = kPageHeadRaw;
-    };
-    for (uint32_t c : slots) {
-      const uint64_t m = 4ull * memory_cluster_words(canon[c], q.channel_count());
-      const uint64_t r = disk_cluster_bytes(canon[c], q.channel_count(), o.version);
-      if (!cur.empty() && (cur_mem + m > o.page_size || cur_raw + r > max_raw)) flush();
-      assert(cur_mem + m <= o.page_size && cur_raw + r <= max_raw);
-      cur.push_back(&canon[c]);
-      cur_mem += m;
-      cur_raw += r;
-      if (report) {
+    canonicalize_clusters(dag, q, pool, &canon);
+    const std::vector<uint32_t> slots = place_clusters(dag);
+    std::vector<PageOut> mesh_pages = encode_pages(canon, slots, q, mi, o, pool, report != nullptr);
+    if (report) {
+      for (uint32_t c : slots) {
         rep.clusters += 1;
         rep.triangles += canon[c].triangle_count;
         rep.vertices += canon[c].vertex_count;
         rep.wide_index_clusters += index_offset_bits(canon[c]) > kNaniteIndexOffsetBits ? 1 : 0;
       }
+      // Summed in page order: the same doubles for any thread count.
+      for (const PageOut& p : mesh_pages) add_page_report(p, o.page_size, &rep);
     }
-    flush();
+    const uint32_t first_page = uint32_t(pages.size());
+    for (PageOut& p : mesh_pages) pages.push_back(std::move(p));
 
     meta.u32((q.has_normals ? kMeshFlagNormals : 0) | (q.has_uvs ? kMeshFlagUvs : 0));
     meta.i32(q.position_step_log2);

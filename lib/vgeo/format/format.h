@@ -74,6 +74,16 @@ inline constexpr uint32_t kMaxIndexOffsetBits = 8;
 
 enum class Compression : uint32_t { kNone = 0, kZstd = 1, kLz4 = 2 };
 
+// zstd levels the encoder accepts: zstd's own range of regular levels (ZSTD_maxCLevel() is 22;
+// its negative "fast" levels are not offered).
+inline constexpr int kMinZstdLevel = 1, kMaxZstdLevel = 22;
+// Default page and metadata level, from `vgeo bench compression` (docs/acceptance/issue23_asset.md):
+// on bunny00 / armadillo, levels 1-12 give files 1.09-1.05x level 19's at no measurable CPU,
+// level 13 steps to 1.01x for ~45 ms of compression per 150k stored triangles, and 15-22 gain
+// under 1% more for 2.5-6x that CPU (level 19: ~210 ms, 1.00x). 13 is the knee: within 1% of
+// the smallest file for about a quarter of level 19's compression time.
+inline constexpr int kDefaultZstdLevel = 13;
+
 struct FormatOptions {
   uint32_t page_size = kDefaultPageSize;  // power of two in [kMinPageSize, kMaxPageSize]
   // Position grid: step 2^position_step_log2 if set, else the smallest power of two with
@@ -94,8 +104,11 @@ struct FormatOptions {
   // FormatReport::meshes says which step each mesh got and the UV error it caused.
   int32_t uv_step_log2 = -12;
   Compression compression = Compression::kZstd;
-  int zstd_level = 19;
+  int zstd_level = kDefaultZstdLevel;  // kMinZstdLevel .. kMaxZstdLevel (zstd only)
   uint32_t version = kFormatVersion;  // kMinFormatVersion .. kFormatVersion
+  // Worker threads of the encoder (0 = hardware concurrency). Pages are quantized, encoded and
+  // compressed in parallel; the bytes are identical for any value.
+  unsigned threads = 1;
 };
 
 // Per-mesh quantization, stored in the metadata.
@@ -157,9 +170,12 @@ struct FormatReport {
   uint64_t metadata_raw_bytes = 0;   // before compression (version 2)
   uint64_t copied_vertices = 0;      // version 2 disk form: vertices stored as copies
   ComponentBytes memory;           // memory-form bytes (bit fields rounded per stream)
-  ComponentBytes disk_raw;         // disk form before compression
-  ComponentBytes disk_compressed;  // each component's streams compressed on their own (estimate)
-  uint64_t pages_stored_bytes = 0; // the real compressed total
+  // Disk form before compression, per component (exact). Pages are compressed whole, so the
+  // compressed size has no exact per-component split: the encoder reports the real total
+  // below, and measure_stream_compression (format_measure.h) estimates the split on request
+  // by compressing each component's streams again (as costly as a second encode).
+  ComponentBytes disk_raw;
+  uint64_t pages_stored_bytes = 0; // the real compressed total of the pages
   std::vector<PageFill> pages;
   // Per mesh: the stored quantization and the largest quantization error measured over its
   // vertices (|decoded − source| per component, in object / UV units; 0 when absent).

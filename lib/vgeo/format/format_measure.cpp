@@ -7,6 +7,7 @@
 
 #include <cstring>
 
+#include "vgeo/core/error.h"
 #include "vgeo/format/page_codec.h"
 
 namespace vgeo {
@@ -70,6 +71,34 @@ MeshoptBaseline measure_meshopt_baseline(const BuiltScene& scene, const std::vec
     std::vector<uint8_t> both = idx_stream;
     both.insert(both.end(), vtx_stream.begin(), vtx_stream.end());
     r.total_compressed += compressed_size(both, o);
+  }
+  return r;
+}
+
+ComponentBytes measure_stream_compression(const BuiltScene& scene, const std::vector<uint8_t>& file,
+                                          const FormatOptions& o) {
+  const FormatContainer fc = parse_container(file.data(), file.size(), "<stream measure>");
+  ComponentBytes r;
+  std::vector<CanonicalCluster> canon;
+  for (const PageEntry& e : fc.pages) {
+    const MeshMetadata& mm = fc.meshes[e.mesh];
+    if (e.mesh >= scene.meshes.size() || scene.meshes[e.mesh].clusters.size() != mm.dag.clusters.size())
+      fail(kErrInconsistent, "<stream measure>", "the file was not encoded from this scene");
+    canon.resize(e.cluster_count);
+    std::vector<const CanonicalCluster*> clusters;
+    for (uint32_t k = 0; k < e.cluster_count; ++k) {
+      canonicalize_cluster(scene.meshes[e.mesh], mm.page_clusters[e.first_cluster_slot + k], mm.quantization, &canon[k]);
+      clusters.push_back(&canon[k]);
+    }
+    DiskStreams s;
+    encode_disk_page(clusters, mm.quantization, fc.version, &s);
+    r.cluster_headers += double(compressed_size(s.headers, o));
+    r.topology += double(compressed_size(s.topology, o));
+    r.materials += double(compressed_size(s.materials, o));
+    r.positions += double(compressed_size(s.positions, o));
+    r.normals += double(compressed_size(s.normals, o));
+    r.uvs += double(compressed_size(s.uvs, o));
+    r.vertex_refs += double(compressed_size(s.vertex_refs, o));
   }
   return r;
 }

@@ -1,4 +1,8 @@
 #pragma once
+// Size measurements of an encoded file that cost more than the encoder should pay on every
+// write (each compresses the file's pages again): the per-component split of the compressed
+// size, and a meshoptimizer-codec baseline.
+//
 // Size baseline for the page format's report: the same clusters, on the same pages,
 // encoded with meshoptimizer's index and vertex codecs (meshopt_encodeIndexBuffer /
 // meshopt_encodeVertexBuffer, 0.18) and then compressed per page with the file's codec.
@@ -22,5 +26,15 @@ struct MeshoptBaseline {
 // `file` is an encoded file (encode_format); throws VgeoError on a malformed one.
 MeshoptBaseline measure_meshopt_baseline(const BuiltScene& scene, const std::vector<uint8_t>& file,
                                          const FormatOptions& options);
+
+// Per-component compressed size: each page's disk-form streams of one component (cluster
+// headers, topology, materials, positions, normals, uvs, vertex references) concatenated and
+// compressed on their own with options.compression / options.zstd_level, summed over the pages.
+// An estimate of each component's share (pages are compressed whole: the components' sum
+// differs from FormatReport::pages_stored_bytes). Costs about one more encode of the file, so
+// the encoder never does it; `vgeo bench compression` and tools/bench/format_bench ask for it.
+// `file` is encode_format(scene, options); throws VgeoError on a malformed one.
+ComponentBytes measure_stream_compression(const BuiltScene& scene, const std::vector<uint8_t>& file,
+                                          const FormatOptions& options);
 
 }  // namespace vgeo

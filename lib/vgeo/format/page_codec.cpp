@@ -215,17 +215,27 @@ void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantiza
         if (oldest) *oldest = old;
         return hi - lo;
       };
-      // Would emitting a triangle with `fresh` new vertices push another unvisited triangle's
-      // span beyond the window? Then the strip stops and that triangle goes next.
+      // Would emitting a triangle with `fresh` (0 or 1) new vertices push another unvisited
+      // triangle's span beyond the window? Then the strip stops and that triangle goes next.
+      // With one fresh vertex, exactly the triangles that use a seen vertex and span the whole
+      // window are pushed out. Both continuations of a step ask against the same state, so the
+      // count over the run is taken once per step (`at_window`, -1 = not yet): the strip
+      // building is quadratic in the run, not cubic in the retries' constant.
+      auto at_window_edge = [&](uint32_t i) {
+        uint32_t old;
+        const uint32_t sp = span_now(i, &old);
+        return old != UINT32_MAX && sp == kIndexSpanWindow;
+      };
+      int at_window = -1;
       auto strands_another = [&](uint32_t skip, uint32_t fresh) {
+        assert(fresh <= 1);
         if (fresh == 0) return false;
-        for (uint32_t i = 0; i < sb.run_size; ++i) {
-          if (visited[i] || i == skip) continue;
-          uint32_t old;
-          const uint32_t sp = span_now(i, &old);
-          if (old != UINT32_MAX && sp <= kIndexSpanWindow && sp + fresh > kIndexSpanWindow) return true;
+        if (at_window < 0) {
+          at_window = 0;
+          for (uint32_t i = 0; i < sb.run_size; ++i)
+            if (!visited[i] && at_window_edge(i)) ++at_window;
         }
-        return false;
+        return at_window - (!visited[skip] && at_window_edge(skip) ? 1 : 0) > 0;
       };
       auto fresh_of = [&](uint8_t v) { return new_id[v] < 0 ? 1u : 0u; };
       for (uint32_t left = sb.run_size; left > 0;) {
@@ -262,6 +272,7 @@ void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantiza
         while (left > 0) {
           uint8_t d1 = 0, d2 = 0;
           const int n1 = sb.find(c, b, &d1), n2 = sb.find(a, c, &d2);
+          at_window = -1;  // the state changed since the last step
           // A continuation must keep the span within the window and strand no other triangle.
           auto fits = [&](int n, uint8_t d) {
             return n >= 0 && span_now(uint32_t(n), nullptr) <= kIndexSpanWindow && !strands_another(uint32_t(n), fresh_of(d));
