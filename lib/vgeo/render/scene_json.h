@@ -1,0 +1,45 @@
+#pragma once
+// The scene file's JSON field readers (spec/scene.md): each reads one field, checks its type and
+// range and fails with the SCENE_* code of spec/errors.md. Internal to lib/vgeo/render: shared by
+// the scene reader (scene_file.cpp) and the mesh loader (scene_meshes.cpp); not a public API.
+#include <cstddef>
+#include <initializer_list>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "vgeo/render/scene_file.h"
+
+namespace vgeo::scene_detail {
+
+using json = nlohmann::json;
+
+// Limits on untrusted list sizes (memory bound before anything is generated).
+inline constexpr size_t kMaxSceneMeshes = 4096, kMaxSceneInstances = 1u << 20, kMaxSceneMaterials = 1u << 16,
+                        kMaxSceneCameras = 1024, kMaxKeyframes = 10000;
+
+// Where a scene is read from: the file (error location), the folder its relative paths start
+// at, and the load's options.
+struct Ctx {
+  std::string where;
+  std::string base_dir;
+  const SceneLoadOptions* options;
+};
+
+// Throws VgeoError `code` at c.where.
+[[noreturn]] void bad(const Ctx& c, const std::string& code, const std::string& what);
+// `obj` is an object whose keys are all in `allowed`.
+void check_keys(const Ctx& c, const json& obj, const std::string& path, std::initializer_list<const char*> allowed);
+// obj[key], a finite number in [lo, hi]; `def` when absent (unless required).
+double get_number(const Ctx& c, const json& obj, const std::string& path, const char* key, double def,
+                  double lo, double hi, bool required = false);
+bool get_bool(const Ctx& c, const json& obj, const std::string& path, const char* key, bool def);
+std::string get_string(const Ctx& c, const json& obj, const std::string& path, const char* key,
+                       const std::string& def, bool required = false);
+// obj[key], an array of exactly n finite numbers of magnitude at most `limit`.
+std::vector<double> get_vector(const Ctx& c, const json& obj, const std::string& path, const char* key, size_t n,
+                               double limit = 1e12);
+// obj[key], an array of at most `max` entries.
+const json& get_array(const Ctx& c, const json& obj, const std::string& path, const char* key, size_t max);
+
+}  // namespace vgeo::scene_detail
