@@ -86,6 +86,191 @@ struct WorkQueues {
   std::atomic<int64_t> pending{0};
 };
 
+// What every step of one cull_clusters call reads: the scene, the view and the options.
+struct ClusterCull {
+  const std::vector<ClusterDag>& meshes;
+  const std::vector<CullInstance>& instances;
+  const std::vector<InstanceView>& instance_views;
+  const ViewParams& view;
+  const CullOptions& options;
+  LodView lv;
+  float tau;
+};
+
+// Streaming: the residency rule (resident_lod_test, lib/vgeo/stream) then frustum; `from_group` is false for a cluster postponed by pass 1,
+// whose request was already emitted there.
+bool resident_cluster_test(const ClusterCull& cc, WorkerOut& w, uint32_t instance, const ClusterDag& dag, uint32_t ci,
+                           const std::vector<uint8_t>& usable, bool from_group) {
+  const DagCluster& c = dag.clusters[ci];
+  const InstanceView& iv = cc.instance_views[instance];
+  const float parent_px = projected_error(sphere_to_view(iv.object_to_view, iv.scale, c.parent_bounds),
+                                          error_to_view(c.parent_error, iv.scale), cc.lv);
+  const float lod_px = projected_error(sphere_to_view(iv.object_to_view, iv.scale, c.lod_bounds),
+                                       error_to_view(c.lod_error, iv.scale), cc.lv);
+  const ResidentLod r = resident_lod_test(c, usable, parent_px, lod_px, cc.tau);
+  if (!r.drawn && !r.ideal) return false;
+  if (cc.options.frustum && sphere_outside_frustum(culling_sphere(iv, c.bounds), cc.view)) {
+    if (r.drawn) ++w.counters.clusters_frustum_culled;
+    return false;
+  }
+  if (r.ideal && from_group) {  // a cluster of the ideal cut, in view: request its group
+    ++w.counters.clusters_ideal;
+    w.counters.clusters_coarser += usable[c.group] ? 0 : 1;
+    w.requests.push_back({cc.instances[instance].mesh, c.group, parent_px});
+  }
+  return r.drawn;
+}
+
+// One cluster: LOD and frustum (the resident rule when streaming), then occlusion.
+void test_cluster(const ClusterCull& cc, WorkerOut& w, uint32_t instance, const ClusterDag& dag, uint32_t ci,
+                  bool from_group) {
+  const DagCluster& c = dag.clusters[ci];
+  const InstanceView& iv = cc.instance_views[instance];
+  ++w.counters.cluster_candidates;
+  const std::vector<uint8_t>* usable =
+      cc.options.usable_groups ? &(*cc.options.usable_groups)[cc.instances[instance].mesh] : nullptr;
+  if (usable && !usable->empty()) {
+    // Tests LOD and frustum on the resident rule (and emits the page requests).
+    if (!resident_cluster_test(cc, w, instance, dag, ci, *usable, from_group)) return;
+    ++w.counters.clusters_selected_lod;
+  } else {
+    if (!cluster_lod_selects(c, iv, cc.lv, cc.tau)) return;
+    ++w.counters.clusters_selected_lod;
+    if (cc.options.frustum && sphere_outside_frustum(culling_sphere(iv, c.bounds), cc.view)) {
+      ++w.counters.clusters_frustum_culled;
+      return;
+    }
+  }
+  if (occluded(cc.options, instance, c.bounds)) {
+    ++w.counters.clusters_occluded;
+    w.occluded.push_back({instance, ci, CullItem::kCluster});
+    return;
+  }
+  ++w.counters.clusters_visible;
+  w.visible.push_back({instance, ci});
+}
+
+// A BVH node: frustum, LOD reachability, occlusion; its children go to `children`.
+void process_node(const ClusterCull& cc, WorkerOut& w, const CullItem& item, const ClusterDag& dag,
+                  std::vector<CullItem>& children) {
+  const InstanceView& iv = cc.instance_views[item.instance];
+  const BvhNode& node = dag.bvh_nodes[item.index];
+  ++w.counters.nodes_visited;
+  if (cc.options.frustum && sphere_outside_frustum(culling_sphere(iv, node.bounds), cc.view)) return;
+  if (!subtree_may_select(node.lod_bounds, node.max_parent_error, iv, cc.lv, cc.tau)) return;
+  if (occluded(cc.options, item.instance, node.bounds)) {
+    ++w.counters.nodes_occluded;
+    w.occluded.push_back(item);
+    return;
+  }
+  for (uint32_t k = 0; k < node.child_count && k < kBvhMaxChildren; ++k) {
+    bool is_group = (node.group_mask >> k) & 1u;
+    children.push_back({item.instance, node.children[k], is_group ? CullItem::kGroup : CullItem::kNode});
+  }
+}
+
+// A group: frustum, LOD reachability, occlusion; then each of its clusters.
+void process_group(const ClusterCull& cc, WorkerOut& w, const CullItem& item, const ClusterDag& dag) {
+  const InstanceView& iv = cc.instance_views[item.instance];
+  const DagGroup& g = dag.groups[item.index];
+  ++w.counters.groups_visited;
+  if (cc.options.frustum && sphere_outside_frustum(culling_sphere(iv, g.bounds), cc.view)) return;
+  if (!subtree_may_select(g.parent_bounds, g.parent_error, iv, cc.lv, cc.tau)) return;
+  if (occluded(cc.options, item.instance, g.bounds)) {
+    ++w.counters.groups_occluded;
+    w.occluded.push_back(item);
+    return;
+  }
+  for (uint32_t k = 0; k < g.cluster_count; ++k) test_cluster(cc, w, item.instance, dag, g.first_cluster + k, true);
+}
+
+// Processes one item; appends follow-up work to `children`.
+void process_item(const ClusterCull& cc, WorkerOut& w, const CullItem& item, std::vector<CullItem>& children) {
+  const ClusterDag& dag = cc.meshes[cc.instances[item.instance].mesh];
+  if (item.kind == CullItem::kNode) {
+    process_node(cc, w, item, dag, children);
+  } else if (item.kind == CullItem::kGroup) {
+    process_group(cc, w, item, dag);
+  } else {
+    test_cluster(cc, w, item.instance, dag, item.index, false);
+  }
+}
+
+void push_item(WorkQueues& queues, const CullItem& item) {
+  (item.kind == CullItem::kNode ? queues.nodes : queues.clusters).push_back(item);
+}
+
+// The seeds queued, pending counted.
+void seed_queues(WorkQueues& queues, const std::vector<CullItem>& seeds) {
+  for (const CullItem& s : seeds) push_item(queues, s);
+  // Pop from the back: reverse so seeds start in order (not needed for correctness).
+  std::reverse(queues.nodes.begin(), queues.nodes.end());
+  std::reverse(queues.clusters.begin(), queues.clusters.end());
+  queues.pending = int64_t(seeds.size());
+}
+
+// The next item, if either queue holds one.
+bool pop_item(WorkQueues& queues, CullItem* item) {
+  std::lock_guard<std::mutex> lock(queues.mutex);
+  // Nodes first: they expand into more work for the other threads; clusters fill
+  // the holes while the node queue is momentarily empty (Nanite's two queues).
+  if (!queues.nodes.empty()) {
+    *item = queues.nodes.back();
+    queues.nodes.pop_back();
+    return true;
+  }
+  if (!queues.clusters.empty()) {
+    *item = queues.clusters.back();
+    queues.clusters.pop_back();
+    return true;
+  }
+  return false;
+}
+
+// One worker: pops and processes items until no item is queued or in flight.
+void run_worker(const ClusterCull& cc, WorkQueues& queues, WorkerOut& w) {
+  std::vector<CullItem> children;
+  for (;;) {
+    CullItem item;
+    if (!pop_item(queues, &item)) {
+      if (queues.pending.load(std::memory_order_acquire) == 0) return;
+      std::this_thread::yield();
+      continue;
+    }
+    children.clear();
+    process_item(cc, w, item, children);
+    if (!children.empty()) {
+      queues.pending.fetch_add(int64_t(children.size()), std::memory_order_acq_rel);
+      std::lock_guard<std::mutex> lock(queues.mutex);
+      for (const CullItem& c : children) push_item(queues, c);
+    }
+    queues.pending.fetch_sub(1, std::memory_order_acq_rel);
+  }
+}
+
+// The workers' outputs merged in canonical order: identical output for any thread count and schedule.
+void merge_workers(std::vector<WorkerOut>& workers, CullResult* out) {
+  for (WorkerOut& w : workers) {
+    out->visible.insert(out->visible.end(), w.visible.begin(), w.visible.end());
+    out->occluded.insert(out->occluded.end(), w.occluded.begin(), w.occluded.end());
+    out->requests.insert(out->requests.end(), w.requests.begin(), w.requests.end());
+    out->counters.add(w.counters);
+  }
+  if (!out->requests.empty()) {
+    // Canonical: one request per (mesh, group) with the max priority over its clusters.
+    std::sort(out->requests.begin(), out->requests.end(), [](const GroupRequest& a, const GroupRequest& b) {
+      return a.mesh != b.mesh ? a.mesh < b.mesh : a.group != b.group ? a.group < b.group : a.priority > b.priority;
+    });
+    out->requests.erase(std::unique(out->requests.begin(), out->requests.end(),
+                                    [](const GroupRequest& a, const GroupRequest& b) {
+                                      return a.mesh == b.mesh && a.group == b.group;
+                                    }),
+                        out->requests.end());
+  }
+  std::sort(out->visible.begin(), out->visible.end());
+  std::sort(out->occluded.begin(), out->occluded.end());
+}
+
 }  // namespace
 
 void cull_instances(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
@@ -119,159 +304,12 @@ void cull_clusters(const std::vector<ClusterDag>& meshes, const std::vector<Cull
   out->occluded.clear();
   out->counters = {};
   if (seeds.empty()) return;
-  const LodView lv = lod_view_of(view);
-  const float tau = options.threshold_px;
-
+  const ClusterCull cc{meshes, instances, instance_views, view, options, lod_view_of(view), options.threshold_px};
   WorkQueues queues;
-  for (const CullItem& s : seeds) (s.kind == CullItem::kNode ? queues.nodes : queues.clusters).push_back(s);
-  // Pop from the back: reverse so seeds start in order (not needed for correctness).
-  std::reverse(queues.nodes.begin(), queues.nodes.end());
-  std::reverse(queues.clusters.begin(), queues.clusters.end());
-  queues.pending = int64_t(seeds.size());
-
+  seed_queues(queues, seeds);
   std::vector<WorkerOut> workers(pool.size());
-
-  // Streaming: the residency rule (resident_lod_test, lib/vgeo/stream) then frustum; `from_group` is false for a cluster postponed by pass 1,
-  // whose request was already emitted there.
-  auto resident_cluster_test = [&](WorkerOut& w, uint32_t instance, const ClusterDag& dag, uint32_t ci,
-                               const std::vector<uint8_t>& usable, bool from_group) {
-    const DagCluster& c = dag.clusters[ci];
-    const InstanceView& iv = instance_views[instance];
-    const float parent_px = projected_error(sphere_to_view(iv.object_to_view, iv.scale, c.parent_bounds),
-                                            error_to_view(c.parent_error, iv.scale), lv);
-    const float lod_px = projected_error(sphere_to_view(iv.object_to_view, iv.scale, c.lod_bounds),
-                                         error_to_view(c.lod_error, iv.scale), lv);
-    const ResidentLod r = resident_lod_test(c, usable, parent_px, lod_px, tau);
-    if (!r.drawn && !r.ideal) return false;
-    if (options.frustum && sphere_outside_frustum(culling_sphere(iv, c.bounds), view)) {
-      if (r.drawn) ++w.counters.clusters_frustum_culled;
-      return false;
-    }
-    if (r.ideal && from_group) {  // a cluster of the ideal cut, in view: request its group
-      ++w.counters.clusters_ideal;
-      w.counters.clusters_coarser += usable[c.group] ? 0 : 1;
-      w.requests.push_back({instances[instance].mesh, c.group, parent_px});
-    }
-    return r.drawn;
-  };
-
-  auto test_cluster = [&](WorkerOut& w, uint32_t instance, const ClusterDag& dag, uint32_t ci, bool from_group) {
-    const DagCluster& c = dag.clusters[ci];
-    const InstanceView& iv = instance_views[instance];
-    ++w.counters.cluster_candidates;
-    const std::vector<uint8_t>* usable =
-        options.usable_groups ? &(*options.usable_groups)[instances[instance].mesh] : nullptr;
-    if (usable && !usable->empty()) {
-      // Tests LOD and frustum on the resident rule (and emits the page requests).
-      if (!resident_cluster_test(w, instance, dag, ci, *usable, from_group)) return;
-      ++w.counters.clusters_selected_lod;
-    } else {
-      if (!cluster_lod_selects(c, iv, lv, tau)) return;
-      ++w.counters.clusters_selected_lod;
-      if (options.frustum && sphere_outside_frustum(culling_sphere(iv, c.bounds), view)) {
-        ++w.counters.clusters_frustum_culled;
-        return;
-      }
-    }
-    if (occluded(options, instance, c.bounds)) {
-      ++w.counters.clusters_occluded;
-      w.occluded.push_back({instance, ci, CullItem::kCluster});
-      return;
-    }
-    ++w.counters.clusters_visible;
-    w.visible.push_back({instance, ci});
-  };
-
-  // Processes one item; appends follow-up work to `children`.
-  auto process = [&](WorkerOut& w, const CullItem& item, std::vector<CullItem>& children) {
-    const ClusterDag& dag = meshes[instances[item.instance].mesh];
-    const InstanceView& iv = instance_views[item.instance];
-    if (item.kind == CullItem::kNode) {
-      const BvhNode& node = dag.bvh_nodes[item.index];
-      ++w.counters.nodes_visited;
-      if (options.frustum && sphere_outside_frustum(culling_sphere(iv, node.bounds), view)) return;
-      if (!subtree_may_select(node.lod_bounds, node.max_parent_error, iv, lv, tau)) return;
-      if (occluded(options, item.instance, node.bounds)) {
-        ++w.counters.nodes_occluded;
-        w.occluded.push_back(item);
-        return;
-      }
-      for (uint32_t k = 0; k < node.child_count && k < kBvhMaxChildren; ++k) {
-        bool is_group = (node.group_mask >> k) & 1u;
-        children.push_back({item.instance, node.children[k], is_group ? CullItem::kGroup : CullItem::kNode});
-      }
-    } else if (item.kind == CullItem::kGroup) {
-      const DagGroup& g = dag.groups[item.index];
-      ++w.counters.groups_visited;
-      if (options.frustum && sphere_outside_frustum(culling_sphere(iv, g.bounds), view)) return;
-      if (!subtree_may_select(g.parent_bounds, g.parent_error, iv, lv, tau)) return;
-      if (occluded(options, item.instance, g.bounds)) {
-        ++w.counters.groups_occluded;
-        w.occluded.push_back(item);
-        return;
-      }
-      for (uint32_t k = 0; k < g.cluster_count; ++k) test_cluster(w, item.instance, dag, g.first_cluster + k, true);
-    } else {
-      test_cluster(w, item.instance, dag, item.index, false);
-    }
-  };
-
-  pool.run_on_all([&](unsigned worker) {
-    WorkerOut& w = workers[worker];
-    std::vector<CullItem> children;
-    for (;;) {
-      CullItem item;
-      bool got = false;
-      {
-        std::lock_guard<std::mutex> lock(queues.mutex);
-        // Nodes first: they expand into more work for the other threads; clusters fill
-        // the holes while the node queue is momentarily empty (Nanite's two queues).
-        if (!queues.nodes.empty()) {
-          item = queues.nodes.back();
-          queues.nodes.pop_back();
-          got = true;
-        } else if (!queues.clusters.empty()) {
-          item = queues.clusters.back();
-          queues.clusters.pop_back();
-          got = true;
-        }
-      }
-      if (!got) {
-        if (queues.pending.load(std::memory_order_acquire) == 0) return;
-        std::this_thread::yield();
-        continue;
-      }
-      children.clear();
-      process(w, item, children);
-      if (!children.empty()) {
-        queues.pending.fetch_add(int64_t(children.size()), std::memory_order_acq_rel);
-        std::lock_guard<std::mutex> lock(queues.mutex);
-        for (const CullItem& c : children) (c.kind == CullItem::kNode ? queues.nodes : queues.clusters).push_back(c);
-      }
-      queues.pending.fetch_sub(1, std::memory_order_acq_rel);
-    }
-  });
-
-  // Canonical order: identical output for any thread count and schedule.
-  for (WorkerOut& w : workers) {
-    out->visible.insert(out->visible.end(), w.visible.begin(), w.visible.end());
-    out->occluded.insert(out->occluded.end(), w.occluded.begin(), w.occluded.end());
-    out->requests.insert(out->requests.end(), w.requests.begin(), w.requests.end());
-    out->counters.add(w.counters);
-  }
-  if (!out->requests.empty()) {
-    // Canonical: one request per (mesh, group) with the max priority over its clusters.
-    std::sort(out->requests.begin(), out->requests.end(), [](const GroupRequest& a, const GroupRequest& b) {
-      return a.mesh != b.mesh ? a.mesh < b.mesh : a.group != b.group ? a.group < b.group : a.priority > b.priority;
-    });
-    out->requests.erase(std::unique(out->requests.begin(), out->requests.end(),
-                                    [](const GroupRequest& a, const GroupRequest& b) {
-                                      return a.mesh == b.mesh && a.group == b.group;
-                                    }),
-                        out->requests.end());
-  }
-  std::sort(out->visible.begin(), out->visible.end());
-  std::sort(out->occluded.begin(), out->occluded.end());
+  pool.run_on_all([&](unsigned worker) { run_worker(cc, queues, workers[worker]); });
+  merge_workers(workers, out);
 }
 
 std::vector<VisibleCluster> select_cut(const std::vector<ClusterDag>& meshes,
