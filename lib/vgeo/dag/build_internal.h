@@ -83,7 +83,7 @@ inline constexpr size_t kSeamCellPairwiseLimit = 64;
 // triangle count target drives the simplification and the error is measured.
 inline constexpr float kMeshoptTargetError = 1.0f;
 
-// ---- the welded input ----
+// ---- the welded input (welded_mesh.cpp) ----
 struct WeldedMesh {
   const Mesh* mesh = nullptr;
   // weld[v] = smallest vertex index whose position has the same bits as v's. Adjacency,
@@ -132,6 +132,21 @@ enum class SplitMethod : uint8_t { kMeshopt = 0, kMetis = 1, kGrow = 2 };
 std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const TriangleSet& tris,
                                              std::vector<uint32_t>& scratch,
                                              SplitMethod method = SplitMethod::kMeshopt);
+
+// The splitters' shared steps (cluster_split.cpp) and the two kept for measurement
+// (cluster_split_alternatives.cpp), which split_into_clusters calls for kGrow and kMetis.
+// Compacts the welded ids of `tris` into local ids [0, n) in order of first use.
+// Returns the welded ids per local id; `local_corner` gets 3 local ids per triangle.
+std::vector<uint32_t> compact_welded(const WeldedMesh& welded, const TriangleSet& tris,
+                                     std::vector<uint32_t>& scratch, std::vector<uint32_t>& local_corner);
+// Appends the clusters holding triangles `ids` (indices into tris), bisecting in order
+// until the original-vertex limit holds (attribute seams can push a welded cluster of
+// ≤ 255 positions over 255 vertices).
+void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<uint32_t>& scratch,
+                  std::vector<TriangleSet>& out);
+std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch);
+std::vector<TriangleSet> split_metis(const WeldedMesh& welded, const TriangleSet& tris,
+                                     std::vector<uint32_t>& scratch);
 
 // Clusters → groups: returns, per group, its member indices into `clusters` (ascending).
 // Deterministic (fixed METIS seed, single call).
@@ -226,17 +241,18 @@ enum class BorderState : uint8_t { kBroken, kFoldedOver, kKept };
 BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
                                 const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges);
 
-// Spheres, computed in double and rounded outward so containment survives float rounding.
+// Spheres, computed in double and rounded outward so containment survives float rounding
+// (bounding_spheres.cpp).
 Sphere sphere_of_points(const Mesh& mesh, const uint32_t* vertices, size_t count);
 Sphere enclose_spheres(const Sphere* spheres, size_t count);
 
 // Per-cluster count of welded edges used by exactly one triangle of the cluster, and of
-// all distinct welded edges (for BuildLevelReport::boundary_edge_fraction).
+// all distinct welded edges (for BuildLevelReport::boundary_edge_fraction; welded_mesh.cpp).
 void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
                          uint64_t* all_edges, std::vector<uint64_t>* open_keys = nullptr);
 
 // Every METIS call holds this lock: GKlib's random state is process-global, so concurrent
-// calls would make results depend on timing (and would race).
+// calls would make results depend on timing (and would race). Defined in group.cpp.
 std::mutex& metis_mutex();
 // The options of every METIS call: defaults, the fixed seed (determinism), C numbering.
 inline void set_metis_options(idx_t (&options)[METIS_NOPTIONS]) {

@@ -197,4 +197,9 @@ std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const Triang
   return groups;
 }
 
+std::mutex& metis_mutex() {
+  static std::mutex m;
+  return m;
+}
+
 }  // namespace vgeo::build_detail

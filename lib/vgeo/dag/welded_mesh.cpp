@@ -1,0 +1,159 @@
+// The welded input mesh and what is measured on welded ids (spec/dag.md §Build): position
+// welding, degenerate triangles and fins, the open and distinct edges of a cluster.
+#include <algorithm>
+#include <array>
+#include <cstring>
+
+#include "vgeo/dag/build_internal.h"
+
+namespace vgeo::build_detail {
+
+namespace {
+
+uint64_t hash_position(const float* p) {
+  uint32_t b[3];
+  std::memcpy(b, p, sizeof(b));
+  uint64_t h = 0x9E3779B97F4A7C15ull;
+  for (uint32_t x : b) {
+    h ^= x;
+    h *= 0xFF51AFD7ED558CCDull;
+    h ^= h >> 29;
+  }
+  return h;
+}
+
+}  // namespace
+
+WeldedMesh weld_positions(const Mesh& mesh) {
+  WeldedMesh w;
+  w.mesh = &mesh;
+  size_t n = mesh.vertex_count();
+  w.weld.resize(n);
+  // Open addressing, table at least twice the vertex count: expected O(1) probes.
+  size_t cap = 16;
+  while (cap < 2 * n) cap <<= 1;
+  std::vector<uint32_t> table(cap, kNone);
+  const float* pos = mesh.positions.data();
+  for (size_t v = 0; v < n; ++v) {
+    size_t slot = hash_position(pos + 3 * v) & (cap - 1);
+    for (;;) {
+      uint32_t e = table[slot];
+      if (e == kNone) {
+        table[slot] = uint32_t(v);
+        w.weld[v] = uint32_t(v);
+        break;
+      }
+      if (std::memcmp(pos + 3 * e, pos + 3 * v, 12) == 0) {
+        w.weld[v] = e;
+        break;
+      }
+      slot = (slot + 1) & (cap - 1);
+    }
+  }
+  w.copies.assign(n, 0);
+  for (size_t v = 0; v < n; ++v) {
+    uint8_t& c = w.copies[w.weld[v]];
+    if (c < 255) ++c;  // saturates: only "more than kMaxSeamWedges" is asked
+  }
+  return w;
+}
+
+void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
+                         uint64_t* all_edges, std::vector<uint64_t>* open_keys) {
+  // Uses per distinct welded edge in an open addressing table (load ≤ 1/2) instead of a
+  // sort of all keys: only the open keys (a minority) are sorted.
+  const size_t n = cluster.triangle_count();
+  size_t slots = 16;
+  int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
+  while (slots < 6 * n) slots <<= 1, --shift;
+  constexpr uint64_t kEmpty = ~uint64_t(0);  // no edge key (a < b) equals it
+  std::vector<uint64_t> table(slots, kEmpty);
+  std::vector<uint32_t> uses(slots, 0);
+  uint64_t all = 0;
+  for_each_welded_edge(welded, cluster.corners, [&](uint32_t a, uint32_t b) {
+    if (a == b) return;
+    const uint64_t key = edge_key(a, b);
+    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+    while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
+    if (table[h] == kEmpty) table[h] = key, ++all;
+    ++uses[h];
+  });
+  uint64_t open = 0;
+  const size_t first_open = open_keys ? open_keys->size() : 0;
+  for (size_t h = 0; h < slots; ++h)
+    if (uses[h] == 1) {
+      ++open;
+      if (open_keys) open_keys->push_back(table[h]);
+    }
+  if (open_keys) std::sort(open_keys->begin() + ptrdiff_t(first_open), open_keys->end());
+  *open_edges = open;
+  *all_edges = all;
+}
+
+bool is_degenerate(const WeldedMesh& welded, const uint32_t* corners) {
+  const uint32_t a = welded.weld[corners[0]], b = welded.weld[corners[1]], c = welded.weld[corners[2]];
+  if (a == b || b == c || c == a) return true;
+  const Mesh& mesh = *welded.mesh;
+  double p[3][3];
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j) p[k][j] = mesh.positions[3 * size_t(corners[k]) + size_t(j)];
+  double e[3][3], longest2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    double l2 = 0;
+    for (int j = 0; j < 3; ++j) {
+      e[k][j] = p[(k + 1) % 3][j] - p[k][j];
+      l2 += e[k][j] * e[k][j];
+    }
+    longest2 = std::max(longest2, l2);
+  }
+  const double n[3] = {e[0][1] * e[2][2] - e[0][2] * e[2][1], e[0][2] * e[2][0] - e[0][0] * e[2][2],
+                       e[0][0] * e[2][1] - e[0][1] * e[2][0]};
+  // |n| = longest edge × height: height < h·longest  <=>  |n|^2 < h^2·longest^4.
+  const double n2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+  return n2 < kDegenerateRelativeHeight * kDegenerateRelativeHeight * longest2 * longest2;
+}
+
+FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool) {
+  const Mesh& mesh = *welded.mesh;
+  const size_t n = mesh.triangle_count();
+  // Collinear slivers on three distinct positions, per task in triangle order (deterministic).
+  const size_t tasks = (n + kFinScanTriangles - 1) / kFinScanTriangles;
+  std::vector<std::vector<uint32_t>> found(tasks);
+  pool.parallel_for(tasks, [&](size_t k) {
+    for (size_t t = k * kFinScanTriangles; t < std::min(n, (k + 1) * kFinScanTriangles); ++t) {
+      const uint32_t* c = &mesh.indices[3 * t];
+      const uint32_t a = welded.weld[c[0]], b = welded.weld[c[1]], d = welded.weld[c[2]];
+      if (a != b && b != d && d != a && is_degenerate(welded, c)) found[k].push_back(uint32_t(t));
+    }
+  });
+  std::vector<uint32_t> slivers;
+  for (const auto& f : found) slivers.insert(slivers.end(), f.begin(), f.end());
+  if (slivers.empty()) return {};
+  // Parity of every welded edge at a sliver's positions, over the whole mesh.
+  std::vector<uint8_t> at_sliver(mesh.vertex_count(), 0), odd_end(mesh.vertex_count(), 0);
+  for (uint32_t t : slivers)
+    for (int k = 0; k < 3; ++k) at_sliver[welded.weld[mesh.indices[3 * size_t(t) + k]]] = 1;
+  std::vector<uint64_t> edges;
+  for_each_welded_edge(welded, mesh.indices, [&](uint32_t a, uint32_t b) {
+    if (a != b && (at_sliver[a] || at_sliver[b])) edges.push_back(edge_key(a, b));
+  });
+  std::sort(edges.begin(), edges.end());
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i + 1;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if ((j - i) % 2 == 1) odd_end[uint32_t(edges[i] >> 32)] = odd_end[uint32_t(edges[i])] = 1;
+    i = j;
+  }
+  FinSet fins;
+  for (uint32_t t : slivers) {
+    const uint32_t* c = &mesh.indices[3 * size_t(t)];
+    if (!odd_end[welded.weld[c[0]]] || !odd_end[welded.weld[c[1]]] || !odd_end[welded.weld[c[2]]]) continue;
+    std::array<uint32_t, 3> key{c[0], c[1], c[2]};
+    std::sort(key.begin(), key.end());
+    fins.push_back(key);
+  }
+  std::sort(fins.begin(), fins.end());
+  return fins;
+}
+
+}  // namespace vgeo::build_detail
