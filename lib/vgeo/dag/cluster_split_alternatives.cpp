@@ -139,164 +139,204 @@ struct GrowCandidate {
   }
 };
 
-}  // namespace
-
-std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch) {
-  const Mesh& mesh = *welded.mesh;
-  const size_t n = tris.triangle_count();
-  std::vector<uint32_t> local;
-  const std::vector<uint32_t> welded_of_local = compact_welded(welded, tris, scratch, local);
-  const size_t vcount = welded_of_local.size();
-  std::vector<float> centroid(3 * n);
-  for (size_t t = 0; t < n; ++t)
-    for (int k = 0; k < 3; ++k) {
-      const size_t a = welded_of_local[local[3 * t]], b = welded_of_local[local[3 * t + 1]],
-                   c = welded_of_local[local[3 * t + 2]];
-      centroid[3 * t + k] = (mesh.positions[3 * a + k] + mesh.positions[3 * b + k] + mesh.positions[3 * c + k]) / 3.0f;
-    }
+// The grower's state over one split: the triangles in local (compacted welded) ids, their
+// centroids, each vertex's unclustered triangles, and the cluster being grown.
+struct Grower {
+  Grower(const TriangleSet& t, std::vector<uint32_t>& s) : tris(t), scratch(s), n(t.triangle_count()) {}
+  const TriangleSet& tris;
+  std::vector<uint32_t>& scratch;
+  size_t n;                      // triangles
+  std::vector<uint32_t> local;   // 3 local vertex ids per triangle
+  std::vector<float> centroid;   // 3 per triangle
   // Unclustered triangles per vertex (CSR; a triangle leaves its vertices' lists when clustered).
-  std::vector<uint32_t> first(vcount + 1, 0), live(vcount, 0), adjacency(3 * n);
-  for (uint32_t v : local) ++live[v];
-  for (size_t v = 0; v < vcount; ++v) first[v + 1] = first[v] + live[v];
-  {
-    std::vector<uint32_t> fill(first.begin(), first.end() - 1);
-    for (size_t i = 0; i < local.size(); ++i) adjacency[fill[local[i]]++] = uint32_t(i / 3);
-  }
+  std::vector<uint32_t> first, live, adjacency;
   CentroidTree tree;
-  std::vector<uint8_t> clustered(n, 0);
-  std::vector<uint32_t> in_cluster(vcount, kNone);  // stamp: index of the cluster using the vertex
+  std::vector<uint8_t> clustered;
+  std::vector<uint32_t> in_cluster;  // stamp: index of the cluster using the vertex
   std::vector<GrowCandidate> heap;
   std::vector<uint32_t> ids;  // the cluster's triangles in order of addition
   std::vector<TriangleSet> out;
   uint32_t stamp = 0, cluster_vertices = 0;
   double sum[3] = {0, 0, 0};
   float centre[3] = {0, 0, 0};
+};
 
-  auto new_vertices = [&](uint32_t t) {
-    const uint32_t* c = &local[3 * size_t(t)];
-    return uint32_t(in_cluster[c[0]] != stamp) + (in_cluster[c[1]] != stamp) + (in_cluster[c[2]] != stamp);
-  };
-  auto priority_of = [&](uint32_t t) {
-    const uint32_t extra = new_vertices(t);
-    if (extra == 0) return 0u;
-    const uint32_t* c = &local[3 * size_t(t)];
-    const bool dangling = live[c[0]] == 1 || live[c[1]] == 1 || live[c[2]] == 1;
-    return 1 + (dangling ? 0 : extra);
-  };
-  auto distance2 = [&](uint32_t t) { return squared_distance(&centroid[3 * size_t(t)], centre); };
-  auto push = [&](uint32_t t) {
-    heap.push_back({priority_of(t), distance2(t), t});
-    std::push_heap(heap.begin(), heap.end(), std::greater<GrowCandidate>());
-  };
-  auto recentre = [&] {
-    for (int k = 0; k < 3; ++k) centre[k] = float(sum[k] / double(ids.size()));
-    size_t kept = 0;
-    for (const GrowCandidate& g : heap)
-      if (!clustered[g.triangle]) heap[kept++] = {priority_of(g.triangle), distance2(g.triangle), g.triangle};
-    heap.resize(kept);
-    std::make_heap(heap.begin(), heap.end(), std::greater<GrowCandidate>());
-  };
-  auto finish_cluster = [&] {
-    if (!ids.empty()) emit_cluster(tris, ids.data(), ids.size(), scratch, out);
-    ids.clear();
-    heap.clear();
-    ++stamp;
-    cluster_vertices = 0;
-    sum[0] = sum[1] = sum[2] = 0;
-  };
-  auto add = [&](uint32_t t) {
-    clustered[t] = 1;
-    tree.remove(t);
-    ids.push_back(t);
-    for (int k = 0; k < 3; ++k) sum[k] += centroid[3 * size_t(t) + k];
-    if (ids.size() == 1)
-      for (int k = 0; k < 3; ++k) centre[k] = centroid[3 * size_t(t) + k];
-    const uint32_t* c = &local[3 * size_t(t)];
+// Local ids, centroids and the vertex → triangle lists of `g.tris`.
+void index_triangles(Grower& g, const WeldedMesh& welded) {
+  const Mesh& mesh = *welded.mesh;
+  const size_t n = g.n;
+  const std::vector<uint32_t> welded_of_local = compact_welded(welded, g.tris, g.scratch, g.local);
+  const size_t vcount = welded_of_local.size();
+  g.centroid.resize(3 * n);
+  for (size_t t = 0; t < n; ++t)
     for (int k = 0; k < 3; ++k) {
-      const uint32_t v = c[k];
-      uint32_t* list = &adjacency[first[v]];
-      for (uint32_t i = 0; i < live[v]; ++i)
-        if (list[i] == t) {
-          list[i] = list[--live[v]];
-          break;
-        }
+      const size_t a = welded_of_local[g.local[3 * t]], b = welded_of_local[g.local[3 * t + 1]],
+                   c = welded_of_local[g.local[3 * t + 2]];
+      g.centroid[3 * t + k] = (mesh.positions[3 * a + k] + mesh.positions[3 * b + k] + mesh.positions[3 * c + k]) / 3.0f;
     }
-    for (int k = 0; k < 3; ++k) {
-      const uint32_t v = c[k];
-      if (in_cluster[v] != stamp) {
-        in_cluster[v] = stamp;
-        ++cluster_vertices;
-        for (uint32_t i = 0; i < live[v]; ++i) push(adjacency[first[v] + i]);
-      } else if (live[v] == 1) {
-        push(adjacency[first[v]]);  // now the last triangle at v: a better candidate
+  g.first.assign(vcount + 1, 0);
+  g.live.assign(vcount, 0);
+  g.adjacency.resize(3 * n);
+  for (uint32_t v : g.local) ++g.live[v];
+  for (size_t v = 0; v < vcount; ++v) g.first[v + 1] = g.first[v] + g.live[v];
+  {
+    std::vector<uint32_t> fill(g.first.begin(), g.first.end() - 1);
+    for (size_t i = 0; i < g.local.size(); ++i) g.adjacency[fill[g.local[i]]++] = uint32_t(i / 3);
+  }
+  g.clustered.assign(n, 0);
+  g.in_cluster.assign(vcount, kNone);
+}
+
+uint32_t new_vertices(const Grower& g, uint32_t t) {
+  const uint32_t* c = &g.local[3 * size_t(t)];
+  return uint32_t(g.in_cluster[c[0]] != g.stamp) + (g.in_cluster[c[1]] != g.stamp) + (g.in_cluster[c[2]] != g.stamp);
+}
+
+uint32_t priority_of(const Grower& g, uint32_t t) {
+  const uint32_t extra = new_vertices(g, t);
+  if (extra == 0) return 0u;
+  const uint32_t* c = &g.local[3 * size_t(t)];
+  const bool dangling = g.live[c[0]] == 1 || g.live[c[1]] == 1 || g.live[c[2]] == 1;
+  return 1 + (dangling ? 0 : extra);
+}
+
+float distance2(const Grower& g, uint32_t t) { return squared_distance(&g.centroid[3 * size_t(t)], g.centre); }
+
+void push_candidate(Grower& g, uint32_t t) {
+  g.heap.push_back({priority_of(g, t), distance2(g, t), t});
+  std::push_heap(g.heap.begin(), g.heap.end(), std::greater<GrowCandidate>());
+}
+
+// The cluster's centroid re-measured and every candidate re-keyed from it.
+void recentre(Grower& g) {
+  for (int k = 0; k < 3; ++k) g.centre[k] = float(g.sum[k] / double(g.ids.size()));
+  size_t kept = 0;
+  for (const GrowCandidate& c : g.heap)
+    if (!g.clustered[c.triangle]) g.heap[kept++] = {priority_of(g, c.triangle), distance2(g, c.triangle), c.triangle};
+  g.heap.resize(kept);
+  std::make_heap(g.heap.begin(), g.heap.end(), std::greater<GrowCandidate>());
+}
+
+// The grown cluster emitted; the next one starts empty.
+void finish_cluster(Grower& g) {
+  if (!g.ids.empty()) emit_cluster(g.tris, g.ids.data(), g.ids.size(), g.scratch, g.out);
+  g.ids.clear();
+  g.heap.clear();
+  ++g.stamp;
+  g.cluster_vertices = 0;
+  g.sum[0] = g.sum[1] = g.sum[2] = 0;
+}
+
+// Triangle t joins the cluster: it leaves its vertices' lists, and the triangles at its new
+// vertices (or at a vertex where it is now the last one) become candidates.
+void add_triangle(Grower& g, uint32_t t) {
+  g.clustered[t] = 1;
+  g.tree.remove(t);
+  g.ids.push_back(t);
+  for (int k = 0; k < 3; ++k) g.sum[k] += g.centroid[3 * size_t(t) + k];
+  if (g.ids.size() == 1)
+    for (int k = 0; k < 3; ++k) g.centre[k] = g.centroid[3 * size_t(t) + k];
+  const uint32_t* c = &g.local[3 * size_t(t)];
+  for (int k = 0; k < 3; ++k) {
+    const uint32_t v = c[k];
+    uint32_t* list = &g.adjacency[g.first[v]];
+    for (uint32_t i = 0; i < g.live[v]; ++i)
+      if (list[i] == t) {
+        list[i] = list[--g.live[v]];
+        break;
       }
-    }
-    if (ids.size() >= kRecentreFirst && (ids.size() & (ids.size() - 1)) == 0 && ids.size() < kMaxClusterTriangles)
-      recentre();
-  };
-  auto best_candidate = [&] {
-    while (!heap.empty() && clustered[heap.front().triangle]) {
-      std::pop_heap(heap.begin(), heap.end(), std::greater<GrowCandidate>());
-      heap.pop_back();
-    }
-    return heap.empty() ? kNone : heap.front().triangle;
-  };
-  // The next cluster's first triangle, next to the full one: fewest new vertices, then the
-  // fewest triangles left at its corners (so the sweep hugs the clustered region).
-  auto successor_seed = [&] {
-    uint32_t best = kNone, best_priority = UINT32_MAX, best_live = UINT32_MAX;
-    for (const GrowCandidate& g : heap) {
-      const uint32_t t = g.triangle;
-      if (clustered[t]) continue;
-      const uint32_t* c = &local[3 * size_t(t)];
-      const uint32_t p = priority_of(t), l = live[c[0]] + live[c[1]] + live[c[2]];
-      if (p < best_priority || (p == best_priority && (l < best_live || (l == best_live && t < best))))
-        best = t, best_priority = p, best_live = l;
-    }
-    return best;
-  };
-
-  auto nearest_to_cluster = [&] {
-    float c[3];
-    for (int k = 0; k < 3; ++k) c[k] = float(sum[k] / double(ids.size()));
-    if (n > kNearestScanMaxTriangles) {
-      if (!tree.built()) tree.build(centroid.data(), n, clustered);
-      return tree.nearest(c, clustered);
-    }
-    uint32_t best = kNone;
-    float best_d2 = FLT_MAX;
-    for (uint32_t t = 0; t < n; ++t) {
-      if (clustered[t]) continue;
-      const float d2 = squared_distance(&centroid[3 * size_t(t)], c);
-      if (d2 < best_d2) best = t, best_d2 = d2;
-    }
-    return best;
-  };
-
-  // Start at the triangle with the lowest centroid along x, then y, z (then id): sweeping from
-  // an extreme leaves fewer enclosed remainders than starting inside.
-  uint32_t next = 0;
-  for (uint32_t t = 1; t < n; ++t)
-    if (std::lexicographical_compare(&centroid[3 * size_t(t)], &centroid[3 * size_t(t)] + 3, &centroid[3 * size_t(next)],
-                                     &centroid[3 * size_t(next)] + 3))
-      next = t;
-  for (size_t done = 0; next != kNone;) {
-    add(next);
-    if (++done == n) break;
-    next = best_candidate();
-    const bool full = ids.size() >= kMaxClusterTriangles ||
-                      (next != kNone && cluster_vertices + new_vertices(next) > kMaxClusterVertices);
-    if (full) {
-      next = successor_seed();
-      const uint32_t nearest = next == kNone ? nearest_to_cluster() : kNone;
-      finish_cluster();
-      if (next == kNone) next = nearest;
-    } else if (next == kNone) {
-      next = nearest_to_cluster();
+  }
+  for (int k = 0; k < 3; ++k) {
+    const uint32_t v = c[k];
+    if (g.in_cluster[v] != g.stamp) {
+      g.in_cluster[v] = g.stamp;
+      ++g.cluster_vertices;
+      for (uint32_t i = 0; i < g.live[v]; ++i) push_candidate(g, g.adjacency[g.first[v] + i]);
+    } else if (g.live[v] == 1) {
+      push_candidate(g, g.adjacency[g.first[v]]);  // now the last triangle at v: a better candidate
     }
   }
-  finish_cluster();
-  return out;
+  const size_t size = g.ids.size();
+  if (size >= kRecentreFirst && (size & (size - 1)) == 0 && size < kMaxClusterTriangles) recentre(g);
+}
+
+// The best unclustered candidate (clustered ones are dropped from the heap); kNone if none.
+uint32_t best_candidate(Grower& g) {
+  while (!g.heap.empty() && g.clustered[g.heap.front().triangle]) {
+    std::pop_heap(g.heap.begin(), g.heap.end(), std::greater<GrowCandidate>());
+    g.heap.pop_back();
+  }
+  return g.heap.empty() ? kNone : g.heap.front().triangle;
+}
+
+// The next cluster's first triangle, next to the full one: fewest new vertices, then the
+// fewest triangles left at its corners (so the sweep hugs the clustered region).
+uint32_t successor_seed(const Grower& g) {
+  uint32_t best = kNone, best_priority = UINT32_MAX, best_live = UINT32_MAX;
+  for (const GrowCandidate& cand : g.heap) {
+    const uint32_t t = cand.triangle;
+    if (g.clustered[t]) continue;
+    const uint32_t* c = &g.local[3 * size_t(t)];
+    const uint32_t p = priority_of(g, t), l = g.live[c[0]] + g.live[c[1]] + g.live[c[2]];
+    if (p < best_priority || (p == best_priority && (l < best_live || (l == best_live && t < best))))
+      best = t, best_priority = p, best_live = l;
+  }
+  return best;
+}
+
+// The unclustered triangle nearest the cluster's centroid (a scan, or the k-d tree built on
+// first use for large splits); kNone when none is left.
+uint32_t nearest_to_cluster(Grower& g) {
+  float c[3];
+  for (int k = 0; k < 3; ++k) c[k] = float(g.sum[k] / double(g.ids.size()));
+  if (g.n > kNearestScanMaxTriangles) {
+    if (!g.tree.built()) g.tree.build(g.centroid.data(), g.n, g.clustered);
+    return g.tree.nearest(c, g.clustered);
+  }
+  uint32_t best = kNone;
+  float best_d2 = FLT_MAX;
+  for (uint32_t t = 0; t < g.n; ++t) {
+    if (g.clustered[t]) continue;
+    const float d2 = squared_distance(&g.centroid[3 * size_t(t)], c);
+    if (d2 < best_d2) best = t, best_d2 = d2;
+  }
+  return best;
+}
+
+// The triangle with the lowest centroid along x, then y, z (then id): sweeping from an
+// extreme leaves fewer enclosed remainders than starting inside.
+uint32_t first_seed(const Grower& g) {
+  uint32_t next = 0;
+  for (uint32_t t = 1; t < g.n; ++t)
+    if (std::lexicographical_compare(&g.centroid[3 * size_t(t)], &g.centroid[3 * size_t(t)] + 3,
+                                     &g.centroid[3 * size_t(next)], &g.centroid[3 * size_t(next)] + 3))
+      next = t;
+  return next;
+}
+
+}  // namespace
+
+std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch) {
+  Grower g(tris, scratch);
+  index_triangles(g, welded);
+  uint32_t next = first_seed(g);
+  for (size_t done = 0; next != kNone;) {
+    add_triangle(g, next);
+    if (++done == g.n) break;
+    next = best_candidate(g);
+    const bool full = g.ids.size() >= kMaxClusterTriangles ||
+                      (next != kNone && g.cluster_vertices + new_vertices(g, next) > kMaxClusterVertices);
+    if (full) {
+      next = successor_seed(g);
+      const uint32_t nearest = next == kNone ? nearest_to_cluster(g) : kNone;
+      finish_cluster(g);
+      if (next == kNone) next = nearest;
+    } else if (next == kNone) {
+      next = nearest_to_cluster(g);
+    }
+  }
+  finish_cluster(g);
+  return std::move(g.out);
 }
 
 namespace {
