@@ -1,0 +1,27 @@
+#pragma once
+// Internal to lib/vgeo/format: the encoder's choice of each mesh's quantization grids and its
+// report (spec/format.md §2), implemented in quantize.cpp with the public quantization
+// functions of format.h (dequantize_position, octahedral_encode/decode, uv_quantized_limit,
+// inflate_metadata_for_quantization).
+#include <cstdint>
+#include <string>
+
+#include "vgeo/dag/cluster_dag.h"
+#include "vgeo/format/format.h"
+
+namespace vgeo::format_detail {
+
+// The encoder's one failure: VgeoError(FORMAT_ENCODE) at "<encoder>" (container.cpp).
+[[noreturn]] void encode_fail(const std::string& what);
+
+// The position grid step (log2) of one mesh: FormatOptions::position_step_log2 if set, else
+// the smallest power of two that fits the extent in position_bits bits, refined towards the
+// DAG's median first-simplification error (FormatOptions). Throws on a non-finite position.
+int32_t choose_position_step(const ClusterDag& dag, const FormatOptions& o);
+// The UV step of one mesh: the option's step, coarsened (a power of two at a time) until
+// every |uv| fits in uv_quantized_limit steps; every finite UV fits at kMaxUvStepLog2.
+int32_t choose_uv_step(const ClusterDag& dag, const FormatOptions& o);
+// Largest |decoded − source| over a mesh's positions and UVs (FormatReport::meshes).
+FormatReport::MeshQuantizationReport measure_quantization(const ClusterDag& dag, const MeshQuantization& q);
+
+}  // namespace vgeo::format_detail
