@@ -1,4 +1,5 @@
-// Vulkan frame executor (gpu_frame.h, spec/gpu.md §Frame).
+// Vulkan frame executor (gpu_frame.h, spec/gpu.md §Frame): the frame plan's steps on the device,
+// the raster passes alone (raster_visible_vulkan) and the shade pass.
 #include "vgeo/gpu/gpu_frame.h"
 
 #include <algorithm>
@@ -6,115 +7,21 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
-#include <functional>
 
 #include "vgeo/core/error.h"
 #include "vgeo/core/lod.h"
 #include "vgeo/render/streaming.h"
+#include "vgeo/gpu/gpu_renderer.h"
 #include "vgeo/gpu/shader_records.h"
 #include "vgeo/gpu/shaders.h"
 
 namespace vgeo {
 
-MemoryFormPages memory_form_pages(const std::vector<SceneEncoding>& encodings, const std::vector<SceneMeshForm>& forms) {
-  MemoryFormPages out;
-  out.quantization.resize(forms.size());
-  out.material_offset.resize(forms.size());
-  out.cluster_page.resize(forms.size());
-  // (encoding, page) → index in out.pages: each page transcoded once, only those drawn.
-  std::vector<std::vector<uint32_t>> page_index(encodings.size());
-  for (size_t m = 0; m < forms.size(); ++m) {
-    const SceneMeshForm& form = forms[m];
-    if (form.encoding == kNone) continue;  // streamed: the Streamer's pages
-    const SceneEncoding& e = encodings[form.encoding];
-    const FormatContainer& fc = e.container;
-    const MeshMetadata& mm = fc.meshes[form.mesh];
-    std::vector<uint32_t>& index = page_index[form.encoding];
-    index.resize(fc.pages.size(), kNone);
-    out.quantization[m] = mm.quantization;
-    out.material_offset[m] = form.material_offset;
-    out.cluster_page[m].resize(mm.dag.clusters.size());
-    for (uint32_t p = mm.first_page; p < mm.first_page + mm.page_count; ++p) {
-      const PageEntry& pe = fc.pages[p];
-      if (index[p] == kNone) {
-        index[p] = uint32_t(out.pages.size());
-        out.pages.push_back(transcode_page(fc, p, e.bytes.data() + pe.file_offset, pe.stored_size, e.where));
-      }
-      for (uint32_t k = 0; k < pe.cluster_count; ++k) out.cluster_page[m][mm.page_clusters[pe.first_cluster_slot + k]] = {index[p], k};
-    }
-  }
-  return out;
-}
-
-MemoryFormPages memory_form_pages(const SceneFile& file) { return memory_form_pages(file.encodings, file.mesh_forms); }
-
-MemoryFormScene make_memory_form_scene(const RenderScene& scene) {
-  BuiltScene built, decoded;
-  built.meshes = scene.meshes;
-  built.materials = scene.materials;
-  std::vector<SceneEncoding> encodings;
-  encodings.push_back(encode_memory_form(built, "<memory form>", &decoded));
-  std::vector<SceneMeshForm> forms(scene.meshes.size());
-  for (uint32_t m = 0; m < forms.size(); ++m) forms[m] = {0, m, 0};
-  MemoryFormScene out;
-  out.scene = scene;
-  out.scene.meshes = std::move(decoded.meshes);
-  analyze_render_scene(&out.scene);
-  out.pages = memory_form_pages(encodings, forms);
-  return out;
-}
-
-struct GpuRenderer {
-  GpuContext* gpu = nullptr;
-  std::unique_ptr<GpuRecorder> recorder;
-  std::unique_ptr<GpuRasterPasses> raster;
-  GpuRendererOptions options;
-  ComputePipeline shade;
-  GpuBuffer pages, locations, meshes, materials;
-  // Per frame, grown on demand.
-  GpuBuffer instances, visible, vis, counters, shade_instances, shade_clusters, overdraw, image;
-  // The cull passes (gpu_cull.h): DAG records once, a working set per view size.
-  GpuTraversal traversal = kDefaultGpuTraversal;
-  GpuCullPipelines cull;
-  GpuCullMeshes cull_meshes;
-  std::unique_ptr<GpuCullFrame> cull_frame;
-  // Streaming: `pages` is a fixed pool of slots of slot_words words (spec/gpu.md §Streaming).
-  bool streamed = false;
-  uint32_t slot_words = 0;
-  std::vector<uint32_t> slot_of_page;  // per container page: its slot, kNone when not in the pool
-  std::vector<uint32_t> free_slots;    // descending, so slots are taken lowest first
-  GpuPoolStats pool_stats;
-};
-
-void GpuRendererDeleter::operator()(GpuRenderer* r) const { delete r; }
+using namespace gpu_detail;
 
 namespace {
 
 constexpr uint32_t kShadeGroupSize = 64;  // shaders/shade.comp local_size_x
-
-GpuGeometryBuffers geometry(const GpuRenderer& r) {
-  return {&r.pages, &r.locations, &r.meshes, &r.instances, &r.visible, &r.vis};
-}
-
-template <class T>
-GpuBuffer upload(GpuContext& gpu, const std::vector<T>& data) {
-  GpuBuffer b = create_gpu_buffer(gpu, data.size() * sizeof(T));
-  if (!data.empty()) std::memcpy(b.mapped, data.data(), data.size() * sizeof(T));
-  return b;
-}
-
-// Keeps `buffer` at least `bytes` long (contents not preserved).
-void ensure_size(GpuContext& gpu, GpuBuffer& buffer, uint64_t bytes) {
-  if (buffer.buffer == VK_NULL_HANDLE || buffer.size < bytes) buffer = create_gpu_buffer(gpu, bytes);
-}
-
-void check_buffer_range(const GpuContext& gpu, uint64_t bytes, const char* what) {
-  if (bytes > gpu.properties.limits.maxStorageBufferRange)
-    fail("GPU_SCENE_TOO_LARGE", gpu.device_name,
-         std::string(what) + " needs " + std::to_string(bytes) + " bytes, more than one storage buffer (" +
-             std::to_string(gpu.properties.limits.maxStorageBufferRange) + ")",
-         kExitUsage);
-}
 
 // Rasterizes visible[first, first + count) into the vis buffer by the renderer's raster mode
 // (hw_raster.h); returns the GPU time and the pixels written, adds the split to `split`.
@@ -256,217 +163,6 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
 }
 
 }  // namespace
-
-std::vector<GpuClusterRasterInfo> cluster_raster_infos(const RenderScene& scene) {
-  std::vector<GpuClusterRasterInfo> infos;
-  for (const ClusterDag& dag : scene.meshes)
-    for (const DagCluster& c : dag.clusters) {
-      GpuClusterRasterInfo info{};
-      info.center[0] = c.bounds.center.x;
-      info.center[1] = c.bounds.center.y;
-      info.center[2] = c.bounds.center.z;
-      info.radius = c.bounds.radius;
-      info.triangle_count = c.triangle_count;
-      infos.push_back(info);
-    }
-  return infos;
-}
-
-namespace {
-
-// What every renderer has: pipelines, the scene's cull records, raster split infos and materials.
-GpuRendererPtr create_renderer_common(GpuContext& gpu, const RenderScene& scene, GpuTraversal traversal,
-                                      const GpuRendererOptions& options) {
-  GpuRendererPtr r(new GpuRenderer);
-  r->gpu = &gpu;
-  r->traversal = traversal;
-  r->options = options;
-  r->cull = create_cull_pipelines(gpu);
-  r->cull_meshes = upload_cull_meshes(gpu, scene.meshes);
-  r->recorder = create_gpu_recorder(gpu);
-  r->raster = create_gpu_raster_passes(gpu, cluster_raster_infos(scene));
-  r->shade = create_compute_pipeline(gpu, kShaderShade, kShadeBindingCount, sizeof(GpuShadeParams));
-  r->counters = create_gpu_buffer(gpu, 64);
-  std::vector<GpuMaterial> materials(scene.materials.size());
-  for (size_t i = 0; i < materials.size(); ++i)
-    std::copy(scene.materials[i].base_color.begin(), scene.materials[i].base_color.end(), materials[i].base_color);
-  r->materials = upload(gpu, materials);
-  return r;
-}
-
-GpuMesh gpu_mesh(const MeshQuantization& q, uint32_t first_location, uint32_t material_offset) {
-  GpuMesh g{};
-  g.first_location = first_location;
-  g.position_step_log2 = q.position_step_log2;
-  g.channel_count = q.channel_count();
-  g.normal_bits = q.has_normals ? q.normal_bits : 0;
-  g.material_offset = material_offset;
-  return g;
-}
-
-// The most pages `budget` bytes can hold at once: the count of the smallest pages whose
-// sizes sum to ≤ budget (the Streamer keeps resident + in-flight bytes ≤ budget).
-uint32_t max_resident_pages(const FormatContainer& c, uint64_t budget) {
-  std::vector<uint32_t> sizes;
-  for (const PageEntry& e : c.pages) sizes.push_back(e.memory_size);
-  std::sort(sizes.begin(), sizes.end());
-  uint64_t sum = 0;
-  uint32_t n = 0;
-  while (n < sizes.size() && sum + sizes[n] <= budget) sum += sizes[n++];
-  return n;
-}
-
-// Frees the slots of pages evicted since the last call, then uploads every newly installed
-// page into a free slot and points its clusters' locations there. Called at stream_begin,
-// after the Streamer installed this frame's reads (residency only grows until stream_end).
-void sync_page_pool(GpuRenderer& r, const FrameStreaming& s) {
-  const Streamer& streamer = *s.streamer;
-  const FormatContainer& c = streamer.container();
-  for (uint32_t p = 0; p < c.pages.size(); ++p)
-    if (r.slot_of_page[p] != kNone && streamer.page_state(p) != PageState::kResident) {
-      r.free_slots.push_back(r.slot_of_page[p]);
-      r.slot_of_page[p] = kNone;
-      ++r.pool_stats.pages_freed;
-    }
-  std::sort(r.free_slots.begin(), r.free_slots.end(), std::greater<>());
-  GpuClusterLocation* locations = r.locations.data<GpuClusterLocation>();
-  const GpuMesh* meshes = r.meshes.data<GpuMesh>();
-  for (uint32_t p = 0; p < c.pages.size(); ++p) {
-    if (r.slot_of_page[p] != kNone || streamer.page_state(p) != PageState::kResident) continue;
-    if (r.free_slots.empty())
-      fail("GPU_ERROR", "vulkan", "GPU page pool full: the Streamer holds more pages than its budget allows",
-           kExitInternal);
-    const uint32_t slot = r.free_slots.back();
-    r.free_slots.pop_back();
-    r.slot_of_page[p] = slot;
-    const std::vector<uint32_t>& words = streamer.page_words(p);
-    assert(words.size() <= r.slot_words);
-    const uint32_t page_word = slot * r.slot_words;
-    std::memcpy(r.pages.data<uint32_t>() + page_word, words.data(), words.size() * 4);
-    ++r.pool_stats.pages_uploaded;
-    r.pool_stats.bytes_uploaded += words.size() * 4;
-    const PageEntry& e = c.pages[p];
-    const MeshMetadata& mm = c.meshes[e.mesh];
-    for (uint32_t m = 0; m < s.stream_mesh.size(); ++m) {
-      if (s.stream_mesh[m] != e.mesh) continue;
-      for (uint32_t k = 0; k < e.cluster_count; ++k) {
-        const uint32_t cluster = mm.page_clusters[e.first_cluster_slot + k];
-        locations[meshes[m].first_location + cluster] = {page_word, k};
-      }
-    }
-  }
-}
-
-}  // namespace
-
-namespace {
-
-// The pages of `in_memory`'s meshes (those `drawn` says), placed from word `first_word` of the
-// page buffer into `words`, and their clusters' locations; the meshes' records.
-void place_in_memory_pages(const RenderScene& scene, const MemoryFormPages& in_memory, const std::vector<bool>& drawn,
-                           uint64_t first_word, std::vector<uint32_t>* words, std::vector<GpuMesh>* meshes,
-                           std::vector<GpuClusterLocation>* locations) {
-  if (in_memory.cluster_page.size() != scene.meshes.size())
-    fail("GPU_ERROR", "vulkan", "the memory form has " + std::to_string(in_memory.cluster_page.size()) +
-                                    " meshes, the scene " + std::to_string(scene.meshes.size()), kExitInternal);
-  std::vector<uint32_t> page_word(in_memory.pages.size());
-  uint64_t word = first_word;
-  for (size_t p = 0; p < in_memory.pages.size(); ++p) {
-    page_word[p] = uint32_t(std::min<uint64_t>(word, UINT32_MAX));
-    word += in_memory.pages[p].size();
-  }
-  words->reserve(word - first_word);
-  for (const std::vector<uint32_t>& page : in_memory.pages) words->insert(words->end(), page.begin(), page.end());
-  for (size_t m = 0; m < scene.meshes.size(); ++m) {
-    if (!drawn[m]) continue;
-    if (in_memory.cluster_page[m].size() != scene.meshes[m].clusters.size())
-      fail("GPU_ERROR", "vulkan", "scene mesh " + std::to_string(m) + " has no memory form", kExitInternal);
-    (*meshes)[m] = gpu_mesh(in_memory.quantization[m], (*meshes)[m].first_location, in_memory.material_offset[m]);
-    for (size_t c = 0; c < in_memory.cluster_page[m].size(); ++c) {
-      const auto& [page, index] = in_memory.cluster_page[m][c];
-      (*locations)[(*meshes)[m].first_location + c] = {page_word[page], index};
-    }
-  }
-}
-
-// Every mesh's first location: its clusters' locations are consecutive, in mesh order.
-std::vector<GpuMesh> mesh_records(const RenderScene& scene, uint64_t* location_count) {
-  std::vector<GpuMesh> meshes(scene.meshes.size());
-  uint64_t locations = 0;
-  for (size_t m = 0; m < scene.meshes.size(); ++m) {
-    meshes[m].first_location = uint32_t(locations);
-    locations += scene.meshes[m].clusters.size();
-  }
-  *location_count = locations;
-  return meshes;
-}
-
-}  // namespace
-
-GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const RenderScene& scene, const MemoryFormPages& pages,
-                                   GpuTraversal traversal, const GpuRendererOptions& options) {
-  GpuRendererPtr r = create_renderer_common(gpu, scene, traversal, options);
-  uint64_t location_count = 0;
-  std::vector<GpuMesh> meshes = mesh_records(scene, &location_count);
-  std::vector<GpuClusterLocation> locations(location_count);
-  std::vector<uint32_t> words;
-  place_in_memory_pages(scene, pages, std::vector<bool>(scene.meshes.size(), true), 0, &words, &meshes, &locations);
-  check_buffer_range(gpu, words.size() * 4, "the memory-form pages");
-  r->pages = upload(gpu, words);
-  r->locations = upload(gpu, locations);
-  r->meshes = upload(gpu, meshes);
-  return r;
-}
-
-GpuRendererPtr create_gpu_renderer(GpuContext& gpu, const MemoryFormScene& scene, GpuTraversal traversal,
-                                   const GpuRendererOptions& options) {
-  return create_gpu_renderer(gpu, scene.scene, scene.pages, traversal, options);
-}
-
-GpuRendererPtr create_gpu_renderer_streamed(GpuContext& gpu, const RenderScene& scene, const FrameStreaming& s,
-                                            const MemoryFormPages& in_memory, GpuTraversal traversal,
-                                            const GpuRendererOptions& options) {
-  const FormatContainer& c = s.streamer->container();
-  GpuRendererPtr r = create_renderer_common(gpu, scene, traversal, options);
-  r->streamed = true;
-  uint32_t max_page = 0;
-  for (const PageEntry& e : c.pages) max_page = std::max(max_page, e.memory_size);
-  r->slot_words = (max_page + 3) / 4;
-  const uint32_t slots = max_resident_pages(c, s.streamer->budget_bytes());
-  const uint64_t pool_bytes = uint64_t(slots) * r->slot_words * 4;
-  r->slot_of_page.assign(c.pages.size(), kNone);
-  for (uint32_t k = slots; k-- > 0;) r->free_slots.push_back(k);
-  r->pool_stats.slots = slots;
-  r->pool_stats.pool_bytes = pool_bytes;
-
-  // Streamed meshes' locations are written when their pages are installed (read only once
-  // resident); the other meshes' pages follow the pool, placed once.
-  uint64_t location_count = 0;
-  std::vector<GpuMesh> meshes = mesh_records(scene, &location_count);
-  std::vector<GpuClusterLocation> locations(location_count);
-  std::vector<bool> in_memory_mesh(scene.meshes.size());
-  for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
-    in_memory_mesh[m] = s.stream_mesh[m] == kNone;
-    if (!in_memory_mesh[m])
-      meshes[m] = gpu_mesh(c.meshes[s.stream_mesh[m]].quantization, meshes[m].first_location, s.material_offset[m]);
-  }
-  std::vector<uint32_t> fixed_words;
-  place_in_memory_pages(scene, in_memory, in_memory_mesh, pool_bytes / 4, &fixed_words, &meshes, &locations);
-  const uint64_t page_bytes = pool_bytes + fixed_words.size() * 4;
-  check_buffer_range(gpu, page_bytes, "the GPU page pool and the pages of meshes not streamed");
-  r->pages = create_gpu_buffer(gpu, std::max<uint64_t>(page_bytes, 4));
-  if (!fixed_words.empty()) std::memcpy(r->pages.data<uint32_t>() + pool_bytes / 4, fixed_words.data(), fixed_words.size() * 4);
-  r->meshes = upload(gpu, meshes);
-  r->locations = upload(gpu, locations);
-  return r;
-}
-
-std::vector<uint32_t> gpu_page_words(const GpuRenderer& r) {
-  const uint32_t* words = static_cast<const uint32_t*>(r.pages.mapped);
-  return std::vector<uint32_t>(words, words + r.pages.size / 4);
-}
-
-const GpuPoolStats& gpu_pool_stats(const GpuRenderer& r) { return r.pool_stats; }
 
 namespace {
 

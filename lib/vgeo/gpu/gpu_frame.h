@@ -14,6 +14,7 @@
 #include "vgeo/gpu/context.h"
 #include "vgeo/gpu/gpu_cull.h"
 #include "vgeo/gpu/hw_raster.h"
+#include "vgeo/gpu/memory_form.h"
 #include "vgeo/render/frame.h"
 #include "vgeo/render/run.h"  // GpuPoolStats
 #include "vgeo/render/scene_file.h"
@@ -21,34 +22,7 @@
 
 namespace vgeo {
 
-// What the GPU reads of a scene (spec/gpu.md §Geometry): the memory form of the scene's own
-// encodings (SceneFile::encodings: a page file's pages as stored, a built mesh's one
-// encoding), transcoded page by page (transcode_page) and never encoded again. Each used page
-// appears once, however many scene meshes draw from it. Cluster ids are the original ones.
-struct MemoryFormPages {
-  std::vector<std::vector<uint32_t>> pages;       // memory-form words per page
-  std::vector<MeshQuantization> quantization;     // per scene mesh
-  std::vector<uint32_t> material_offset;          // per scene mesh: added to the pages' material ids
-  // Per scene mesh, per cluster: (page, index of the cluster in that page); empty for a
-  // streamed mesh (SceneMeshForm::encoding kNone: its pages are the Streamer's).
-  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> cluster_page;
-};
-// Throws the transcoder's FORMAT_* codes (a page file changed under the scene cannot reach
-// here: its bytes are the scene's own).
-MemoryFormPages memory_form_pages(const std::vector<SceneEncoding>& encodings, const std::vector<SceneMeshForm>& forms);
-MemoryFormPages memory_form_pages(const SceneFile& file);
-
-// A scene of built (float) DAGs (raster vectors, benchmarks) in the form both backends render
-// (spec/raster.md §Backends agree): encoded once (encode_memory_form); `scene` holds its decode
-// (what the CPU reference draws), `pages` the memory form of the same bytes (what the GPU reads).
-struct MemoryFormScene {
-  RenderScene scene;
-  MemoryFormPages pages;
-};
-// Throws FORMAT_ENCODE (format.h) for meshes the page format cannot represent.
-MemoryFormScene make_memory_form_scene(const RenderScene& scene);
-
-struct GpuRenderer;  // pipelines and per-scene GPU buffers (gpu_frame.cpp)
+struct GpuRenderer;  // pipelines and per-scene GPU buffers (gpu_renderer.h)
 struct GpuRendererDeleter {
   void operator()(GpuRenderer* r) const;
 };
