@@ -3,7 +3,8 @@
 // the same way: every lattice point of the simplified triangles (lib/vgeo/core/surface_distance.h,
 // kErrorLatticeSubdivisions, the same point coordinates) against *all* leaf triangles, exact
 // nearest distance in double. Measuring against the group's input (its children) and adding
-// the children's error instead sums one bound per level: honest, but loose (issue 15 §2).
+// the children's error instead sums one bound per level: honest, but loose (measured:
+// docs/acceptance/issue15.md §2).
 //
 // Only the maximum is wanted, and only above a floor (the children's stored error, which the
 // parent's stored error takes the max with anyway): a point with *some* leaf triangle within
