@@ -1,4 +1,6 @@
 // Raster conformance vectors (raster_vectors.h, spec/raster.md §14).
+// Based on: the Vulkan CTS's model of rasterization conformance: only pixels whose coverage is
+// unambiguous at the declared sub-pixel precision are compared (lib/vgeo/raster/raster_model.h).
 #include "vgeo/gpu/raster_vectors.h"
 
 #include <algorithm>
