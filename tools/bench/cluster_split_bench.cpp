@@ -21,7 +21,7 @@ using namespace vgeo::build_detail;
 
 // The last entry is not a file: a UV sphere of one leaf chunk (kLeafChunkTriangles triangles,
 // the largest set the builder clusters at once).
-const char* kMeshes[] = {"armadillo", "bunny00", "elephant", "fandisk", "refined_elephant", "diplodocus",
+const char* kSplitBenchMeshes[] = {"armadillo", "bunny00", "elephant", "fandisk", "refined_elephant", "diplodocus",
                          "blobby_3cc", "man", "sphere"};
 
 Mesh bench_mesh(const std::string& name, const std::string& path) {
@@ -34,12 +34,12 @@ Mesh bench_mesh(const std::string& name, const std::string& path) {
 
 void BM_LeafClusters(benchmark::State& state) {
   const char* dir = std::getenv("VGEO_DATA_DIR");
-  std::string path = std::string(dir ? dir : "data") + "/cgal/meshes/" + kMeshes[state.range(0)] + ".off";
-  if (std::string(kMeshes[state.range(0)]) != "sphere" && !std::filesystem::exists(path)) {
+  std::string path = std::string(dir ? dir : "data") + "/cgal/meshes/" + kSplitBenchMeshes[state.range(0)] + ".off";
+  if (std::string(kSplitBenchMeshes[state.range(0)]) != "sphere" && !std::filesystem::exists(path)) {
     state.SkipWithError(("missing " + path + " (run tools/fetch-data)").c_str());
     return;
   }
-  const Mesh mesh = bench_mesh(kMeshes[state.range(0)], path);
+  const Mesh mesh = bench_mesh(kSplitBenchMeshes[state.range(0)], path);
   WeldedMesh welded = weld_positions(mesh);
   TriangleSet all;
   all.corners = mesh.indices;
@@ -55,7 +55,7 @@ void BM_LeafClusters(benchmark::State& state) {
     open += o;
     edges += a;
   }
-  state.SetLabel(kMeshes[state.range(0)]);
+  state.SetLabel(kSplitBenchMeshes[state.range(0)]);
   state.counters["triangles"] = double(mesh.triangle_count());
   state.counters["clusters"] = double(clusters.size());
   state.counters["fill"] = double(mesh.triangle_count()) / double(clusters.size()) / kMaxClusterTriangles;

@@ -21,11 +21,11 @@ namespace {
 using namespace vgeo;
 using namespace vgeo::build_detail;
 
-const char* kMeshes[] = {"armadillo", "bunny00", "fandisk", "refined_elephant", "man", "elephant-with-holes"};
+const char* kDagQualityMeshes[] = {"armadillo", "bunny00", "fandisk", "refined_elephant", "man", "elephant-with-holes"};
 
 void BM_DagQuality(benchmark::State& state) {
   const char* dir = std::getenv("VGEO_DATA_DIR");
-  std::string path = std::string(dir ? dir : "data") + "/cgal/meshes/" + kMeshes[state.range(0)] + ".off";
+  std::string path = std::string(dir ? dir : "data") + "/cgal/meshes/" + kDagQualityMeshes[state.range(0)] + ".off";
   if (!std::filesystem::exists(path)) {
     state.SkipWithError(("missing " + path + " (run tools/fetch-data)").c_str());
     return;
@@ -55,7 +55,7 @@ void BM_DagQuality(benchmark::State& state) {
   state.counters["stored_cut_2"] = double(q.cut_stored[1]);
   uint64_t stuck = 0;
   for (const BuildLevelReport& l : report.levels) stuck += l.stuck_groups;
-  state.SetLabel(std::string(kMeshes[state.range(0)]) + " " + variant);
+  state.SetLabel(std::string(kDagQualityMeshes[state.range(0)]) + " " + variant);
   state.counters["levels"] = double(report.levels.size());
   state.counters["stored"] = double(report.stored_triangles) / double(report.input_triangles);
   state.counters["stuck"] = double(stuck);

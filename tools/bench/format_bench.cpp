@@ -357,9 +357,9 @@ void BM_FormatDecodeClusters(benchmark::State& state, const std::string& name) {
   state.SetItemsProcessed(int64_t(state.iterations() * c->report.triangles));
 }
 
-const char* const kMeshes[] = {"bunny00", "armadillo", "refined_elephant", "fandisk_large", "sphere", "gen10m", "armadillo/leaf"};
+const char* const kFormatBenchMeshes[] = {"bunny00", "armadillo", "refined_elephant", "fandisk_large", "sphere", "gen10m", "armadillo/leaf"};
 const int kRegistered = [] {
-  for (const char* m : kMeshes) {
+  for (const char* m : kFormatBenchMeshes) {
     benchmark::RegisterBenchmark((std::string("BM_FormatSize/") + m).c_str(), BM_FormatSize, std::string(m))
         ->Iterations(1)->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark((std::string("BM_FormatTranscode/") + m).c_str(), BM_FormatTranscode, std::string(m))

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <map>
 
+#include "bench_render.h"
 #include "bench_shapes.h"
 #include "bench_suites.h"
 #include "vgeo/core/progress.h"
@@ -26,9 +27,6 @@ constexpr BackendVariant kBackendVariants[] = {{"CPU reference", false, GpuTrave
                                                {"Vulkan, level by level", true, GpuTraversal::kLevel},
                                                {"Vulkan, persistent threads", true, GpuTraversal::kPersistent}};
 constexpr size_t kBackendVariantCount = 3;
-// The occlusion suite's rows of spheres (neighbours nearly touch: rows hide rows), so the
-// occlusion passes run and find work.
-constexpr double kSpacing = 2.2;
 // Untimed frames per variant before timing: pipelines compile on first use on lavapipe
 // (40–80 ms each) and the history needs one frame.
 constexpr int kWarmupFrames = 2;
@@ -36,24 +34,6 @@ constexpr int kWarmupFrames = 2;
 struct BackendScene {
   uint32_t side, triangles, width, height;
 };
-
-RenderScene sphere_rows(const BackendScene& s, unsigned threads) {
-  RenderScene scene;
-  BuildOptions bo;
-  bo.threads = threads;
-  scene.meshes.push_back(build_dag(make_shape(Shape::kSphere, s.triangles, 9), bo, nullptr));
-  scene.materials.push_back(Material{});
-  for (uint32_t z = 0; z < s.side; ++z)
-    for (uint32_t x = 0; x < s.side; ++x) {
-      CullInstance in;
-      in.mesh = 0;
-      in.object_to_world.at(0, 3) = (double(x) - 0.5 * (s.side - 1)) * kSpacing;
-      in.object_to_world.at(2, 3) = -double(z) * kSpacing;
-      scene.instances.push_back(in);
-    }
-  analyze_render_scene(&scene);
-  return scene;
-}
 
 std::vector<VisibleCluster> sorted(std::vector<VisibleCluster> v) {
   std::sort(v.begin(), v.end());
@@ -82,20 +62,16 @@ void run_backend_suite(const BenchConfig& cfg, SuiteReport& out) {
   nlohmann::json jscenes = nlohmann::json::array();
   Progress progress("bench backend", scenes.size() * size_t(reps) * kBackendVariantCount, cfg.progress);
   for (const BackendScene& bs : scenes) {
-    const MemoryFormScene ms = make_memory_form_scene(sphere_rows(bs, cfg.threads));
+    const MemoryFormScene ms = make_memory_form_scene(sphere_rows_scene(bs.side, bs.triangles, cfg.threads));
     std::vector<GpuRendererPtr> renderers;
     for (const BackendVariant& v : kBackendVariants)
       renderers.push_back(v.vulkan ? create_gpu_renderer(*gpu, ms, v.traversal) : nullptr);
-    Camera cam;
-    cam.width = bs.width;
-    cam.height = bs.height;
-    cam.position = {0, 0.3, 4.0};
-    look_at_orientation(cam.position, {0, 0.3, -double(bs.side) * kSpacing * 0.5}, {0, 1, 0}, &cam.orientation);
+    const Camera cam = sphere_rows_camera(bs.side, bs.width, bs.height);
     const std::string scene_name = std::to_string(bs.side) + "x" + std::to_string(bs.side) + " spheres, " +
                                    std::to_string(cam.width) + "x" + std::to_string(cam.height);
     out.inputs.push_back(scene_name + ": " + std::to_string(bs.side * bs.side) + " instances of a " +
                          std::to_string(ms.scene.meshes[0].clusters.size()) + "-cluster sphere DAG (" +
-                         std::to_string(bs.triangles) + " triangles, seed 9), spacing " + fmt(kSpacing) +
+                         std::to_string(bs.triangles) + " triangles, seed 9), spacing " + fmt(kSphereRowSpacing) +
                          ", camera at eye level with the rows, tau = 1 px, HZB 4x4");
 
     std::vector<FrameHistory> history(kBackendVariantCount);

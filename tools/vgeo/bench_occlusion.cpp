@@ -4,6 +4,7 @@
 // state (each variant keeps its own previous-frame HZB).
 #include <cmath>
 
+#include "bench_render.h"
 #include "bench_shapes.h"
 #include "bench_suites.h"
 #include "vgeo/dag/build.h"
@@ -24,8 +25,6 @@ constexpr OcclusionVariant kOcclusionVariants[] = {{"off", false, HzbMipPolicy::
                                                    {"HZB <=4x4 mip (Nanite)", true, HzbMipPolicy::k4x4},
                                                    {"HZB finest mip", true, HzbMipPolicy::kFinest}};
 constexpr size_t kOcclusionVariantCount = 4;
-// Spheres of radius ~1 this far apart: neighbours nearly touch, so rows hide rows behind.
-constexpr double kSpacing = 2.2;
 // Passes that exist only because occlusion is on: their time is the cost of occlusion.
 const char* const kOcclusionPasses[] = {"hzb", "instance_cull_post", "cluster_cull_post", "raster_post", "hzb_next"};
 
@@ -36,28 +35,11 @@ void run_occlusion_suite(const BenchConfig& cfg, SuiteReport& out) {
   const uint32_t side = cfg.quick ? 8 : 24, tris = cfg.quick ? 3000 : 12000;
   const int reps = cfg.repetitions(7);
   ThreadPool pool(cfg.threads);
-  RenderScene scene;
-  BuildOptions bo;
-  bo.threads = cfg.threads;
-  scene.meshes.push_back(build_dag(make_shape(Shape::kSphere, tris, 9), bo, nullptr));
-  scene.materials.push_back(Material{});
-  for (uint32_t z = 0; z < side; ++z)
-    for (uint32_t x = 0; x < side; ++x) {
-      CullInstance in;
-      in.mesh = 0;
-      in.object_to_world.at(0, 3) = (double(x) - 0.5 * (side - 1)) * kSpacing;
-      in.object_to_world.at(2, 3) = -double(z) * kSpacing;
-      scene.instances.push_back(in);
-    }
-  analyze_render_scene(&scene);
-  Camera cam;
-  cam.width = cfg.quick ? 480 : 960;
-  cam.height = cfg.quick ? 270 : 540;
-  cam.position = {0, 0.3, 4.0};  // eye level with the spheres: each row hides most of the next
-  look_at_orientation(cam.position, {0, 0.3, -double(side) * kSpacing * 0.5}, {0, 1, 0}, &cam.orientation);
+  RenderScene scene = sphere_rows_scene(side, tris, cfg.threads);
+  const Camera cam = sphere_rows_camera(side, cfg.quick ? 480 : 960, cfg.quick ? 270 : 540);
   out.inputs.push_back(std::to_string(side) + "x" + std::to_string(side) + " instances of a " +
                        std::to_string(scene.meshes[0].clusters.size()) + "-cluster sphere DAG (" + std::to_string(tris) +
-                       " triangles, seed 9), spacing " + fmt(kSpacing) + ", camera at eye level with the rows, " +
+                       " triangles, seed 9), spacing " + fmt(kSphereRowSpacing) + ", camera at eye level with the rows, " +
                        std::to_string(cam.width) + "x" + std::to_string(cam.height) + ", tau = 1 px");
   out.summary =
       "lib/vgeo/render's frame pipeline (two-pass HZB occlusion with previous-frame history, then shading) in steady "

@@ -4,6 +4,10 @@
 #include <cassert>
 #include <cmath>
 
+#include "bench_shapes.h"
+#include "vgeo/cull/view.h"
+#include "vgeo/dag/build.h"
+
 namespace vgeo::bench {
 namespace {
 
@@ -65,6 +69,33 @@ double passes_ms(const FrameStats& stats, std::initializer_list<const char*> nam
   for (const char* n : names)
     if (const PassStats* p = stats.find(n)) ms += p->ms;
   return ms;
+}
+
+RenderScene sphere_rows_scene(uint32_t side, uint32_t triangles, unsigned threads) {
+  RenderScene scene;
+  BuildOptions bo;
+  bo.threads = threads;
+  scene.meshes.push_back(build_dag(make_shape(Shape::kSphere, triangles, 9), bo, nullptr));
+  scene.materials.push_back(Material{});
+  for (uint32_t z = 0; z < side; ++z)
+    for (uint32_t x = 0; x < side; ++x) {
+      CullInstance in;
+      in.mesh = 0;
+      in.object_to_world.at(0, 3) = (double(x) - 0.5 * (side - 1)) * kSphereRowSpacing;
+      in.object_to_world.at(2, 3) = -double(z) * kSphereRowSpacing;
+      scene.instances.push_back(in);
+    }
+  analyze_render_scene(&scene);
+  return scene;
+}
+
+Camera sphere_rows_camera(uint32_t side, uint32_t width, uint32_t height) {
+  Camera cam;
+  cam.width = width;
+  cam.height = height;
+  cam.position = {0, 0.3, 4.0};  // eye level with the spheres: each row hides most of the next
+  look_at_orientation(cam.position, {0, 0.3, -double(side) * kSphereRowSpacing * 0.5}, {0, 1, 0}, &cam.orientation);
+  return cam;
 }
 
 }  // namespace vgeo::bench

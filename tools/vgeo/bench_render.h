@@ -30,4 +30,12 @@ ImageError compare_frames(const Frame& test, const Frame& reference);
 // Sum of the wall times (ms) of the named passes of one frame; passes that did not run count 0.
 double passes_ms(const FrameStats& stats, std::initializer_list<const char*> names);
 
+// The occlusion scene (occlusion and backend suites): side x side instances of one generated
+// sphere DAG (`triangles`, seed 9) in rows kSphereRowSpacing apart, and a camera at eye level
+// with the rows, so each row hides most of the next and the occlusion passes find work.
+// Spheres of radius ~1 this far apart: neighbours nearly touch, so rows hide rows behind.
+constexpr double kSphereRowSpacing = 2.2;
+RenderScene sphere_rows_scene(uint32_t side, uint32_t triangles, unsigned threads);
+Camera sphere_rows_camera(uint32_t side, uint32_t width, uint32_t height);
+
 }  // namespace vgeo::bench

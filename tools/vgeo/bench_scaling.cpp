@@ -17,7 +17,7 @@ namespace {
 // Instances sit on a k x k grid this many mesh radii apart (gaps between unit spheres).
 constexpr double kGridSpacing = 3.0;
 // The LOD threshold of the measured frames: 1 px, the default the lod suite supports.
-constexpr float kTau = 1.0f;
+constexpr float kScalingTau = 1.0f;
 
 std::vector<CullInstance> grid_instances(uint32_t count, uint32_t mesh) {
   uint32_t k = uint32_t(std::ceil(std::sqrt(double(count))));
@@ -63,7 +63,7 @@ void run_scaling_suite(const BenchConfig& cfg, SuiteReport& out) {
                          " triangles (seed 3): " + std::to_string(dags[i].clusters.size()) + " clusters, " +
                          std::to_string(dags[i].level_count) + " levels");
   out.inputs.push_back("instances on a " + fmt(kGridSpacing) + "-radius-spaced grid receding from the camera, " +
-                       std::to_string(cam.width) + "x" + std::to_string(cam.height) + ", tau = " + fmt(kTau) + " px");
+                       std::to_string(cam.width) + "x" + std::to_string(cam.height) + ", tau = " + fmt(kScalingTau) + " px");
   out.summary =
       "Frames by lib/vgeo/render's render_frame with its default settings (instance + hierarchical cluster culling "
       "with two-pass HZB occlusion, raster, lit shading; " + std::to_string(pool.size()) +
@@ -84,7 +84,7 @@ void run_scaling_suite(const BenchConfig& cfg, SuiteReport& out) {
   std::vector<Frame> frames(configs.size());
   std::vector<FrameHistory> history(configs.size());
   RenderSettings settings;
-  settings.threshold_px = kTau;
+  settings.threshold_px = kScalingTau;
   auto use_config = [&](size_t v) {
     scene.instances = placements[v];
     analyze_render_scene(&scene);

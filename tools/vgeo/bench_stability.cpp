@@ -13,7 +13,7 @@
 namespace vgeo::bench {
 namespace {
 
-constexpr float kTau = 1.0f;  // the default the lod suite supports
+constexpr float kStabilityTau = 1.0f;  // the default the lod suite supports
 constexpr double kFar = 1e7;  // spec/invariants.md: instances up to 1e7 units from the origin
 
 struct Case {
@@ -115,7 +115,7 @@ void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
                          build_status[i] + (build_status[i] == "ok" ? ", " + std::to_string(dags[i].level_count) + " levels" : ""));
   }
   out.summary =
-      "Each case renders at tau = " + fmt(kTau) + " px and at full detail (tau = 0) with lib/vgeo/render's render_frame "
+      "Each case renders at tau = " + fmt(kStabilityTau) + " px and at full detail (tau = 0) with lib/vgeo/render's render_frame "
       "(occlusion off: one object), " +
       std::to_string(reps) + " interleaved repetitions, " + std::to_string(w) + "x" + std::to_string(h) +
       ". Accuracy metrics as in the lod suite, against the case's own full-detail frame; cases that are the baseline "
@@ -143,7 +143,7 @@ void run_stability_suite(const BenchConfig& cfg, SuiteReport& out) {
     auto samples = time_interleaved(reps, 2, [&](size_t v) {
       RenderSettings s;
       s.occlusion = false;
-      s.threshold_px = v == 1 ? kFullDetailTau : kTau;
+      s.threshold_px = v == 1 ? kFullDetailTau : kStabilityTau;
       render_frame({scene, c.camera, s, pool, nullptr, false}, &frames[v]);
     });
     ImageError e = compare_frames(frames[0], frames[1]);

@@ -35,17 +35,6 @@ constexpr size_t kBuildChunk = 1 << 16;
 // even out their unequal costs.
 constexpr size_t kSubtreesPerThread = 8;
 
-// Runs fn(begin, end) over [0, n) in chunks, on the pool when there is one.
-template <class Fn>
-void for_chunks(ThreadPool* pool, size_t n, Fn&& fn) {
-  const size_t chunks = (n + kBuildChunk - 1) / kBuildChunk;
-  auto chunk = [&](size_t i) { fn(i * kBuildChunk, std::min(n, (i + 1) * kBuildChunk)); };
-  if (pool && chunks > 1)
-    pool->parallel_for(chunks, chunk);
-  else
-    for (size_t i = 0; i < chunks; ++i) chunk(i);
-}
-
 // Nodes of a subtree over m triangles (median splits: the children take m/2 and m - m/2).
 // Sizes at one depth differ by at most one, so the memo stays small.
 uint32_t subtree_nodes(uint32_t m, std::map<uint32_t, uint32_t>& memo) {
@@ -63,7 +52,7 @@ TriangleDistanceTree::TriangleDistanceTree(std::vector<float> corners, ThreadPoo
   const uint32_t n = uint32_t(corners.size() / 9);
   if (n == 0) return;
   std::vector<BuildItem> items(n);  // build-time only
-  for_chunks(pool, n, [&](size_t begin, size_t end) {
+  for_chunks(pool, n, kBuildChunk, [&](size_t begin, size_t end) {
     for (size_t t = begin; t < end; ++t) {
       const float* c = &corners[9 * t];
       items[t].triangle = uint32_t(t);
@@ -120,7 +109,7 @@ TriangleDistanceTree::TriangleDistanceTree(std::vector<float> corners, ThreadPoo
   // Corners in tree order: a leaf's triangles are adjacent in memory, and a triangle's id
   // is its tree position.
   corners_.resize(corners.size());
-  for_chunks(pool, n, [&](size_t begin, size_t end) {
+  for_chunks(pool, n, kBuildChunk, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) std::copy_n(&corners[9 * size_t(items[i].triangle)], 9, &corners_[9 * i]);
   });
   std::vector<float>().swap(corners);
@@ -137,7 +126,7 @@ TriangleDistanceTree::TriangleDistanceTree(std::vector<float> corners, ThreadPoo
   for (size_t i = top.size(); i-- > 0;) set_box(top[i].index);
   parent_.assign(nodes_.size(), 0);
   leaf_of_.resize(n);
-  for_chunks(pool, nodes_.size(), [&](size_t begin, size_t end) {
+  for_chunks(pool, nodes_.size(), kBuildChunk, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       const Node& nd = nodes_[i];
       if (nd.count)

@@ -2,6 +2,7 @@
 // A fixed pool of worker threads; no global instance (callers own pools).
 // parallel_for hands out indices dynamically; callers that need determinism write
 // results into per-index slots and combine them in index order afterwards.
+#include <algorithm>
 #include <condition_variable>
 #include <cstddef>
 #include <functional>
@@ -38,6 +39,18 @@ class ThreadPool {
   unsigned running_ = 0;
   bool stop_ = false;
 };
+
+// Runs fn(begin, end) over [0, n) in chunks of `chunk` items: on the pool when there is one and
+// more than one chunk, else in order on the calling thread. Chunks run in any order.
+template <class Fn>
+void for_chunks(ThreadPool* pool, size_t n, size_t chunk, Fn&& fn) {
+  const size_t chunks = (n + chunk - 1) / chunk;
+  auto body = [&](size_t i) { fn(i * chunk, std::min(n, (i + 1) * chunk)); };
+  if (pool && chunks > 1)
+    pool->parallel_for(chunks, body);
+  else
+    for (size_t i = 0; i < chunks; ++i) body(i);
+}
 
 unsigned default_thread_count();
 

@@ -89,17 +89,6 @@ float triangle_wave(uint64_t k, uint64_t n) {
   return float(1.0 - std::fabs(2.0 * t - 1.0));
 }
 
-template <class Fn>
-void for_chunks(ThreadPool* pool, size_t n, Fn&& fn) {
-  size_t chunks = (n + kChunk - 1) / kChunk;
-  auto body = [&](size_t c) { fn(c * kChunk, std::min(n, (c + 1) * kChunk)); };
-  if (!pool || chunks <= 1) {
-    for (size_t c = 0; c < chunks; ++c) body(c);
-    return;
-  }
-  pool->parallel_for(chunks, body);
-}
-
 void resize_mesh(Mesh& m, size_t vertices, size_t triangles) {
   m.positions.resize(3 * vertices);
   m.uvs.resize(2 * vertices);
@@ -247,10 +236,10 @@ Mesh make_sphere(const GenerateOptions& o, ThreadPool* pool) {
   m.name = "sphere";
   resize_mesh(m, lat.vertex_count(), lat.triangle_count());
   std::vector<float> height(lat.vertex_count());
-  for_chunks(pool, lat.vertex_count(), [&](size_t b, size_t e) {
+  for_chunks(pool, lat.vertex_count(), kChunk, [&](size_t b, size_t e) {
     cube_sphere_vertices(s, b, e, m.positions.data(), m.uvs.data(), height.data());
   });
-  for_chunks(pool, lat.triangle_count(), [&](size_t b, size_t e) {
+  for_chunks(pool, lat.triangle_count(), kChunk, [&](size_t b, size_t e) {
     cube_sphere_triangles(s.n, 0, b, e, m.indices.data());
     for (size_t t = b; t < e; ++t) {
       const uint32_t* v = &m.indices[3 * t];
@@ -392,7 +381,7 @@ Mesh make_terrain(const GenerateOptions& o, ThreadPool* pool) {
   Mesh m;
   m.name = "terrain";
   resize_mesh(m, grid_of_vertex.size(), best_c);
-  for_chunks(pool, grid_of_vertex.size(), [&](size_t b, size_t e) {
+  for_chunks(pool, grid_of_vertex.size(), kChunk, [&](size_t b, size_t e) {
     for (size_t v = b; v < e; ++v) {
       uint32_t i = grid_of_vertex[v] % row, j = grid_of_vertex[v] / row;
       double x = 2.0 * i / n - 1, z = 2.0 * j / n - 1;
@@ -432,7 +421,7 @@ Mesh make_torus(const GenerateOptions& o, ThreadPool* pool) {
   m.name = "torus";
   resize_mesh(m, size_t(segs) * rings, 2 * size_t(segs) * rings);
   // Vertex (i minor, j major) = j * rings + i.
-  for_chunks(pool, size_t(segs) * rings, [&](size_t b, size_t e) {
+  for_chunks(pool, size_t(segs) * rings, kChunk, [&](size_t b, size_t e) {
     for (size_t v = b; v < e; ++v) {
       uint32_t i = uint32_t(v % rings), j = uint32_t(v / rings);
       double st, ct, sp, cp;
@@ -446,7 +435,7 @@ Mesh make_torus(const GenerateOptions& o, ThreadPool* pool) {
     }
   });
   // U = minor angle, V = major angle: U x V points outward.
-  for_chunks(pool, size_t(segs) * rings, [&](size_t b, size_t e) {
+  for_chunks(pool, size_t(segs) * rings, kChunk, [&](size_t b, size_t e) {
     for (size_t q = b; q < e; ++q) {
       uint32_t i = uint32_t(q % rings), j = uint32_t(q / rings);
       uint32_t i1 = (i + 1) % rings, j1 = (j + 1) % segs;
@@ -473,7 +462,7 @@ Mesh make_thin(const GenerateOptions& o, ThreadPool* pool) {
   m.name = "thin";
   resize_mesh(m, 2 * per_wall, 4 * per_wall);
   // Outer vertex (r ring, j segment) = r * segs + j; inner = per_wall + the same.
-  for_chunks(pool, per_wall, [&](size_t b, size_t e) {
+  for_chunks(pool, per_wall, kChunk, [&](size_t b, size_t e) {
     for (size_t v = b; v < e; ++v) {
       uint32_t j = uint32_t(v % segs), r = uint32_t(v / segs);
       double s, c;

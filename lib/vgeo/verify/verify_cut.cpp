@@ -18,8 +18,6 @@ namespace vgeo {
 namespace verify_detail {
 namespace {
 
-std::string idx(uint64_t v) { return std::to_string(v); }
-
 uint64_t pack_edge(uint32_t a, uint32_t b) {
   if (a > b) std::swap(a, b);
   return (uint64_t(a) << 32) | b;

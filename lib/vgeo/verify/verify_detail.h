@@ -13,6 +13,9 @@
 
 namespace vgeo::verify_detail {
 
+// An element index as printed in a violation's message.
+inline std::string idx(uint64_t v) { return std::to_string(v); }
+
 // Collects violations: counts every one, stores the first `cap` per code.
 struct Sink {
   uint32_t cap = 64;

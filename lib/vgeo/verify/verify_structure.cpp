@@ -11,8 +11,6 @@ namespace {
 
 constexpr const char* kCheck = "structure";
 
-std::string idx(uint64_t v) { return std::to_string(v); }
-
 bool finite3(const float* p) { return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]); }
 
 }  // namespace
