@@ -10,7 +10,7 @@ REPS=${REPS:-3}
 mkdir -p $A
 for s in sphere terrain torus islands; do
   [ -f build/accept6/$s.ply ] || $V gen $s -n 400000 -s 5 -o build/accept6/$s.ply
-  [ -f $A/$s.vgeo ] || $V build build/accept6/$s.ply -o $A/$s.vgeo --threads 2 --page-size 32KiB
+  [ -f $A/$s.vgp ] || $V build build/accept6/$s.ply -o $A/$s.vgp --threads 2 --page-size 32KiB
 done
 uptime
 for rep in $(seq 1 $REPS); do

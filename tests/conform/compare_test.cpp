@@ -103,8 +103,8 @@ nlohmann::json compare_json(const std::string& a, const std::string& b, const fs
 
 TEST(Compare, MeasuredCutIgnoresUnderStatedErrors) {
   // B = A with every stored error halved (an optimistic builder): the stored-error cut draws
-  // fewer triangles, the measured-error cut is unchanged and ERROR_BOUND fires (issue 24
-  // finding 11: the gate must not reward under-stated errors).
+  // fewer triangles, the measured-error cut is unchanged and ERROR_BOUND fires: the gate must
+  // not reward a builder for under-stating its errors.
   const Builds& b = builds();
   const fs::path dir = b.dir / "optimistic";
   fs::create_directories(dir);

@@ -157,7 +157,7 @@ bool encloses(const vgeodag_sphere& outer, const vgeodag_sphere& inner) {
 
 TEST(DagWriter, ZeroInitialisedGroupHasNoBuilderSphere) {
   // Far from the origin: a zero sphere counted as present would pull the origin into the
-  // parent bounds (radius ≈ 142 here instead of ≈ 1.6; issue 24 finding 7: 50.6 vs 0.71).
+  // parent bounds (radius ≈ 142 here instead of ≈ 1.6).
   GridDag grid(100.0f);
   ASSERT_EQ(vgeodag_derive(&grid.mesh), VGEODAG_OK);
   const vgeodag_group& g = grid.groups[0];

@@ -136,7 +136,7 @@ std::vector<Vector> make_vectors(const ClusterDag& dag) {
         "tau = the projected parent error of the first level-" + std::to_string(level) + " cluster (lod.h arithmetic)",
         framing, tau);
   }
-  // Exact ties (issue 24 finding 4): τ equals a projected error that every IEEE arithmetic
+  // Exact ties: τ equals a projected error that every IEEE arithmetic
   // computes exactly, so a mismatch cannot be rounding. The eye sits at the DAG's centre and
   // z_near is a power of two ≥ kExactTieNearInRadii bounding radii, so d - r ≤ ~1 radius is far
   // below z_near for every sphere and every denominator is z_near itself; k = 1. Then
@@ -188,7 +188,7 @@ std::vector<Vector> make_vectors(const ClusterDag& dag) {
     residency("resident_missing_level1_group",
               "the first level-1 group missing: the leaf groups below it are unusable too (fixed point)", r);
   }
-  // Depth ≥ 2 (issue 24 finding 3): a level-2 group missing makes the level-1 groups below it
+  // Depth ≥ 2: a level-2 group missing makes the level-1 groups below it
   // unusable and, through them, the leaf groups two levels down, although each leaf group and
   // its own parent group are resident. A selector that checks "resident and parent resident"
   // (one level) draws those leaves together with coarser clusters; the transitive closure of
@@ -463,7 +463,7 @@ TEST(LodVectors, ConformLodFindsBrokenRuntimes) {
   EXPECT_NE(cases.find(".very_far_1e30: failed CONFORM_LOD_MISMATCH"), std::string::npos) << cases;
 
   // Broken 4: usability checked one level deep (resident and parent resident). It agrees with
-  // every vector but the depth-2 one (issue 24 finding 3).
+  // every vector but the depth-2 one (resident_missing_level2_group, above).
   Runtime one_level;
   one_level.one_level_usable = true;
   auto shallow = run("one_level.txt", selections_text(manifest, [&](const nlohmann::json& v) {

@@ -469,7 +469,7 @@ TEST(Build, BlockedGroupingKeepsPropertiesAndDeterminism) {
 }
 
 
-// Issue 15 §1: a per-corner mesh (every triangle owns its corners: flat normals, uv seams
+// A per-corner mesh (every triangle owns its corners: flat normals, uv seams
 // everywhere) simplifies with meshopt like its welded twin: positions with more than two
 // wedges are simplified as one (spec/dag.md §3), corners keep input attribute sets (D2).
 TEST(Build, PerCornerMeshSimplifiesWithMeshopt) {
@@ -520,7 +520,7 @@ void expect_simplifies_like_clean_twin(const Mesh& m, const Mesh& clean) {
   }
 }
 
-// Issue 15 §1: degenerate triangles handed to build_dag directly (no importer cleanup) do not
+// Degenerate triangles handed to build_dag directly (no importer cleanup) do not
 // stall simplification: leaves are clustered from the proper triangles and each degenerate
 // one joins a cluster it shares a position with (spec/dag.md §2.2), so it locks nothing.
 TEST(Build, DegenerateTrianglesDoNotStallSimplification) {

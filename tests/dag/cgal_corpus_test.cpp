@@ -43,7 +43,7 @@ INSTANTIATE_TEST_SUITE_P(Build, CgalCorpus,
                            return n + (std::get<1>(info.param) == Simplifier::kMeshopt ? "_meshopt" : "_openmesh");
                          });
 
-// Issue 23 goal 4: a per-corner mesh (every triangle owns its corners) of a CGAL model
+// A per-corner mesh (every triangle owns its corners) of a CGAL model
 // simplifies like its welded twin. CGAL bull per-corner ended with 14 roots while coarse groups
 // kept one or two corners per position, which meshopt 0.18 locks (spec/dag.md §3); the
 // welded bull ends with 1.

@@ -7,7 +7,10 @@ name exists.
 - a section reference "§N" or "§N.M" names a numbered heading of the document it points into:
   the markdown file written just before it on the same line ("format.md §5.1", "spec/dag.md §7"),
   else the document it is written in;
-- a command written as `vgeo NAME ...` is one of the CLI's commands (`vgeo --help`).
+- a command written as `vgeo NAME ...` is one of the CLI's commands (`vgeo --help`);
+- a source comment (lib/, tools/, tests/, shaders/, fuzz/, cmake/) cites no document outside the
+  repository: "lessons" or "issue N" is a miss unless it is the path of a docs/acceptance/ file
+  that exists (a comment states its reason itself or points at spec/ or docs/).
 
 usage: signposts.py REPO_ROOT VGEO_BINARY          exit 0 when all hold, 1 with one line per miss.
        signposts.py --self-test VGEO_BINARY          the checker fires on a tree with one planted
@@ -28,6 +31,13 @@ LIST_ITEM_RE = re.compile(r"^\s{0,3}(\d+)\.\s")
 COMMAND_RE = re.compile(r"`vgeo ([a-z][a-z-]*)")
 # Placeholders, not paths: "lib/vgeo/<stage>/", "tests/<stage>/*.cpp", "spec/vectors/lod/N".
 PLACEHOLDER = re.compile(r"[<>*{}]|/N$|/X$")
+SOURCE_ROOTS = ("lib", "tools", "tests", "shaders", "fuzz", "cmake")
+SLASH_COMMENT_EXTS = (".h", ".hpp", ".c", ".cc", ".cpp", ".comp", ".glsl", ".vert", ".frag")
+HASH_COMMENT_EXTS = (".py", ".sh", ".cmake")
+# Citations of the notes file kept outside the repository, or of a tracker entry by number:
+# neither is in the tree.
+CITATION_RE = re.compile(r"(?<!\w)(?:lessons?\b|issue ?#?\d+)", re.IGNORECASE)
+ACCEPTANCE_DIR = "docs/acceptance/"
 
 
 def documents(root):
@@ -81,6 +91,54 @@ def cli_commands(binary):
     return names
 
 
+def comment_part(line, hash_comments):
+    """The comment text of a source line ("" when it has none); a string that happens to hold
+    the comment marker adds text to scan, never hides a comment."""
+    if hash_comments:
+        at = line.find("#")
+        return line[at:] if at >= 0 else ""
+    stripped = line.lstrip()
+    if stripped.startswith("/*") or stripped.startswith("*"):
+        return stripped
+    at = line.find("//")
+    return line[at:] if at >= 0 else ""
+
+
+def source_files(root):
+    for top in SOURCE_ROOTS:
+        for d, dirs, files in os.walk(os.path.join(root, top)):
+            dirs.sort()
+            for f in sorted(files):
+                path = os.path.join(d, f)
+                if f.endswith(SLASH_COMMENT_EXTS):
+                    yield path, False
+                elif f.endswith(HASH_COMMENT_EXTS) or f == "CMakeLists.txt":
+                    yield path, True
+                elif "." not in f:
+                    with open(path, "rb") as script:
+                        if script.read(2) == b"#!":
+                            yield path, True
+
+
+def check_comment_citations(root):
+    misses = []
+    for path, hash_comments in source_files(root):
+        rel = os.path.relpath(path, root)
+        with open(path, encoding="utf-8", errors="replace") as f:
+            for number, line in enumerate(f, 1):
+                comment = comment_part(line, hash_comments)
+                for m in CITATION_RE.finditer(comment):
+                    if comment[:m.start()].endswith(ACCEPTANCE_DIR):
+                        name = re.match(r"[\w.-]*\w", comment[m.start():]).group(0)
+                        if os.path.exists(os.path.join(root, ACCEPTANCE_DIR, name)):
+                            continue
+                        misses.append("%s:%d: names %s%s, which does not exist" % (rel, number, ACCEPTANCE_DIR, name))
+                        continue
+                    misses.append("%s:%d: comment cites \"%s\", a document not in the repository (state the "
+                                  "reason, or name a spec/ or docs/ file)" % (rel, number, m.group(0)))
+    return misses
+
+
 def resolve_doc(current, named, root):
     """The document a § reference points into."""
     if not named:
@@ -103,16 +161,29 @@ def self_test(binary):
                     "Planted: spec/missing.md names, §2 of this file, `vgeo nosuch`.\n")
         with open(os.path.join(root, "README.md"), "w", encoding="utf-8") as f:
             f.write("# R\n\nspec/a.md §1 holds.\n")
+        os.makedirs(os.path.join(root, "lib"))
+        os.makedirs(os.path.join(root, "docs", "acceptance"))
+        open(os.path.join(root, "docs", "acceptance", "issue1.md"), "w").close()
+        with open(os.path.join(root, "lib", "a.cpp"), "w", encoding="utf-8") as f:
+            f.write("// Fine: measured in docs/acceptance/issue1.md; max_issues = 8;\n"
+                    "const char* k = \"issue9.ply\";  // a data file in a string, not a citation\n"
+                    "// Planted: see Lessons item 6,\n"
+                    "int x;  // planted too (issue 12)\n"
+                    "// and docs/acceptance/issue2.md, which is not there.\n")
+        with open(os.path.join(root, "lib", "b.py"), "w", encoding="utf-8") as f:
+            f.write("x = 1  \x23 planted: issue \x237\n")  # \x23: a literal one would be a comment here
         misses = check(root, binary)
     expected = ["spec/a.md:8: names spec/missing.md", "spec/a.md:8: names §2 of spec/a.md",
-                "spec/a.md:8: names `vgeo nosuch`"]
+                "spec/a.md:8: names `vgeo nosuch`", "lib/a.cpp:3: comment cites \"Lessons\"",
+                "lib/a.cpp:4: comment cites \"issue 12\"", "lib/a.cpp:5: names docs/acceptance/issue2.md",
+                "lib/b.py:1: comment cites \"issue #7\""]
     got = [m for m in misses if any(m.startswith(e) for e in expected)]
-    if len(misses) != 3 or len(got) != 3:
-        print("signposts self-test: expected the 3 planted misses, got:")
+    if len(misses) != len(expected) or len(got) != len(expected):
+        print("signposts self-test: expected the %d planted misses, got:" % len(expected))
         for m in misses:
             print("  " + m)
         return 1
-    print("signposts self-test: the 3 planted misses are reported")
+    print("signposts self-test: the %d planted misses are reported" % len(expected))
     return 0
 
 
@@ -177,7 +248,7 @@ def check(root, binary):
                 for m in COMMAND_RE.finditer(line):
                     if m.group(1) not in commands:
                         misses.append("%s: names `vgeo %s`, which is not a command" % (where, m.group(1)))
-    return misses
+    return misses + check_comment_citations(root)
 
 
 if __name__ == "__main__":

@@ -43,13 +43,13 @@ std::string error_code_of(const std::string& path) {
 
 TEST(AssetFile, KindFollowsExtension) {
   EXPECT_EQ(asset_file_kind_for_path("a/b.vgeodag"), AssetFileKind::kDagFile);
-  EXPECT_EQ(asset_file_kind_for_path("a/b.vgeo"), AssetFileKind::kPages);
+  EXPECT_EQ(asset_file_kind_for_path("a/b.vgp"), AssetFileKind::kPages);
   EXPECT_EQ(asset_file_kind_for_path("b"), AssetFileKind::kPages);
 }
 
 TEST(AssetFile, BothContainersReadBackByMagic) {
   BuiltScene s = small_scene();
-  auto dag_path = scratch("s.vgeodag"), page_path = scratch("s.vgeo");
+  auto dag_path = scratch("s.vgeodag"), page_path = scratch("s.vgp");
   write_asset_file(dag_path.string(), s, AssetFileKind::kDagFile);
   write_asset_file(page_path.string(), s, AssetFileKind::kPages);
   BuiltScene from_dag = read_asset_file(dag_path.string());
@@ -63,7 +63,7 @@ TEST(AssetFile, BothContainersReadBackByMagic) {
 }
 
 TEST(AssetFile, DecodedPageFormatPassesEveryInvariant) {
-  auto page_path = scratch("v.vgeo");
+  auto page_path = scratch("v.vgp");
   write_asset_file(page_path.string(), small_scene(), AssetFileKind::kPages);
   BuiltScene decoded = read_asset_file(page_path.string());
   VerifyOptions o;
@@ -76,8 +76,8 @@ TEST(AssetFile, RejectsUnknownTruncatedAndMissingFiles) {
   auto unknown = scratch("unknown.bin");
   std::ofstream(unknown) << "not an asset file";
   EXPECT_EQ(error_code_of(unknown.string()), "ASSET_FILE_UNKNOWN");
-  EXPECT_EQ(error_code_of(scratch("missing.vgeo").string()), "FILE_NOT_FOUND");
-  auto page_path = scratch("t.vgeo");
+  EXPECT_EQ(error_code_of(scratch("missing.vgp").string()), "FILE_NOT_FOUND");
+  auto page_path = scratch("t.vgp");
   write_asset_file(page_path.string(), small_scene(), AssetFileKind::kPages);
   std::filesystem::resize_file(page_path, std::filesystem::file_size(page_path) - 1);
   EXPECT_EQ(error_code_of(page_path.string()), "FORMAT_TRUNCATED");
@@ -102,11 +102,11 @@ TEST(AssetFile, EveryVectorIsRejectedWithItsManifestCode) {
     }
   }
   EXPECT_GT(checked, 150u);
-  // A file named as neither format keeps ASSET_FILE_UNKNOWN (above); a bad magic under either
-  // page extension is the page decoder's.
-  auto named_vgeo = scratch("bad_magic.vgeo");
-  std::ofstream(named_vgeo) << "VGEOPAGX and more bytes than a header would need, all of them wrong....";
-  EXPECT_EQ(error_code_of(named_vgeo.string()), "FORMAT_BAD_MAGIC");
+  // A file named as neither format keeps ASSET_FILE_UNKNOWN (above); a bad magic under the page
+  // extension (.vgp) is the page decoder's.
+  auto named_page = scratch("bad_magic.vgp");
+  std::ofstream(named_page) << "VGEOPAGX and more bytes than a header would need, all of them wrong....";
+  EXPECT_EQ(error_code_of(named_page.string()), "FORMAT_BAD_MAGIC");
 }
 
 }  // namespace

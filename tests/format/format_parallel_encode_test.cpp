@@ -181,9 +181,9 @@ TEST(FormatParallelEncode, BuildCliZstdLevel) {
     EXPECT_EQ(r.exit_code, 0) << r.output;
     return read_file(out, kAnyFileSize);
   };
-  const std::vector<uint8_t> fast1 = build("a.vgeo", "--threads 1 --zstd-level 1 --page-size 16KiB");
-  const std::vector<uint8_t> fast2 = build("b.vgeo", "--threads 2 --zstd-level 1 --page-size 16KiB");
-  const std::vector<uint8_t> def = build("c.vgeo", "--threads 2 --page-size 16KiB");
+  const std::vector<uint8_t> fast1 = build("a.vgp", "--threads 1 --zstd-level 1 --page-size 16KiB");
+  const std::vector<uint8_t> fast2 = build("b.vgp", "--threads 2 --zstd-level 1 --page-size 16KiB");
+  const std::vector<uint8_t> def = build("c.vgp", "--threads 2 --page-size 16KiB");
   EXPECT_EQ(fast1, fast2);
   EXPECT_EQ(test::decoded_hash(decode_format(fast1.data(), fast1.size(), "a")),
             test::decoded_hash(decode_format(def.data(), def.size(), "c")));

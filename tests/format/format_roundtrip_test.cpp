@@ -241,7 +241,7 @@ TEST(FormatRoundTrip, BuiltDagsRoundTripExactly) {
 namespace vgeo {
 namespace {
 
-// Issue 15: every finite UV encodes. UVs of a few units keep the 1/4096 step; tiling UVs of
+// Every finite UV encodes. UVs of a few units keep the 1/4096 step; tiling UVs of
 // ±1e6 and ±FLT_MAX get a coarser per-mesh step (spec/format.md §2); the decoded UV is within
 // half a step of the source and FormatReport::meshes reports that step and the measured error.
 TEST(FormatRoundTrip, EveryFiniteUvEncodes) {

@@ -63,7 +63,7 @@ SceneFile load_golden_scene(const Golden& g) {
     options.stream.emplace();
     options.stream->budget_bytes = f.pinned + (f.total - f.pinned) / kStreamBudgetShareInverse;
     options.stream->loader.asynchronous = false;
-    return parse_scene_json(test::stream_scene_json("meshes.vgeo", 3, 12, 2, true), "<golden stream>", f.dir, options);
+    return parse_scene_json(test::stream_scene_json("meshes.vgp", 3, 12, 2, true), "<golden stream>", f.dir, options);
   }
   if (!*g.scene) return make_default_scene(g.width, g.height, 1, options);
   SceneFile sf = load_scene_file(std::string(VGEO_SOURCE_DIR) + "/" + g.scene, options);

@@ -60,7 +60,7 @@ TEST(GpuCli, CompareNeedsTheVulkanBackend) {
 TEST(GpuCli, StreamBudgetCompareHoldsTheRule) {
   const test::StreamFixture& f = test::stream_fixture();
   const std::string scene = f.dir + "/gpu_cli_stream.json";
-  std::ofstream(scene) << test::stream_scene_json("meshes.vgeo", 3, 12, 2, true);
+  std::ofstream(scene) << test::stream_scene_json("meshes.vgp", 3, 12, 2, true);
   const uint64_t budget = f.pinned + (f.total - f.pinned) / 4;
   test::CliResult r = test::run_cli("render '" + scene + "' --stream-budget " + std::to_string(budget) +
                                     " --backend vulkan --compare cpu --validate --json --threads 2");
@@ -81,7 +81,7 @@ TEST(GpuCli, StreamBudgetCompareHoldsTheRule) {
 TEST(GpuCli, ComputeRasterDrawsTrianglesBeyondTheLoopBudgetByTiles) {
   const test::StreamFixture& f = test::stream_fixture();
   const std::string scene = f.dir + "/gpu_cli_near.json";
-  std::ofstream(scene) << "{\"version\":1,\"meshes\":[{\"dag\":\"meshes.vgeo\",\"index\":0},{\"dag\":\"meshes.vgeo\","
+  std::ofstream(scene) << "{\"version\":1,\"meshes\":[{\"dag\":\"meshes.vgp\",\"index\":0},{\"dag\":\"meshes.vgp\","
                           "\"index\":1}],\"instances\":[{\"mesh\":0,\"translation\":[-1.5,0,0]},{\"mesh\":1,"
                           "\"translation\":[0,0,-2.5]},{\"mesh\":0,\"translation\":[1.5,0,-5]}],\"cameras\":[{\"position\":"
                           "[2.5,0.4,-5],\"look_at\":[0,0,-7.5],\"resolution\":[640,360]}],\"settings\":{\"occlusion\":true}}";

@@ -56,11 +56,11 @@ MixedScene mixed_scene() {
   odd.normal_bits = 5;
   odd.page_size = kMinPageSize;
   odd.zstd_level = 1;
-  s.page_file = s.dir + "/odd.vgeo";
+  s.page_file = s.dir + "/odd.vgp";
   write_asset_file(s.page_file, built, AssetFileKind::kPages, odd);
   s.file_bytes = read_file(s.page_file);
   const std::string json =
-      R"({"version": 1, "meshes": [{"procedural": {"shape": "sphere", "triangles": 600, "seed": 5}}, {"dag": "odd.vgeo"}],
+      R"({"version": 1, "meshes": [{"procedural": {"shape": "sphere", "triangles": 600, "seed": 5}}, {"dag": "odd.vgp"}],
       "instances": [{"mesh": 0, "translation": [-1.1, 0, 0]}, {"mesh": 1, "translation": [1.1, 0, 0]}],
       "cameras": [{"position": [0, 0.6, 4], "look_at": [0, 0, 0], "resolution": [96, 64]}]})";
   s.scene = parse_scene_json(json, "<test>", s.dir, {});
@@ -136,7 +136,7 @@ TEST(GpuMemoryForm, StreamedSceneWithABuiltMeshKeepsTheRule) {
   options.stream->budget_bytes = f.pinned + (f.total - f.pinned) / 8;
   options.stream->loader.asynchronous = false;
   const std::string json =
-      R"({"version": 1, "meshes": [{"dag": "meshes.vgeo", "index": 0}, {"procedural": {"shape": "sphere", "triangles": 600}}],
+      R"({"version": 1, "meshes": [{"dag": "meshes.vgp", "index": 0}, {"procedural": {"shape": "sphere", "triangles": 600}}],
       "instances": [{"mesh": 0, "translation": [-1, 0, -3]}, {"mesh": 1, "translation": [1, 0, -3]}],
       "cameras": [{"position": [0, 0.5, 6], "look_at": [0, 0, -3], "resolution": [96, 72]}],
       "camera_path": {"frames": 3, "keyframes": [{"position": [0, 0.5, 6], "look_at": [0, 0, -3]},

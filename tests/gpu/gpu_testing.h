@@ -1,6 +1,7 @@
 #pragma once
 // Shared by the GPU tests: a context on the default device (lavapipe) with validation on.
-// Tests that need Vulkan fail when it is missing, never skip (issue 12). Every test ends
+// Tests that need Vulkan fail when it is missing, never skip: a skipped GPU test would let a
+// machine without Vulkan report the GPU path green (DEVELOPERS.md). Every test ends
 // with expect_no_validation_messages: any validation message fails the test.
 #include <gtest/gtest.h>
 

@@ -32,7 +32,7 @@ TEST(CliOutputs, AFailedWriteOfEveryOutputKindIsCodedAndKeepsThePreviousFile) {
   const fs::path dir = fs::temp_directory_path() / ("vgeo_cli_outputs_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir / "out");
-  const std::string mesh = (dir / "mesh.glb").string(), asset = (dir / "mesh.vgeo").string();
+  const std::string mesh = (dir / "mesh.glb").string(), asset = (dir / "mesh.vgp").string();
   ASSERT_EQ(test::run_cli("gen sphere -n 20000 -o '" + mesh + "'").exit_code, 0);
   ASSERT_EQ(test::run_cli("build '" + mesh + "' -o '" + asset + "'").exit_code, 0);
   const std::string scene = (test::source_dir() / "tests" / "scenes" / "spheres.json").string();
@@ -46,7 +46,7 @@ TEST(CliOutputs, AFailedWriteOfEveryOutputKindIsCodedAndKeepsThePreviousFile) {
   const Case cases[] = {
       {"mesh export (gen -o .glb)", (out / "m.glb").string(), "gen sphere -n 20000 -o '" + (out / "m.glb").string() + "'"},
       {"mesh export (gen -o .obj)", (out / "m.obj").string(), "gen sphere -n 20000 -o '" + (out / "m.obj").string() + "'"},
-      {"page file (build -o .vgeo)", (out / "a.vgeo").string(), "build '" + mesh + "' -o '" + (out / "a.vgeo").string() + "'"},
+      {"page file (build -o .vgp)", (out / "a.vgp").string(), "build '" + mesh + "' -o '" + (out / "a.vgp").string() + "'"},
       {"DAG file (build -o .vgeodag)", (out / "a.vgeodag").string(),
        "build '" + mesh + "' -o '" + (out / "a.vgeodag").string() + "'"},
       {"verify JSON report", (out / "verify.json").string(),
@@ -78,7 +78,7 @@ TEST(CliOutputs, AnUnwritableBuildReportIsCoded) {
   const fs::path dir = fs::temp_directory_path() / ("vgeo_cli_report_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
-  const std::string mesh = (dir / "mesh.glb").string(), asset = (dir / "mesh.vgeo").string();
+  const std::string mesh = (dir / "mesh.glb").string(), asset = (dir / "mesh.vgp").string();
   const std::string report = (dir / "missing" / "report.json").string();
   ASSERT_EQ(test::run_cli("gen sphere -n 2000 -o '" + mesh + "'").exit_code, 0);
   const test::CliResult r = test::run_cli("build '" + mesh + "' -o '" + asset + "' --report '" + report + "'");

@@ -199,7 +199,7 @@ TEST(ImportCorpus, EveryMeshFileImportsWithOpenMeshTriangles) {
       continue;
     }
     if (name == "regr01.obj") {
-      // Issue 15: 668 of its 2710 faces use vt; OpenMesh left the other corners' uvs as
+      // 668 of its 2710 faces use vt; OpenMesh left the other corners' uvs as
       // garbage (ATTRIBUTE_NOT_FINITE). Now they are (0,0), with a warning.
       const auto& uvs = r.scene.meshes[0].uvs;
       EXPECT_EQ(uvs.size(), 2 * r.scene.meshes[0].vertex_count());

@@ -126,7 +126,7 @@ TEST(ImportReaders, ObjCornersKeepSeamsAndNegativeIndicesResolve) {
 }
 
 TEST(ImportReaders, ObjCornersWithoutVtAreFilledAndWarned) {
-  // Issue 15 (assimp regr01.obj): some faces use vt, others do not.
+  // As in assimp's regr01.obj: some faces use vt, others do not.
   const auto r = import_bytes("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0.25 0.75\nf 1/1 2/1 3/1\nf 2 4 3\n", "t.obj");
   const vgeo::Mesh& m = r.scene.meshes[0];
   ASSERT_EQ(m.uvs.size(), 2 * m.vertex_count());

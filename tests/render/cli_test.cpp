@@ -74,7 +74,7 @@ TEST(RenderCli, BadInputGivesOneLineAndStableExitCode) {
 TEST(RenderCli, StreamBudget) {
   const test::StreamFixture& f = test::stream_fixture();
   const std::string scene_path = f.dir + "/cli_scene.json";
-  std::ofstream(scene_path) << test::stream_scene_json("meshes.vgeo", 3, 12, 2, true);
+  std::ofstream(scene_path) << test::stream_scene_json("meshes.vgp", 3, 12, 2, true);
   CliRun bad = run_cli("render " + scene_path + " --stream-budget 64XB");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_EQ(bad.output.rfind("error[RENDER_STREAM_BUDGET]", 0), 0u) << bad.output;
@@ -141,7 +141,7 @@ TEST(BuildCli, PageSize) {
   }
   auto dir = std::filesystem::temp_directory_path() / ("vgeo_build_page_size_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
-  const std::string ply = (dir / "s.ply").string(), out = (dir / "s.vgeo").string();
+  const std::string ply = (dir / "s.ply").string(), out = (dir / "s.vgp").string();
   ASSERT_EQ(run_cli("gen sphere -n 3000 -o " + ply).exit_code, 0);
   CliRun ok = run_cli("build " + ply + " -o " + out + " --threads 2 --page-size 16KiB");
   ASSERT_EQ(ok.exit_code, 0) << ok.output;

@@ -28,7 +28,7 @@ inline constexpr int kFlagTestFrameMs = 400;
 inline std::string check_frame_loop_flags(const std::string& backend_args, const std::string& tag) {
   const StreamFixture& f = stream_fixture();
   const std::string scene = f.dir + "/flags_" + tag + ".json";
-  std::ofstream(scene) << stream_scene_json("meshes.vgeo", 3, 12, 2, true);
+  std::ofstream(scene) << stream_scene_json("meshes.vgp", 3, 12, 2, true);
   const std::string out_dir = f.dir + "/flags_" + tag + "_frames", json_file = f.dir + "/flags_" + tag + ".out.json";
   std::filesystem::remove_all(out_dir);
   const uint64_t budget = f.pinned + (f.total - f.pinned) / 3;

@@ -71,9 +71,9 @@ TEST(MemoryForm, BuiltMeshIsDrawnAsTheDecodedPageFileOfItsDag) {
   built.meshes.push_back(built_float_dag());
   built.materials.push_back(Material{});
   // `vgeo build`'s defaults (zstd): compression does not change the memory form.
-  write_asset_file((dir / "sphere.vgeo").string(), built, AssetFileKind::kPages, {});
+  write_asset_file((dir / "sphere.vgp").string(), built, AssetFileKind::kPages, {});
   write_dag_file((dir / "sphere.vgeodag").string(), built);
-  const BuiltScene pages = read_asset_file((dir / "sphere.vgeo").string());
+  const BuiltScene pages = read_asset_file((dir / "sphere.vgp").string());
 
   const SceneFile procedural = parse_scene_json(procedural_scene(), "<test>", dir.string(), {});
   const std::string from = R"({"version": 1, "meshes": [{"dag": "FILE"}], "instances": [{"mesh": 0}], )" + std::string(kCamera) + "}";
@@ -82,7 +82,7 @@ TEST(MemoryForm, BuiltMeshIsDrawnAsTheDecodedPageFileOfItsDag) {
     t.replace(t.find("FILE"), 4, file);
     return parse_scene_json(t, "<test>", dir.string(), {});
   };
-  const SceneFile page_file = with_file("sphere.vgeo"), dag_file = with_file("sphere.vgeodag");
+  const SceneFile page_file = with_file("sphere.vgp"), dag_file = with_file("sphere.vgeodag");
   SceneLoadOptions cached;
   cached.cache_dir = (dir / "cache").string();
   const SceneFile first = parse_scene_json(procedural_scene(), "<test>", dir.string(), cached);
@@ -146,11 +146,11 @@ TEST(MemoryForm, APageFileIsReadOnceAndEveryMeshFromItIsItsDecode) {
   built.meshes.push_back(built.meshes[0]);
   for (uint32_t& t : built.meshes[1].triangle_materials) t = 1;
   built.materials = {Material{"a", {1, 0, 0, 1}}, Material{"b", {0, 1, 0, 1}}};
-  write_asset_file((dir / "two.vgeo").string(), built, AssetFileKind::kPages, {});
-  const std::vector<uint8_t> bytes = read_file((dir / "two.vgeo").string());
+  write_asset_file((dir / "two.vgp").string(), built, AssetFileKind::kPages, {});
+  const std::vector<uint8_t> bytes = read_file((dir / "two.vgp").string());
   const BuiltScene decoded = decode_format(bytes.data(), bytes.size(), "<test>");
-  const std::string json = R"({"version": 1, "meshes": [{"dag": "two.vgeo", "index": 0}, {"dag": "two.vgeo", "index": 1},
-      {"dag": "two.vgeo", "index": 0}], "instances": [{"mesh": 0}, {"mesh": 1}, {"mesh": 2}], )" + std::string(kCamera) + "}";
+  const std::string json = R"({"version": 1, "meshes": [{"dag": "two.vgp", "index": 0}, {"dag": "two.vgp", "index": 1},
+      {"dag": "two.vgp", "index": 0}], "instances": [{"mesh": 0}, {"mesh": 1}, {"mesh": 2}], )" + std::string(kCamera) + "}";
   const SceneFile sf = parse_scene_json(json, "<test>", dir.string(), {});
   ASSERT_EQ(sf.encodings.size(), 1u);
   EXPECT_EQ(sf.encodings[0].bytes, bytes);

@@ -39,7 +39,7 @@ inline const StreamFixture& stream_fixture() {
     fo.zstd_level = 1;
     f.dir = ::testing::TempDir() + "/vgeo_stream_render_" + std::to_string(getpid());
     std::filesystem::create_directories(f.dir);
-    f.path = f.dir + "/meshes.vgeo";
+    f.path = f.dir + "/meshes.vgp";
     write_asset_file(f.path, f.built, AssetFileKind::kPages, fo);
     f.decoded = read_asset_file(f.path);
     const FormatContainer c = read_container_metadata(f.path);

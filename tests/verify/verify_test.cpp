@@ -162,7 +162,7 @@ TEST(Verify, RemovedTriangleIsCaught) {
 
 TEST(Verify, CrackLinesNameTheEdge) {
   // Each CRACK_OPEN_EDGE line names its edge (welded ids and positions of both ends), so the
-  // lines of one cut never read as duplicates without --json (issue 24 finding 8).
+  // lines of one cut never read as duplicates without --json.
   ClusterDag dag = make_hand_dag();
   dag.clusters[16].triangle_count -= 1;
   CutCheck c = check_cut(dag, range(16, 24));

@@ -1,5 +1,5 @@
 // Import throughput and peak memory for a large generated GLB (a flat grid, float positions +
-// uint32 indices, one mesh). Target (issue): 10M triangles in < 3 s with peak RSS < 3x the raw
+// uint32 indices, one mesh). Target: 10M triangles in < 3 s with peak RSS < 3x the raw
 // vertex+index bytes. The GLB is streamed to a temp file so generation adds no memory peak.
 // Peak RSS is the process's ru_maxrss: run this benchmark alone (--benchmark_filter=ImportGlb)
 // for a meaningful ratio.

@@ -1,6 +1,6 @@
 // Suite "backend": the frame pipeline on the CPU reference and on Vulkan (Mesa lavapipe by
 // default), both traversals of the GPU cull (level by level, persistent threads), per pass,
-// on the same scenes, side by side in one run (issue 12; spec/raster.md §12). Every variant
+// on the same scenes, side by side in one run (spec/raster.md §12). Every variant
 // renders the scene's decoded memory form and keeps its own previous-frame history; the
 // cluster sets must be equal to the CPU's (checked, reported).
 #include <algorithm>

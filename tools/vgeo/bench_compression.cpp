@@ -32,9 +32,9 @@ struct CompressionInput {
 };
 
 // VGEO_COMPRESSION_INPUTS: comma-separated mesh files or "sphere:N" / "sphere+normals:N" (normals and uvs)
-// (replaces the defaults). Defaults: the meshes of issue 23's side-by-side table when
-// tools/fetch-data has fetched them, and one mesh with normals (their streams compress
-// differently from positions).
+// (replaces the defaults). Defaults: the meshes of the side-by-side table in
+// docs/acceptance/issue23_asset.md when tools/fetch-data has fetched them, and one mesh with
+// normals (their streams compress differently from positions).
 std::vector<CompressionInput> compression_inputs(bool quick) {
   std::vector<CompressionInput> in;
   auto add_token = [&](const std::string& t) {

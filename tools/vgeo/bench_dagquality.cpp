@@ -1,5 +1,6 @@
 // Suite "dagquality": how many triangles a DAG needs at a given *measured* error, whatever
-// built it (issue 15 §2). The measurement is lib/vgeo/verify/measured_cut.h (the one
+// built it, so builders that store different errors compare fairly (figures:
+// docs/acceptance/issue15.md §2). The measurement is lib/vgeo/verify/measured_cut.h (the one
 // implementation `vgeo compare` uses too): per cluster the deviation from the leaves on the
 // verify lattice, a monotone hull up the DAG, the cut at ε. Reported: triangles in the cuts at
 // ε = 1e-3 and 1e-2 of the mesh diagonal (also the cut by *stored* error at the same ε, what
@@ -59,7 +60,8 @@ std::vector<QualityInput> quality_inputs(bool quick) {
   }
   if (quick) return {{"sphere 30000", "", 30000}};
   in.push_back({"sphere 1000000", "", 1000000});
-  // The CGAL meshes of issue 15 §2, when tools/fetch-data has fetched them.
+  // The CGAL meshes of docs/acceptance/issue15.md §2 (closed, open, smooth, sharp), when
+  // tools/fetch-data has fetched them.
   for (const char* name : {"bunny00", "armadillo", "refined_elephant", "mech-holes-shark"}) {
     std::string p = std::string("data/cgal/meshes/") + name + ".off";
     if (std::filesystem::exists(p)) in.push_back({name, p, 0});
@@ -68,7 +70,7 @@ std::vector<QualityInput> quality_inputs(bool quick) {
 }
 
 // VGEO_DAGQUALITY_GROUP_SIZES: comma-separated kGroupTargetClusters values to compare
-// (issue 15 §2 asks for 8..32); default: the builder's.
+// (e.g. 8,16,32); default: the builder's.
 std::vector<uint32_t> group_sizes() {
   std::vector<uint32_t> sizes;
   if (const char* env = std::getenv("VGEO_DAGQUALITY_GROUP_SIZES"); env && *env) {

@@ -1,6 +1,6 @@
 // `vgeo build INPUT -o OUT [--simplifier meshopt|openmesh] [--threads N] [--page-size SIZE]
 // [--zstd-level L] [--report R.json]`: builds the cluster DAG of every mesh of INPUT and writes
-// the page format (spec/format.md), or a VGEODAG1 file (spec/dag.md) when OUT ends in .vgeodag.
+// the page format (spec/format.md; a page file is named *.vgp), or a VGEODAG1 file (spec/dag.md) when OUT ends in .vgeodag.
 #include <chrono>
 #include <cstdio>
 #include <map>
@@ -146,11 +146,11 @@ void add_build_command(CLI::App& app, Context& ctx) {
   auto args = std::make_shared<BuildArgs>();
   auto* cmd = app.add_subcommand(
       "build",
-      "Build the cluster DAG of a mesh file and write the compressed page format (spec/format.md), or a "
+      "Build the cluster DAG of a mesh file and write the compressed page format (spec/format.md; name it *.vgp), or a "
       "lossless VGEODAG1 DAG file (spec/dag.md) when OUT ends in .vgeodag");
   cmd->add_option("input", args->input, "input scene (glTF/GLB, OBJ, PLY, OFF, STL)")->required();
   cmd->add_option("-o,--output", args->output,
-                 "output asset: the page format (spec/format.md), or a lossless VGEODAG1 DAG file if it ends in .vgeodag")
+                 "output asset: the page format (spec/format.md; name it *.vgp), or a lossless VGEODAG1 DAG file if it ends in .vgeodag")
       ->required();
   cmd->add_option("--simplifier", args->simplifier, "meshopt (default) or openmesh")
       ->check(CLI::IsMember({"meshopt", "openmesh"}));

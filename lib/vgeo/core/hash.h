@@ -1,6 +1,8 @@
 #pragma once
 // 64-bit FNV-1a: content hashes for caches and test vectors (not a checksum for pages;
 // the page format specifies its own).
+// Based on: Fowler, Noll, Vo, "The FNV Non-Cryptographic Hash Algorithm" (IETF
+// draft-eastlake-fnv), FNV-1a with the 64-bit offset basis and prime.
 #include <cstddef>
 #include <cstdint>
 #include <string_view>

@@ -1,5 +1,5 @@
 #pragma once
-// Based on: Karis, Stone, Wihlidal, "Nanite: A Deep Dive", SIGGRAPH 2021 Advances in
+// Based on: Karis, Stubbe, Wihlidal, "Nanite: A Deep Dive", SIGGRAPH 2021 Advances in
 // Real-Time Rendering (LOD by projected error: a cluster is drawn when its own error is small
 // and its parent's is not).
 // The LOD test shared by the builder's checks, lib/vgeo/verify and the runtime (one

@@ -1,3 +1,8 @@
+// One-sided surface distance (surface_distance.h). Based on: Cignoni, Rocchini, Scopigno,
+// "Metro: Measuring Error on Simplified Surfaces", Computer Graphics Forum 17(2), 1998 (sampled
+// one-sided distance); the point-triangle distance by regions (inside the triangle's prism the
+// plane distance, else the nearest edge), as in Ericson, "Real-Time Collision Detection", 2005,
+// §5.1.5; a median-split bounding-volume hierarchy over the triangles.
 #include "vgeo/core/surface_distance.h"
 
 #include <cmath>

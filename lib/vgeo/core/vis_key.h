@@ -9,6 +9,7 @@
 //   bits  6..0   triangle index within the cluster (7 bits: kMaxClusterTriangles = 128)
 // Ties at equal depth resolve to the larger id, so the buffer is identical for any
 // thread count, submission order and backend. Normative: spec/raster.md.
+// Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"How to depth test?".
 #include "vgeo/core/shared_glsl.h"
 
 #ifdef __cplusplus

@@ -1,5 +1,5 @@
 // Cluster culling: LOD cut, frustum and two-pass occlusion against the previous frame's HZB.
-// Based on: Karis, Stone, Wihlidal, "Nanite: A Deep Dive", SIGGRAPH 2021 Advances in
+// Based on: Karis, Stubbe, Wihlidal, "Nanite: A Deep Dive", SIGGRAPH 2021 Advances in
 // Real-Time Rendering;
 // Haar, Aaltonen, "GPU-Driven Rendering Pipelines", SIGGRAPH 2015 Advances.
 #include "vgeo/cull/cull.h"

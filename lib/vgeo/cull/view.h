@@ -78,7 +78,8 @@ inline float inflate_error_for_subtree_test(float error) {
 bool sphere_outside_frustum(const Sphere& view_sphere, const ViewParams& view);
 
 // True when the sphere reaches the near plane (or behind it): such bounds must never be
-// occlusion-culled by a projected rectangle (lessons §10).
+// occlusion-culled by a projected rectangle: with the eye inside or behind the sphere its
+// rectangle is unbounded or inverted (spec/scene.md §Occlusion (HZB)).
 inline bool sphere_crosses_near(const Sphere& view_sphere, const ViewParams& view) {
   return double(-view_sphere.center.z) - view_sphere.radius <= view.z_near;
 }

@@ -1,5 +1,8 @@
 // The DAG builder driver: cluster → (group → simplify → split) per level → BVH → layout.
 // Normative description: spec/dag.md.
+// Based on: Karis, Stubbe, Wihlidal, "Nanite: A Deep Dive", SIGGRAPH 2021 Advances in Real-Time
+// Rendering, §"Build operations" (cluster; per level group, merge, simplify to half, split),
+// §"LOD cracks solution" (group borders locked, so every cut is crack-free) and §"DAG".
 #include "vgeo/dag/build.h"
 
 #include <sys/mman.h>

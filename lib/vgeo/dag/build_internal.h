@@ -24,7 +24,8 @@ namespace vgeo::build_detail {
 // DAG stores about twice the input and each level halves the cluster count.
 inline constexpr double kSimplifyTargetRatio = 0.5;
 // A group whose simplification removes fewer than 15% of its triangles is terminal: it
-// would otherwise spend levels on almost nothing (lessons item 5: > ~85% left = stuck).
+// would otherwise spend levels on almost nothing; forcing progress by unlocking its border
+// would open cracks (spec/dag.md §2: > 85% of the triangles left = stuck).
 inline constexpr double kMinReduction = 0.15;
 // Target ratios of the retries of a group whose simplification broke its border or folded
 // (spec/dag.md §2.3): fewer collapses, each still below 1 - kMinReduction = 0.85.
@@ -50,7 +51,8 @@ inline constexpr float kSimplifyErrorBudget = 1.25f;
 // Weak spatial edges for islands: each cluster is linked to its nearest kSpatialNeighbors
 // clusters among kSpatialWindow neighbours on each side in Morton order, with weight 1
 // (a shared triangle edge weighs 1 too, and real neighbours share ~10-30 edges), so
-// they only decide where the mesh graph gives no preference (lessons item 6).
+// they only decide where the mesh graph gives no preference: islands share no edge, so METIS
+// would group them arbitrarily, while strong spatial edges override the surface's own.
 inline constexpr uint32_t kSpatialNeighbors = 2;
 inline constexpr uint32_t kSpatialWindow = 8;
 inline constexpr int kSpatialEdgeWeight = 1;

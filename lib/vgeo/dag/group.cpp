@@ -1,6 +1,9 @@
 // Grouping clusters of one level with METIS (spec/dag.md §Grouping): graph nodes are
 // clusters (weight = triangles), edge weight = number of shared welded triangle edges,
 // plus weak spatial edges so islands are grouped with their neighbours.
+// Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"DAG: Which clusters to group?" (a
+// minimum edge cut locks the fewest edges); Karypis, Kumar, "A Fast and High Quality Multilevel
+// Scheme for Partitioning Irregular Graphs", SIAM J. Sci. Comput. 20(1), 1998 (METIS).
 #include <metis.h>
 
 #include <algorithm>

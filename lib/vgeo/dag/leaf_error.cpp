@@ -3,7 +3,12 @@
 // the same way: every lattice point of the simplified triangles (lib/vgeo/core/surface_distance.h,
 // kErrorLatticeSubdivisions, the same point coordinates) against *all* leaf triangles, exact
 // nearest distance in double. Measuring against the group's input (its children) and adding
-// the children's error instead sums one bound per level: honest, but loose (issue 15 §2).
+// the children's error instead sums one bound per level: honest, but loose (measured:
+// docs/acceptance/issue15.md §2).
+// Based on: Cignoni, Rocchini, Scopigno, "Metro: Measuring Error on Simplified Surfaces",
+// Computer Graphics Forum 17(2), 1998 (one-sided distance of sample points to the original
+// surface); Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"Error metric" (a mesh
+// distance instead of the quadrics' estimate).
 //
 // Only the maximum is wanted, and only above a floor (the children's stored error, which the
 // parent's stored error takes the max with anyway): a point with *some* leaf triangle within

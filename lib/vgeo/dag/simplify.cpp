@@ -1,6 +1,10 @@
 // Simplification of one group with its outer border locked (spec/dag.md §Simplify).
 // Both backends only delete vertices (halfedge collapses / index rewrites), so every output
 // corner is an original vertex with its original bits: locked borders stay bit-identical.
+// Based on: Garland, Heckbert, "Surface Simplification Using Quadric Error Metrics", SIGGRAPH
+// 1997, as meshoptimizer's meshopt_simplify (Kapoulkine) and OpenMesh's Decimater (ModQuadric)
+// implement it; Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"Mesh simplify" and
+// §"Locked boundaries".
 #include <meshoptimizer.h>
 
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>

@@ -14,15 +14,16 @@ namespace vgeo {
 enum class AssetFileKind : uint8_t { kPages = 0, kDagFile = 1 };
 
 // The extensions that name each format: a file with neither magic is rejected by the reader
-// its extension names. Page files go by two (.vgp in spec/vectors and tests, .vgeo in README).
+// its extension names. A page file has one extension, `.vgp`, everywhere (spec/format.md), so
+// that a junk file is either named as a format or reported as ASSET_FILE_UNKNOWN.
 inline constexpr const char* kDagFileExtension = ".vgeodag";
-inline constexpr const char* kPageFileExtensions[] = {".vgp", ".vgeo"};
+inline constexpr const char* kPageFileExtensions[] = {".vgp"};
 
 // `.vgeodag` → kDagFile; anything else → kPages.
 AssetFileKind asset_file_kind_for_path(const std::string& path);
 
 // The reader is chosen by the magic; a file with neither magic goes to the reader its extension
-// names (.vgeodag: DAGFILE_BAD_MAGIC, .vgp or .vgeo: FORMAT_BAD_MAGIC). Throws VgeoError: the FILE_* codes
+// names (.vgeodag: DAGFILE_BAD_MAGIC, .vgp: FORMAT_BAD_MAGIC). Throws VgeoError: the FILE_* codes
 // of read_file (lib/vgeo/core/file_io.h), ASSET_FILE_UNKNOWN (neither magic nor extension,
 // exit 3), or the decoder's FORMAT_* / DAGFILE_* code.
 BuiltScene read_asset_file(const std::string& path);

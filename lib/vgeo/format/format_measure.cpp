@@ -1,3 +1,6 @@
+// Size measurements of an encoded file (format_measure.h). Based on: meshoptimizer's index and
+// vertex buffer codecs (Kapoulkine; meshopt_encodeIndexBuffer / meshopt_encodeVertexBuffer,
+// 0.18) for the baseline; the per-component split follows spec/format.md's layout.
 #include "vgeo/format/format_measure.h"
 
 #include <meshoptimizer.h>

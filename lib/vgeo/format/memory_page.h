@@ -4,6 +4,8 @@
 // (page_codec.cpp) and the shaders (shaders/memory_page.glsl) share (common C++/GLSL
 // subset, core/shared_glsl.h). A page: word 0 cluster count N, words 1..10·N descriptors,
 // then each cluster's vertex stream, index stream and material runs.
+// Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"Vertex quantization and
+// encoding" (per-cluster bit widths, random access) and §"Memory - Triangles and attributes".
 #include "vgeo/format/bitstream.h"
 
 #ifdef __cplusplus

@@ -1,3 +1,4 @@
+// Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"Memory - Triangles and attributes", §"Disk - Topology encoding".
 // Cluster canonicalization, memory-form and disk-form page codecs (spec/format.md
 // §Canonical cluster, §Memory form, §Disk form). The decoders here treat their input as
 // untrusted: every read is bounds-checked and every field is checked before use.

@@ -1,3 +1,7 @@
+// The cull passes on the GPU (gpu_cull.h; the decisions are shaders/cull_*.comp). Based on:
+// Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"Persistent threads", §"Persistent Threads -
+// Hierarchy Culling" and §"Two-Pass Occlusion Culling"; Haar, Aaltonen, "GPU-Driven Rendering
+// Pipelines", SIGGRAPH 2015 Advances (compute culling against a hierarchical Z-buffer).
 #include "vgeo/gpu/gpu_cull.h"
 
 #include <algorithm>

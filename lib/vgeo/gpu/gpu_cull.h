@@ -1,5 +1,5 @@
 #pragma once
-// The frame's cull passes on the GPU (issue 12 item 2; normative: spec/raster.md §12):
+// The frame's cull passes on the GPU (normative: spec/raster.md §12):
 // instance cull, hierarchical BVH traversal with the LOD test and cluster frustum/HZB cull
 // (two variants: persistent threads, level by level), HZB build from the visibility buffer,
 // and pass 2's retest. Each pass is the GLSL of the same decision in lib/vgeo/cull, so every

@@ -1,5 +1,8 @@
 // GPU raster passes: compute SW, hardware pipeline, per-cluster split (hw_raster.h,
 // spec/raster.md §13).
+// Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"Software Rasterization",
+// §"How to depth test?" (64-bit atomic max of depth and ids into the visibility buffer) and
+// §"Hardware Rasterization" (large triangles to the fixed-function rasterizer).
 #include "vgeo/gpu/hw_raster.h"
 
 #include <algorithm>

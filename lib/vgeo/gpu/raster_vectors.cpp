@@ -1,4 +1,6 @@
 // Raster conformance vectors (raster_vectors.h, spec/raster.md §14).
+// Based on: the Vulkan CTS's model of rasterization conformance: only pixels whose coverage is
+// unambiguous at the declared sub-pixel precision are compared (lib/vgeo/raster/raster_model.h).
 #include "vgeo/gpu/raster_vectors.h"
 
 #include <algorithm>
@@ -22,7 +24,8 @@ constexpr uint32_t kSide = 16;
 // Dyadic grid of the exact vectors' coordinates: 2^-10 NDC (1/64 sub-pixel unit at 16 px),
 // so x·0.5 + 0.5 and ·W·256 are exact in float.
 constexpr double kExactGrid = 1.0 / 1024.0;
-constexpr uint64_t kSeed = 13;  // issue 13
+// Seed of the random vectors: any fixed value; changing it changes every vector file.
+constexpr uint64_t kSeed = 13;
 
 double on_grid(double v) { return std::round(v / kExactGrid) * kExactGrid; }
 

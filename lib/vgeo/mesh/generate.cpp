@@ -1,6 +1,8 @@
 // Procedural shapes (see generate.h for the contract). Every vertex and triangle is a
 // pure function of (shape parameters, index), so chunks can be filled by any thread in
 // any order; only normals are accumulated serially.
+// Based on: value noise summed over octaves (fractional Brownian motion), as in Ebert et al.,
+// "Texturing and Modeling: A Procedural Approach", 3rd ed., 2003 (Musgrave's chapters).
 #include "vgeo/mesh/generate.h"
 
 #include <algorithm>

@@ -1,5 +1,7 @@
 // Exact coverage model (spec/raster.md §10). Deliberately shares no code with raster.cpp:
 // it is the yardstick the rasterizer's own tests and other implementations are held to.
+// Based on: the Vulkan specification's rasterization rules and the Vulkan CTS's comparison of
+// only the pixels unambiguous at the declared sub-pixel precision.
 #include "vgeo/raster/raster_model.h"
 
 #include <algorithm>

@@ -1,3 +1,6 @@
+// The CPU executor of the frame plan (frame.h). Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021,
+// §"Culling Dataflow" and §"Persistent threads" (one work queue, here on a thread pool); the
+// visibility buffer of Burns, Hunt, JCGT 2(2), 2013 (shaded in lib/vgeo/shade/shade.cpp).
 #include "vgeo/render/frame.h"
 
 #include <algorithm>

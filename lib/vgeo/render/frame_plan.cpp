@@ -1,3 +1,6 @@
+// The frame plan (frame_plan.h). Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021,
+// §"Two-Pass Occlusion Culling" (pass 1 against the previous frame's HZB; pass 2 retests what
+// pass 1 occluded against the new one) and §"Culling Dataflow".
 #include "vgeo/render/frame_plan.h"
 
 #include <chrono>

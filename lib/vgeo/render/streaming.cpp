@@ -1,3 +1,6 @@
+// Streaming in the renderer (streaming.h). Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021,
+// §"Streaming requests" (the cull traversal requests what the cut wants) and §"Paging"
+// (drawn clusters read from resident pages).
 #include "vgeo/render/streaming.h"
 
 #include <atomic>

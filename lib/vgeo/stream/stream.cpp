@@ -1,5 +1,5 @@
 // Page streaming: residency, requests, eviction and the resident cut (spec/stream.md).
-// Based on: Karis, Stone, Wihlidal, "Nanite: A Deep Dive", SIGGRAPH 2021 Advances in
+// Based on: Karis, Stubbe, Wihlidal, "Nanite: A Deep Dive", SIGGRAPH 2021 Advances in
 // Real-Time Rendering (fixed-size pages, root pages always resident, requests from the cut, the resident cut drawn meanwhile).
 #include "vgeo/stream/stream.h"
 

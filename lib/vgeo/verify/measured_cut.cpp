@@ -1,7 +1,8 @@
-// The cut at equal measured error (measured_cut.h). Based on: the measured monotone hull of
-// issue 15 §2 (the deviation of every cluster from the leaves, ERROR_BOUND's measurement,
-// made monotone up the DAG as Nanite's stored errors are), cut as lod_selects cuts at an
-// object-space threshold.
+// The cut at equal measured error (measured_cut.h). Based on: the monotone error hull of Karis
+// et al., "Nanite: A Deep Dive" (SIGGRAPH 2021), §"LOD selection in parallel" (a parent's error
+// is at least its children's), applied to *measured* deviations from the leaves (ERROR_BOUND's
+// measurement, spec/invariants.md) instead of stored ones, cut as lod_selects cuts at an
+// object-space threshold; the method and its figures: docs/acceptance/issue15.md §2.
 #include "vgeo/verify/measured_cut.h"
 
 #include <algorithm>

@@ -1,6 +1,6 @@
 #pragma once
 // The cut at equal *measured* error: how many triangles a DAG needs to stay within ε of its
-// leaves, whatever built it and whatever errors it claims (spec/conform.md §2, issue 15 §2).
+// leaves, whatever built it and whatever errors it claims (spec/conform.md §2.2).
 // Per non-leaf cluster the deviation from the leaves is measured as ERROR_BOUND measures it
 // (measure_cluster_deviation); a monotone hull takes the maximum up the DAG; the cut at ε draws
 // cluster c iff hull(c) ≤ ε < hull of what c's group generated (+inf for terminal groups).

@@ -2,6 +2,8 @@
 // non-leaf cluster's surface to the original surface (all leaf triangles), sampled on a
 // barycentric lattice and measured exactly in double against a BVH of the leaves, must
 // not exceed the cluster's stored lod_error.
+// Based on: Cignoni, Rocchini, Scopigno, "Metro: Measuring Error on Simplified Surfaces",
+// Computer Graphics Forum 17(2), 1998 (sampled one-sided distance to the original surface).
 #include <algorithm>
 #include <atomic>
 #include <cmath>
