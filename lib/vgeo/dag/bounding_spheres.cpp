@@ -1,8 +1,8 @@
 // Bounding spheres of clusters, groups and BVH nodes (spec/dag.md §Build): the box centre and
 // the farthest point or sphere from it, computed in double and rounded outward so containment
 // survives float rounding.
-// Based on: the bounding-box-centred sphere of Ericson, "Real-Time Collision Detection", 2005,
-// §4.3 (one pass for the centre, one for the radius).
+// Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"LOD selection in parallel" (a
+// parent's bounds enclose its children's, so the projected error is monotonic up the DAG).
 #include <algorithm>
 #include <cstring>
 #include <limits>

@@ -331,7 +331,7 @@ std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const Tri
   if (n == 0) return {};
   // Degenerate triangles are left out of the clusterizer and attached afterwards: meshopt
   // gathers them into clusters that span the mesh, whose positions then lock every group
-  // border (spec/dag.md §2.2; measured: docs/acceptance/issue15.md §1).
+  // border (spec/dag.md §2.2).
   std::vector<uint32_t> degenerate;
   for (size_t t = 0; t < n; ++t)
     if (is_degenerate(welded, &tris.corners[3 * t])) degenerate.push_back(uint32_t(t));

@@ -1,6 +1,8 @@
 // File container: header, metadata (materials, instances, per-mesh DAG metadata, page
 // table), page placement, compression and checksums (spec/format.md §Container). The
 // quantization grids and the conservative metadata are quantize.cpp's.
+// Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"Paging" (fixed-size pages, a
+// resident root) and §"Disk representation" (byte-aligned streams, then a general-purpose LZ).
 #include <zstd.h>
 #include <lz4.h>
 #include <lz4hc.h>

@@ -74,7 +74,7 @@ EncodedMesh build_cached(const Ctx& c, const Mesh& mesh, const std::string& path
   std::string cache_file;
   if (!o.cache_dir.empty()) {
     char name[32];
-    std::snprintf(name, sizeof name, "%016llx.vgeo", (unsigned long long)mesh_content_hash(mesh, o.build));
+    std::snprintf(name, sizeof name, "%016llx.vgp", (unsigned long long)mesh_content_hash(mesh, o.build));
     cache_file = (std::filesystem::path(o.cache_dir) / name).string();
     std::error_code ec;
     if (std::filesystem::exists(cache_file, ec)) {
