@@ -50,21 +50,34 @@ constexpr uint32_t kMaxFreshBesideNumbered = 2;
 struct StripIndex {
   uint32_t triangle_count = 0;
   uint8_t tri[kMaxClusterTriangles][3];   // triangle at position p, original winding
-  uint8_t run_end[kMaxClusterTriangles];  // one past the last position of p's material run
-  // Directed edges of each run, sorted within the run by (from, to, position):
-  // (from << 24) | (to << 16) | (position << 8) | k for edge tri[p][k] -> tri[p][(k + 1) % 3].
-  uint32_t edges[3 * kMaxClusterTriangles];
-  // Range in `edges` of the reverse of edge k of p: the triangles of p's run across that edge.
-  uint16_t across_begin[kMaxClusterTriangles][3], across_end[kMaxClusterTriangles][3];
+  uint8_t run_begin[kMaxClusterTriangles], run_end[kMaxClusterTriangles];  // p's material run
   // Positions that use each vertex, ascending, each once (CSR over vertices).
   uint16_t uses_begin[kMaxClusterVertices + 1];
   uint8_t uses[3 * kMaxClusterTriangles];
+  // The corners at each vertex by ascending (position, corner) (CSR over vertices): the
+  // position and the vertex after the corner, i.e. the directed edges leaving the vertex.
+  uint16_t corners_begin[kMaxClusterVertices + 1];
+  uint8_t corner_position[3 * kMaxClusterTriangles], corner_index[3 * kMaxClusterTriangles],
+      corner_next[3 * kMaxClusterTriangles];
+  // The first triangle of p's run across edge k of p (kNoTriangle if none), the corner where
+  // the shared edge starts in it, and whether more follow (non-manifold edges: found again
+  // by the scan of the uses of the edge's end vertex, ascending like the first).
+  uint8_t across_first[kMaxClusterTriangles][3], across_corner[kMaxClusterTriangles][3];
+  bool across_more[kMaxClusterTriangles][3];
 };
+constexpr uint8_t kNoTriangle = 0xFF;
 
-uint32_t edge_key(uint8_t from, uint8_t to) { return uint32_t(from) << 24 | uint32_t(to) << 16; }
-constexpr uint32_t kEdgeKeyMask = 0xFFFF0000u;
-uint32_t edge_position(uint32_t e) { return (e >> 8) & 0xFFu; }
-uint32_t edge_corner(uint32_t e) { return e & 0xFFu; }
+// Each of the triangles of p's run that hold directed edge from -> to, by ascending position,
+// until `f` returns true.
+template <class F>
+void for_each_across(const StripIndex& x, uint32_t p, uint8_t from, uint8_t to, F&& f) {
+  for (uint32_t c = x.corners_begin[from]; c < x.corners_begin[from + 1]; ++c) {
+    if (x.corner_next[c] != to) continue;
+    const uint32_t q = x.corner_position[c];
+    if (q < x.run_begin[p] || q >= x.run_end[p]) continue;
+    if (f(q, uint32_t(x.corner_index[c]))) return;
+  }
+}
 
 void index_strips(const uint8_t (*tris)[3], const uint32_t* mat, const uint32_t* order,
                   uint32_t tc, uint32_t vc, StripIndex* x) {
@@ -74,23 +87,7 @@ void index_strips(const uint8_t (*tris)[3], const uint32_t* mat, const uint32_t*
   for (uint32_t r0 = 0; r0 < tc;) {
     uint32_t r1 = r0;
     while (r1 < tc && mat[order[r1]] == mat[order[r0]]) ++r1;
-    uint32_t* e = x->edges + 3 * r0;
-    for (uint32_t p = r0; p < r1; ++p) {
-      x->run_end[p] = uint8_t(r1);
-      for (uint32_t k = 0; k < 3; ++k)
-        *e++ = edge_key(x->tri[p][k], x->tri[p][(k + 1) % 3]) | p << 8 | k;
-    }
-    uint32_t* const begin = x->edges + 3 * r0;
-    std::sort(begin, e);
-    for (uint32_t p = r0; p < r1; ++p)
-      for (uint32_t k = 0; k < 3; ++k) {
-        const uint32_t key = edge_key(x->tri[p][(k + 1) % 3], x->tri[p][k]);
-        const uint32_t* lo = std::lower_bound(begin, e, key);
-        const uint32_t* hi = lo;
-        while (hi != e && (*hi & kEdgeKeyMask) == key) ++hi;
-        x->across_begin[p][k] = uint16_t(lo - x->edges);
-        x->across_end[p][k] = uint16_t(hi - x->edges);
-      }
+    for (uint32_t p = r0; p < r1; ++p) x->run_begin[p] = uint8_t(r0), x->run_end[p] = uint8_t(r1);
     r0 = r1;
   }
   uint16_t count[kMaxClusterVertices + 1] = {};
@@ -106,6 +103,26 @@ void index_strips(const uint8_t (*tris)[3], const uint32_t* mat, const uint32_t*
   for (uint32_t v = 0; v < vc; ++v) count[v + 1] = uint16_t(count[v + 1] + count[v]);
   std::copy(count, count + vc + 1, x->uses_begin);
   for_each_use([&](uint8_t v, uint32_t p) { x->uses[count[v]++] = uint8_t(p); });
+  std::fill(count, count + vc + 1, 0);
+  for (uint32_t p = 0; p < tc; ++p)
+    for (uint32_t k = 0; k < 3; ++k) ++count[x->tri[p][k] + 1];
+  for (uint32_t v = 0; v < vc; ++v) count[v + 1] = uint16_t(count[v + 1] + count[v]);
+  std::copy(count, count + vc + 1, x->corners_begin);
+  for (uint32_t p = 0; p < tc; ++p)
+    for (uint32_t k = 0; k < 3; ++k) {
+      const uint32_t c = count[x->tri[p][k]]++;
+      x->corner_position[c] = uint8_t(p), x->corner_index[c] = uint8_t(k);
+      x->corner_next[c] = x->tri[p][(k + 1) % 3];
+    }
+  for (uint32_t p = 0; p < tc; ++p)
+    for (uint32_t k = 0; k < 3; ++k) {
+      x->across_first[p][k] = kNoTriangle, x->across_corner[p][k] = 0, x->across_more[p][k] = false;
+      for_each_across(*x, p, x->tri[p][(k + 1) % 3], x->tri[p][k], [&](uint32_t q, uint32_t j) {
+        if (x->across_first[p][k] != kNoTriangle) return x->across_more[p][k] = true;
+        x->across_first[p][k] = uint8_t(q), x->across_corner[p][k] = uint8_t(j);
+        return false;
+      });
+    }
 }
 
 // One strip order being built: the first-use numbering, the visited triangles, and what a
@@ -119,6 +136,9 @@ struct StripOrder {
   // Unvisited triangles of the run with every vertex numbered and a span of exactly the window.
   uint32_t settled_at_window = 0;
   uint32_t r0 = 0, r1 = 0;  // the current material run
+  // Ids below this one are the oldest vertex of no unvisited triangle of the run that fits
+  // the window (strip_start).
+  uint32_t oldest_live = 0;
   uint32_t max_span = 0;    // largest span emitted so far
   uint32_t first_start = UINT32_MAX;  // the first triangle the order emitted
 };
@@ -126,13 +146,20 @@ struct StripOrder {
 // Position of the first unvisited triangle across edge k of p, and the corner of that
 // triangle where the shared (reversed) edge starts; -1 if none.
 int across(const StripIndex& x, const StripOrder& s, uint32_t p, uint32_t k, uint32_t* corner) {
-  for (uint32_t e = x.across_begin[p][k]; e < x.across_end[p][k]; ++e) {
-    const uint32_t q = edge_position(x.edges[e]);
-    if (s.visited[q]) continue;
-    *corner = edge_corner(x.edges[e]);
-    return int(q);
+  const uint8_t first = x.across_first[p][k];
+  if (first == kNoTriangle) return -1;
+  if (!s.visited[first]) {
+    *corner = x.across_corner[p][k];
+    return first;
   }
-  return -1;
+  if (!x.across_more[p][k]) return -1;
+  int found = -1;
+  for_each_across(x, p, x.tri[p][(k + 1) % 3], x.tri[p][k], [&](uint32_t q, uint32_t j) {
+    if (s.visited[q]) return false;
+    *corner = j, found = int(q);
+    return true;
+  });
+  return found;
 }
 uint32_t open_neighbors(const StripIndex& x, const StripOrder& s, uint32_t p) {
   uint32_t n = 0, corner;
@@ -172,7 +199,7 @@ bool in_run(const StripOrder& s, uint32_t p) { return p >= s.r0 && p < s.r1; }
 
 void begin_run(const StripIndex& x, uint32_t r0, StripOrder* s) {
   s->r0 = r0, s->r1 = x.run_end[r0];
-  s->settled_at_window = 0;
+  s->settled_at_window = 0, s->oldest_live = 0;
   for (uint32_t p = s->r0; p < s->r1; ++p) {
     const uint8_t* t = x.tri[p];
     uint32_t f = s->new_id[t[0]] < 0 ? 1 : 0;
@@ -225,7 +252,25 @@ uint32_t count_at_window(const StripIndex& x, const StripOrder& s) {
 // Start of a strip (span-aware, spec/format.md §3): a triangle whose span fits the window,
 // preferring the one that uses the oldest numbered vertex (it leaves the window first), then
 // the fewest open neighbours (strips then end less often mid-run); ties: the first position.
-uint32_t strip_start(const StripIndex& x, const StripOrder& s) {
+// A triangle's oldest numbered vertex is fixed once it has one and its span never shrinks, so
+// an id that is no fitting triangle's oldest stays so: the ids are walked once per run, and
+// the whole run is scanned only when no fitting triangle uses a numbered vertex.
+uint32_t strip_start(const StripIndex& x, StripOrder* so) {
+  const StripOrder& s = *so;
+  for (; so->oldest_live < s.seen; ++so->oldest_live) {
+    const uint32_t id = s.oldest_live;
+    const uint8_t v = s.vertex_of_id[id];
+    uint32_t start = UINT32_MAX, best_open = UINT32_MAX;
+    for (uint32_t u = x.uses_begin[v]; u < x.uses_begin[v + 1]; ++u) {
+      const uint32_t q = x.uses[u];
+      if (!in_run(s, q) || s.visited[q]) continue;
+      uint32_t old;
+      if (span_now(x, s, q, &old) > kIndexSpanWindow || old != id) continue;
+      const uint32_t open = open_neighbors(x, s, q);
+      if (open < best_open) best_open = open, start = q;
+    }
+    if (start != UINT32_MAX) return start;
+  }
   uint32_t start = s.r0;
   uint64_t best = UINT64_MAX;
   for (uint32_t p = s.r0; p < s.r1; ++p)
@@ -257,7 +302,7 @@ bool build_strip_order(const StripIndex& x, const uint32_t* run_material, uint32
     out->run_material[out->run_count++] = run_material[r0];
     begin_run(x, r0, s);
     for (uint32_t left = s->r1 - r0; left > 0;) {
-      uint32_t cur = first < s->r1 - r0 && s->emitted == 0 ? r0 + first : strip_start(x, *s);
+      uint32_t cur = first < s->r1 - r0 && s->emitted == 0 ? r0 + first : strip_start(x, s);
       if (s->emitted == 0) s->first_start = cur;
       visit(x, cur, s);
       --left;
