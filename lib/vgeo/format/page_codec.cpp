@@ -383,22 +383,23 @@ void channel_value_range(const MeshQuantization& q, uint32_t channel, int64_t* l
 }
 
 void min_first(const uint8_t in[3], uint8_t out[3]) {
-  // Rotation (winding kept) with the smallest index first; ties: lexicographically smallest.
+  // Rotation (winding kept) with the smallest index first; ties: lexicographically smallest
+  // (bytes packed most significant first compare as the byte sequences do).
+  auto packed = [&](int r) { return uint32_t(in[r]) << 16 | uint32_t(in[(r + 1) % 3]) << 8 | in[(r + 2) % 3]; };
   int best = 0;
-  for (int r = 1; r < 3; ++r) {
-    const uint8_t a[3] = {in[r], in[(r + 1) % 3], in[(r + 2) % 3]};
-    const uint8_t b[3] = {in[best], in[(best + 1) % 3], in[(best + 2) % 3]};
-    if (std::lexicographical_compare(a, a + 3, b, b + 3)) best = r;
-  }
+  uint32_t best_key = packed(0);
+  for (int r = 1; r < 3; ++r)
+    if (packed(r) < best_key) best = r, best_key = packed(r);
   for (int k = 0; k < 3; ++k) out[k] = in[(best + k) % 3];
 }
 
 uint32_t index_offset_bits(const CanonicalCluster& c) {
+  // After min_first the first index is the smallest, so a triangle's span
+  // max(i1 − i0, i2 − i0) is its largest index minus its smallest.
   uint32_t span = 0;
   for (uint32_t t = 0; t < c.triangle_count; ++t) {
-    uint8_t m[3];
-    min_first(c.strip[t], m);
-    span = std::max<uint32_t>(span, std::max(m[1] - m[0], m[2] - m[0]));
+    const uint8_t* x = c.strip[t];
+    span = std::max<uint32_t>(span, std::max({x[0], x[1], x[2]}) - std::min({x[0], x[1], x[2]}));
   }
   return bits_for_range(span);
 }
