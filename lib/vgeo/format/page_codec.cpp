@@ -7,7 +7,6 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
-#include <unordered_map>
 
 #include "vgeo/core/byte_io.h"
 #include "vgeo/core/error.h"
@@ -789,27 +788,29 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
   for (const auto* c : clusters) total_vertices += c->vertex_count;
   std::vector<uint32_t> copy_of(total_vertices, UINT32_MAX);
   {
-    struct Key {
-      int32_t v[kMaxChannels];
-      bool operator==(const Key& o) const { return std::memcmp(v, o.v, sizeof v) == 0; }
-    };
-    struct Hash {
-      size_t operator()(const Key& k) const {
-        uint64_t h = 1469598103934665603ull;
-        for (int32_t x : k.v) h = (h ^ uint32_t(x)) * 1099511628211ull;
-        return size_t(h);
-      }
-    };
-    std::unordered_map<Key, uint32_t, Hash> first;
+    // First occurrence of each vertex value (all channels): an open-addressing table of page
+    // vertex indices, linear probing, at most half full.
+    std::vector<int32_t> value(total_vertices * channels);
+    uint32_t size = 16;
+    while (size < 2 * total_vertices) size *= 2;
+    std::vector<uint32_t> first(size, UINT32_MAX);
     uint32_t base = 0;
     for (const auto* c : clusters) {
       uint32_t residual_bytes = 0;
       for (uint32_t k = 0; k < channels; ++k) residual_bytes += delta_bytes(c->bits[k]);
       for (uint32_t v = 0; v < c->vertex_count; ++v) {
-        Key key{};
-        for (uint32_t k = 0; k < channels; ++k) key.v[k] = c->values[k][v];
-        auto [it, fresh] = first.emplace(key, base + v);
-        if (!fresh && it->second < base && residual_bytes >= kCopyRefBytes) copy_of[base + v] = it->second;
+        int32_t* key = &value[size_t(base + v) * channels];
+        uint64_t h = 1469598103934665603ull;  // FNV-1a over the channel values
+        for (uint32_t k = 0; k < channels; ++k) {
+          key[k] = c->values[k][v];
+          h = (h ^ uint32_t(key[k])) * 1099511628211ull;
+        }
+        uint32_t slot = uint32_t(h) & (size - 1);
+        while (first[slot] != UINT32_MAX &&
+               std::memcmp(&value[size_t(first[slot]) * channels], key, channels * sizeof(int32_t)) != 0)
+          slot = (slot + 1) & (size - 1);
+        if (first[slot] == UINT32_MAX) first[slot] = base + v;
+        else if (first[slot] < base && residual_bytes >= kCopyRefBytes) copy_of[base + v] = first[slot];
       }
       base += c->vertex_count;
     }
