@@ -35,8 +35,9 @@ uint32_t delta_bytes(uint32_t bits) { return bits == 0 ? 0 : (bits + 1 + 7) / 8;
 // Based on: the span-aware generalized-strip order that spec/format.md §3 states (this
 // project's own rule). The cluster's adjacency is indexed once and shared by every order
 // tried, and every query of a strip step is local (the triangles across an edge, the
-// triangles of two vertices), so one order costs O(triangles · valence) plus one scan of the
-// run per strip start; a retry stops as soon as it cannot beat the best order found.
+// triangles of one or two vertices), so one order costs O(triangles · valence), plus a scan
+// of the run for a strip start only when no fitting triangle uses a numbered vertex; a retry
+// stops as soon as it cannot beat the best order found.
 // Largest triangle span the 5-bit memory-form offsets hold (Nanite's window of 32).
 constexpr uint32_t kIndexSpanWindow = (1u << kNaniteIndexOffsetBits) - 1;
 // First triangles tried when the greedy order exceeds the window: bounds encode time
@@ -60,7 +61,7 @@ struct StripIndex {
       corner_next[3 * kMaxClusterTriangles];
   // The first triangle of p's run across edge k of p (kNoTriangle if none), the corner where
   // the shared edge starts in it, and whether more follow (non-manifold edges: found again
-  // by the scan of the uses of the edge's end vertex, ascending like the first).
+  // by for_each_across, ascending like the first).
   uint8_t across_first[kMaxClusterTriangles][3], across_corner[kMaxClusterTriangles][3];
   bool across_more[kMaxClusterTriangles][3];
 };
