@@ -13,11 +13,10 @@
 #include "vgeo/core/error.h"
 #include "vgeo/format/bitstream.h"
 #include "vgeo/format/memory_page.h"
+#include "vgeo/format/quantize.h"
 
 namespace vgeo::format_detail {
 namespace {
-
-[[noreturn]] void encode_fail(const std::string& what) { fail(kErrEncode, "<encoder>", what); }
 
 int32_t quantize_scalar(float v, int32_t step_log2, int32_t limit, const char* what) {
   if (!std::isfinite(v)) encode_fail(std::string("non-finite ") + what);
