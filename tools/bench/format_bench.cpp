@@ -1,6 +1,7 @@
 // Page format measurements (spec/format.md): bytes per stored triangle on disk and in memory
 // per component, the meshoptimizer codec baseline on the same clusters and pages, page fill,
-// transcode and cluster-decode speed on one core.
+// transcode and cluster-decode speed on one core, and the encoder's speed on one core (whole
+// encode_format at the default options; canonicalization alone: quantization and strip order).
 //   build/release/bin/vgeo_microbench --benchmark_filter=Format
 // Inputs: CGAL demo meshes from data/ (tools/fetch-data) with area-weighted smooth normals and
 // planar-projected UVs (OFF files carry neither), and a generated sphere, each built into a
@@ -28,6 +29,7 @@
 #include "vgeo/mesh/generate.h"
 #include "vgeo/format/format.h"
 #include "vgeo/format/format_measure.h"
+#include "vgeo/format/page_codec.h"
 
 namespace {
 using namespace vgeo;
@@ -357,6 +359,35 @@ void BM_FormatDecodeClusters(benchmark::State& state, const std::string& name) {
   state.SetItemsProcessed(int64_t(state.iterations() * c->report.triangles));
 }
 
+// The write stage without file I/O: encode_format at the bench options on one thread.
+void BM_FormatEncode(benchmark::State& state, const std::string& name) {
+  const Case* c = get_case(name);
+  if (!c) return state.SkipWithError("missing mesh (tools/fetch-data)");
+  FormatOptions o = bench_options();
+  o.threads = 1;
+  for (auto _ : state) {
+    std::vector<uint8_t> f = encode_format(c->scene, o);
+    benchmark::DoNotOptimize(f.data());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations() * c->report.triangles));
+}
+
+// Canonicalization alone (quantization, material runs, span-aware strip order; spec/format.md §3),
+// every cluster of the DAG with the file's quantization.
+void BM_FormatCanonicalize(benchmark::State& state, const std::string& name) {
+  const Case* c = get_case(name);
+  if (!c) return state.SkipWithError("missing mesh (tools/fetch-data)");
+  const ClusterDag& dag = c->scene.meshes[0];
+  const MeshQuantization& q = c->container.meshes[0].quantization;
+  auto canon = std::make_unique<format_detail::CanonicalCluster>();
+  for (auto _ : state)
+    for (uint32_t ci = 0; ci < dag.clusters.size(); ++ci) {
+      format_detail::canonicalize_cluster(dag, ci, q, canon.get());
+      benchmark::DoNotOptimize(canon->strip);
+    }
+  state.SetItemsProcessed(int64_t(state.iterations() * c->report.triangles));
+}
+
 const char* const kFormatBenchMeshes[] = {"bunny00", "armadillo", "refined_elephant", "fandisk_large", "sphere", "gen10m", "armadillo/leaf"};
 const int kRegistered = [] {
   for (const char* m : kFormatBenchMeshes) {
@@ -365,6 +396,10 @@ const int kRegistered = [] {
     benchmark::RegisterBenchmark((std::string("BM_FormatTranscode/") + m).c_str(), BM_FormatTranscode, std::string(m))
         ->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark((std::string("BM_FormatDecodeClusters/") + m).c_str(), BM_FormatDecodeClusters, std::string(m))
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((std::string("BM_FormatEncode/") + m).c_str(), BM_FormatEncode, std::string(m))
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((std::string("BM_FormatCanonicalize/") + m).c_str(), BM_FormatCanonicalize, std::string(m))
         ->Unit(benchmark::kMillisecond);
   }
   return 0;

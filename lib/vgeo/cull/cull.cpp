@@ -150,37 +150,40 @@ void test_cluster(const ClusterCull& cc, WorkerOut& w, uint32_t instance, const 
   w.visible.push_back({instance, ci});
 }
 
-// A BVH node: frustum, LOD reachability, occlusion; its children go to `children`.
+// What a BVH node and a group are tested for before their contents: frustum, whether the
+// subtree can still hold a selected cluster, occlusion (an occluded item is kept for pass 2,
+// counted in *occluded_count). True when the contents are to be visited.
+bool subtree_visible(const ClusterCull& cc, WorkerOut& w, const CullItem& item, const Sphere& bounds,
+                     const Sphere& lod_bounds, float max_parent_error, uint64_t* occluded_count) {
+  const InstanceView& iv = cc.instance_views[item.instance];
+  if (cc.options.frustum && sphere_outside_frustum(culling_sphere(iv, bounds), cc.view)) return false;
+  if (!subtree_may_select(lod_bounds, max_parent_error, iv, cc.lv, cc.tau)) return false;
+  if (occluded(cc.options, item.instance, bounds)) {
+    ++*occluded_count;
+    w.occluded.push_back(item);
+    return false;
+  }
+  return true;
+}
+
+// A BVH node: its children go to `children`.
 void process_node(const ClusterCull& cc, WorkerOut& w, const CullItem& item, const ClusterDag& dag,
                   std::vector<CullItem>& children) {
-  const InstanceView& iv = cc.instance_views[item.instance];
   const BvhNode& node = dag.bvh_nodes[item.index];
   ++w.counters.nodes_visited;
-  if (cc.options.frustum && sphere_outside_frustum(culling_sphere(iv, node.bounds), cc.view)) return;
-  if (!subtree_may_select(node.lod_bounds, node.max_parent_error, iv, cc.lv, cc.tau)) return;
-  if (occluded(cc.options, item.instance, node.bounds)) {
-    ++w.counters.nodes_occluded;
-    w.occluded.push_back(item);
+  if (!subtree_visible(cc, w, item, node.bounds, node.lod_bounds, node.max_parent_error, &w.counters.nodes_occluded))
     return;
-  }
   for (uint32_t k = 0; k < node.child_count && k < kBvhMaxChildren; ++k) {
     bool is_group = (node.group_mask >> k) & 1u;
     children.push_back({item.instance, node.children[k], is_group ? CullItem::kGroup : CullItem::kNode});
   }
 }
 
-// A group: frustum, LOD reachability, occlusion; then each of its clusters.
+// A group: each of its clusters is tested.
 void process_group(const ClusterCull& cc, WorkerOut& w, const CullItem& item, const ClusterDag& dag) {
-  const InstanceView& iv = cc.instance_views[item.instance];
   const DagGroup& g = dag.groups[item.index];
   ++w.counters.groups_visited;
-  if (cc.options.frustum && sphere_outside_frustum(culling_sphere(iv, g.bounds), cc.view)) return;
-  if (!subtree_may_select(g.parent_bounds, g.parent_error, iv, cc.lv, cc.tau)) return;
-  if (occluded(cc.options, item.instance, g.bounds)) {
-    ++w.counters.groups_occluded;
-    w.occluded.push_back(item);
-    return;
-  }
+  if (!subtree_visible(cc, w, item, g.bounds, g.parent_bounds, g.parent_error, &w.counters.groups_occluded)) return;
   for (uint32_t k = 0; k < g.cluster_count; ++k) test_cluster(cc, w, item.instance, dag, g.first_cluster + k, true);
 }
 

@@ -8,17 +8,15 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
-#include <unordered_map>
 
 #include "vgeo/core/byte_io.h"
 #include "vgeo/core/error.h"
 #include "vgeo/format/bitstream.h"
 #include "vgeo/format/memory_page.h"
+#include "vgeo/format/quantize.h"
 
 namespace vgeo::format_detail {
 namespace {
-
-[[noreturn]] void encode_fail(const std::string& what) { fail(kErrEncode, "<encoder>", what); }
 
 int32_t quantize_scalar(float v, int32_t step_log2, int32_t limit, const char* what) {
   if (!std::isfinite(v)) encode_fail(std::string("non-finite ") + what);
@@ -33,57 +31,339 @@ int32_t unzigzag(uint32_t z) { return int32_t(z >> 1) ^ -int32_t(z & 1u); }
 // Bytes per zigzag delta of a channel with `bits` bits: deltas span ±(2^bits - 1).
 uint32_t delta_bytes(uint32_t bits) { return bits == 0 ? 0 : (bits + 1 + 7) / 8; }
 
-// ---- generalized strips over one material run ----
-// Directed edges of the run sorted by (from, to): a lookup is a binary search, so strip
-// building stays O(n^2 log n) even for random (non-manifold) topology.
+// ---- generalized strips over the material runs of one cluster (spec/format.md §3) ----
+// Based on: the span-aware generalized-strip order that spec/format.md §3 states (this
+// project's own rule). The cluster's adjacency is indexed once and shared by every order
+// tried, and every query of a strip step is local (the triangles across an edge, the
+// triangles of one or two vertices), so one order costs O(triangles · valence), plus a scan
+// of the run for a strip start only when no fitting triangle uses a numbered vertex; a retry
+// stops as soon as it cannot beat the best order found.
 // Largest triangle span the 5-bit memory-form offsets hold (Nanite's window of 32).
 constexpr uint32_t kIndexSpanWindow = (1u << kNaniteIndexOffsetBits) - 1;
 // First triangles tried when the greedy order exceeds the window: bounds encode time
-// (each try is O(triangles^2)) while catching most clusters the first try misses.
+// while catching most clusters the first try misses.
 constexpr uint32_t kStripRetries = 16;
+// A triangle with at least one numbered vertex has at most two fresh ones.
+constexpr uint32_t kMaxFreshBesideNumbered = 2;
 
-struct StripBuilder {
-  const uint8_t (*tris)[3];   // original local indices
-  const uint32_t* run;         // triangle ids of the run
-  uint32_t run_size;
-  bool* visited;               // indexed by position in run
-  uint32_t edges[3 * kMaxClusterTriangles];  // (from << 16) | (to << 8) | position
-  uint32_t edge_count = 0;
-
-  void index() {
-    edge_count = 0;
-    for (uint32_t i = 0; i < run_size; ++i)
-      for (int k = 0; k < 3; ++k) {
-        const uint8_t* t = tris[run[i]];
-        edges[edge_count++] = uint32_t(t[k]) << 16 | uint32_t(t[(k + 1) % 3]) << 8 | i;
-      }
-    std::sort(edges, edges + edge_count);
-  }
-  // Position in run of the first unvisited triangle containing directed edge x->y, and its
-  // third vertex; -1 if none.
-  int find(uint8_t x, uint8_t y, uint8_t* third) const {
-    const uint32_t key = uint32_t(x) << 16 | uint32_t(y) << 8;
-    for (const uint32_t* e = std::lower_bound(edges, edges + edge_count, key);
-         e != edges + edge_count && (*e & ~0xFFu) == key; ++e) {
-      const uint32_t i = *e & 0xFFu;
-      if (visited[i]) continue;
-      const uint8_t* t = tris[run[i]];
-      for (int k = 0; k < 3; ++k)
-        if (t[k] == x && t[(k + 1) % 3] == y) {
-          *third = t[(k + 2) % 3];
-          return int(i);
-        }
-    }
-    return -1;
-  }
-  uint32_t open_neighbors(uint32_t i) const {
-    const uint8_t* t = tris[run[i]];
-    uint32_t n = 0;
-    uint8_t d;
-    for (int k = 0; k < 3; ++k) n += find(t[(k + 1) % 3], t[k], &d) >= 0 ? 1 : 0;
-    return n;
-  }
+// The cluster's triangles in material-sorted order ("positions"), indexed once.
+struct StripIndex {
+  uint32_t triangle_count = 0;
+  uint8_t tri[kMaxClusterTriangles][3];   // triangle at position p, original winding
+  uint8_t run_begin[kMaxClusterTriangles], run_end[kMaxClusterTriangles];  // p's material run
+  // Positions that use each vertex, ascending, each once (CSR over vertices).
+  uint16_t uses_begin[kMaxClusterVertices + 1];
+  uint8_t uses[3 * kMaxClusterTriangles];
+  // The corners at each vertex by ascending (position, corner) (CSR over vertices): the
+  // position and the vertex after the corner, i.e. the directed edges leaving the vertex.
+  uint16_t corners_begin[kMaxClusterVertices + 1];
+  uint8_t corner_position[3 * kMaxClusterTriangles], corner_index[3 * kMaxClusterTriangles],
+      corner_next[3 * kMaxClusterTriangles];
+  // The first triangle of p's run across edge k of p (kNoTriangle if none), the corner where
+  // the shared edge starts in it, and whether more follow (non-manifold edges: found again
+  // by for_each_across, ascending like the first).
+  uint8_t across_first[kMaxClusterTriangles][3], across_corner[kMaxClusterTriangles][3];
+  bool across_more[kMaxClusterTriangles][3];
 };
+constexpr uint8_t kNoTriangle = 0xFF;
+
+// Each of the triangles of p's run that hold directed edge from -> to, by ascending position,
+// until `f` returns true.
+template <class F>
+void for_each_across(const StripIndex& x, uint32_t p, uint8_t from, uint8_t to, F&& f) {
+  for (uint32_t c = x.corners_begin[from]; c < x.corners_begin[from + 1]; ++c) {
+    if (x.corner_next[c] != to) continue;
+    const uint32_t q = x.corner_position[c];
+    if (q < x.run_begin[p] || q >= x.run_end[p]) continue;
+    if (f(q, uint32_t(x.corner_index[c]))) return;
+  }
+}
+
+void index_strips(const uint8_t (*tris)[3], const uint32_t* mat, const uint32_t* order,
+                  uint32_t tc, uint32_t vc, StripIndex* x) {
+  x->triangle_count = tc;
+  for (uint32_t p = 0; p < tc; ++p)
+    for (int k = 0; k < 3; ++k) x->tri[p][k] = tris[order[p]][k];
+  for (uint32_t r0 = 0; r0 < tc;) {
+    uint32_t r1 = r0;
+    while (r1 < tc && mat[order[r1]] == mat[order[r0]]) ++r1;
+    for (uint32_t p = r0; p < r1; ++p) x->run_begin[p] = uint8_t(r0), x->run_end[p] = uint8_t(r1);
+    r0 = r1;
+  }
+  uint16_t count[kMaxClusterVertices + 1] = {};
+  auto for_each_use = [&](auto&& f) {
+    for (uint32_t p = 0; p < tc; ++p) {
+      const uint8_t* t = x->tri[p];
+      f(t[0], p);
+      if (t[1] != t[0]) f(t[1], p);
+      if (t[2] != t[0] && t[2] != t[1]) f(t[2], p);
+    }
+  };
+  for_each_use([&](uint8_t v, uint32_t) { ++count[v + 1]; });
+  for (uint32_t v = 0; v < vc; ++v) count[v + 1] = uint16_t(count[v + 1] + count[v]);
+  std::copy(count, count + vc + 1, x->uses_begin);
+  for_each_use([&](uint8_t v, uint32_t p) { x->uses[count[v]++] = uint8_t(p); });
+  std::fill(count, count + vc + 1, 0);
+  for (uint32_t p = 0; p < tc; ++p)
+    for (uint32_t k = 0; k < 3; ++k) ++count[x->tri[p][k] + 1];
+  for (uint32_t v = 0; v < vc; ++v) count[v + 1] = uint16_t(count[v + 1] + count[v]);
+  std::copy(count, count + vc + 1, x->corners_begin);
+  for (uint32_t p = 0; p < tc; ++p)
+    for (uint32_t k = 0; k < 3; ++k) {
+      const uint32_t c = count[x->tri[p][k]]++;
+      x->corner_position[c] = uint8_t(p), x->corner_index[c] = uint8_t(k);
+      x->corner_next[c] = x->tri[p][(k + 1) % 3];
+    }
+  for (uint32_t p = 0; p < tc; ++p)
+    for (uint32_t k = 0; k < 3; ++k) {
+      x->across_first[p][k] = kNoTriangle, x->across_corner[p][k] = 0, x->across_more[p][k] = false;
+      for_each_across(*x, p, x->tri[p][(k + 1) % 3], x->tri[p][k], [&](uint32_t q, uint32_t j) {
+        if (x->across_first[p][k] != kNoTriangle) return x->across_more[p][k] = true;
+        x->across_first[p][k] = uint8_t(q), x->across_corner[p][k] = uint8_t(j);
+        return false;
+      });
+    }
+}
+
+// One strip order being built: the first-use numbering, the visited triangles, and what a
+// strip step asks about the current run kept up to date as vertices get numbered.
+struct StripOrder {
+  int32_t new_id[kMaxClusterVertices];
+  uint8_t vertex_of_id[kMaxClusterVertices];
+  uint32_t seen = 0, emitted = 0;
+  bool visited[kMaxClusterTriangles];
+  uint8_t fresh[kMaxClusterTriangles];  // distinct unnumbered vertices (current run, unvisited)
+  // Unvisited triangles of the run with every vertex numbered and a span of exactly the window.
+  uint32_t settled_at_window = 0;
+  uint32_t r0 = 0, r1 = 0;  // the current material run
+  // Ids below this one are the oldest vertex of no unvisited triangle of the run that fits
+  // the window (strip_start).
+  uint32_t oldest_live = 0;
+  uint32_t max_span = 0;    // largest span emitted so far
+  uint32_t first_start = UINT32_MAX;  // the first triangle the order emitted
+};
+
+// Position of the first unvisited triangle across edge k of p, and the corner of that
+// triangle where the shared (reversed) edge starts; -1 if none.
+int across(const StripIndex& x, const StripOrder& s, uint32_t p, uint32_t k, uint32_t* corner) {
+  const uint8_t first = x.across_first[p][k];
+  if (first == kNoTriangle) return -1;
+  if (!s.visited[first]) {
+    *corner = x.across_corner[p][k];
+    return first;
+  }
+  if (!x.across_more[p][k]) return -1;
+  int found = -1;
+  for_each_across(x, p, x.tri[p][(k + 1) % 3], x.tri[p][k], [&](uint32_t q, uint32_t j) {
+    if (s.visited[q]) return false;
+    *corner = j, found = int(q);
+    return true;
+  });
+  return found;
+}
+uint32_t open_neighbors(const StripIndex& x, const StripOrder& s, uint32_t p) {
+  uint32_t n = 0, corner;
+  for (uint32_t k = 0; k < 3; ++k) n += across(x, s, p, k, &corner) >= 0 ? 1 : 0;
+  return n;
+}
+// Span of a triangle if emitted now: its new corners get the next first-use ids. `oldest`:
+// its smallest already-numbered id (UINT32_MAX if none).
+uint32_t span_now(const StripIndex& x, const StripOrder& s, uint32_t p, uint32_t* oldest) {
+  const uint8_t* t = x.tri[p];
+  uint32_t next = s.seen, lo = UINT32_MAX, hi = 0, old = UINT32_MAX;
+  for (int k = 0; k < 3; ++k) {
+    uint32_t id;
+    if (s.new_id[t[k]] >= 0) {
+      id = uint32_t(s.new_id[t[k]]);
+      old = std::min(old, id);
+    } else if (k > 0 && t[k] == t[k - 1]) {
+      id = next - 1;  // degenerate corner repeated: one new vertex
+    } else if (k == 2 && t[2] == t[0] && s.new_id[t[0]] < 0) {
+      id = s.seen;
+    } else {
+      id = next++;
+    }
+    lo = std::min(lo, id), hi = std::max(hi, id);
+  }
+  if (oldest) *oldest = old;
+  return hi - lo;
+}
+// A triangle that uses a numbered vertex and spans the whole window: one more fresh vertex
+// would push it out.
+bool at_window_edge(const StripIndex& x, const StripOrder& s, uint32_t p) {
+  uint32_t old;
+  const uint32_t sp = span_now(x, s, p, &old);
+  return old != UINT32_MAX && sp == kIndexSpanWindow;
+}
+bool in_run(const StripOrder& s, uint32_t p) { return p >= s.r0 && p < s.r1; }
+
+void begin_run(const StripIndex& x, uint32_t r0, StripOrder* s) {
+  s->r0 = r0, s->r1 = x.run_end[r0];
+  s->settled_at_window = 0, s->oldest_live = 0;
+  for (uint32_t p = s->r0; p < s->r1; ++p) {
+    const uint8_t* t = x.tri[p];
+    uint32_t f = s->new_id[t[0]] < 0 ? 1 : 0;
+    if (t[1] != t[0] && s->new_id[t[1]] < 0) ++f;
+    if (t[2] != t[0] && t[2] != t[1] && s->new_id[t[2]] < 0) ++f;
+    s->fresh[p] = uint8_t(f);
+    if (f == 0 && at_window_edge(x, *s, p)) ++s->settled_at_window;
+  }
+}
+void visit(const StripIndex& x, uint32_t p, StripOrder* s) {
+  s->visited[p] = true;
+  if (s->fresh[p] == 0 && at_window_edge(x, *s, p)) --s->settled_at_window;
+}
+// Emits corner v of the triangle being written: a new vertex takes the next first-use id,
+// a numbered one becomes an explicit reference (`flag` in ctl).
+uint8_t corner(const StripIndex& x, uint8_t v, uint8_t* ctl, uint8_t flag, StripOrder* s,
+               CanonicalCluster* out) {
+  if (s->new_id[v] >= 0) {
+    *ctl |= flag;
+    out->refs[out->ref_count++] = uint8_t(s->seen - 1 - uint32_t(s->new_id[v]));
+    return uint8_t(s->new_id[v]);
+  }
+  s->new_id[v] = int32_t(s->seen);
+  s->vertex_of_id[s->seen++] = v;
+  for (uint32_t u = x.uses_begin[v]; u < x.uses_begin[v + 1]; ++u) {
+    const uint32_t q = x.uses[u];
+    if (!in_run(*s, q) || s->visited[q]) continue;
+    if (--s->fresh[q] == 0 && at_window_edge(x, *s, q)) ++s->settled_at_window;
+  }
+  return uint8_t(s->new_id[v]);
+}
+// Unvisited triangles of the run at the window's edge. Those with every vertex numbered are
+// counted as they settle; one with f ∈ {1, 2} fresh vertices spans seen + f − 1 − oldest,
+// so it is at the edge only if its oldest numbered vertex has id seen − 32 + f.
+uint32_t count_at_window(const StripIndex& x, const StripOrder& s) {
+  uint32_t n = s.settled_at_window;
+  for (uint32_t f = 1; f <= kMaxFreshBesideNumbered; ++f) {
+    if (s.seen + f < kIndexSpanWindow + 1) continue;
+    const uint32_t id = s.seen + f - (kIndexSpanWindow + 1);
+    const uint8_t v = s.vertex_of_id[id];
+    for (uint32_t u = x.uses_begin[v]; u < x.uses_begin[v + 1]; ++u) {
+      const uint32_t q = x.uses[u];
+      if (!in_run(s, q) || s.visited[q] || s.fresh[q] == 0) continue;
+      uint32_t old;
+      if (span_now(x, s, q, &old) == kIndexSpanWindow && old == id) ++n;
+    }
+  }
+  return n;
+}
+// Start of a strip (span-aware, spec/format.md §3): a triangle whose span fits the window,
+// preferring the one that uses the oldest numbered vertex (it leaves the window first), then
+// the fewest open neighbours (strips then end less often mid-run); ties: the first position.
+// A triangle's oldest numbered vertex is fixed once it has one and its span never shrinks, so
+// an id that is no fitting triangle's oldest stays so: the ids are walked once per run, and
+// the whole run is scanned only when no fitting triangle uses a numbered vertex.
+uint32_t strip_start(const StripIndex& x, StripOrder* so) {
+  const StripOrder& s = *so;
+  for (; so->oldest_live < s.seen; ++so->oldest_live) {
+    const uint32_t id = s.oldest_live;
+    const uint8_t v = s.vertex_of_id[id];
+    uint32_t start = UINT32_MAX, best_open = UINT32_MAX;
+    for (uint32_t u = x.uses_begin[v]; u < x.uses_begin[v + 1]; ++u) {
+      const uint32_t q = x.uses[u];
+      if (!in_run(s, q) || s.visited[q]) continue;
+      uint32_t old;
+      if (span_now(x, s, q, &old) > kIndexSpanWindow || old != id) continue;
+      const uint32_t open = open_neighbors(x, s, q);
+      if (open < best_open) best_open = open, start = q;
+    }
+    if (start != UINT32_MAX) return start;
+  }
+  uint32_t start = s.r0;
+  uint64_t best = UINT64_MAX;
+  for (uint32_t p = s.r0; p < s.r1; ++p)
+    if (!s.visited[p]) {
+      uint32_t old;
+      const uint32_t sp = span_now(x, s, p, &old);
+      const uint64_t key = uint64_t(sp > kIndexSpanWindow ? sp : 0) << 40 |
+                           uint64_t(std::min<uint32_t>(old, 0xFFFF)) << 8 | open_neighbors(x, s, p);
+      if (key < best) best = key, start = p;
+    }
+  return start;
+}
+void note_span(const uint8_t* t, StripOrder* s) {
+  s->max_span = std::max<uint32_t>(s->max_span, std::max({t[0], t[1], t[2]}) - std::min({t[0], t[1], t[2]}));
+}
+
+// Builds one strip order into `out` (strip, ctl, refs, runs) and `s`. `first` forces the
+// first triangle of the cluster (position in the first run; UINT32_MAX = the heuristic's
+// choice). Returns false, with `out` incomplete, as soon as a span reaches `give_up_span`.
+bool build_strip_order(const StripIndex& x, const uint32_t* run_material, uint32_t vc, uint32_t first,
+                       uint32_t give_up_span, StripOrder* s, CanonicalCluster* out) {
+  const uint32_t tc = x.triangle_count;
+  std::fill(s->new_id, s->new_id + vc, -1);
+  std::fill(s->visited, s->visited + tc, false);
+  s->seen = 0, s->emitted = 0, s->max_span = 0, s->first_start = UINT32_MAX;
+  out->ref_count = 0, out->run_count = 0;
+  for (uint32_t r0 = 0; r0 < tc; r0 = x.run_end[r0]) {
+    out->run_start[out->run_count] = uint8_t(r0);
+    out->run_material[out->run_count++] = run_material[r0];
+    begin_run(x, r0, s);
+    for (uint32_t left = s->r1 - r0; left > 0;) {
+      uint32_t cur = first < s->r1 - r0 && s->emitted == 0 ? r0 + first : strip_start(x, s);
+      if (s->emitted == 0) s->first_start = cur;
+      visit(x, cur, s);
+      --left;
+      // Rotated so a neighbour continues the strip: across b–c or c–a of (a, b, c).
+      uint32_t rot = 0, unused;
+      for (uint32_t r = 0; r < 3; ++r)
+        if (across(x, *s, cur, (r + 1) % 3, &unused) >= 0 || across(x, *s, cur, (r + 2) % 3, &unused) >= 0) {
+          rot = r;
+          break;
+        }
+      const uint8_t* t = x.tri[cur];
+      uint8_t ctl = kCtlReset;
+      uint8_t* o = out->strip[s->emitted];
+      o[0] = corner(x, t[rot], &ctl, kCtlRef0, s, out);
+      o[1] = corner(x, t[(rot + 1) % 3], &ctl, kCtlRef0 << 1, s, out);
+      o[2] = corner(x, t[(rot + 2) % 3], &ctl, kCtlRef0 << 2, s, out);
+      out->ctl[s->emitted++] = ctl;
+      note_span(o, s);
+      if (s->max_span >= give_up_span) return false;
+      while (left > 0) {
+        // Candidates across b–c (side 0) and c–a (side 1); corner k of a candidate starts the
+        // shared edge, so its strip rotation is k and its third vertex tri[n][k + 2].
+        uint32_t k1 = 0, k2 = 0;
+        const int n1 = across(x, *s, cur, (rot + 1) % 3, &k1), n2 = across(x, *s, cur, (rot + 2) % 3, &k2);
+        // A continuation must keep the span within the window and, if its third vertex is
+        // new, not push another unvisited triangle beyond it. Both candidates ask against
+        // the same state: the count is taken once per step (-1 = not yet).
+        int at_window = -1;
+        auto fits = [&](int n, uint32_t k) {
+          if (n < 0 || span_now(x, *s, uint32_t(n), nullptr) > kIndexSpanWindow) return false;
+          if (s->new_id[x.tri[n][(k + 2) % 3]] >= 0) return true;
+          if (at_window < 0) at_window = int(count_at_window(x, *s));
+          return at_window - (at_window_edge(x, *s, uint32_t(n)) ? 1 : 0) <= 0;
+        };
+        const bool ok1 = fits(n1, k1), ok2 = fits(n2, k2);
+        if (!ok1 && !ok2) break;
+        bool side = !ok1;
+        if (ok1 && ok2) {
+          s->visited[n1] = s->visited[n2] = true;  // exclude each other from the neighbour counts
+          const uint32_t o1 = open_neighbors(x, *s, uint32_t(n1)), o2 = open_neighbors(x, *s, uint32_t(n2));
+          s->visited[n1] = s->visited[n2] = false;
+          side = o2 < o1;
+        }
+        const uint32_t n = uint32_t(side ? n2 : n1), k = side ? k2 : k1;
+        visit(x, n, s);
+        --left;
+        ctl = side ? kCtlSide : 0;
+        o = out->strip[s->emitted];
+        o[0] = uint8_t(s->new_id[x.tri[n][k]]);
+        o[1] = uint8_t(s->new_id[x.tri[n][(k + 1) % 3]]);
+        o[2] = corner(x, x.tri[n][(k + 2) % 3], &ctl, kCtlRef0, s, out);
+        out->ctl[s->emitted++] = ctl;
+        note_span(o, s);
+        if (s->max_span >= give_up_span) return false;
+        cur = n, rot = k;
+      }
+    }
+  }
+  assert(s->emitted == tc);
+  return true;
+}
 
 }  // namespace
 
@@ -103,22 +383,23 @@ void channel_value_range(const MeshQuantization& q, uint32_t channel, int64_t* l
 }
 
 void min_first(const uint8_t in[3], uint8_t out[3]) {
-  // Rotation (winding kept) with the smallest index first; ties: lexicographically smallest.
+  // Rotation (winding kept) with the smallest index first; ties: lexicographically smallest
+  // (bytes packed most significant first compare as the byte sequences do).
+  auto packed = [&](int r) { return uint32_t(in[r]) << 16 | uint32_t(in[(r + 1) % 3]) << 8 | in[(r + 2) % 3]; };
   int best = 0;
-  for (int r = 1; r < 3; ++r) {
-    const uint8_t a[3] = {in[r], in[(r + 1) % 3], in[(r + 2) % 3]};
-    const uint8_t b[3] = {in[best], in[(best + 1) % 3], in[(best + 2) % 3]};
-    if (std::lexicographical_compare(a, a + 3, b, b + 3)) best = r;
-  }
+  uint32_t best_key = packed(0);
+  for (int r = 1; r < 3; ++r)
+    if (packed(r) < best_key) best = r, best_key = packed(r);
   for (int k = 0; k < 3; ++k) out[k] = in[(best + k) % 3];
 }
 
 uint32_t index_offset_bits(const CanonicalCluster& c) {
+  // After min_first the first index is the smallest, so a triangle's span
+  // max(i1 − i0, i2 − i0) is its largest index minus its smallest.
   uint32_t span = 0;
   for (uint32_t t = 0; t < c.triangle_count; ++t) {
-    uint8_t m[3];
-    min_first(c.strip[t], m);
-    span = std::max<uint32_t>(span, std::max(m[1] - m[0], m[2] - m[0]));
+    const uint8_t* x = c.strip[t];
+    span = std::max<uint32_t>(span, std::max({x[0], x[1], x[2]}) - std::min({x[0], x[1], x[2]}));
   }
   return bits_for_range(span);
 }
@@ -169,164 +450,26 @@ void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantiza
   for (uint32_t t = 0; t < tc; ++t) order[t] = t;
   std::stable_sort(order, order + tc, [&](uint32_t a, uint32_t b) { return mat[a] < mat[b]; });
 
-  int32_t new_id[kMaxClusterVertices];
-  uint32_t seen = 0, emitted = 0;
-  auto corner = [&](uint8_t v, uint8_t* ctl, uint8_t flag) {
-    if (new_id[v] < 0) {
-      new_id[v] = int32_t(seen++);
-    } else {
-      *ctl |= flag;
-      out->refs[out->ref_count++] = uint8_t(seen - 1 - uint32_t(new_id[v]));
-    }
-    return uint8_t(new_id[v]);
-  };
-  bool visited[kMaxClusterTriangles];
-  // One strip order; `first` forces the first triangle of the cluster (position in the
-  // first material run), UINT32_MAX = the heuristic's choice.
-  auto build_strips = [&](uint32_t first) {
-    std::fill(new_id, new_id + vc, -1);
-    seen = 0, emitted = 0;
-    out->ref_count = 0, out->run_count = 0;
-    for (uint32_t r0 = 0; r0 < tc;) {
-      uint32_t r1 = r0;
-      while (r1 < tc && mat[order[r1]] == mat[order[r0]]) ++r1;
-      out->run_start[out->run_count] = uint8_t(r0);
-      out->run_material[out->run_count++] = mat[order[r0]];
-      StripBuilder sb{tris, order + r0, r1 - r0, visited, {}};
-      std::fill(visited, visited + sb.run_size, false);
-      sb.index();
-      // Span of a triangle if emitted now: its new corners get the next first-use ids.
-      auto span_now = [&](uint32_t i, uint32_t* oldest) {
-        const uint8_t* t = tris[order[r0 + i]];
-        uint32_t next = seen, lo = UINT32_MAX, hi = 0, old = UINT32_MAX;
-        for (int k = 0; k < 3; ++k) {
-          uint32_t id;
-          if (new_id[t[k]] >= 0) {
-            id = uint32_t(new_id[t[k]]);
-            old = std::min(old, id);
-          } else if (k > 0 && t[k] == t[k - 1]) {
-            id = next - 1;  // degenerate corner repeated: one new vertex
-          } else if (k == 2 && t[2] == t[0] && new_id[t[0]] < 0) {
-            id = seen;
-          } else {
-            id = next++;
-          }
-          lo = std::min(lo, id), hi = std::max(hi, id);
-        }
-        if (oldest) *oldest = old;
-        return hi - lo;
-      };
-      // Would emitting a triangle with `fresh` (0 or 1) new vertices push another unvisited
-      // triangle's span beyond the window? Then the strip stops and that triangle goes next.
-      // With one fresh vertex, exactly the triangles that use a seen vertex and span the whole
-      // window are pushed out. Both continuations of a step ask against the same state, so the
-      // count over the run is taken once per step (`at_window`, -1 = not yet): the strip
-      // building is quadratic in the run, not cubic in the retries' constant.
-      auto at_window_edge = [&](uint32_t i) {
-        uint32_t old;
-        const uint32_t sp = span_now(i, &old);
-        return old != UINT32_MAX && sp == kIndexSpanWindow;
-      };
-      int at_window = -1;
-      auto strands_another = [&](uint32_t skip, uint32_t fresh) {
-        assert(fresh <= 1);
-        if (fresh == 0) return false;
-        if (at_window < 0) {
-          at_window = 0;
-          for (uint32_t i = 0; i < sb.run_size; ++i)
-            if (!visited[i] && at_window_edge(i)) ++at_window;
-        }
-        return at_window - (!visited[skip] && at_window_edge(skip) ? 1 : 0) > 0;
-      };
-      auto fresh_of = [&](uint8_t v) { return new_id[v] < 0 ? 1u : 0u; };
-      for (uint32_t left = sb.run_size; left > 0;) {
-        // Start (span-aware, spec/format.md §3): a triangle whose span fits the 5-bit window,
-        // preferring the one that uses the oldest seen vertex (it leaves the window first),
-        // then the fewest open neighbours (strips then end less often mid-run).
-        uint32_t start = 0;
-        uint64_t best = UINT64_MAX;
-        for (uint32_t i = 0; i < sb.run_size; ++i)
-          if (!visited[i]) {
-            uint32_t old;
-            const uint32_t sp = span_now(i, &old);
-            const uint64_t key = uint64_t(sp > kIndexSpanWindow ? sp : 0) << 40 |
-                                 uint64_t(std::min<uint32_t>(old, 0xFFFF)) << 8 | sb.open_neighbors(i);
-            if (key < best) best = key, start = i;
-          }
-        if (first < sb.run_size && emitted == 0) start = first;
-        visited[start] = true;
-        --left;
-        const uint8_t* t = tris[order[r0 + start]];
-        int rot = 0;
-        for (int r = 0; r < 3; ++r) {
-          const uint8_t a = t[r], b = t[(r + 1) % 3], c = t[(r + 2) % 3];
-          uint8_t d;
-          if (sb.find(c, b, &d) >= 0 || sb.find(a, c, &d) >= 0) { rot = r; break; }
-        }
-        uint8_t a = t[rot], b = t[(rot + 1) % 3], c = t[(rot + 2) % 3];
-        uint8_t ctl = kCtlReset;
-        uint8_t* s = out->strip[emitted];
-        s[0] = corner(a, &ctl, kCtlRef0);
-        s[1] = corner(b, &ctl, kCtlRef0 << 1);
-        s[2] = corner(c, &ctl, kCtlRef0 << 2);
-        out->ctl[emitted++] = ctl;
-        while (left > 0) {
-          uint8_t d1 = 0, d2 = 0;
-          const int n1 = sb.find(c, b, &d1), n2 = sb.find(a, c, &d2);
-          at_window = -1;  // the state changed since the last step
-          // A continuation must keep the span within the window and strand no other triangle.
-          auto fits = [&](int n, uint8_t d) {
-            return n >= 0 && span_now(uint32_t(n), nullptr) <= kIndexSpanWindow && !strands_another(uint32_t(n), fresh_of(d));
-          };
-          const bool ok1 = fits(n1, d1), ok2 = fits(n2, d2);
-          if (!ok1 && !ok2) break;
-          bool side = !ok1;
-          if (ok1 && ok2) {
-            visited[n1] = visited[n2] = true;  // exclude each other from the neighbour counts
-            const uint32_t o1 = sb.open_neighbors(uint32_t(n1)), o2 = sb.open_neighbors(uint32_t(n2));
-            visited[n1] = visited[n2] = false;
-            side = o2 < o1;
-          }
-          visited[side ? n2 : n1] = true;
-          --left;
-          uint8_t na, nb, nd = side ? d2 : d1;
-          if (!side) na = c, nb = b; else na = a, nb = c;
-          ctl = side ? kCtlSide : 0;
-          s = out->strip[emitted];
-          s[0] = uint8_t(new_id[na]);
-          s[1] = uint8_t(new_id[nb]);
-          s[2] = corner(nd, &ctl, kCtlRef0);
-          out->ctl[emitted++] = ctl;
-          a = na, b = nb, c = nd;
-        }
-      }
-      r0 = r1;
-    }
-    assert(emitted == tc);
-  };
-  // Largest triangle span of the built order (what the memory-form offsets must hold).
-  auto max_span = [&] {
-    uint32_t m = 0;
-    for (uint32_t t = 0; t < tc; ++t) {
-      const uint8_t* x = out->strip[t];
-      m = std::max<uint32_t>(m, std::max({x[0], x[1], x[2]}) - std::min({x[0], x[1], x[2]}));
-    }
-    return m;
-  };
   // The greedy order fits the window for most clusters; for the rest, retry from other
-  // first triangles (deterministic order) and keep the smallest span.
-  build_strips(UINT32_MAX);
-  uint32_t best_span = max_span(), best_first = UINT32_MAX;
-  uint32_t first_run = 1;
-  while (first_run < tc && mat[order[first_run]] == mat[order[0]]) ++first_run;
-  uint32_t last_first = UINT32_MAX;
-  for (uint32_t f = 0; f < first_run && f < kStripRetries && best_span > kIndexSpanWindow; ++f) {
-    build_strips(f);
-    last_first = f;
-    const uint32_t sp = max_span();
-    if (sp < best_span) best_span = sp, best_first = f;
+  // first triangles (deterministic order) and keep the smallest largest span (first found on
+  // ties: a retry that reaches the best span so far is given up).
+  StripIndex index;
+  index_strips(tris, mat, order, tc, vc, &index);
+  uint32_t run_material[kMaxClusterTriangles];
+  for (uint32_t p = 0; p < tc; ++p) run_material[p] = mat[order[p]];
+  StripOrder s;
+  build_strip_order(index, run_material, vc, UINT32_MAX, UINT32_MAX, &s, out);
+  const uint32_t greedy_first = s.first_start;
+  uint32_t best_span = s.max_span, best_first = UINT32_MAX;
+  bool out_is_best = true;
+  for (uint32_t f = 0; f < index.run_end[0] && f < kStripRetries && best_span > kIndexSpanWindow; ++f) {
+    if (f == greedy_first) continue;  // the greedy order itself: not smaller
+    out_is_best = build_strip_order(index, run_material, vc, f, best_span, &s, out);
+    if (out_is_best) best_span = s.max_span, best_first = f;
   }
-  if (last_first != best_first) build_strips(best_first);
+  if (!out_is_best) build_strip_order(index, run_material, vc, best_first, UINT32_MAX, &s, out);
+  int32_t* const new_id = s.new_id;
+  uint32_t seen = s.seen;
   // Vertices no triangle uses keep their relative order after the used ones.
   for (uint32_t v = 0; v < vc; ++v)
     if (new_id[v] < 0) new_id[v] = int32_t(seen++);
@@ -646,27 +789,29 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
   for (const auto* c : clusters) total_vertices += c->vertex_count;
   std::vector<uint32_t> copy_of(total_vertices, UINT32_MAX);
   {
-    struct Key {
-      int32_t v[kMaxChannels];
-      bool operator==(const Key& o) const { return std::memcmp(v, o.v, sizeof v) == 0; }
-    };
-    struct Hash {
-      size_t operator()(const Key& k) const {
-        uint64_t h = 1469598103934665603ull;
-        for (int32_t x : k.v) h = (h ^ uint32_t(x)) * 1099511628211ull;
-        return size_t(h);
-      }
-    };
-    std::unordered_map<Key, uint32_t, Hash> first;
+    // First occurrence of each vertex value (all channels): an open-addressing table of page
+    // vertex indices, linear probing, at most half full.
+    std::vector<int32_t> value(total_vertices * channels);
+    uint32_t size = 16;
+    while (size < 2 * total_vertices) size *= 2;
+    std::vector<uint32_t> first(size, UINT32_MAX);
     uint32_t base = 0;
     for (const auto* c : clusters) {
       uint32_t residual_bytes = 0;
       for (uint32_t k = 0; k < channels; ++k) residual_bytes += delta_bytes(c->bits[k]);
       for (uint32_t v = 0; v < c->vertex_count; ++v) {
-        Key key{};
-        for (uint32_t k = 0; k < channels; ++k) key.v[k] = c->values[k][v];
-        auto [it, fresh] = first.emplace(key, base + v);
-        if (!fresh && it->second < base && residual_bytes >= kCopyRefBytes) copy_of[base + v] = it->second;
+        int32_t* key = &value[size_t(base + v) * channels];
+        uint64_t h = 1469598103934665603ull;  // FNV-1a over the channel values
+        for (uint32_t k = 0; k < channels; ++k) {
+          key[k] = c->values[k][v];
+          h = (h ^ uint32_t(key[k])) * 1099511628211ull;
+        }
+        uint32_t slot = uint32_t(h) & (size - 1);
+        while (first[slot] != UINT32_MAX &&
+               std::memcmp(&value[size_t(first[slot]) * channels], key, channels * sizeof(int32_t)) != 0)
+          slot = (slot + 1) & (size - 1);
+        if (first[slot] == UINT32_MAX) first[slot] = base + v;
+        else if (first[slot] < base && residual_bytes >= kCopyRefBytes) copy_of[base + v] = first[slot];
       }
       base += c->vertex_count;
     }

@@ -1,5 +1,7 @@
 // Vulkan frame executor (gpu_frame.h, spec/gpu.md §Frame): the frame plan's steps on the device,
 // the raster passes alone (raster_visible_vulkan) and the shade pass.
+// Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"Culling Dataflow" (two-pass
+// occlusion against the previous frame's HZB); the visibility buffer of Burns, Hunt, JCGT 2(2), 2013.
 #include "vgeo/gpu/gpu_frame.h"
 
 #include <algorithm>

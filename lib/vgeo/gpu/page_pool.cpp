@@ -1,6 +1,8 @@
 // The GPU page pool of a streamed scene (gpu_frame.h, spec/gpu.md §Streaming): a fixed pool of
 // slots, each the size of the largest memory-form page, mirroring the Streamer's residency;
 // the pages of meshes not streamed follow the pool, placed once.
+// Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"Paging" (fixed-size GPU page
+// slots the streamer fills and frees).
 #include <algorithm>
 #include <cassert>
 #include <functional>

@@ -204,170 +204,221 @@ void check_monotonic_static(const ClusterDag& dag, Sink& sink, CheckStats& stats
   }
 }
 
+namespace {
+
+// What every view of one check_views call reads: the DAG, the options, which checks run, the
+// cut-check context and the scene's scale for camera placement.
+struct ViewChecks {
+  const ClusterDag& dag;
+  const VerifyOptions& options;
+  bool monotonic, cut, crack;
+  CutCheckContext ctx;
+  size_t nc = 0;  // clusters
+  double diag = 1.0;  // the leaves' AABB diagonal (≥ a tiny floor)
+  Vec3 mid;           // the leaves' AABB centre
+};
+
+// One view's findings, merged in view order after all views ran.
+struct ViewOutput {
+  Sink mono, cut, crack;
+  uint64_t edges = 0, border_changed = 0;
+  std::vector<double> cut_sizes;
+};
+
+// One worker's scratch, reused across its views.
+struct ViewScratch {
+  CutScratch cut;
+  std::vector<float> proj_lod, proj_parent;  // per cluster, in the current view
+};
+
+// The view: an eye placed relative to a random sphere of the DAG.
+LodView random_view(const ViewChecks& vc, SplitMix64& rng) {
+  const ClusterDag& dag = vc.dag;
+  const double diag = vc.diag;
+  const DagCluster& anchor = dag.clusters[rng.below(uint32_t(vc.nc))];
+  uint32_t which = rng.below(3);
+  Sphere s0 = which == 0 ? anchor.bounds : which == 1 ? anchor.lod_bounds : anchor.parent_bounds;
+  double r = std::max(0.0, double(s0.radius));
+  double z = 2 * rng.uniform() - 1, phi = 6.283185307179586 * rng.uniform();
+  double rho = std::sqrt(std::max(0.0, 1 - z * z));
+  double dir[3] = {rho * std::cos(phi), rho * std::sin(phi), z};
+  uint32_t mode = rng.below(6);
+  double dist = 0;
+  Vec3 base = s0.center;
+  switch (mode) {
+    case 0: dist = 0; break;                                     // at the centre
+    case 1: dist = r * rng.uniform(); break;                     // inside the sphere
+    case 2: dist = r; break;                                     // on its surface
+    case 3: dist = r * (1 + rng.uniform()); break;               // just outside
+    case 4: dist = (r + diag) * std::pow(10.0, 4 * rng.uniform()); break;  // far: up to 10^4 scene sizes
+    default: base = vc.mid; dist = diag * rng.uniform(); break;  // anywhere around the scene
+  }
+  LodView view;
+  view.eye = {float(base.x + dir[0] * dist), float(base.y + dir[1] * dist), float(base.z + dir[2] * dist)};
+  double fov = (15.0 + 85.0 * rng.uniform()) * 3.141592653589793 / 180.0;
+  double height = 64.0 + 4256.0 * rng.uniform();
+  view.pixels_per_unit_at_1 = lod_projection_scale(float(fov), float(height));
+  view.z_near = float(diag * std::pow(10.0, -6 + 5 * rng.uniform()));
+  if (!(view.z_near > 0)) view.z_near = 1e-6f;
+  return view;
+}
+
+// MONO_PROJECTED: along every DAG edge and within every cluster.
+void check_projected_monotonic(const ClusterDag& dag, const std::vector<float>& proj_lod,
+                               const std::vector<float>& proj_parent, const std::string& view_where,
+                               const std::vector<VerifyValue>& view_values, ViewOutput& out) {
+  for (size_t c = 0; c < dag.clusters.size(); ++c) {
+    if (!(proj_lod[c] <= proj_parent[c]) && out.mono.take("MONO_PROJECTED")) {
+      auto values = view_values;
+      values.push_back({"projected_lod_error", proj_lod[c]});
+      values.push_back({"projected_parent_error", proj_parent[c]});
+      out.mono.stored.push_back({"MONO_PROJECTED", "monotonic", "cluster", c,
+                                 "projected lod_error " + fmt_float(proj_lod[c]) + " px > projected parent_error " +
+                                     fmt_float(proj_parent[c]) + " px" + view_where,
+                                 std::move(values)});
+    }
+  }
+  for (const DagGroup& G : dag.groups) {
+    if (!G.generated_count) continue;
+    float max_child = 0;
+    uint32_t worst_child = G.first_cluster;
+    for (uint32_t i = 0; i < G.cluster_count; ++i)
+      if (proj_lod[G.first_cluster + i] > max_child) {
+        max_child = proj_lod[G.first_cluster + i];
+        worst_child = G.first_cluster + i;
+      }
+    for (uint32_t i = 0; i < G.generated_count; ++i) {
+      uint32_t p = dag.generated_clusters[G.first_generated + i];
+      ++out.edges;
+      if (!(proj_lod[p] >= max_child) && out.mono.take("MONO_PROJECTED")) {
+        auto values = view_values;
+        values.push_back({"projected_child_lod_error", max_child});
+        values.push_back({"projected_parent_lod_error", proj_lod[p]});
+        out.mono.stored.push_back({"MONO_PROJECTED", "monotonic", "cluster", worst_child,
+                                   "projected lod_error " + fmt_float(max_child) + " px exceeds generated cluster " +
+                                       idx(p) + "'s " + fmt_float(proj_lod[p]) + " px" + view_where,
+                                   std::move(values)});
+      }
+    }
+  }
+}
+
+// The pixel threshold of cut t of a view: 1 px first, then stored projected values.
+float random_threshold(uint32_t t, const ViewScratch& w, SplitMix64& rng) {
+  float tau = 1.0f;  // the usual "one pixel" target
+  if (t > 0) {
+    const uint32_t nc = uint32_t(w.proj_parent.size());
+    float ref = w.proj_parent[rng.below(nc)];
+    if (!(ref > 0) || !std::isfinite(ref)) ref = w.proj_lod[rng.below(nc)];
+    if (!(ref > 0) || !std::isfinite(ref)) ref = 1.0f;
+    // t == 1: exactly a stored projected value (ties exercise the ≤ / > split);
+    // otherwise a random factor in [1/4, 4] around one.
+    tau = t == 1 ? ref : float(ref * std::pow(2.0, 4 * rng.uniform() - 2));
+    if (!(tau > 0) || !std::isfinite(tau)) tau = 1.0f;
+  }
+  return tau;
+}
+
+// Sibling agreement: members decide the parent test alike; generated clusters decide the
+// lod test alike.
+void check_siblings(const ClusterDag& dag, const ViewScratch& w, float tau, const std::string& where,
+                    const std::vector<VerifyValue>& values, Sink& sink) {
+  for (size_t g = 0; g < dag.groups.size(); ++g) {
+    const DagGroup& G = dag.groups[g];
+    bool first = parent_too_coarse(w.proj_parent[G.first_cluster], tau);
+    for (uint32_t i = 1; i < G.cluster_count; ++i)
+      if (parent_too_coarse(w.proj_parent[G.first_cluster + i], tau) != first) {
+        sink.add("CUT_SIBLING", "cut", "group", g,
+                 "members disagree on the parent test (cluster " + idx(G.first_cluster + i) + ")" + where, values);
+        break;
+      }
+    if (G.generated_count) {
+      uint32_t p0 = dag.generated_clusters[G.first_generated];
+      bool gfirst = fine_enough(w.proj_lod[p0], tau);
+      for (uint32_t i = 1; i < G.generated_count; ++i) {
+        uint32_t p = dag.generated_clusters[G.first_generated + i];
+        if (fine_enough(w.proj_lod[p], tau) != gfirst) {
+          sink.add("CUT_SIBLING", "cut", "group", g,
+                   "generated clusters disagree on the lod test (cluster " + idx(p) + ")" + where, values);
+          break;
+        }
+      }
+    }
+  }
+}
+
+// Cuts at several thresholds: each selected, then checked for siblings, coverage and cracks.
+void check_cuts(const ViewChecks& vc, ViewScratch& w, uint32_t v, SplitMix64& rng,
+                const std::vector<VerifyValue>& view_values, ViewOutput& out) {
+  CutScratch& s = w.cut;
+  for (uint32_t t = 0; t < vc.options.thresholds_per_view; ++t) {
+    const float tau = random_threshold(t, w, rng);
+    const std::string where = " (view " + idx(v) + ", threshold " + fmt_float(tau) + " px)";
+    auto values = view_values;
+    values.push_back({"threshold_px", tau});
+    s.list.clear();
+    for (size_t c = 0; c < vc.nc; ++c) {
+      const bool selected = cut_selects(w.proj_parent[c], w.proj_lod[c], tau);
+      s.sel[c] = selected;
+      if (selected) s.list.push_back(uint32_t(c));
+    }
+    out.cut_sizes.push_back(double(s.list.size()));
+    if (vc.cut) {
+      check_siblings(vc.dag, w, tau, where, values, out.cut);
+      check_coverage(vc.dag, vc.ctx, s, out.cut, where, values);
+    }
+    if (vc.crack && vc.ctx.usable) {
+      uint64_t mismatched = 0;
+      check_cracks(vc.ctx, s, out.crack, where, values, vc.options.strict_border, &mismatched, &out.border_changed);
+    }
+  }
+}
+
+// View v: its eye from its own random stream, the projected errors, then the checks.
+void check_view(const ViewChecks& vc, ViewScratch& w, uint32_t v, ViewOutput& out) {
+  SplitMix64 rng(vc.options.seed * 0x2545F4914F6CDD1Dull + v);
+  rng.next();
+  const LodView view = random_view(vc, rng);
+  const std::string view_where = " (view " + idx(v) + ")";
+  std::vector<VerifyValue> view_values{{"view", double(v)}, {"eye_x", view.eye.x}, {"eye_y", view.eye.y},
+                                       {"eye_z", view.eye.z}};
+  for (size_t c = 0; c < vc.nc; ++c) {
+    const DagCluster& k = vc.dag.clusters[c];
+    w.proj_lod[c] = projected_error(k.lod_bounds, k.lod_error, view);
+    w.proj_parent[c] = projected_error(k.parent_bounds, k.parent_error, view);
+  }
+  if (vc.monotonic) check_projected_monotonic(vc.dag, w.proj_lod, w.proj_parent, view_where, view_values, out);
+  if (vc.cut || vc.crack) check_cuts(vc, w, v, rng, view_values, out);
+}
+
+}  // namespace
+
 void check_views(const ClusterDag& dag, const VerifyOptions& options, bool monotonic, bool cut, bool crack,
                  Sink& mono_sink, Sink& cut_sink, Sink& crack_sink, ViewCheckResult* result) {
-  CutCheckContext ctx;
-  if (cut || crack) ctx = prepare_cut_check(dag);
-  if (!ctx.usable) ctx.group_order = groups_by_decreasing_level(dag);
-  const size_t nc = dag.clusters.size();
-
+  ViewChecks vc{dag, options, monotonic, cut, crack, {}, 0, 1.0, {}};
+  if (cut || crack) vc.ctx = prepare_cut_check(dag);
+  if (!vc.ctx.usable) vc.ctx.group_order = groups_by_decreasing_level(dag);
+  vc.nc = dag.clusters.size();
   // Scene scale for camera placement: the leaves' AABB diagonal (≥ a tiny floor).
   double diag = 0;
   if (!dag.bounds.empty())
     diag = distance_d(dag.bounds.min, dag.bounds.max);
   if (!(diag > 0)) diag = 1.0;
-  Vec3 mid = dag.bounds.empty() ? Vec3{} : (dag.bounds.min + dag.bounds.max) * 0.5f;
+  vc.diag = diag;
+  vc.mid = dag.bounds.empty() ? Vec3{} : (dag.bounds.min + dag.bounds.max) * 0.5f;
 
   const uint32_t views = options.views;
-  struct PerView {
-    Sink mono, cut, crack;
-    uint64_t edges = 0, border_changed = 0;
-    std::vector<double> cut_sizes;
-  };
-  std::vector<PerView> per_view(views);
+  std::vector<ViewOutput> per_view(views);
   for (auto& pv : per_view) pv.mono.cap = pv.cut.cap = pv.crack.cap = options.max_stored_per_code;
 
   ThreadPool pool(options.threads);
   std::atomic<uint32_t> next{0};
   pool.run_on_all([&](unsigned) {
-    CutScratch s;
-    s.sel.assign(nc, 0);
-    std::vector<float> proj_lod(nc), proj_parent(nc);
-    for (uint32_t v; (v = next.fetch_add(1)) < views;) {
-      PerView& out = per_view[v];
-      SplitMix64 rng(options.seed * 0x2545F4914F6CDD1Dull + v);
-      rng.next();
-      // ---- the view: an eye placed relative to a random sphere of the DAG ----
-      const DagCluster& anchor = dag.clusters[rng.below(uint32_t(nc))];
-      uint32_t which = rng.below(3);
-      Sphere s0 = which == 0 ? anchor.bounds : which == 1 ? anchor.lod_bounds : anchor.parent_bounds;
-      double r = std::max(0.0, double(s0.radius));
-      double z = 2 * rng.uniform() - 1, phi = 6.283185307179586 * rng.uniform();
-      double rho = std::sqrt(std::max(0.0, 1 - z * z));
-      double dir[3] = {rho * std::cos(phi), rho * std::sin(phi), z};
-      uint32_t mode = rng.below(6);
-      double dist = 0;
-      Vec3 base = s0.center;
-      switch (mode) {
-        case 0: dist = 0; break;                                     // at the centre
-        case 1: dist = r * rng.uniform(); break;                     // inside the sphere
-        case 2: dist = r; break;                                     // on its surface
-        case 3: dist = r * (1 + rng.uniform()); break;               // just outside
-        case 4: dist = (r + diag) * std::pow(10.0, 4 * rng.uniform()); break;  // far: up to 10^4 scene sizes
-        default: base = mid; dist = diag * rng.uniform(); break;     // anywhere around the scene
-      }
-      LodView view;
-      view.eye = {float(base.x + dir[0] * dist), float(base.y + dir[1] * dist), float(base.z + dir[2] * dist)};
-      double fov = (15.0 + 85.0 * rng.uniform()) * 3.141592653589793 / 180.0;
-      double height = 64.0 + 4256.0 * rng.uniform();
-      view.pixels_per_unit_at_1 = lod_projection_scale(float(fov), float(height));
-      view.z_near = float(diag * std::pow(10.0, -6 + 5 * rng.uniform()));
-      if (!(view.z_near > 0)) view.z_near = 1e-6f;
-
-      const std::string view_where = " (view " + idx(v) + ")";
-      std::vector<VerifyValue> view_values{{"view", double(v)}, {"eye_x", view.eye.x}, {"eye_y", view.eye.y},
-                                           {"eye_z", view.eye.z}};
-      for (size_t c = 0; c < nc; ++c) {
-        const DagCluster& k = dag.clusters[c];
-        proj_lod[c] = projected_error(k.lod_bounds, k.lod_error, view);
-        proj_parent[c] = projected_error(k.parent_bounds, k.parent_error, view);
-      }
-      // ---- MONO_PROJECTED: along every DAG edge and within every cluster ----
-      if (monotonic) {
-        for (size_t c = 0; c < nc; ++c) {
-          if (!(proj_lod[c] <= proj_parent[c]) && out.mono.take("MONO_PROJECTED")) {
-            auto values = view_values;
-            values.push_back({"projected_lod_error", proj_lod[c]});
-            values.push_back({"projected_parent_error", proj_parent[c]});
-            out.mono.stored.push_back({"MONO_PROJECTED", "monotonic", "cluster", c,
-                                       "projected lod_error " + fmt_float(proj_lod[c]) + " px > projected parent_error " +
-                                           fmt_float(proj_parent[c]) + " px" + view_where,
-                                       std::move(values)});
-          }
-        }
-        for (const DagGroup& G : dag.groups) {
-          if (!G.generated_count) continue;
-          float max_child = 0;
-          uint32_t worst_child = G.first_cluster;
-          for (uint32_t i = 0; i < G.cluster_count; ++i)
-            if (proj_lod[G.first_cluster + i] > max_child) {
-              max_child = proj_lod[G.first_cluster + i];
-              worst_child = G.first_cluster + i;
-            }
-          for (uint32_t i = 0; i < G.generated_count; ++i) {
-            uint32_t p = dag.generated_clusters[G.first_generated + i];
-            ++out.edges;
-            if (!(proj_lod[p] >= max_child) && out.mono.take("MONO_PROJECTED")) {
-              auto values = view_values;
-              values.push_back({"projected_child_lod_error", max_child});
-              values.push_back({"projected_parent_lod_error", proj_lod[p]});
-              out.mono.stored.push_back({"MONO_PROJECTED", "monotonic", "cluster", worst_child,
-                                         "projected lod_error " + fmt_float(max_child) +
-                                             " px exceeds generated cluster " + idx(p) + "'s " +
-                                             fmt_float(proj_lod[p]) + " px" + view_where,
-                                         std::move(values)});
-            }
-          }
-        }
-      }
-      if (!cut && !crack) continue;
-      // ---- cuts at several thresholds ----
-      for (uint32_t t = 0; t < options.thresholds_per_view; ++t) {
-        float tau = 1.0f;  // the usual "one pixel" target
-        if (t > 0) {
-          float ref = proj_parent[rng.below(uint32_t(nc))];
-          if (!(ref > 0) || !std::isfinite(ref)) ref = proj_lod[rng.below(uint32_t(nc))];
-          if (!(ref > 0) || !std::isfinite(ref)) ref = 1.0f;
-          // t == 1: exactly a stored projected value (ties exercise the ≤ / > split);
-          // otherwise a random factor in [1/4, 4] around one.
-          tau = t == 1 ? ref : float(ref * std::pow(2.0, 4 * rng.uniform() - 2));
-          if (!(tau > 0) || !std::isfinite(tau)) tau = 1.0f;
-        }
-        const std::string where = " (view " + idx(v) + ", threshold " + fmt_float(tau) + " px)";
-        auto values = view_values;
-        values.push_back({"threshold_px", tau});
-        s.list.clear();
-        for (size_t c = 0; c < nc; ++c) {
-          const bool selected = cut_selects(proj_parent[c], proj_lod[c], tau);
-          s.sel[c] = selected;
-          if (selected) s.list.push_back(uint32_t(c));
-        }
-        out.cut_sizes.push_back(double(s.list.size()));
-        if (cut) {
-          // Sibling agreement: members decide the parent test alike; generated clusters
-          // decide the lod test alike.
-          for (size_t g = 0; g < dag.groups.size(); ++g) {
-            const DagGroup& G = dag.groups[g];
-            bool first = parent_too_coarse(proj_parent[G.first_cluster], tau);
-            for (uint32_t i = 1; i < G.cluster_count; ++i)
-              if (parent_too_coarse(proj_parent[G.first_cluster + i], tau) != first) {
-                out.cut.add("CUT_SIBLING", "cut", "group", g,
-                            "members disagree on the parent test (cluster " + idx(G.first_cluster + i) + ")" + where,
-                            values);
-                break;
-              }
-            if (G.generated_count) {
-              uint32_t p0 = dag.generated_clusters[G.first_generated];
-              bool gfirst = fine_enough(proj_lod[p0], tau);
-              for (uint32_t i = 1; i < G.generated_count; ++i) {
-                uint32_t p = dag.generated_clusters[G.first_generated + i];
-                if (fine_enough(proj_lod[p], tau) != gfirst) {
-                  out.cut.add("CUT_SIBLING", "cut", "group", g,
-                              "generated clusters disagree on the lod test (cluster " + idx(p) + ")" + where, values);
-                  break;
-                }
-              }
-            }
-          }
-          check_coverage(dag, ctx, s, out.cut, where, values);
-        }
-        if (crack && ctx.usable) {
-          uint64_t mismatched = 0;
-          check_cracks(ctx, s, out.crack, where, values, options.strict_border, &mismatched,
-                       &out.border_changed);
-        }
-      }
-    }
+    ViewScratch w;
+    w.cut.sel.assign(vc.nc, 0);
+    w.proj_lod.resize(vc.nc);
+    w.proj_parent.resize(vc.nc);
+    for (uint32_t v; (v = next.fetch_add(1)) < views;) check_view(vc, w, v, per_view[v]);
   });
   for (auto& pv : per_view) {
     mono_sink.merge(pv.mono);
