@@ -27,11 +27,8 @@ std::vector<uint8_t> small_file(Compression c = Compression::kZstd, uint32_t rin
   return encode_format(test::scene_of({test::make_leaf_dag(test::make_sphere(rings, 2 * rings))}), o);
 }
 
-uint32_t le32(const uint8_t* p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24; }
-void put32(uint8_t* p, uint32_t v) { for (int k = 0; k < 4; ++k) p[k] = uint8_t(v >> (8 * k)); }
 
 // Recomputes every CRC (pages, metadata, header) after a deliberate edit.
-void fix_crcs(std::vector<uint8_t>& f) { test::fix_file_crcs(f); }
 
 std::string decode_code(const std::vector<uint8_t>& f) {
   return error_code_of([&] { decode_format(f.data(), f.size(), "<test>"); });
@@ -141,23 +138,23 @@ TEST(FormatHardening, MalformedFieldsMapToStableCodes) {
   auto edited = [&](auto edit) {
     std::vector<uint8_t> g = f;
     edit(g);
-    fix_crcs(g);
+    test::fix_file_crcs(g);
     return decode_code(g);
   };
   EXPECT_EQ(edited([](auto& g) { g[0] = 'X'; }), kErrBadMagic);
-  EXPECT_EQ(edited([](auto& g) { put32(&g[8], 3); }), kErrBadVersion);
-  EXPECT_EQ(edited([](auto& g) { put32(&g[8], 0); }), kErrBadVersion);
-  EXPECT_EQ(edited([](auto& g) { put32(&g[24], 7); }), kErrUnsupported);          // compression
-  EXPECT_EQ(edited([](auto& g) { put32(&g[28], 1000); }), kErrOutOfRange);        // page size
+  EXPECT_EQ(edited([](auto& g) { test::file_put32(&g[8], 3); }), kErrBadVersion);
+  EXPECT_EQ(edited([](auto& g) { test::file_put32(&g[8], 0); }), kErrBadVersion);
+  EXPECT_EQ(edited([](auto& g) { test::file_put32(&g[24], 7); }), kErrUnsupported);          // compression
+  EXPECT_EQ(edited([](auto& g) { test::file_put32(&g[28], 1000); }), kErrOutOfRange);        // page size
   EXPECT_EQ(edited([](auto& g) { g[54] = 1; }), kErrUnsupported);                 // reserved
   // Version 2 metadata fields (spec §1.1): codec, raw size cap, raw size.
-  EXPECT_EQ(edited([](auto& g) { put32(&g[48], 3); }), kErrUnsupported);
-  EXPECT_EQ(edited([](auto& g) { put32(&g[44], 32 * le32(&g[36]) + 1); }), kErrOutOfRange);
-  EXPECT_EQ(edited([](auto& g) { put32(&g[44], le32(&g[44]) + 1); }), kErrDecompress);
-  EXPECT_EQ(edited([](auto& g) { put32(&g[44], le32(&g[44]) - 1); }), kErrDecompress);
-  EXPECT_EQ(edited([](auto& g) { put32(&g[48], 0); }), kErrInconsistent);        // raw size != stored size
+  EXPECT_EQ(edited([](auto& g) { test::file_put32(&g[48], 3); }), kErrUnsupported);
+  EXPECT_EQ(edited([](auto& g) { test::file_put32(&g[44], 32 * test::file_le32(&g[36]) + 1); }), kErrOutOfRange);
+  EXPECT_EQ(edited([](auto& g) { test::file_put32(&g[44], test::file_le32(&g[44]) + 1); }), kErrDecompress);
+  EXPECT_EQ(edited([](auto& g) { test::file_put32(&g[44], test::file_le32(&g[44]) - 1); }), kErrDecompress);
+  EXPECT_EQ(edited([](auto& g) { test::file_put32(&g[48], 0); }), kErrInconsistent);        // raw size != stored size
   EXPECT_EQ(edited([](auto& g) { g[64] ^= 0xFF; }), kErrDecompress);              // metadata zstd frame
-  EXPECT_EQ(edited([](auto& g) { put32(&g[16], le32(&g[16]) + 1); }), kErrInconsistent);  // file size
+  EXPECT_EQ(edited([](auto& g) { test::file_put32(&g[16], test::file_le32(&g[16]) + 1); }), kErrInconsistent);  // file size
   // First page's zstd frame magic broken (CRC recomputed): the decompressor rejects it.
   const FormatContainer fc = parse_container(f.data(), f.size(), "<test>");
   const size_t page0 = fc.pages[0].file_offset;
@@ -172,12 +169,12 @@ TEST(FormatHardening, MalformedFieldsMapToStableCodes) {
     auto plain_edited = [&](auto edit) {
       std::vector<uint8_t> g = plain;
       edit(g);
-      fix_crcs(g);
+      test::fix_file_crcs(g);
       return decode_code(g);
     };
     EXPECT_EQ(plain_edited([](auto&) {}), "OK") << version;
-    EXPECT_EQ(plain_edited([](auto& g) { put32(&g[68], 5000); }), kErrOutOfRange) << version;
-    EXPECT_EQ(plain_edited([](auto& g) { put32(&g[64], 0x7FFFFFFF); }), kErrTruncated) << version;
+    EXPECT_EQ(plain_edited([](auto& g) { test::file_put32(&g[68], 5000); }), kErrOutOfRange) << version;
+    EXPECT_EQ(plain_edited([](auto& g) { test::file_put32(&g[64], 0x7FFFFFFF); }), kErrTruncated) << version;
   }
 }
 
@@ -203,7 +200,7 @@ TEST(FormatHardening, Lz4MatchOffsetZeroIsRejected) {
     for (size_t at : offsets) {
       std::vector<uint8_t> g = f;
       g[p.file_offset + at] = 0, g[p.file_offset + at + 1] = 0;
-      fix_crcs(g);
+      test::fix_file_crcs(g);
       EXPECT_EQ(decode_code(g), "FORMAT_DECOMPRESS") << "page at " << p.file_offset << ", offset at " << at;
     }
     matches += offsets.size();
@@ -239,7 +236,7 @@ TEST(FormatHardening, MutatedPagesWithFixedChecksumsNeverCrash) {
         const size_t at = (iter & 1) ? pages_begin + rng() % (g.size() - pages_begin) : 64 + rng() % (g.size() - 64);
         g[at] = (rng() & 1) ? uint8_t(rng()) : uint8_t(g[at] ^ (1u << (rng() % 8)));
       }
-      fix_crcs(g);
+      test::fix_file_crcs(g);
       try {
         decode_format(g.data(), g.size(), "<test>");
       } catch (const VgeoError&) {

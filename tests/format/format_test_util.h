@@ -15,6 +15,7 @@
 #include <tuple>
 #include <vector>
 
+#include "support/errors.h"
 #include "support/shapes.h"
 #include "vgeo/dag/cluster_dag.h"
 #include "vgeo/core/hash.h"
@@ -188,14 +189,5 @@ inline BuiltScene scene_of(std::vector<ClusterDag> meshes) {
 
 // Canonical decode hash (spec/format.md §Conformance): lib/vgeo/format/decode_hash.h.
 inline uint64_t decoded_hash(const BuiltScene& s) { return decode_hash(s); }
-
-inline std::string error_code_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const VgeoError& e) {
-    return e.error().code;
-  }
-  return "OK";
-}
 
 }  // namespace vgeo::test

@@ -40,18 +40,15 @@ struct Vector {
   std::string twin;                 // its name (resolved by resolve_twins)
 };
 
-uint32_t le32(const uint8_t* p) { return test::file_le32(p); }
-void put32(uint8_t* p, uint32_t v) { test::file_put32(p, v); }
-void fix_crcs(std::vector<uint8_t>& f) { test::fix_file_crcs(f); }
 
 // Offset of the version 2 copy mask in a raw (uncompressed) disk page (spec §5.2).
 size_t copy_mask_offset(const uint8_t* page, uint32_t channels, uint64_t* total_vertices) {
-  const uint32_t n = le32(page + 4);
+  const uint32_t n = test::file_le32(page + 4);
   size_t at = 8;
   uint64_t tris = 0, runs = 0, verts = 0;
   for (uint32_t i = 0; i < n; ++i) verts += page[at + i], tris += page[at + n + i], runs += page[at + 2 * n + i];
   at += size_t(n) * (3 + 5 * channels) + tris;
-  at += 4 + le32(page + at);
+  at += 4 + test::file_le32(page + at);
   *total_vertices = verts;
   return at + 5 * runs;
 }
@@ -503,32 +500,32 @@ std::vector<Vector> make_vectors(uint32_t version) {
   auto derived = [&](const std::string& name, const std::vector<uint8_t>& base, const std::string& code, auto edit, bool crc) {
     std::vector<uint8_t> f = base;
     edit(f);
-    if (crc) fix_crcs(f);
+    if (crc) test::fix_file_crcs(f);
     v.push_back({prefix + name, f, code, base, ""});
   };
   const FormatContainer fc = parse_container(sphere_zstd.data(), sphere_zstd.size(), "gen");
   const size_t page0 = fc.pages[0].file_offset;
   derived("bad_magic.vgp", sphere_zstd, kErrBadMagic, [](auto& f) { f[3] = 'X'; }, false);
-  derived("bad_version.vgp", sphere_zstd, kErrBadVersion, [](auto& f) { put32(&f[8], kFormatVersion + 1); }, true);
+  derived("bad_version.vgp", sphere_zstd, kErrBadVersion, [](auto& f) { test::file_put32(&f[8], kFormatVersion + 1); }, true);
   derived("truncated.vgp", sphere_zstd, kErrTruncated, [](auto& f) { f.pop_back(); }, false);
   derived("trailing_byte.vgp", sphere_zstd, kErrTrailingBytes, [](auto& f) { f.push_back(0); }, false);
   derived("header_checksum.vgp", sphere_zstd, kErrChecksum, [](auto& f) { f[44] ^= 1; }, false);
   derived("page_checksum.vgp", sphere_zstd, kErrChecksum, [&](auto& f) { f[page0 + 7] ^= 0x10; }, false);
-  derived("unknown_compression.vgp", sphere_zstd, kErrUnsupported, [](auto& f) { put32(&f[24], 3); }, true);
-  derived("page_size_out_of_range.vgp", sphere_zstd, kErrOutOfRange, [](auto& f) { put32(&f[28], 3u << 14); }, true);
-  derived("file_size_inconsistent.vgp", sphere_zstd, kErrInconsistent, [](auto& f) { put32(&f[16], le32(&f[16]) - 1); }, true);
+  derived("unknown_compression.vgp", sphere_zstd, kErrUnsupported, [](auto& f) { test::file_put32(&f[24], 3); }, true);
+  derived("page_size_out_of_range.vgp", sphere_zstd, kErrOutOfRange, [](auto& f) { test::file_put32(&f[28], 3u << 14); }, true);
+  derived("file_size_inconsistent.vgp", sphere_zstd, kErrInconsistent, [](auto& f) { test::file_put32(&f[16], test::file_le32(&f[16]) - 1); }, true);
   derived("zstd_frame_broken.vgp", sphere_zstd, kErrDecompress, [&](auto& f) { f[page0] ^= 0xFF; }, true);
   // Raw (uncompressed) page edits: offsets from spec §5.2 for the first page.
   const BuiltScene grid = test::scene_of({test::make_leaf_dag(test::make_grid(6))});
   const std::vector<uint8_t> grid_none = encode_format(grid, none);
   // Metadata edit (plain metadata in version 1; in version 2 only without compression).
   derived("material_name_too_long.vgp", version == 1 ? sphere_zstd : grid_none, kErrOutOfRange,
-          [](auto& f) { put32(&f[68], 4097); }, true);
+          [](auto& f) { test::file_put32(&f[68], 4097); }, true);
   if (version >= 2) {
-    derived("metadata_compression_unknown.vgp", sphere_zstd, kErrUnsupported, [](auto& f) { put32(&f[48], 3); }, true);
+    derived("metadata_compression_unknown.vgp", sphere_zstd, kErrUnsupported, [](auto& f) { test::file_put32(&f[48], 3); }, true);
     derived("metadata_raw_size_over_cap.vgp", sphere_zstd, kErrOutOfRange,
-            [](auto& f) { put32(&f[44], kMaxMetadataRatio * le32(&f[36]) + 1); }, true);
-    derived("metadata_raw_size_mismatch.vgp", sphere_zstd, kErrDecompress, [](auto& f) { put32(&f[44], le32(&f[44]) + 1); }, true);
+            [](auto& f) { test::file_put32(&f[44], kMaxMetadataRatio * test::file_le32(&f[36]) + 1); }, true);
+    derived("metadata_raw_size_mismatch.vgp", sphere_zstd, kErrDecompress, [](auto& f) { test::file_put32(&f[44], test::file_le32(&f[44]) + 1); }, true);
     // A page of several clusters with vertex copies (spec §5.2 version 2).
     const std::vector<uint8_t> multi = encode_format(test::scene_of({test::make_leaf_dag(test::make_grid(24, 1.0f, true))}), none);
     v.push_back({"valid_copies_none.vgp", multi, "OK"});
@@ -548,7 +545,7 @@ std::vector<Vector> make_vectors(uint32_t version) {
   const size_t p = gc.pages[0].file_offset;
   const uint32_t n = gc.pages[0].cluster_count, C = gc.meshes[0].quantization.channel_count();
   v.push_back({prefix + "valid_grid_none.vgp", grid_none, "OK"});
-  derived("page_cluster_count_mismatch.vgp", grid_none, kErrInconsistent, [&](auto& f) { put32(&f[p + 4], n + 1); }, true);
+  derived("page_cluster_count_mismatch.vgp", grid_none, kErrInconsistent, [&](auto& f) { test::file_put32(&f[p + 4], n + 1); }, true);
   derived("page_bad_magic.vgp", grid_none, kErrBadMagic, [&](auto& f) { f[p] ^= 1; }, true);
   const size_t ctl = p + 8 + size_t(n) * (3 + 5 * C);
   derived("strip_reserved_bit.vgp", grid_none, kErrOutOfRange, [&](auto& f) { f[ctl] |= 0x80; }, true);
@@ -638,7 +635,7 @@ TEST(FormatVectors, GeneratorReproducesStoredFiles) {
   for (const Vector& v : all_vectors()) {
     const std::vector<uint8_t> stored = read_file(vector_dir() / v.name);
     if (stored == v.bytes) continue;  // (the usual case: no decode needed)
-    if (v.bytes.size() >= 28 && le32(&v.bytes[24]) == uint32_t(Compression::kNone))
+    if (v.bytes.size() >= 28 && test::file_le32(&v.bytes[24]) == uint32_t(Compression::kNone))
       EXPECT_TRUE(stored == v.bytes) << v.name;
     else
       EXPECT_EQ(outcome(stored), outcome(v.bytes)) << v.name;

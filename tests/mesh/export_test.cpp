@@ -1,5 +1,6 @@
 // Mesh writers (lib/vgeo/mesh/export.h): GLB read back by tinygltf, OBJ/PLY/OFF read back by
 // OpenMesh (independent parsers), byte determinism, atomic writes, stable error codes.
+#include "support/errors.h"
 #include "vgeo/mesh/export.h"
 
 #include <gtest/gtest.h>
@@ -35,26 +36,12 @@ struct TempDir {
   size_t entries() const { return size_t(std::distance(fs::directory_iterator(path), fs::directory_iterator())); }
 };
 
-std::vector<uint8_t> read_bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return std::vector<uint8_t>(std::istreambuf_iterator<char>(f), {});
-}
-
 Scene gen_scene(GenShape shape, uint64_t triangles, uint64_t seed = 1) {
   GenerateOptions o;
   o.shape = shape;
   o.target_triangles = triangles;
   o.seed = seed;
   return generate_scene(o);
-}
-
-std::string code_of(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const VgeoError& e) {
-    return e.error().code;
-  }
-  return "";
 }
 
 template <class T>
@@ -147,8 +134,8 @@ TEST(ExportGlb, OutputIsByteIdenticalAndFileMatchesMemory) {
   EXPECT_EQ(a, b);
   write_glb(scene, dir.file("t.glb"));
   write_scene_file(scene, dir.file("t2.GLB"));
-  EXPECT_EQ(read_bytes(dir.file("t.glb")), a);
-  EXPECT_EQ(read_bytes(dir.file("t2.GLB")), a);
+  EXPECT_EQ(test::read_file_bytes(dir.file("t.glb")), a);
+  EXPECT_EQ(test::read_file_bytes(dir.file("t2.GLB")), a);
   EXPECT_EQ(dir.entries(), 2u);  // no temp files left behind
 }
 
@@ -157,12 +144,12 @@ TEST(ExportFiles, FailedWriteLeavesExistingFileUntouchedAndNoTempFiles) {
   const std::string path = dir.file("keep.glb");
   Scene good = gen_scene(GenShape::kSphere, 1'000);
   write_glb(good, path);
-  const std::vector<uint8_t> before = read_bytes(path);
+  const std::vector<uint8_t> before = test::read_file_bytes(path);
   Scene bad = good;
   bad.meshes[0].indices[5] = uint32_t(bad.meshes[0].vertex_count());
-  EXPECT_EQ(code_of([&] { write_glb(bad, path); }), "EXPORT_INDEX_OUT_OF_RANGE");
-  EXPECT_EQ(code_of([&] { write_obj(bad.meshes[0], dir.file("keep.glb")); }), "EXPORT_INDEX_OUT_OF_RANGE");
-  EXPECT_EQ(read_bytes(path), before);
+  EXPECT_EQ(test::error_code_of([&] { write_glb(bad, path); }), "EXPORT_INDEX_OUT_OF_RANGE");
+  EXPECT_EQ(test::error_code_of([&] { write_obj(bad.meshes[0], dir.file("keep.glb")); }), "EXPORT_INDEX_OUT_OF_RANGE");
+  EXPECT_EQ(test::read_file_bytes(path), before);
   EXPECT_EQ(dir.entries(), 1u);
   try {
     write_glb(good, dir.file("no/such/dir/x.glb"));
@@ -176,24 +163,24 @@ TEST(ExportFiles, FailedWriteLeavesExistingFileUntouchedAndNoTempFiles) {
 TEST(ExportFiles, RejectsInvalidMeshesWithStableCodes) {
   TempDir dir;
   Scene s = gen_scene(GenShape::kTorus, 500);
-  EXPECT_EQ(code_of([&] { write_scene_file(s, dir.file("x.xyz")); }), "EXPORT_UNKNOWN_FORMAT");
-  EXPECT_EQ(code_of([&] { write_scene_file(s, dir.file("noext")); }), "EXPORT_UNKNOWN_FORMAT");
+  EXPECT_EQ(test::error_code_of([&] { write_scene_file(s, dir.file("x.xyz")); }), "EXPORT_UNKNOWN_FORMAT");
+  EXPECT_EQ(test::error_code_of([&] { write_scene_file(s, dir.file("noext")); }), "EXPORT_UNKNOWN_FORMAT");
   Scene nan = s;
   nan.meshes[0].positions[4] = std::nanf("");
-  EXPECT_EQ(code_of([&] { encode_glb(nan); }), "EXPORT_NON_FINITE");
+  EXPECT_EQ(test::error_code_of([&] { encode_glb(nan); }), "EXPORT_NON_FINITE");
   Scene mat = s;
   mat.meshes[0].materials[3] = 2;
-  EXPECT_EQ(code_of([&] { encode_glb(mat); }), "EXPORT_MATERIAL_OUT_OF_RANGE");
+  EXPECT_EQ(test::error_code_of([&] { encode_glb(mat); }), "EXPORT_MATERIAL_OUT_OF_RANGE");
   Scene empty = s;
   empty.meshes[0].indices.clear();
   empty.meshes[0].materials.clear();
-  EXPECT_EQ(code_of([&] { encode_glb(empty); }), "EXPORT_EMPTY_MESH");
+  EXPECT_EQ(test::error_code_of([&] { encode_glb(empty); }), "EXPORT_EMPTY_MESH");
   Scene sizes = s;
   sizes.meshes[0].normals.pop_back();
-  EXPECT_EQ(code_of([&] { encode_glb(sizes); }), "EXPORT_ATTRIBUTE_SIZE");
+  EXPECT_EQ(test::error_code_of([&] { encode_glb(sizes); }), "EXPORT_ATTRIBUTE_SIZE");
   Scene inst = s;
   inst.instances[0].mesh = 3;
-  EXPECT_EQ(code_of([&] { encode_glb(inst); }), "EXPORT_BAD_INSTANCE");
+  EXPECT_EQ(test::error_code_of([&] { encode_glb(inst); }), "EXPORT_BAD_INSTANCE");
   EXPECT_EQ(dir.entries(), 0u);
 }
 
@@ -233,9 +220,9 @@ TEST(ExportFiles, ObjPlyOffReadBackByOpenMesh) {
     EXPECT_EQ(om.n_vertices(), m.vertex_count()) << ext;
     expect_same_faces(m, om, std::string(ext) == "obj");
     // Deterministic bytes.
-    const std::vector<uint8_t> first = read_bytes(path);
+    const std::vector<uint8_t> first = test::read_file_bytes(path);
     write_scene_file(scene, path);
-    EXPECT_EQ(read_bytes(path), first) << ext;
+    EXPECT_EQ(test::read_file_bytes(path), first) << ext;
   }
   EXPECT_EQ(dir.entries(), 3u);
 }
@@ -244,7 +231,7 @@ TEST(ExportFiles, PlyHeaderDeclaresAllAttributes) {
   TempDir dir;
   Scene scene = gen_scene(GenShape::kSphere, 500);
   write_ply(scene.meshes[0], dir.file("a.ply"));
-  std::vector<uint8_t> bytes = read_bytes(dir.file("a.ply"));
+  std::vector<uint8_t> bytes = test::read_file_bytes(dir.file("a.ply"));
   std::string text(bytes.begin(), bytes.end());
   size_t end = text.find("end_header\n");
   ASSERT_NE(end, std::string::npos);

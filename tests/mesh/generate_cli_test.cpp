@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "support/errors.h"
 #include "support/paths.h"
 #include "support/shapes.h"
 #include "vgeo/mesh/export.h"
@@ -40,11 +41,6 @@ int run(const CliDir& dir, const std::string& args, std::string* err = nullptr) 
   return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
 }
 
-std::vector<uint8_t> read_bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return std::vector<uint8_t>(std::istreambuf_iterator<char>(f), {});
-}
-
 TEST(GenerateCli, SameArgumentsGiveByteIdenticalFiles) {
   CliDir dir;
   // Every shape as GLB, every format for the sphere (process start-up dominates).
@@ -54,20 +50,20 @@ TEST(GenerateCli, SameArgumentsGiveByteIdenticalFiles) {
       std::string a = dir.file(std::string(shape) + "_a." + ext), b = dir.file(std::string(shape) + "_b." + ext);
       ASSERT_EQ(run(dir, std::string("gen ") + shape + " --triangles 3000 --seed 7 -o '" + a + "'"), 0);
       ASSERT_EQ(run(dir, std::string("gen ") + shape + " --triangles 3000 --seed 7 -j 2 -o '" + b + "'"), 0);
-      std::vector<uint8_t> bytes = read_bytes(a);
+      std::vector<uint8_t> bytes = test::read_file_bytes(a);
       EXPECT_GT(bytes.size(), 1000u) << shape << "." << ext;
-      EXPECT_EQ(bytes, read_bytes(b)) << shape << "." << ext;
+      EXPECT_EQ(bytes, test::read_file_bytes(b)) << shape << "." << ext;
     }
   }
   // A different seed gives a different file.
   ASSERT_EQ(run(dir, "gen sphere --triangles 3000 --seed 8 -o '" + dir.file("s8.glb") + "'"), 0);
-  EXPECT_NE(read_bytes(dir.file("s8.glb")), read_bytes(dir.file("sphere_a.glb")));
+  EXPECT_NE(test::read_file_bytes(dir.file("s8.glb")), test::read_file_bytes(dir.file("sphere_a.glb")));
 }
 
 TEST(GenerateCli, SubdivideQuadruplesAndOutputLoadsInTinyGltf) {
   CliDir dir;
   ASSERT_EQ(run(dir, "gen torus -n 2000 --subdivide 2 -o '" + dir.file("t.glb") + "'"), 0);
-  std::vector<uint8_t> glb = read_bytes(dir.file("t.glb"));
+  std::vector<uint8_t> glb = test::read_file_bytes(dir.file("t.glb"));
   tinygltf::TinyGLTF loader;
   tinygltf::Model model;
   std::string err, warn;

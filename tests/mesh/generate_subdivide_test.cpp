@@ -1,5 +1,6 @@
 // Loop subdivision (lib/vgeo/mesh/subdivide.h): counts, closedness, attribute carrying, and
 // stable rejection of non-manifold input.
+#include "support/errors.h"
 #include "vgeo/mesh/subdivide.h"
 
 #include <gtest/gtest.h>
@@ -14,32 +15,15 @@
 namespace vgeo {
 namespace {
 
-Mesh gen(GenShape shape, uint64_t triangles, uint64_t seed = 1) {
-  GenerateOptions o;
-  o.shape = shape;
-  o.target_triangles = triangles;
-  o.seed = seed;
-  return generate_mesh(o);
-}
-
 Mesh loop(const Mesh& m, uint32_t iterations) {
   SubdivideOptions o;
   o.iterations = iterations;
   return subdivide_loop(m, o);
 }
 
-std::string code_of(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const VgeoError& e) {
-    return e.error().code;
-  }
-  return "";
-}
-
 TEST(GenerateSubdivide, MultipliesTrianglesByFourPerStepAndKeepsClosedness) {
   for (GenShape s : {GenShape::kSphere, GenShape::kIslands, GenShape::kThin, GenShape::kTorus}) {
-    Mesh m = gen(s, 2'000, 3);
+    Mesh m = test::generated_mesh(s, 2'000, 3);
     for (uint32_t k : {1u, 2u}) {
       Mesh d = loop(m, k);
       EXPECT_EQ(d.triangle_count(), m.triangle_count() << (2 * k)) << gen_shape_name(s);
@@ -53,7 +37,7 @@ TEST(GenerateSubdivide, MultipliesTrianglesByFourPerStepAndKeepsClosedness) {
 }
 
 TEST(GenerateSubdivide, OpenBordersStayOpenAndDoubleInEdgeCount) {
-  Mesh m = gen(GenShape::kTerrain, 3'000, 2);
+  Mesh m = test::generated_mesh(GenShape::kTerrain, 3'000, 2);
   Mesh d = loop(m, 1);
   EXPECT_EQ(d.triangle_count(), 4 * m.triangle_count());
   auto before = test::count_edges(m), after = test::count_edges(d);
@@ -75,7 +59,7 @@ TEST(GenerateSubdivide, SmoothsTowardsTheLimitSurface) {
 }
 
 TEST(GenerateSubdivide, CarriesUvsAndMaterials) {
-  Mesh m = gen(GenShape::kIslands, 3'000, 5);
+  Mesh m = test::generated_mesh(GenShape::kIslands, 3'000, 5);
   Mesh d = loop(m, 1);
   ASSERT_EQ(d.uvs.size(), 2 * d.vertex_count());
   ASSERT_EQ(d.materials.size(), d.triangle_count());
@@ -98,7 +82,7 @@ TEST(GenerateSubdivide, CarriesUvsAndMaterials) {
 }
 
 TEST(GenerateSubdivide, IsDeterministic) {
-  Mesh m = gen(GenShape::kTorus, 2'000, 8);
+  Mesh m = test::generated_mesh(GenShape::kTorus, 2'000, 8);
   EXPECT_EQ(test::mesh_hash(loop(m, 2)), test::mesh_hash(loop(m, 2)));
 }
 
@@ -126,24 +110,24 @@ TEST(GenerateSubdivide, RejectsBadInputWithStableCodes) {
   tri.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
   // Three triangles on edge (0,1): a fin.
   tri.indices = {0, 1, 2, 1, 0, 3, 0, 1, 4};
-  EXPECT_EQ(code_of([&] { loop(tri, 1); }), "SUBDIVIDE_NON_MANIFOLD");
+  EXPECT_EQ(test::error_code_of([&] { loop(tri, 1); }), "SUBDIVIDE_NON_MANIFOLD");
   // Two triangles touching only at vertex 0: a bow-tie.
   tri.indices = {0, 1, 2, 0, 3, 4};
-  EXPECT_EQ(code_of([&] { loop(tri, 1); }), "SUBDIVIDE_NON_MANIFOLD");
+  EXPECT_EQ(test::error_code_of([&] { loop(tri, 1); }), "SUBDIVIDE_NON_MANIFOLD");
   // Same edge direction twice: inconsistent orientation.
   tri.indices = {0, 1, 2, 0, 1, 3};
-  EXPECT_EQ(code_of([&] { loop(tri, 1); }), "SUBDIVIDE_NON_MANIFOLD");
+  EXPECT_EQ(test::error_code_of([&] { loop(tri, 1); }), "SUBDIVIDE_NON_MANIFOLD");
   tri.indices = {0, 1, 1};
-  EXPECT_EQ(code_of([&] { loop(tri, 1); }), "SUBDIVIDE_DEGENERATE_TRIANGLE");
+  EXPECT_EQ(test::error_code_of([&] { loop(tri, 1); }), "SUBDIVIDE_DEGENERATE_TRIANGLE");
   tri.indices = {0, 1, 7};
-  EXPECT_EQ(code_of([&] { loop(tri, 1); }), "SUBDIVIDE_INDEX_OUT_OF_RANGE");
+  EXPECT_EQ(test::error_code_of([&] { loop(tri, 1); }), "SUBDIVIDE_INDEX_OUT_OF_RANGE");
   tri.indices.clear();
-  EXPECT_EQ(code_of([&] { loop(tri, 1); }), "SUBDIVIDE_EMPTY");
+  EXPECT_EQ(test::error_code_of([&] { loop(tri, 1); }), "SUBDIVIDE_EMPTY");
   Mesh big = test::make_sphere(4, 6);
   SubdivideOptions o;
   o.iterations = 3;
   o.max_triangles = 64 * big.triangle_count() - 1;
-  EXPECT_EQ(code_of([&] { subdivide_loop(big, o); }), "SUBDIVIDE_TOO_LARGE");
+  EXPECT_EQ(test::error_code_of([&] { subdivide_loop(big, o); }), "SUBDIVIDE_TOO_LARGE");
   // Legal: two triangles sharing an edge (open strip) and a lone triangle.
   tri.indices = {0, 1, 2, 1, 0, 3};
   EXPECT_EQ(loop(tri, 2).triangle_count(), 32u);

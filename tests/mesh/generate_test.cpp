@@ -17,16 +17,6 @@ namespace {
 using test::count_edges;
 using test::mesh_hash;
 
-Mesh gen(GenShape shape, uint64_t triangles, uint64_t seed = 1, unsigned threads = 1, uint32_t islands = 0) {
-  GenerateOptions o;
-  o.shape = shape;
-  o.target_triangles = triangles;
-  o.seed = seed;
-  o.threads = threads;
-  o.islands = islands;
-  return generate_mesh(o);
-}
-
 const char* name(GenShape s) { return gen_shape_name(s).data(); }
 
 TEST(GenerateShapes, NamesRoundTripAndUnknownIsRejected) {
@@ -57,9 +47,9 @@ TEST(GenerateShapes, SplitMix64StreamIsPinned) {
 TEST(GenerateShapes, SameSeedGivesIdenticalBytesForAnyThreadCount) {
   // 100k triangles = ~50k vertices: at least two kChunk-sized work items per array.
   for (GenShape s : kAllGenShapes) {
-    const uint64_t h1 = mesh_hash(gen(s, 100'000, 5, 1));
-    EXPECT_EQ(mesh_hash(gen(s, 100'000, 5, 2)), h1) << name(s);
-    EXPECT_EQ(mesh_hash(gen(s, 100'000, 5, 3)), h1) << name(s);
+    const uint64_t h1 = mesh_hash(test::generated_mesh(s, 100'000, 5, 1));
+    EXPECT_EQ(mesh_hash(test::generated_mesh(s, 100'000, 5, 2)), h1) << name(s);
+    EXPECT_EQ(mesh_hash(test::generated_mesh(s, 100'000, 5, 3)), h1) << name(s);
   }
 }
 
@@ -79,7 +69,7 @@ TEST(GenerateShapes, GlbBytesIdenticalAcrossRunsAndThreadCounts) {
 
 TEST(GenerateShapes, DifferentSeedsGiveDifferentMeshes) {
   for (GenShape s : kAllGenShapes) {
-    Mesh a = gen(s, 20'000, 1), b = gen(s, 20'000, 2);
+    Mesh a = test::generated_mesh(s, 20'000, 1), b = test::generated_mesh(s, 20'000, 2);
     EXPECT_NE(mesh_hash(a), mesh_hash(b)) << name(s);
     EXPECT_NE(a.positions, b.positions) << name(s);
   }
@@ -89,7 +79,7 @@ TEST(GenerateShapes, TriangleCountWithinDocumentedTolerance) {
   for (GenShape s : kAllGenShapes)
     // 33,075 = 12*52^2 + 12*52 + 3: the sphere's worst rounding point near the threshold.
     for (uint64_t target : {kGenToleranceFrom, uint64_t(33'075), uint64_t(54'321), uint64_t(100'000)}) {
-      const double count = double(gen(s, target, target).triangle_count());
+      const double count = double(test::generated_mesh(s, target, target).triangle_count());
       EXPECT_LE(std::fabs(count - double(target)), kGenTriangleTolerance * double(target))
           << name(s) << " target " << target << " got " << count;
     }
@@ -98,7 +88,7 @@ TEST(GenerateShapes, TriangleCountWithinDocumentedTolerance) {
 TEST(GenerateShapes, TinyTargetsGiveTheShapeMinimumAndNeverFail) {
   for (GenShape s : kAllGenShapes)
     for (uint64_t target : {1, 2, 11, 100, 999}) {
-      Mesh m = gen(s, target);
+      Mesh m = test::generated_mesh(s, target);
       EXPECT_GT(m.triangle_count(), 0u) << name(s) << " " << target;
       EXPECT_LE(m.triangle_count(), 2000u) << name(s) << " " << target;  // terrain min grid 16^2*2
     }
@@ -107,7 +97,7 @@ TEST(GenerateShapes, TinyTargetsGiveTheShapeMinimumAndNeverFail) {
 TEST(GenerateShapes, RejectsOutOfRangeTargetsWithStableCode) {
   for (uint64_t bad : {uint64_t(0), kMaxGenTriangles + 1}) {
     try {
-      gen(GenShape::kSphere, bad);
+      test::generated_mesh(GenShape::kSphere, bad);
       FAIL() << "accepted " << bad;
     } catch (const VgeoError& e) {
       EXPECT_EQ(e.error().code, "GEN_TRIANGLES_OUT_OF_RANGE");
@@ -115,7 +105,7 @@ TEST(GenerateShapes, RejectsOutOfRangeTargetsWithStableCode) {
     }
   }
   try {
-    gen(GenShape::kIslands, 1000, 1, 1, uint32_t(kMaxGenTriangles / 12 + 1));
+    test::generated_mesh(GenShape::kIslands, 1000, 1, 1, uint32_t(kMaxGenTriangles / 12 + 1));
     FAIL();
   } catch (const VgeoError& e) {
     EXPECT_EQ(e.error().code, "GEN_ISLANDS_OUT_OF_RANGE");
@@ -126,7 +116,7 @@ TEST(GenerateShapes, ClosedShapesAreClosedOrientedManifoldsWithPositiveVolume) {
   for (GenShape s : {GenShape::kSphere, GenShape::kIslands, GenShape::kThin, GenShape::kTorus})
     for (uint64_t seed : {1, 2, 3})
       for (uint64_t target : {30, 5'000}) {
-        Mesh m = gen(s, target, seed);
+        Mesh m = test::generated_mesh(s, target, seed);
         auto e = count_edges(m);
         EXPECT_EQ(e.boundary, 0u) << name(s) << " seed " << seed << " target " << target;
         EXPECT_EQ(e.non_manifold, 0u) << name(s);
@@ -139,7 +129,7 @@ TEST(GenerateShapes, ClosedShapesAreClosedOrientedManifoldsWithPositiveVolume) {
 TEST(GenerateShapes, EulerCharacteristicMatchesGenus) {
   // sphere and islands: genus 0 per component (chi = 2); thin tube and torus: genus 1.
   for (GenShape s : {GenShape::kSphere, GenShape::kIslands, GenShape::kThin, GenShape::kTorus}) {
-    Mesh m = gen(s, 8'000, 4);
+    Mesh m = test::generated_mesh(s, 8'000, 4);
     auto e = count_edges(m);
     int64_t chi = int64_t(m.vertex_count()) - int64_t(e.edges) + int64_t(m.triangle_count());
     int64_t components = int64_t(test::triangle_components(m));
@@ -150,7 +140,7 @@ TEST(GenerateShapes, EulerCharacteristicMatchesGenus) {
 
 TEST(GenerateShapes, TerrainHasHolesInsideItsOpenOuterBorder) {
   for (uint64_t seed : {1, 2, 3, 4}) {
-    Mesh m = gen(GenShape::kTerrain, 20'000, seed);
+    Mesh m = test::generated_mesh(GenShape::kTerrain, 20'000, seed);
     EXPECT_NO_THROW(check_loop_input(m));  // 2-manifold with boundary (no bow-ties)
     auto e = count_edges(m);
     EXPECT_EQ(e.non_manifold, 0u);
@@ -172,7 +162,7 @@ TEST(GenerateShapes, TerrainHasHolesInsideItsOpenOuterBorder) {
 
 TEST(GenerateShapes, IslandsHaveTheRequestedNumberOfClosedComponents) {
   for (uint32_t k : {1u, 2u, 37u, 200u}) {
-    Mesh m = gen(GenShape::kIslands, 30'000, k, 1, k);
+    Mesh m = test::generated_mesh(GenShape::kIslands, 30'000, k, 1, k);
     std::vector<uint32_t> comp;
     EXPECT_EQ(test::triangle_components(m, &comp), k);
     EXPECT_TRUE(test::is_closed_oriented_manifold(m));
@@ -184,13 +174,13 @@ TEST(GenerateShapes, IslandsHaveTheRequestedNumberOfClosedComponents) {
     }
   }
   // Default count: one island per kDefaultIslandTriangles.
-  Mesh m = gen(GenShape::kIslands, 76'800, 3);
+  Mesh m = test::generated_mesh(GenShape::kIslands, 76'800, 3);
   EXPECT_EQ(test::triangle_components(m), 100u);
 }
 
 TEST(GenerateShapes, AttributesAreWellFormed) {
   for (GenShape s : kAllGenShapes) {
-    Mesh m = gen(s, 20'000, 9);
+    Mesh m = test::generated_mesh(s, 20'000, 9);
     const size_t nv = m.vertex_count();
     ASSERT_EQ(m.normals.size(), 3 * nv) << name(s);
     ASSERT_EQ(m.uvs.size(), 2 * nv) << name(s);
@@ -231,7 +221,7 @@ TEST(GenerateShapes, AttributesAreWellFormed) {
 }
 
 TEST(GenerateShapes, ThinWallIsThin) {
-  Mesh m = gen(GenShape::kThin, 20'000, 6);
+  Mesh m = test::generated_mesh(GenShape::kThin, 20'000, 6);
   // Inner vertex i pairs with outer vertex i (second half): radial gap = 1-3% of radius.
   const size_t half = m.vertex_count() / 2;
   for (size_t v = 0; v < half; v += 97) {

@@ -9,6 +9,18 @@
 
 namespace vgeo::test {
 
+// A generated mesh (lib/vgeo/mesh/generate.h) with the options tests vary.
+inline Mesh generated_mesh(GenShape shape, uint64_t triangles, uint64_t seed = 1, unsigned threads = 1,
+                           uint32_t islands = 0) {
+  GenerateOptions o;
+  o.shape = shape;
+  o.target_triangles = triangles;
+  o.seed = seed;
+  o.threads = threads;
+  o.islands = islands;
+  return generate_mesh(o);
+}
+
 // n x n quads in the XY plane over [0,size]^2, two triangles each, CCW seen from +Z.
 // With `hole`, quads whose centre is within size/4 of the middle are left out.
 inline Mesh make_grid(uint32_t n, float size = 1.0f, bool hole = false, Vec3 offset = {}) {

@@ -419,21 +419,16 @@ void compute_channel_ranges(CanonicalCluster* c, uint32_t channel_count) {
   }
 }
 
-void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantization& q,
-                          CanonicalCluster* out) {
-  const DagCluster& cl = dag.clusters[ci];
+namespace {
+
+// Step 1: the cluster's triangles (cluster-local indices) and materials, checked.
+void read_cluster_triangles(const ClusterDag& dag, const DagCluster& cl, uint8_t (*tris)[3], uint32_t* mat) {
   const uint32_t vc = cl.vertex_count, tc = cl.triangle_count;
   if (vc == 0 || vc > kMaxClusterVertices) encode_fail("cluster vertex count outside 1..255");
   if (tc == 0 || tc > kMaxClusterTriangles) encode_fail("cluster triangle count outside 1..128");
   if (uint64_t(cl.vertex_offset) + vc > dag.vertex_count() ||
       uint64_t(cl.triangle_offset) + tc > dag.triangle_count())
     encode_fail("cluster vertex/triangle range outside the mesh arrays");
-  *out = CanonicalCluster{};
-  out->vertex_count = vc;
-  out->triangle_count = tc;
-
-  uint8_t tris[kMaxClusterTriangles][3];
-  uint32_t mat[kMaxClusterTriangles];
   for (uint32_t t = 0; t < tc; ++t) {
     for (int k = 0; k < 3; ++k) {
       const uint8_t v = dag.indices[3 * (size_t(cl.triangle_offset) + t) + k];
@@ -444,54 +439,73 @@ void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantiza
                  ? dag.triangle_materials[cl.triangle_offset + t] : 0u;
     if (mat[t] > kMaxMaterialId) encode_fail("material id beyond 2^24 - 1");
   }
+}
 
-  // Triangles sorted by material (stable), then generalized strips per material run.
+// Step 2: triangles sorted by material (stable), then generalized strips per material run.
+// The greedy order fits the window for most clusters; for the rest, retry from other first
+// triangles (deterministic order) and keep the smallest largest span (first found on ties: a
+// retry that reaches the best span so far is given up). Leaves the strip order in *out and the
+// vertex renumbering in *s.
+void choose_strip_order(const uint8_t (*tris)[3], const uint32_t* mat, uint32_t tc, uint32_t vc, StripOrder* s,
+                        CanonicalCluster* out) {
   uint32_t order[kMaxClusterTriangles];
   for (uint32_t t = 0; t < tc; ++t) order[t] = t;
   std::stable_sort(order, order + tc, [&](uint32_t a, uint32_t b) { return mat[a] < mat[b]; });
-
-  // The greedy order fits the window for most clusters; for the rest, retry from other
-  // first triangles (deterministic order) and keep the smallest largest span (first found on
-  // ties: a retry that reaches the best span so far is given up).
   StripIndex index;
   index_strips(tris, mat, order, tc, vc, &index);
   uint32_t run_material[kMaxClusterTriangles];
   for (uint32_t p = 0; p < tc; ++p) run_material[p] = mat[order[p]];
-  StripOrder s;
-  build_strip_order(index, run_material, vc, UINT32_MAX, UINT32_MAX, &s, out);
-  const uint32_t greedy_first = s.first_start;
-  uint32_t best_span = s.max_span, best_first = UINT32_MAX;
+  build_strip_order(index, run_material, vc, UINT32_MAX, UINT32_MAX, s, out);
+  const uint32_t greedy_first = s->first_start;
+  uint32_t best_span = s->max_span, best_first = UINT32_MAX;
   bool out_is_best = true;
   for (uint32_t f = 0; f < index.run_end[0] && f < kStripRetries && best_span > kIndexSpanWindow; ++f) {
     if (f == greedy_first) continue;  // the greedy order itself: not smaller
-    out_is_best = build_strip_order(index, run_material, vc, f, best_span, &s, out);
-    if (out_is_best) best_span = s.max_span, best_first = f;
+    out_is_best = build_strip_order(index, run_material, vc, f, best_span, s, out);
+    if (out_is_best) best_span = s->max_span, best_first = f;
   }
-  if (!out_is_best) build_strip_order(index, run_material, vc, best_first, UINT32_MAX, &s, out);
-  int32_t* const new_id = s.new_id;
-  uint32_t seen = s.seen;
+  if (!out_is_best) build_strip_order(index, run_material, vc, best_first, UINT32_MAX, s, out);
   // Vertices no triangle uses keep their relative order after the used ones.
   for (uint32_t v = 0; v < vc; ++v)
-    if (new_id[v] < 0) new_id[v] = int32_t(seen++);
+    if (s->new_id[v] < 0) s->new_id[v] = int32_t(s->seen++);
+}
 
+// Step 3: each vertex's attributes quantized on the mesh's grids, in the new vertex order.
+void quantize_cluster_vertices(const ClusterDag& dag, const DagCluster& cl, const MeshQuantization& q,
+                               const int32_t* new_id, CanonicalCluster* out) {
   const size_t base = cl.vertex_offset;
-  const bool normals = q.has_normals, uvs = q.has_uvs;
-  for (uint32_t v = 0; v < vc; ++v) {
+  for (uint32_t v = 0; v < cl.vertex_count; ++v) {
     const uint32_t n = uint32_t(new_id[v]);
     for (int k = 0; k < 3; ++k)
       out->values[k][n] = quantize_scalar(dag.positions[3 * (base + v) + k], q.position_step_log2, kMaxQuantized, "position");
     uint32_t ch = 3;
-    if (normals) {
+    if (q.has_normals) {
       uint32_t o[2];
       octahedral_encode(&dag.normals[3 * (base + v)], q.normal_bits, o);
       out->values[ch++][n] = int32_t(o[0]);
       out->values[ch++][n] = int32_t(o[1]);
     }
-    if (uvs)
+    if (q.has_uvs)
       for (int k = 0; k < 2; ++k)
         out->values[ch++][n] = quantize_scalar(dag.uvs[2 * (base + v) + k], q.uv_step_log2,
-                                                   uv_quantized_limit(q.uv_step_log2), "uv");
+                                               uv_quantized_limit(q.uv_step_log2), "uv");
   }
+}
+
+}  // namespace
+
+void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantization& q,
+                          CanonicalCluster* out) {
+  const DagCluster& cl = dag.clusters[ci];
+  uint8_t tris[kMaxClusterTriangles][3];
+  uint32_t mat[kMaxClusterTriangles];
+  read_cluster_triangles(dag, cl, tris, mat);
+  *out = CanonicalCluster{};
+  out->vertex_count = cl.vertex_count;
+  out->triangle_count = cl.triangle_count;
+  StripOrder s;
+  choose_strip_order(tris, mat, cl.triangle_count, cl.vertex_count, &s, out);
+  quantize_cluster_vertices(dag, cl, q, s.new_id, out);
   compute_channel_ranges(out, q.channel_count());
 }
 
