@@ -22,6 +22,7 @@
 #include "vgeo/render/frame_plan.h"
 #include "vgeo/render/streaming.h"
 #include "vgeo/shade/shade.h"
+#include "vgeo/shadow/light.h"
 
 namespace vgeo {
 
@@ -29,6 +30,7 @@ struct RenderScene {
   std::vector<ClusterDag> meshes;
   std::vector<Material> materials;
   std::vector<CullInstance> instances;
+  std::vector<Light> lights;  // spec/shadow.md; empty: the fixed light of spec/scene.md §Shading
   // Set by analyze_render_scene: one instance of a convex mesh cannot occlude itself
   // except by back faces (already culled), so occlusion passes would be pure cost.
   bool single_convex_object = false;
