@@ -23,6 +23,7 @@
 #include "vgeo/render/streaming.h"
 #include "vgeo/shade/shade.h"
 #include "vgeo/shadow/light.h"
+#include "vgeo/shadow/virtual_shadow.h"
 
 namespace vgeo {
 
@@ -52,6 +53,7 @@ struct FrameHistory {
   Hzb hzb;
   ViewParams view;
   std::vector<InstanceView> instance_views;
+  ShadowCache shadow_cache;  // the shadow pool and the pages it holds (spec/shadow.md §5)
 };
 
 struct Frame {
@@ -62,6 +64,7 @@ struct Frame {
   uint32_t pass1_visible = 0;           // visible[0, pass1_visible) were drawn by pass 1
   std::vector<uint32_t> overdraw;       // per pixel, only for ShadeView::kOverdraw
   Image image;
+  ShadowFrame shadow;  // this frame's virtual shadow maps (when shadow_mark ran)
   FrameStats stats;
 };
 
