@@ -33,10 +33,14 @@ constexpr double kShadowNearFraction = 1e-4;
 constexpr double kUpSwitch = 0.99;
 // Orthographic maps: clip.w = 1, so any raster near plane in (0, 1) never clips.
 constexpr float kOrthoRasterNear = 0.5f;
-// Largest mip step by doubling: spot/point mips 0..7; directional levels 0..7 then mips 0..7
-// of the coarsest level.
-constexpr int kMaxPerspectiveStep = int(kShadowMips) - 1;
-constexpr int kMaxDirectionalStep = int(kDirectionalLevels) - 1 + int(kShadowMips) - 1;
+// Mips of a map: kShadowMips, fewer when a test shrinks the page table below 128 pages (the
+// coarsest mip is one page). The largest mip step by doubling is mips − 1 for spot/point maps
+// and (levels − 1) + (mips − 1) for directional lights (levels, then mips of the coarsest level).
+uint32_t mip_count(uint32_t pages_per_side) {
+  uint32_t mips = 1;
+  while (mips < kShadowMips && (pages_per_side >> mips) > 0) ++mips;
+  return mips;
+}
 
 Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 double dot(const Vec3d& a, const Vec3d& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
@@ -353,7 +357,7 @@ std::vector<PageDraw> allocate_shadow_pages(ShadowFrame* frame, ShadowCache* cac
   std::vector<PageDraw> missing;
   const uint32_t pages = frame->options.pages_per_side;
   for (uint32_t map = 0; map < frame->maps.size(); ++map)
-    for (uint32_t mip = 0; mip < kShadowMips; ++mip) {
+    for (uint32_t mip = 0; mip < mip_count(pages); ++mip) {
       const uint32_t side = pages >> mip;
       const size_t base = frame->maps[map].table_offset + mip_table_offset(pages, mip);
       for (uint32_t y = 0; y < side; ++y)
@@ -465,7 +469,7 @@ ShadowFrame make_shadow_frame(const std::vector<Light>& lights, const ShadowScen
   frame.bounds = bounds;
   const double z_s = kShadowNearFraction * bounds.radius;
   const uint32_t pages = options.pages_per_side;
-  const uint32_t table_size = mip_table_offset(pages, kShadowMips);
+  const uint32_t table_size = mip_table_offset(pages, mip_count(pages));
   for (uint32_t i = 0; i < lights.size(); ++i) {
     const Light& l = lights[i];
     frame.light_first_map.push_back(l.shadows ? uint32_t(frame.maps.size()) : kNoShadowSlot);
@@ -529,12 +533,13 @@ bool select_shadow_texel(const ShadowFrame& frame, uint32_t light, const Vec3d& 
   if (m0.type == LightType::kDirectional) {
     const Vec3d v = transform_point(m0.world_to_light, p);  // every level shares the light view
     const double dist = -v.z;
-    const int j = mip_step(m0.side / size, footprint, kMaxDirectionalStep);
+    const int mips = int(mip_count(frame.options.pages_per_side));
+    const int j = mip_step(m0.side / size, footprint, int(kDirectionalLevels) - 1 + mips - 1);
     for (uint32_t k = uint32_t(std::min<int>(j, kDirectionalLevels - 1)); k < kDirectionalLevels; ++k) {
       Ndc n = project_to_ndc(frame.maps[first + k], v);
       if (!inside_map(n)) continue;
       const bool beyond_coarsest = k == kDirectionalLevels - 1 && j > int(kDirectionalLevels - 1);
-      const uint32_t mip = beyond_coarsest ? uint32_t(std::min<int>(j - int(kDirectionalLevels - 1), kShadowMips - 1)) : 0;
+      const uint32_t mip = beyond_coarsest ? uint32_t(std::min<int>(j - int(kDirectionalLevels - 1), mips - 1)) : 0;
       *out = texel_of(first + k, mip, n, dist, size);
       return true;
     }
@@ -547,7 +552,7 @@ bool select_shadow_texel(const ShadowFrame& frame, uint32_t light, const Vec3d& 
   if (!(dist > m.z_near)) return false;
   Ndc n = project_to_ndc(m, v);
   if (!n.finite || (m.type == LightType::kSpot && !inside_map(n))) return false;
-  const int j = mip_step(2 * m.tan_half * dist / size, footprint, kMaxPerspectiveStep);
+  const int j = mip_step(2 * m.tan_half * dist / size, footprint, int(mip_count(frame.options.pages_per_side)) - 1);
   *out = texel_of(map, uint32_t(j), n, dist, size);
   return true;
 }
