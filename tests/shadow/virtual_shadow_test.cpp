@@ -208,3 +208,28 @@ TEST(VirtualShadow, NoShadowingLightSkipsTheShadowSteps) {
 
 }  // namespace
 }  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+// The clipmap's edges: a camera at the scene's rim looking outwards and one far above it; every
+// sampled texel still equals the brute-force map (pages at the level windows' borders included).
+TEST(VirtualShadow, ClipmapEdgePagesEqualBruteForce) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  scene.lights = {directional({-0.3, -0.5, 0.8})};
+  const Camera cameras[] = {test::look_camera({14, 1.5, 14}, {0, 0, -6}), test::look_camera({0, 40, 1}, {0, 0, 0})};
+  for (const Camera& c : cameras) EXPECT_GT(check_pages_against_brute_force(scene, c, 8), 100u);
+}
+
+// A moving camera: the directional levels' windows move; pages keep their world keys, so the
+// second frame reuses the pages it still needs and draws only the new ones.
+TEST(VirtualShadow, MovingCameraReusesWorldPages) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  scene.lights = {directional({-0.4, -0.8, -0.45})};
+  auto stats = render_frames(scene, {test::look_camera({0, 3, 8}, {0, 1, -2}), test::look_camera({0.5, 3, 7.5}, {0.5, 1, -2.5})});
+  EXPECT_GT(stats[1].pages_cached, 0u);
+  EXPECT_EQ(stats[1].pages_cached + stats[1].pages_drawn, stats[1].pages_marked);
+}
+
+}  // namespace
+}  // namespace vgeo
