@@ -60,7 +60,7 @@ uint64_t check_pages_against_brute_force(const RenderScene& scene, const Camera&
   EXPECT_EQ(frame.pages_drawn, frame.pages_marked);
   std::map<std::pair<uint32_t, uint32_t>, std::vector<float>> brute;
   const Mat4d view_to_world = rigid_inverse(primary.view.world_to_view);
-  uint64_t checked = 0, mismatched = 0, unmarked = 0;
+  uint64_t checked = 0, mismatched = 0, unmarked = 0, wrong_mip = 0;
   for (uint32_t y = 0; y < primary.vis.height; ++y)
     for (uint32_t x = 0; x < primary.vis.width; ++x) {
       uint64_t key = primary.vis.keys[size_t(y) * primary.vis.width + x];
@@ -70,6 +70,16 @@ uint64_t check_pages_against_brute_force(const RenderScene& scene, const Camera&
       for (uint32_t l = 0; l < scene.lights.size(); ++l) {
         ShadowTexel t;
         if (!select_shadow_texel(frame, l, p, f, &t)) continue;
+        // One texel ≈ one pixel (spec/shadow.md §4): the texel is no larger than the footprint
+        // unless it is the finest there is, and twice it would be larger, unless it is the
+        // coarsest there is.
+        const double texel = shadow_texel_size(frame, t);
+        const ShadowMapView& m = frame.maps[t.map];
+        const bool finest = t.mip == 0 && (!m.ortho || m.index == 0);
+        const bool coarsest = (pages_per_side >> t.mip) == 1 && (!m.ortho || m.index + 1 == kDirectionalLevels);
+        // (A directional point outside the finer levels' windows takes a coarser level: only
+        // the second half holds there.)
+        wrong_mip += (!m.ortho && !(texel <= f || finest)) || !(2 * texel > f || coarsest);
         const size_t e = shadow_page_entry(frame, t);
         unmarked += !frame.needed[e] || frame.page_table[e] == kNoShadowSlot;
         auto& full = brute[{t.map, t.mip}];
@@ -80,6 +90,7 @@ uint64_t check_pages_against_brute_force(const RenderScene& scene, const Camera&
       }
     }
   EXPECT_EQ(unmarked, 0u);
+  EXPECT_EQ(wrong_mip, 0u);
   EXPECT_EQ(mismatched, 0u) << "of " << checked;
   return checked;
 }

@@ -221,8 +221,10 @@ Mat4d object_to_light(const ShadowMapView& m, const CullInstance& inst) { return
 
 // The LOD cut of every instance for (map, mip) with τ_s (spec/shadow.md §5), in (instance,
 // cluster) order.
+// `instances_kept` (optional): instances to consider (the others overlap no page to draw).
 std::vector<VisibleCluster> shadow_cut(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
-                                       const ShadowFrame& frame, const ShadowMapView& m, uint32_t mip) {
+                                       const ShadowFrame& frame, const ShadowMapView& m, uint32_t mip,
+                                       const std::vector<uint8_t>* instances_kept = nullptr) {
   const float tau_s = kShadowLodBias * frame.options.threshold_px;
   const double r_m = double(virtual_size(frame) >> mip);
   LodView lv;
@@ -232,6 +234,7 @@ std::vector<VisibleCluster> shadow_cut(const std::vector<ClusterDag>& meshes, co
   const double texel = m.side / r_m;  // ortho only
   std::vector<VisibleCluster> cut;
   for (uint32_t i = 0; i < instances.size(); ++i) {
+    if (instances_kept && !(*instances_kept)[i]) continue;
     const ClusterDag& dag = meshes[instances[i].mesh];
     const Mat4d o2l = object_to_light(m, instances[i]);
     const double scale = max_axis_scale(instances[i].object_to_world);
@@ -299,6 +302,11 @@ bool same_transform(const Mat4d& a, const Mat4d& b) { return std::equal(a.m, a.m
 void instance_world_sphere(const std::vector<ClusterDag>& meshes, const CullInstance& inst, const Mat4d& transform,
                            Vec3d* center, double* radius) {
   const ClusterDag& dag = meshes[inst.mesh];
+  if (dag.bvh_nodes.empty() && dag.clusters.empty()) {  // an empty mesh casts nothing
+    *center = transform_point(transform, {0, 0, 0});
+    *radius = 0;
+    return;
+  }
   const Sphere& s = dag.bvh_nodes.empty() ? dag.clusters.front().bounds : dag.bvh_nodes[0].bounds;
   *center = transform_point(transform, {s.center.x, s.center.y, s.center.z});
   *radius = double(s.radius) * max_axis_scale(transform);
@@ -406,8 +414,23 @@ void draw_map_mip_pages(const std::vector<ClusterDag>& meshes, const std::vector
   const uint32_t side = frame->options.pages_per_side >> mip;
   std::vector<int32_t> draw_of_page(size_t(side) * side, -1);
   for (size_t d = 0; d < draws.size(); ++d) draw_of_page[size_t(draws[d].y) * side + draws[d].x] = int32_t(d);
+  // Instance culling next to the page test (seed: "Cull if doesn't overlap needed pages"): an
+  // instance whose root sphere overlaps no page to draw contributes no cluster.
+  std::vector<uint8_t> kept(instances.size(), 0);
+  for (uint32_t i = 0; i < instances.size(); ++i) {
+    Vec3d c;
+    double r;
+    instance_world_sphere(meshes, instances[i], instances[i].object_to_world, &c, &r);
+    TexelRect rect = sphere_texel_rect(m, mip, size, transform_point(m.world_to_light, c), r);
+    for (int64_t py = rect.y0 / kShadowPageTexels; py <= rect.y1 / int64_t(kShadowPageTexels) && !kept[i]; ++py)
+      for (int64_t px = rect.x0 / kShadowPageTexels; px <= rect.x1 / int64_t(kShadowPageTexels); ++px)
+        if (draw_of_page[size_t(py) * side + size_t(px)] >= 0) {
+          kept[i] = 1;
+          break;
+        }
+  }
   std::vector<std::vector<VisibleCluster>> page_clusters(draws.size());
-  for (const VisibleCluster& v : shadow_cut(meshes, instances, *frame, m, mip)) {
+  for (const VisibleCluster& v : shadow_cut(meshes, instances, *frame, m, mip, &kept)) {
     const CullInstance& inst = instances[v.instance];
     const DagCluster& c = meshes[inst.mesh].clusters[v.cluster];
     Sphere s = inflate_for_subtree_test(sphere_to_view(object_to_light(m, inst), max_axis_scale(inst.object_to_world), c.bounds));
