@@ -244,3 +244,59 @@ TEST(VirtualShadow, MovingCameraReusesWorldPages) {
 
 }  // namespace
 }  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+TEST(VirtualShadow, PlanSkipsShadowStepsWithTheirReasons) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 1);
+  scene.lights = {directional({0, -1, 0})};
+  RenderSettings settings;
+  FrameContext context;
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowMark).when, StepCondition::kRun);
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowDraw).when, StepCondition::kRun);
+  settings.view = ShadeView::kTriangle;
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowMark).skip_reason, "shadows not shown by this view");
+  settings.view = ShadeView::kLit;
+  settings.shade = false;
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowDraw).skip_reason, "shading not requested");
+  settings.shade = true;
+  context.streamed = true;
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowMark).skip_reason,
+            "shadows with streaming not supported yet");
+}
+
+// spec/shadow.md §2: one white directional light along the fixed light's direction, without
+// shadows, shades as the scene without lights (to the rounding of the two formulas: at most one
+// 8-bit step); with shadows every pixel is as bright or darker, and some are darker.
+TEST(VirtualShadow, LightSumMatchesTheFixedLightAndShadowsOnlyDarken) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  const Camera c = test::look_camera({0, 3, 8}, {0, 1, -2});
+  ThreadPool pool(2);
+  RenderSettings settings;
+  auto image = [&]() {
+    Frame frame;
+    render_frame(FrameInputs{scene, c, settings, pool, nullptr, false}, &frame);
+    return frame.image.rgb;
+  };
+  const std::vector<uint8_t> fixed = image();
+  scene.lights = {directional({-0.4, -0.8, -0.45})};
+  scene.lights[0].shadows = false;
+  const std::vector<uint8_t> unshadowed = image();
+  scene.lights[0].shadows = true;
+  const std::vector<uint8_t> shadowed = image();
+  ASSERT_EQ(fixed.size(), unshadowed.size());
+  int max_step = 0;
+  uint64_t darker = 0, brighter = 0;
+  for (size_t i = 0; i < fixed.size(); ++i) {
+    max_step = std::max(max_step, std::abs(int(fixed[i]) - int(unshadowed[i])));
+    darker += shadowed[i] < unshadowed[i];
+    brighter += shadowed[i] > unshadowed[i];
+  }
+  EXPECT_LE(max_step, 1);
+  EXPECT_GT(darker, 100u);
+  EXPECT_EQ(brighter, 0u);
+}
+
+}  // namespace
+}  // namespace vgeo
