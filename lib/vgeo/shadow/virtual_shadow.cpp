@@ -5,8 +5,9 @@
 // rendering", §"Culling and addressing to pages" (one cluster emitted per overlapped page,
 // scissored to it), §"Nanite shadow LOD" (LOD from the light's projection, 2 px shadow LOD bias);
 // the seed notes' §"Virtual shadow buffer" (reuse when neither light nor caster moved).
-// This first version loops over page views per (map, mip) (one cut per map and mip, then one
-// raster task per page) rather than one cull over an array of views.
+// Multi-view: one cull traverses every instance once for all page views (each (map, mip) with
+// pages to draw), then one raster pass draws every page. The traversal is flat over clusters
+// (the BVH/persistent-thread traversal of lib/vgeo/cull is single-view and perspective-only).
 #include "vgeo/shadow/virtual_shadow.h"
 
 #include <algorithm>
@@ -219,39 +220,47 @@ TexelRect sphere_texel_rect(const ShadowMapView& m, uint32_t mip, uint32_t size,
 
 Mat4d object_to_light(const ShadowMapView& m, const CullInstance& inst) { return m.world_to_light * inst.object_to_world; }
 
-// The LOD cut of every instance for (map, mip) with τ_s (spec/shadow.md §5), in (instance,
-// cluster) order.
-// `instances_kept` (optional): instances to consider (the others overlap no page to draw).
-std::vector<VisibleCluster> shadow_cut(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
-                                       const ShadowFrame& frame, const ShadowMapView& m, uint32_t mip,
-                                       const std::vector<uint8_t>* instances_kept = nullptr) {
-  const float tau_s = kShadowLodBias * frame.options.threshold_px;
+// The LOD test of one view (map, mip) with τ_s (spec/shadow.md §5): spot/point maps project from
+// the light; orthographic levels divide by the texel size (distance-independent).
+struct ShadowLod {
+  bool ortho = false;
+  LodView view;
+  double texel = 0;  // ortho: texel size of the mip
+  float tau_s = 0;
+};
+ShadowLod shadow_lod(const ShadowFrame& frame, const ShadowMapView& m, uint32_t mip) {
   const double r_m = double(virtual_size(frame) >> mip);
-  LodView lv;
-  lv.eye = {0, 0, 0};
-  lv.pixels_per_unit_at_1 = float(0.5 * r_m / m.tan_half);
-  lv.z_near = float(m.z_near);
-  const double texel = m.side / r_m;  // ortho only
+  ShadowLod lod;
+  lod.ortho = m.ortho;
+  lod.view.eye = {0, 0, 0};
+  lod.view.pixels_per_unit_at_1 = float(0.5 * r_m / m.tan_half);
+  lod.view.z_near = float(m.z_near);
+  lod.texel = m.side / r_m;
+  lod.tau_s = kShadowLodBias * frame.options.threshold_px;
+  return lod;
+}
+bool shadow_lod_selects(const ShadowLod& lod, const DagCluster& cl, const Mat4d& object_to_light, double scale) {
+  if (lod.ortho) {
+    float parent_px = float(double(error_to_view(cl.parent_error, scale)) / lod.texel);
+    float lod_px = float(double(error_to_view(cl.lod_error, scale)) / lod.texel);
+    return cut_selects(parent_px, lod_px, lod.tau_s);
+  }
+  return lod_selects(sphere_to_view(object_to_light, scale, cl.lod_bounds), error_to_view(cl.lod_error, scale),
+                     sphere_to_view(object_to_light, scale, cl.parent_bounds), error_to_view(cl.parent_error, scale),
+                     lod.view, lod.tau_s);
+}
+
+// The whole cut of one view (the brute-force reference draws it all), in (instance, cluster) order.
+std::vector<VisibleCluster> shadow_cut(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                                       const ShadowFrame& frame, const ShadowMapView& m, uint32_t mip) {
+  const ShadowLod lod = shadow_lod(frame, m, mip);
   std::vector<VisibleCluster> cut;
   for (uint32_t i = 0; i < instances.size(); ++i) {
-    if (instances_kept && !(*instances_kept)[i]) continue;
     const ClusterDag& dag = meshes[instances[i].mesh];
     const Mat4d o2l = object_to_light(m, instances[i]);
     const double scale = max_axis_scale(instances[i].object_to_world);
-    for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
-      const DagCluster& cl = dag.clusters[c];
-      bool selected;
-      if (m.ortho) {
-        float parent_px = float(double(error_to_view(cl.parent_error, scale)) / texel);
-        float lod_px = float(double(error_to_view(cl.lod_error, scale)) / texel);
-        selected = cut_selects(parent_px, lod_px, tau_s);
-      } else {
-        selected = lod_selects(sphere_to_view(o2l, scale, cl.lod_bounds), error_to_view(cl.lod_error, scale),
-                               sphere_to_view(o2l, scale, cl.parent_bounds), error_to_view(cl.parent_error, scale), lv,
-                               tau_s);
-      }
-      if (selected) cut.push_back({i, c});
-    }
+    for (uint32_t c = 0; c < dag.clusters.size(); ++c)
+      if (shadow_lod_selects(lod, dag.clusters[c], o2l, scale)) cut.push_back({i, c});
   }
   return cut;
 }
@@ -404,53 +413,121 @@ std::vector<PageDraw> allocate_shadow_pages(ShadowFrame* frame, ShadowCache* cac
   return missing;
 }
 
-// Draws every page of `draws` (one (map, mip)): the cut once, each cut cluster emitted to every
-// page its texel rectangle overlaps, then one raster task per page scissored to it.
-void draw_map_mip_pages(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
-                        const std::vector<PageDraw>& draws, ThreadPool& pool, ShadowFrame* frame,
-                        std::vector<float>* texels) {
-  const ShadowMapView& m = frame->maps[draws.front().map];
-  const uint32_t mip = draws.front().mip, size = virtual_size(*frame), r_m = size >> mip;
-  const uint32_t side = frame->options.pages_per_side >> mip;
-  std::vector<int32_t> draw_of_page(size_t(side) * side, -1);
-  for (size_t d = 0; d < draws.size(); ++d) draw_of_page[size_t(draws[d].y) * side + draws[d].x] = int32_t(d);
-  // Instance culling next to the page test (seed: "Cull if doesn't overlap needed pages"): an
-  // instance whose root sphere overlaps no page to draw contributes no cluster.
-  std::vector<uint8_t> kept(instances.size(), 0);
-  for (uint32_t i = 0; i < instances.size(); ++i) {
-    Vec3d c;
-    double r;
-    instance_world_sphere(meshes, instances[i], instances[i].object_to_world, &c, &r);
-    TexelRect rect = sphere_texel_rect(m, mip, size, transform_point(m.world_to_light, c), r);
-    for (int64_t py = rect.y0 / kShadowPageTexels; py <= rect.y1 / int64_t(kShadowPageTexels) && !kept[i]; ++py)
-      for (int64_t px = rect.x0 / kShadowPageTexels; px <= rect.x1 / int64_t(kShadowPageTexels); ++px)
-        if (draw_of_page[size_t(py) * side + size_t(px)] >= 0) {
-          kept[i] = 1;
-          break;
-        }
+// One view of the multi-view pass: a (map, mip) with pages to draw.
+struct ShadowPageView {
+  uint32_t map = 0, mip = 0, r_m = 0, side = 0;  // side: pages per side at this mip
+  ShadowLod lod;
+  std::vector<int32_t> draw_of_page;  // per page of the mip: index into the frame's draws, or −1
+  std::vector<uint8_t> instance_kept; // instance overlaps a page to draw
+  std::vector<Mat4> object_to_clip;   // per instance (float, from the double product)
+};
+
+// Pages to draw whose pages a texel rectangle overlaps, reported to `emit(draw)`.
+template <typename Emit>
+void for_pages_to_draw(const ShadowPageView& v, const TexelRect& rect, Emit&& emit) {
+  const int64_t t = kShadowPageTexels;
+  for (int64_t py = rect.y0 / t; py <= rect.y1 / t; ++py)
+    for (int64_t px = rect.x0 / t; px <= rect.x1 / t; ++px) {
+      const int32_t d = v.draw_of_page[size_t(py) * v.side + size_t(px)];
+      if (d >= 0 && !emit(uint32_t(d))) return;
+    }
+}
+
+// The views of this frame's draws (draws are in page-table order: grouped by map, then mip), with
+// instance culling next to the page test (seed: "Cull if doesn't overlap needed pages"): an
+// instance whose root sphere overlaps no page to draw of a view is not traversed for it.
+std::vector<ShadowPageView> make_page_views(const std::vector<ClusterDag>& meshes,
+                                            const std::vector<CullInstance>& instances, const ShadowFrame& frame,
+                                            const std::vector<PageDraw>& draws) {
+  std::vector<ShadowPageView> views;
+  const uint32_t size = virtual_size(frame);
+  for (uint32_t d = 0; d < draws.size(); ++d) {
+    if (views.empty() || views.back().map != draws[d].map || views.back().mip != draws[d].mip) {
+      ShadowPageView v;
+      v.map = draws[d].map;
+      v.mip = draws[d].mip;
+      v.r_m = size >> v.mip;
+      v.side = frame.options.pages_per_side >> v.mip;
+      v.lod = shadow_lod(frame, frame.maps[v.map], v.mip);
+      v.draw_of_page.assign(size_t(v.side) * v.side, -1);
+      views.push_back(std::move(v));
+    }
+    views.back().draw_of_page[size_t(draws[d].y) * views.back().side + draws[d].x] = int32_t(d);
   }
-  std::vector<std::vector<VisibleCluster>> page_clusters(draws.size());
-  for (const VisibleCluster& v : shadow_cut(meshes, instances, *frame, m, mip, &kept)) {
-    const CullInstance& inst = instances[v.instance];
-    const DagCluster& c = meshes[inst.mesh].clusters[v.cluster];
-    Sphere s = inflate_for_subtree_test(sphere_to_view(object_to_light(m, inst), max_axis_scale(inst.object_to_world), c.bounds));
-    TexelRect rect = sphere_texel_rect(m, mip, size, {s.center.x, s.center.y, s.center.z}, s.radius);
-    for (int64_t py = rect.y0 / kShadowPageTexels; py <= rect.y1 / int64_t(kShadowPageTexels); ++py)
-      for (int64_t px = rect.x0 / kShadowPageTexels; px <= rect.x1 / int64_t(kShadowPageTexels); ++px) {
-        int32_t d = draw_of_page[size_t(py) * side + size_t(px)];
-        if (d >= 0) page_clusters[d].push_back(v);
+  for (ShadowPageView& v : views) {
+    const ShadowMapView& m = frame.maps[v.map];
+    v.object_to_clip = shadow_clip_matrices(instances, m);
+    v.instance_kept.assign(instances.size(), 0);
+    for (uint32_t i = 0; i < instances.size(); ++i) {
+      Vec3d c;
+      double r;
+      instance_world_sphere(meshes, instances[i], instances[i].object_to_world, &c, &r);
+      TexelRect rect = sphere_texel_rect(m, v.mip, size, transform_point(m.world_to_light, c), r);
+      for_pages_to_draw(v, rect, [&](uint32_t) { return !(v.instance_kept[i] = 1); });
+    }
+  }
+  return views;
+}
+
+// The multi-view cull (seed: "Multi-view rendering"): one traversal of every instance's clusters
+// tests each cluster against every view at once (LOD from that view's projection, then its
+// texel rectangle against the view's pages to draw) and emits one (page, cluster) element per
+// overlapped page (seed: "emit cluster per overlapped page"). Parallel over instances; the
+// per-page lists come out in (instance, cluster) order for any thread count.
+std::vector<std::vector<VisibleCluster>> cull_page_views(const std::vector<ClusterDag>& meshes,
+                                                         const std::vector<CullInstance>& instances,
+                                                         const ShadowFrame& frame,
+                                                         const std::vector<ShadowPageView>& views, size_t draw_count,
+                                                         ThreadPool& pool) {
+  struct Element {
+    uint32_t draw, cluster;
+  };
+  std::vector<std::vector<Element>> per_instance(instances.size());
+  const uint32_t size = virtual_size(frame);
+  pool.parallel_for(instances.size(), [&](size_t i) {
+    const CullInstance& inst = instances[i];
+    const ClusterDag& dag = meshes[inst.mesh];
+    const double scale = max_axis_scale(inst.object_to_world);
+    for (const ShadowPageView& v : views) {
+      if (!v.instance_kept[i]) continue;
+      const ShadowMapView& m = frame.maps[v.map];
+      const Mat4d o2l = object_to_light(m, inst);
+      for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
+        const DagCluster& cl = dag.clusters[c];
+        if (!shadow_lod_selects(v.lod, cl, o2l, scale)) continue;
+        Sphere b = inflate_for_subtree_test(sphere_to_view(o2l, scale, cl.bounds));
+        TexelRect rect = sphere_texel_rect(m, v.mip, size, {b.center.x, b.center.y, b.center.z}, b.radius);
+        for_pages_to_draw(v, rect, [&](uint32_t d) {
+          per_instance[i].push_back({d, c});
+          return true;
+        });
       }
-  }
-  const std::vector<Mat4> clip = shadow_clip_matrices(instances, m);
-  for (const auto& list : page_clusters) frame->clusters_drawn += list.size();
+    }
+  });
+  std::vector<std::vector<VisibleCluster>> page_clusters(draw_count);
+  for (uint32_t i = 0; i < instances.size(); ++i)
+    for (const Element& e : per_instance[i]) page_clusters[e.draw].push_back({i, e.cluster});
+  return page_clusters;
+}
+
+// The raster of every page view in one parallel pass: each page's clusters into a 128² target
+// scissored to the page in its mip's coordinates (spec/shadow.md §5); depths into its slot.
+void raster_page_views(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                       const ShadowFrame& frame, const std::vector<ShadowPageView>& views,
+                       const std::vector<PageDraw>& draws, const std::vector<std::vector<VisibleCluster>>& page_clusters,
+                       ThreadPool& pool, std::vector<float>* texels) {
+  std::vector<uint32_t> view_of_draw(draws.size());
+  for (uint32_t k = 0, d = 0; k < views.size(); ++k)
+    while (d < draws.size() && draws[d].map == views[k].map && draws[d].mip == views[k].mip) view_of_draw[d++] = k;
   pool.parallel_for(draws.size(), [&](size_t d) {
+    const ShadowPageView& v = views[view_of_draw[d]];
     VisBuffer page;
     page.resize(kShadowPageTexels, kShadowPageTexels);
-    RasterOptions ro = shadow_raster_options(m, r_m);
+    RasterOptions ro = shadow_raster_options(frame.maps[v.map], v.r_m);
     ro.window_x = draws[d].x * kShadowPageTexels;
     ro.window_y = draws[d].y * kShadowPageTexels;
-    for (const VisibleCluster& v : page_clusters[d])
-      raster_cut_cluster(meshes, instances, v, clip[v.instance], ro, page, nullptr);
+    for (const VisibleCluster& c : page_clusters[d])
+      raster_cut_cluster(meshes, instances, c, v.object_to_clip[c.instance], ro, page, nullptr);
     float* out = texels->data() + size_t(draws[d].slot) * kPageTexelCount;
     for (uint32_t i = 0; i < kPageTexelCount; ++i) out[i] = page.keys[i] ? vis_key_depth(page.keys[i]) : 0.0f;
   });
@@ -630,14 +707,10 @@ void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<
   const size_t needed_texels = c->slots.size() * size_t(kPageTexelCount);
   if (c->texels.size() < needed_texels) c->texels.resize(needed_texels, 0.0f);
   frame->pages_drawn = draws.size();
-  // Group the page views by (map, mip): allocation order already is map, mip, row, column.
-  for (size_t begin = 0; begin < draws.size();) {
-    size_t end = begin;
-    while (end < draws.size() && draws[end].map == draws[begin].map && draws[end].mip == draws[begin].mip) ++end;
-    std::vector<PageDraw> group(draws.begin() + begin, draws.begin() + end);
-    draw_map_mip_pages(meshes, instances, group, pool, frame, &c->texels);
-    begin = end;
-  }
+  const std::vector<ShadowPageView> views = make_page_views(meshes, instances, *frame, draws);
+  const auto page_clusters = cull_page_views(meshes, instances, *frame, views, draws.size(), pool);
+  for (const auto& list : page_clusters) frame->clusters_drawn += list.size();
+  raster_page_views(meshes, instances, *frame, views, draws, page_clusters, pool, &c->texels);
   c->valid = true;
   c->lights = lights;
   c->bounds = frame->bounds;
