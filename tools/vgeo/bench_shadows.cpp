@@ -134,8 +134,8 @@ void run_shadows_suite(const BenchConfig& cfg, SuiteReport& out) {
   out.tables.push_back(t);
   out.data["rows"] = rows;
   out.notes.push_back(
-      "Not measured yet (issue 26): one multi-view pass against one pass per view (the CPU reference draws page by "
-      "page), Vulkan, shadow error against texel density.");
+      "Not measured yet (issue 26): one multi-view pass against one pass per view (the CPU reference always runs "
+      "one multi-view cull and one raster pass over all pages), Vulkan, shadow error against texel density.");
 }
 
 }  // namespace vgeo::bench
