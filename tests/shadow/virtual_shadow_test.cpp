@@ -2,6 +2,7 @@
 // same cut at every sampled texel; marking never misses a sampled page; a static scene's second
 // frame draws nothing; moving lights and casters invalidate; hard cases stay finite.
 #include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
 
 #include <cmath>
 #include <map>
@@ -44,23 +45,34 @@ Frame primary_frame(const RenderScene& scene, const Camera& camera, ThreadPool& 
   return frame;
 }
 
+// What check_pages did: texels checked and every kind of failure found.
+struct PageCheck {
+  uint64_t checked = 0, mismatched = 0, unmarked = 0, wrong_mip = 0, dropped = 0, drawn_not_marked = 0;
+  bool ok() const { return mismatched == 0 && unmarked == 0 && wrong_mip == 0 && dropped == 0 && drawn_not_marked == 0; }
+};
+
 // Every texel any covered pixel samples is marked, has a slot, and its stored depth equals the
-// brute-force map of the same (map, mip) drawn in one pass. Returns the texels checked.
-uint64_t check_pages_against_brute_force(const RenderScene& scene, const Camera& camera, uint32_t pages_per_side) {
+// brute-force map of the same (map, mip) drawn in one pass.
+PageCheck check_pages(const RenderScene& scene, const Camera& camera, uint32_t pages_per_side, float tau = 1.0f) {
   ThreadPool pool(3);
-  Frame primary = primary_frame(scene, camera, pool);
+  RenderSettings settings;
+  settings.shade = false;
+  settings.threshold_px = tau;
+  Frame primary;
+  render_frame(FrameInputs{scene, camera, settings, pool, nullptr, false}, &primary);
   ShadowOptions options;
   options.pages_per_side = pages_per_side;
   options.pool_pages = 1u << 16;  // nothing dropped: every needed page is drawn
+  options.threshold_px = tau;
   ShadowFrame frame = make_shadow_frame(scene.lights, shadow_scene_bounds(scene.meshes, scene.instances),
                                         camera.position, options);
   mark_shadow_pages(primary.vis, primary.view, scene.lights, pool, &frame);
   draw_shadow_pages(scene.meshes, scene.instances, scene.lights, pool, &frame, nullptr);
-  EXPECT_EQ(frame.pages_dropped, 0u);
-  EXPECT_EQ(frame.pages_drawn, frame.pages_marked);
+  PageCheck out;
+  out.dropped = frame.pages_dropped;
+  out.drawn_not_marked = frame.pages_drawn != frame.pages_marked;
   std::map<std::pair<uint32_t, uint32_t>, std::vector<float>> brute;
   const Mat4d view_to_world = rigid_inverse(primary.view.world_to_view);
-  uint64_t checked = 0, mismatched = 0, unmarked = 0, wrong_mip = 0;
   for (uint32_t y = 0; y < primary.vis.height; ++y)
     for (uint32_t x = 0; x < primary.vis.width; ++x) {
       uint64_t key = primary.vis.keys[size_t(y) * primary.vis.width + x];
@@ -72,27 +84,33 @@ uint64_t check_pages_against_brute_force(const RenderScene& scene, const Camera&
         if (!select_shadow_texel(frame, l, p, f, &t)) continue;
         // One texel ≈ one pixel (spec/shadow.md §4): the texel is no larger than the footprint
         // unless it is the finest there is, and twice it would be larger, unless it is the
-        // coarsest there is.
+        // coarsest there is. (A directional point outside the finer levels' windows takes a
+        // coarser level: only the second half holds there.)
         const double texel = shadow_texel_size(frame, t);
         const ShadowMapView& m = frame.maps[t.map];
         const bool finest = t.mip == 0 && (!m.ortho || m.index == 0);
         const bool coarsest = (pages_per_side >> t.mip) == 1 && (!m.ortho || m.index + 1 == kDirectionalLevels);
-        // (A directional point outside the finer levels' windows takes a coarser level: only
-        // the second half holds there.)
-        wrong_mip += (!m.ortho && !(texel <= f || finest)) || !(2 * texel > f || coarsest);
+        out.wrong_mip += (!m.ortho && !(texel <= f || finest)) || !(2 * texel > f || coarsest);
         const size_t e = shadow_page_entry(frame, t);
-        unmarked += !frame.needed[e] || frame.page_table[e] == kNoShadowSlot;
+        out.unmarked += !frame.needed[e] || frame.page_table[e] == kNoShadowSlot;
         auto& full = brute[{t.map, t.mip}];
         if (full.empty()) full = draw_full_shadow_map(scene.meshes, scene.instances, frame, t.map, t.mip, pool);
         const uint32_t r_m = (pages_per_side * kShadowPageTexels) >> t.mip;
-        mismatched += shadow_stored_depth(frame, t) != full[size_t(t.y) * r_m + t.x];
-        ++checked;
+        out.mismatched += shadow_stored_depth(frame, t) != full[size_t(t.y) * r_m + t.x];
+        ++out.checked;
       }
     }
-  EXPECT_EQ(unmarked, 0u);
-  EXPECT_EQ(wrong_mip, 0u);
-  EXPECT_EQ(mismatched, 0u) << "of " << checked;
-  return checked;
+  return out;
+}
+
+uint64_t check_pages_against_brute_force(const RenderScene& scene, const Camera& camera, uint32_t pages_per_side) {
+  PageCheck c = check_pages(scene, camera, pages_per_side);
+  EXPECT_EQ(c.unmarked, 0u);
+  EXPECT_EQ(c.wrong_mip, 0u);
+  EXPECT_EQ(c.dropped, 0u);
+  EXPECT_EQ(c.drawn_not_marked, 0u);
+  EXPECT_EQ(c.mismatched, 0u) << "of " << c.checked;
+  return c.checked;
 }
 
 TEST(VirtualShadow, PagesEqualBruteForceMapOfTheSameCutAtEverySampledTexel) {
@@ -296,6 +314,37 @@ TEST(VirtualShadow, LightSumMatchesTheFixedLightAndShadowsOnlyDarken) {
   EXPECT_LE(max_step, 1);
   EXPECT_GT(darker, 100u);
   EXPECT_EQ(brighter, 0u);
+}
+
+}  // namespace
+}  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+const RenderScene& property_scene() {
+  static const RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  return scene;
+}
+
+// Random lights (each type, directions including axis-aligned and grazing ones, positions inside
+// and around the casters), cameras and τ on a shrunk page table: every sampled texel is marked,
+// has a slot, is of the right mip and equals the brute-force map of the same cut.
+RC_GTEST_PROP(VirtualShadow, RandomLightsPagesEqualBruteForce, ()) {
+  RenderScene scene = property_scene();
+  const int type = *rc::gen::inRange(0, 3);
+  auto coord = [](int lo, int hi) { return *rc::gen::inRange(lo, hi) * 0.5; };
+  Vec3d d{coord(-4, 5), coord(-4, 1), coord(-4, 5)};
+  if (d.x == 0 && d.y == 0 && d.z == 0) d.y = -1;
+  Vec3d p{coord(-8, 9), coord(1, 12), coord(-12, 5)};
+  if (type == 0) scene.lights = {directional(d)};
+  else if (type == 1) scene.lights = {spot(p, d, *rc::gen::element(20.0, 60.0, 120.0, 170.0))};
+  else scene.lights = {point(p)};
+  const Camera camera = test::look_camera({coord(-16, 17), coord(1, 16), coord(-10, 20)}, {coord(-4, 5), 1.0, coord(-10, 2)},
+                                          *rc::gen::element(64u, 160u), *rc::gen::element(48u, 120u));
+  const PageCheck c = check_pages(scene, camera, *rc::gen::element(4u, 8u), *rc::gen::element(0.5f, 1.0f, 4.0f));
+  RC_CLASSIFY(c.checked == 0, "no texel sampled");
+  RC_ASSERT(c.ok());
 }
 
 }  // namespace
