@@ -349,3 +349,31 @@ RC_GTEST_PROP(VirtualShadow, RandomLightsPagesEqualBruteForce, ()) {
 
 }  // namespace
 }  // namespace vgeo
+
+#include "support/paths.h"
+#include "vgeo/render/run.h"
+#include "vgeo/render/scene_file.h"
+
+namespace vgeo {
+namespace {
+
+// The example light scenes load through the scene file and render with their shadow passes.
+TEST(VirtualShadow, ExampleLightScenesRenderWithShadowPasses) {
+  for (const char* name : {"directional.json", "spot.json", "point.json"}) {
+    SceneFile f = load_scene_file((test::source_dir() / "tests" / "shadow" / "scenes" / name).string(), {});
+    ASSERT_EQ(f.scene.lights.size(), 1u) << name;
+    RenderRequest r;
+    r.threads = 2;
+    RenderReport report = render_scene(f, r);
+    ASSERT_FALSE(report.frames.empty()) << name;
+    const FrameStats& last = report.frames.back();
+    EXPECT_NE(last.find("shadow_mark"), nullptr) << name;
+    EXPECT_NE(last.find("shadow_draw"), nullptr) << name;
+    EXPECT_TRUE(last.has_shadow) << name;
+    EXPECT_GT(last.shadow.pages_drawn, 0u) << name;
+    EXPECT_EQ(last.shadow.pages_dropped, 0u) << name;
+  }
+}
+
+}  // namespace
+}  // namespace vgeo

@@ -32,6 +32,11 @@ constexpr uint32_t kPointFaces = 6;
 constexpr double kShadowNearFraction = 1e-4;
 // |f.y| above this: f is too close to the default up (0,1,0); use (1,0,0) instead.
 constexpr double kUpSwitch = 0.99;
+// Directional light view, in scene radii r (spec/shadow.md §3): the eye sits 2r before the scene
+// centre along the light, so every scene point has depth in [r, 3r]; depth maps 1 − dist/(4r)
+// into [0.25, 0.75] (no clamping at either end); the coarsest clipmap level is 4r wide, so
+// centred anywhere within r of the centre it still covers the whole scene sphere.
+constexpr double kDirectionalEyeRadii = 2.0, kDirectionalDepthRadii = 4.0, kCoarsestLevelRadii = 4.0;
 // Orthographic maps: clip.w = 1, so any raster near plane in (0, 1) never clips.
 constexpr float kOrthoRasterNear = 0.5f;
 // Mips of a map: kShadowMips, fewer when a test shrinks the page table below 128 pages (the
@@ -104,17 +109,18 @@ ShadowMapView directional_level(const Light& light, uint32_t k, const ShadowScen
   m.index = k;
   m.ortho = true;
   const Vec3d& f = light.direction;
-  m.eye = {b.center.x - 2 * b.radius * f.x, b.center.y - 2 * b.radius * f.y, b.center.z - 2 * b.radius * f.z};
+  const double back = kDirectionalEyeRadii * b.radius;
+  m.eye = {b.center.x - back * f.x, b.center.y - back * f.y, b.center.z - back * f.z};
   m.world_to_light = light_view(m.eye, f, default_up(f));
   Vec3d o = transform_point(m.world_to_light, camera), c = transform_point(m.world_to_light, b.center);
   o.x = std::clamp(o.x, c.x - b.radius, c.x + b.radius);
   o.y = std::clamp(o.y, c.y - b.radius, c.y + b.radius);
-  m.side = std::ldexp(4 * b.radius, int(k) - int(kDirectionalLevels - 1));
+  m.side = std::ldexp(kCoarsestLevelRadii * b.radius, int(k) - int(kDirectionalLevels - 1));
   const double w = m.side / pages;
   const int64_t half = pages / 2;
   m.origin_x = int64_t(std::floor(o.x / w)) - half;
   m.origin_y = int64_t(std::floor(o.y / w)) - half;
-  m.depth_range = 4 * b.radius;
+  m.depth_range = kDirectionalDepthRadii * b.radius;
   Mat4d p;
   for (double& v : p.m) v = 0;
   const double a = 1.0 / (double(half) * w);
