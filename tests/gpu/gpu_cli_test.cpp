@@ -48,6 +48,15 @@ TEST(GpuCli, UnknownDeviceIsAOneLineCodedError) {
   EXPECT_NE(r.output.find("error[GPU_DEVICE_NOT_FOUND]"), std::string::npos) << r.output;
 }
 
+// spec/shadow.md §6: the Vulkan executor has no light sum or shadow steps yet; a scene with
+// lights is refused with one coded line rather than shaded differently from the CPU reference.
+TEST(GpuCli, SceneWithLightsIsRefusedWithACode) {
+  const std::string scene = std::string(VGEO_SOURCE_DIR) + "/tests/shadow/scenes/directional.json";
+  test::CliResult r = test::run_cli("render '" + scene + "' --backend vulkan --no-cache");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("error[GPU_SHADOWS_UNSUPPORTED]"), std::string::npos) << r.output;
+}
+
 TEST(GpuCli, CompareNeedsTheVulkanBackend) {
   test::CliResult r = test::run_cli("render '" + kScene + "' --backend cpu --compare cpu --no-cache");
   EXPECT_EQ(r.exit_code, 2) << r.output;

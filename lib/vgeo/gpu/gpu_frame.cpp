@@ -185,6 +185,11 @@ class VulkanFrameExecutor final : public FrameExecutor {
     const RenderSettings& settings = in.settings;
     FrameHistory* history = in.history;
     GpuContext& gpu = *r.gpu;
+    // spec/shadow.md §6: lights and shadows have no Vulkan steps yet; refuse rather than shade
+    // differently from the CPU reference.
+    if (!scene.lights.empty())
+      fail("GPU_SHADOWS_UNSUPPORTED", "vulkan", "scene lights and shadows are not supported by the Vulkan executor yet",
+           kExitUsage);
     object_to_clip_ = begin_frame(scene, camera, out);  // the CPU executor's matrices, bit for bit
     std::vector<GpuInstance> instances(scene.instances.size());
     for (size_t i = 0; i < instances.size(); ++i) {
@@ -305,6 +310,9 @@ class VulkanFrameExecutor final : public FrameExecutor {
       case FrameStep::kShade:
         shade_pass(r_, in_.scene, in_.settings, in_.camera, out_);
         break;
+      case FrameStep::kShadowMark:
+      case FrameStep::kShadowDraw:
+        fail("GPU_SHADOWS_UNSUPPORTED", "vulkan", "shadow steps are not supported by the Vulkan executor yet", kExitUsage);
     }
     return r;
   }

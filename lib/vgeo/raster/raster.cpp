@@ -186,6 +186,7 @@ struct Setup {
   int64_t min_px, max_px, min_py, max_py;  // pixel range (inclusive), clamped to the viewport
   DepthPlane depth;
   uint64_t id_bits;
+  int64_t window_x, window_y;  // the target's pixel (0, 0) in the viewport (RasterOptions)
 };
 
 int64_t edge_at(const Setup& s, int i, int64_t px, int64_t py) {
@@ -195,13 +196,13 @@ int64_t edge_at(const Setup& s, int i, int64_t px, int64_t py) {
 
 void write_pixel(VisBuffer& target, const Setup& s, int64_t px, int64_t py) {
   uint64_t key = (uint64_t(std::bit_cast<uint32_t>(depth_at(s.depth, px, py))) << 32) | s.id_bits;
-  target.write_max(uint32_t(px), uint32_t(py), key);
+  target.write_max(uint32_t(px - s.window_x), uint32_t(py - s.window_y), key);
 }
 
 uint64_t loop_reference(VisBuffer& target, const Setup& s) {
   uint64_t written = 0;
-  for (int64_t py = 0; py < int64_t(target.height); ++py)
-    for (int64_t px = 0; px < int64_t(target.width); ++px)
+  for (int64_t py = s.window_y; py < s.window_y + int64_t(target.height); ++py)
+    for (int64_t px = s.window_x; px < s.window_x + int64_t(target.width); ++px)
       if (edge_at(s, 0, px, py) >= 0 && edge_at(s, 1, px, py) >= 0 && edge_at(s, 2, px, py) >= 0) {
         write_pixel(target, s, px, py);
         ++written;
@@ -303,10 +304,12 @@ TriangleResult raster_triangle(VisBuffer& target, ScreenVertex v0, ScreenVertex 
   int64_t min_x = std::min({v0.x, v1.x, v2.x}), max_x = std::max({v0.x, v1.x, v2.x});
   int64_t min_y = std::min({v0.y, v1.y, v2.y}), max_y = std::max({v0.y, v1.y, v2.y});
   // Pixel px is a candidate iff its centre px·256 + 128 lies in [min, max].
-  s.min_px = std::max<int64_t>(0, ceil_div(min_x - kHalfPixel, kSubpixelScale));
-  s.max_px = std::min<int64_t>(int64_t(target.width) - 1, floor_div(max_x - kHalfPixel, kSubpixelScale));
-  s.min_py = std::max<int64_t>(0, ceil_div(min_y - kHalfPixel, kSubpixelScale));
-  s.max_py = std::min<int64_t>(int64_t(target.height) - 1, floor_div(max_y - kHalfPixel, kSubpixelScale));
+  s.window_x = options.window_x;
+  s.window_y = options.window_y;
+  s.min_px = std::max<int64_t>(s.window_x, ceil_div(min_x - kHalfPixel, kSubpixelScale));
+  s.max_px = std::min<int64_t>(s.window_x + int64_t(target.width) - 1, floor_div(max_x - kHalfPixel, kSubpixelScale));
+  s.min_py = std::max<int64_t>(s.window_y, ceil_div(min_y - kHalfPixel, kSubpixelScale));
+  s.max_py = std::min<int64_t>(s.window_y + int64_t(target.height) - 1, floor_div(max_y - kHalfPixel, kSubpixelScale));
 
   double inv_area = 1.0 / double(area);
   double dz1 = v1.z - v0.z, dz2 = v2.z - v0.z;
@@ -351,8 +354,13 @@ void rasterize_cluster(VisBuffer& target, const float* positions, uint32_t verte
   // Limits of the key layout and of exact fixed point. Programming errors (the culling
   // stage checks them, spec/raster.md); in release the whole cluster is dropped rather
   // than writing a wrong key.
+  const bool windowed = options.virtual_width > 0;
+  const uint32_t view_width = windowed ? options.virtual_width : target.width;
+  const uint32_t view_height = windowed ? options.virtual_height : target.height;
   bool valid_call = visible_cluster < kMaxVisibleClusters && triangle_count <= kMaxClusterTriangles &&
-                    target.width <= kMaxRasterViewport && target.height <= kMaxRasterViewport &&
+                    view_width <= kMaxRasterViewport && view_height <= kMaxRasterViewport &&
+                    (!windowed || (uint64_t(options.window_x) + target.width <= view_width &&
+                                   uint64_t(options.window_y) + target.height <= view_height)) &&
                     std::isfinite(options.z_near) && options.z_near > 0 &&
                     target.keys.size() == size_t(target.width) * target.height;
   assert(valid_call);
@@ -363,8 +371,8 @@ void rasterize_cluster(VisBuffer& target, const float* positions, uint32_t verte
   }
 
   const double z_near = options.z_near;
-  Viewport vp{int64_t(target.width), int64_t(target.height), double(target.width) * kSubpixelScale,
-              double(target.height) * kSubpixelScale};
+  Viewport vp{int64_t(view_width), int64_t(view_height), double(view_width) * kSubpixelScale,
+              double(view_height) * kSubpixelScale};
 
   double m[16];
   for (int i = 0; i < 16; ++i) m[i] = object_to_clip.m[i];

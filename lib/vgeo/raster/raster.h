@@ -32,6 +32,13 @@ struct RasterOptions {
   RasterPath path = RasterPath::kAuto;
   bool cull_backfaces = true;     // front faces are counter-clockwise (glTF)
   float z_near = 0.01f;           // view-space near plane distance; reversed-Z infinite far
+  // Scissor window (the virtual shadow map's pages, spec/shadow.md §5): when virtual_width > 0,
+  // triangles are set up in a virtual_width x virtual_height viewport and only its pixels
+  // [window_x, window_x + target.width) x [window_y, window_y + target.height) are visited,
+  // written to the target at (px - window_x, py - window_y). The pixels written are exactly
+  // those a full-size target would get there. 0: the target is the whole viewport.
+  uint32_t virtual_width = 0, virtual_height = 0;
+  uint32_t window_x = 0, window_y = 0;
 };
 
 struct RasterStats {

@@ -140,6 +140,7 @@ std::vector<Mat4> begin_frame(const RenderScene& scene, const Camera& camera, Fr
   out->overdraw.clear();
   out->image = {};  // shaded only when the plan says so: no stale image of an earlier frame
   out->pass1_visible = 0;
+  out->shadow = {};
   const Mat4d view_to_clip =
       perspective_reversed_z(camera.fov_y, double(camera.width) / double(camera.height), camera.z_near);
   return clip_matrices(out->instance_views, view_to_clip);
@@ -256,6 +257,17 @@ class CpuFrameExecutor final : public FrameExecutor {
         // Every cluster of this frame is bound: reads may now be issued and pages evicted.
         end_streamed_frame(in_.streaming, state.requests, state.clusters_coarser, out_->visible.size());
         break;
+      case FrameStep::kShadowMark:
+        out_->shadow = make_shadow_frame(in_.scene.lights, shadow_scene_bounds(in_.scene.meshes, in_.scene.instances),
+                                         in_.camera.position, shadow_options());
+        mark_shadow_pages(out_->vis, view, in_.scene.lights, in_.pool, &out_->shadow);
+        shadows_drawn_ = true;
+        break;
+      case FrameStep::kShadowDraw:
+        draw_shadow_pages(in_.scene.meshes, in_.scene.instances, in_.scene.lights, in_.pool, &out_->shadow,
+                          in_.history ? &in_.history->shadow_cache : nullptr);
+        r.shadow = shadow_stats(out_->shadow);
+        break;
       case FrameStep::kOverdraw:
         overdraw_pass(in_.scene, geometry_, out_->visible, object_to_clip_, out_->instance_views, view, in_.pool,
                       &out_->overdraw);
@@ -271,6 +283,8 @@ class CpuFrameExecutor final : public FrameExecutor {
         in.view = &view;
         in.threshold_px = in_.settings.threshold_px;
         in.overdraw = &out_->overdraw;
+        in.lights = &in_.scene.lights;
+        in.shadows = shadows_drawn_ ? &out_->shadow : nullptr;
         shade_frame(in, in_.settings.view, in_.pool, &out_->image);
         break;
       }
@@ -291,8 +305,18 @@ class CpuFrameExecutor final : public FrameExecutor {
     return post;
   }
 
+  ShadowOptions shadow_options() const {
+    ShadowOptions o;
+    o.threshold_px = in_.settings.threshold_px;
+    return o;
+  }
+  static ShadowFrameStats shadow_stats(const ShadowFrame& f) {
+    return {f.lights, f.pages_marked, f.pages_cached, f.pages_drawn, f.pages_dropped, f.clusters_drawn};
+  }
+
   const FrameInputs& in_;
   Frame* out_;
+  bool shadows_drawn_ = false;
   const std::vector<ClusterDag>& geometry_;  // the scene's meshes, or the streamed frame's
   std::vector<Mat4> object_to_clip_;
   CullOptions options_;

@@ -22,6 +22,8 @@
 #include "vgeo/render/frame_plan.h"
 #include "vgeo/render/streaming.h"
 #include "vgeo/shade/shade.h"
+#include "vgeo/shadow/light.h"
+#include "vgeo/shadow/virtual_shadow.h"
 
 namespace vgeo {
 
@@ -29,6 +31,7 @@ struct RenderScene {
   std::vector<ClusterDag> meshes;
   std::vector<Material> materials;
   std::vector<CullInstance> instances;
+  std::vector<Light> lights;  // spec/shadow.md; empty: the fixed light of spec/scene.md §Shading
   // Set by analyze_render_scene: one instance of a convex mesh cannot occlude itself
   // except by back faces (already culled), so occlusion passes would be pure cost.
   bool single_convex_object = false;
@@ -50,6 +53,7 @@ struct FrameHistory {
   Hzb hzb;
   ViewParams view;
   std::vector<InstanceView> instance_views;
+  ShadowCache shadow_cache;  // the shadow pool and the pages it holds (spec/shadow.md §5)
 };
 
 struct Frame {
@@ -60,6 +64,7 @@ struct Frame {
   uint32_t pass1_visible = 0;           // visible[0, pass1_visible) were drawn by pass 1
   std::vector<uint32_t> overdraw;       // per pixel, only for ShadeView::kOverdraw
   Image image;
+  ShadowFrame shadow;  // this frame's virtual shadow maps (when shadow_mark ran)
   FrameStats stats;
 };
 

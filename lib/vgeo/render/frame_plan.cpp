@@ -22,18 +22,27 @@ constexpr std::array<FramePass, kFrameStepCount> kStepPass = {
     FramePass::kStream,           FramePass::kInstanceCull, FramePass::kClusterCull,     FramePass::kStream,
     FramePass::kRaster,           FramePass::kHzb,          FramePass::kInstanceCullPost, FramePass::kClusterCullPost,
     FramePass::kStream,           FramePass::kRasterPost,   FramePass::kHzbNext,          FramePass::kStream,
-    FramePass::kOverdraw,         FramePass::kShade,
+    FramePass::kShadowMark,       FramePass::kShadowDraw,   FramePass::kOverdraw,         FramePass::kShade,
 };
 
 StepPlan run() { return {StepCondition::kRun, ""}; }
 StepPlan skip(const std::string& reason) { return {StepCondition::kSkip, reason}; }
+
+// spec/shadow.md §1: the shadow steps run only for a shadowing light whose shadows are shown.
+StepPlan shadow_steps(const RenderScene& scene, const RenderSettings& settings, const FrameContext& context) {
+  if (!has_shadowing_light(scene.lights)) return skip("no shadowing light");
+  if (!settings.shade) return skip(kNoShading);
+  if (settings.view != ShadeView::kLit) return skip("shadows not shown by this view");
+  if (context.streamed) return skip("shadows with streaming not supported yet");
+  return run();
+}
 
 }  // namespace
 
 const char* frame_pass_name(FramePass pass) {
   static constexpr const char* kNames[kFramePassCount] = {
       "instance_cull", "cluster_cull", "raster",   "hzb",      "instance_cull_post", "cluster_cull_post",
-      "raster_post",   "hzb_next",     "stream",   "overdraw", "shade"};
+      "raster_post",   "hzb_next",     "stream",   "shadow_mark", "shadow_draw", "overdraw", "shade"};
   return kNames[size_t(pass)];
 }
 
@@ -41,7 +50,7 @@ const char* frame_step_name(FrameStep step) {
   static constexpr const char* kNames[kFrameStepCount] = {
       "stream_begin",       "instance_cull",     "cluster_cull",     "stream_bind", "raster",
       "hzb",                "instance_cull_post", "cluster_cull_post", "stream_bind_post", "raster_post",
-      "hzb_next",           "stream_end",         "overdraw",          "shade"};
+      "hzb_next",           "stream_end",         "shadow_mark",       "shadow_draw", "overdraw", "shade"};
   return kNames[size_t(step)];
 }
 
@@ -75,6 +84,9 @@ FramePlan plan_frame(const RenderScene& scene, const RenderSettings& settings, c
   else if (!context.keep_history || !context.has_next_frame) set(FrameStep::kHzbNext, skip("no next frame"));
   else set(FrameStep::kHzbNext, run());
   set(FrameStep::kStreamEnd, streamed);
+  const StepPlan shadows = shadow_steps(scene, settings, context);
+  set(FrameStep::kShadowMark, shadows);
+  set(FrameStep::kShadowDraw, shadows);
   if (!settings.shade) set(FrameStep::kOverdraw, skip(kNoShading));
   else if (settings.view != ShadeView::kOverdraw) set(FrameStep::kOverdraw, skip("overdraw view not requested"));
   else set(FrameStep::kOverdraw, run());
@@ -139,6 +151,10 @@ void apply_step_result(FrameStep step, StepResult&& r, const RenderScene& scene,
     }
     case FrameStep::kHzb:
       state->hzb_is_complete = true;
+      break;
+    case FrameStep::kShadowDraw:
+      frame->stats.has_shadow = true;
+      frame->stats.shadow = r.shadow;
       break;
     case FrameStep::kHzbNext:
       // The executor stored the HZB; the rest of the history is the frame's.
@@ -209,6 +225,14 @@ std::string frame_stats_table(const FrameStats& s) {
     out += line;
   }
   for (const auto& [name, reason] : s.skipped) out += "(skipped) " + name + ": " + reason + "\n";
+  if (s.has_shadow) {
+    std::snprintf(line, sizeof line,
+                  "shadow: %llu lights, %llu pages marked, %llu cached, %llu drawn, %llu dropped, %llu cluster-page draws\n",
+                  (unsigned long long)s.shadow.lights, (unsigned long long)s.shadow.pages_marked,
+                  (unsigned long long)s.shadow.pages_cached, (unsigned long long)s.shadow.pages_drawn,
+                  (unsigned long long)s.shadow.pages_dropped, (unsigned long long)s.shadow.clusters_drawn);
+    out += line;
+  }
   std::snprintf(line, sizeof line,
                 "frame: %.3f ms, %llu clusters, %llu triangles drawn, %llu of %llu pixels covered "
                 "(%.2f triangles/pixel)\n",
@@ -271,6 +295,10 @@ std::string frame_stats_json(const FrameStats& s) {
   j["skipped"] = nlohmann::ordered_json::array();
   for (const auto& [name, reason] : s.skipped) j["skipped"].push_back({{"name", name}, {"reason", reason}});
   if (s.streamed) j["stream"] = nlohmann::ordered_json::parse(stream_frame_stats_json(s.stream));
+  if (s.has_shadow)
+    j["shadow"] = {{"lights", s.shadow.lights},           {"pages_marked", s.shadow.pages_marked},
+                   {"pages_cached", s.shadow.pages_cached}, {"pages_drawn", s.shadow.pages_drawn},
+                   {"pages_dropped", s.shadow.pages_dropped}, {"clusters_drawn", s.shadow.clusters_drawn}};
   if (s.has_raster_split)
     j["raster_split"] = {{"sw_clusters", s.raster_split.sw_clusters},
                          {"sw_triangles", s.raster_split.sw_triangles},

@@ -41,6 +41,11 @@
 //                       it), stored with this view and instance views as the next frame's history.
 //   stream_end          (pass stream) streaming only: hands requests and cut counters to the
 //                       Streamer (issues reads, evicts). Every visible cluster is bound by now.
+//   shadow_mark         A shadowing light and the lit view shaded (spec/shadow.md §4): the
+//                       virtual shadow maps of the frame and the pages the covered pixels of the
+//                       complete visibility buffer need.
+//   shadow_draw         With shadow_mark: reuses cached pages, allocates pool slots, draws the
+//                       other needed pages (spec/shadow.md §5). Produces the shadow statistics.
 //   overdraw            `overdraw` view and shading: per-pixel count of drawn clusters covering it.
 //   shade               Shading requested: RGBA image from the visibility buffer and visible list.
 // A pass's statistics (time and counters) are the sum over its steps; a pass none of whose steps
@@ -65,17 +70,17 @@ struct FrameStreaming;
 // Passes of the statistics, in the order they are reported.
 enum class FramePass : uint8_t {
   kInstanceCull, kClusterCull, kRaster, kHzb, kInstanceCullPost, kClusterCullPost, kRasterPost,
-  kHzbNext, kStream, kOverdraw, kShade,
+  kHzbNext, kStream, kShadowMark, kShadowDraw, kOverdraw, kShade,
 };
-inline constexpr size_t kFramePassCount = 11;
+inline constexpr size_t kFramePassCount = 13;
 const char* frame_pass_name(FramePass pass);
 
 // Steps, in execution order (see the table above).
 enum class FrameStep : uint8_t {
   kStreamBegin, kInstanceCull, kClusterCull, kStreamBind, kRaster, kHzb, kInstanceCullPost,
-  kClusterCullPost, kStreamBindPost, kRasterPost, kHzbNext, kStreamEnd, kOverdraw, kShade,
+  kClusterCullPost, kStreamBindPost, kRasterPost, kHzbNext, kStreamEnd, kShadowMark, kShadowDraw, kOverdraw, kShade,
 };
-inline constexpr size_t kFrameStepCount = 14;
+inline constexpr size_t kFrameStepCount = 16;
 const char* frame_step_name(FrameStep step);
 FramePass frame_step_pass(FrameStep step);  // whose statistics the step adds to
 
@@ -145,6 +150,11 @@ struct RasterSplitStats {
   }
 };
 
+// The virtual shadow maps' counters of a frame (spec/shadow.md §7).
+struct ShadowFrameStats {
+  uint64_t lights = 0, pages_marked = 0, pages_cached = 0, pages_drawn = 0, pages_dropped = 0, clusters_drawn = 0;
+};
+
 struct FrameStats {
   std::vector<PassStats> passes;                                  // only passes that ran
   std::vector<std::pair<std::string, std::string>> skipped;       // (pass, reason)
@@ -154,6 +164,8 @@ struct FrameStats {
   StreamFrameStats stream;      // when streamed
   bool has_raster_split = false;  // the Vulkan executor's frames: clusters and triangles per raster path
   RasterSplitStats raster_split;
+  bool has_shadow = false;      // shadow_draw ran
+  ShadowFrameStats shadow;
   const PassStats* find(const std::string& name) const {
     for (const PassStats& p : passes)
       if (p.name == name) return &p;
@@ -171,6 +183,8 @@ struct StepResult {
   std::vector<VisibleCluster> visible;
   std::vector<GroupRequest> requests;
   uint64_t clusters_coarser = 0;
+  // shadow_draw: the shadow pages' counters.
+  ShadowFrameStats shadow;
 };
 
 // What execute_frame_plan keeps between steps (besides the Frame it fills); executors read it.

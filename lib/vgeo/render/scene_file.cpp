@@ -2,6 +2,7 @@
 // the camera path, instances — and the embedded default scene. The `meshes` list is loaded by
 // scene_meshes.cpp; the field readers are scene_json.cpp's.
 #include "vgeo/render/scene_file.h"
+#include "vgeo/render/scene_lights.h"
 
 #include <algorithm>
 #include <array>
@@ -163,7 +164,7 @@ SceneFile parse_scene_json(const std::string& text, const std::string& where, co
   Ctx c{where, base_dir, &options};
   json doc = json::parse(text, nullptr, false);
   if (doc.is_discarded()) bad(c, "SCENE_JSON_PARSE", "not valid JSON");
-  check_keys(c, doc, "scene", {"version", "materials", "meshes", "instances", "cameras", "camera_path", "settings"});
+  check_keys(c, doc, "scene", {"version", "materials", "meshes", "instances", "cameras", "camera_path", "settings", "lights"});
   int version = int(get_number(c, doc, "scene", "version", 0, -1e9, 1e9, true));
   if (version != kSceneFileVersion)
     bad(c, "SCENE_VERSION", "version " + std::to_string(version) + " unsupported (expected " + std::to_string(kSceneFileVersion) + ")");
@@ -206,6 +207,7 @@ SceneFile parse_scene_json(const std::string& text, const std::string& where, co
   if (cams.empty()) bad(c, "SCENE_NO_CAMERA", "cameras: at least one camera");
   for (size_t i = 0; i < cams.size(); ++i) out.cameras.push_back(read_camera(c, cams[i], "cameras[" + std::to_string(i) + "]"));
   if (doc.contains("camera_path")) out.path = expand_path(c, doc["camera_path"], out.cameras[0]);
+  if (doc.contains("lights")) out.scene.lights = parse_scene_lights(doc["lights"], c.where);
 
   const json& insts = get_array(c, doc, "", "instances", kMaxSceneInstances);
   const json& meshes = get_array(c, doc, "", "meshes", kMaxSceneMeshes);

@@ -80,6 +80,33 @@ Rgb heat(float t) {
   return {1, 1 - 3 * (t - 2.0f / 3), 0};
 }
 
+// spec/shadow.md §2: Σ over lights of color × intensity × cone × lambert × shadow, per channel,
+// at the pixel's sample point p (world) with unit world normal n.
+std::array<double, 3> sum_lights(const std::vector<Light>& lights, const ShadowFrame* shadows, const Vec3d& p,
+                                 double footprint, const double n[3]) {
+  std::array<double, 3> sum{0, 0, 0};
+  for (uint32_t i = 0; i < lights.size(); ++i) {
+    const Light& light = lights[i];
+    double l[3];
+    if (light.type == LightType::kDirectional) {
+      l[0] = -light.direction.x, l[1] = -light.direction.y, l[2] = -light.direction.z;
+    } else {
+      double d[3] = {light.position.x - p.x, light.position.y - p.y, light.position.z - p.z};
+      double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+      for (int k = 0; k < 3; ++k) l[k] = d[k] / len;  // len 0: NaN, rejected below
+    }
+    const double c = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
+    if (!(c > 0)) continue;
+    if (light.type == LightType::kSpot &&
+        !(-(l[0] * light.direction.x + l[1] * light.direction.y + l[2] * light.direction.z) >=
+          std::cos(0.5 * light.cone_radians)))
+      continue;
+    const double shadow = light.shadows && shadows ? shadow_term(*shadows, i, p, footprint, c) : 1.0;
+    for (int k = 0; k < 3; ++k) sum[k] += double(light.color[k]) * light.intensity * c * shadow;
+  }
+  return sum;
+}
+
 struct Vec3dd {
   double x, y, z;
 };
@@ -124,6 +151,8 @@ void shade_frame(const ShadeInput& in, ShadeView mode, ThreadPool& pool, Image* 
   Vec3 L = in.light_direction;
   double ll = std::sqrt(double(L.x) * L.x + double(L.y) * L.y + double(L.z) * L.z);
   double lx = L.x / ll, ly = L.y / ll, lz = L.z / ll;
+  const bool scene_lights = in.lights && !in.lights->empty();
+  const Mat4d view_to_world = rigid_inverse(view.world_to_view);
   LodView lv;
   lv.pixels_per_unit_at_1 = view.pixels_per_unit_at_1;
   lv.z_near = float(view.z_near);
@@ -212,8 +241,20 @@ void shade_frame(const ShadeInput& in, ShadeView mode, ThreadPool& pool, Image* 
             uint32_t mat = dag.triangle_materials.empty() ? 0 : dag.triangle_materials[c.triangle_offset + tri];
             std::array<float, 4> base{0.8f, 0.8f, 0.8f, 1};
             if (mat < in.materials->size()) base = (*in.materials)[mat].base_color;
-            float k = float(in.ambient + (1 - in.ambient) * lambert);
-            col = {base[0] * k, base[1] * k, base[2] * k};
+            if (scene_lights) {
+              double f;
+              const Vec3d sp = shadow_sample_point(view, view_to_world, x, uint32_t(y), vis_key_depth(key), &f);
+              double un[3] = {0, 0, 0};
+              if (nl > 0)
+                for (int a = 0; a < 3; ++a) un[a] = wn[a] / nl;
+              std::array<double, 3> sum = sum_lights(*in.lights, in.shadows, sp, f, un);
+              col = {base[0] * float(in.ambient + (1 - in.ambient) * sum[0]),
+                     base[1] * float(in.ambient + (1 - in.ambient) * sum[1]),
+                     base[2] * float(in.ambient + (1 - in.ambient) * sum[2])};
+            } else {
+              float k = float(in.ambient + (1 - in.ambient) * lambert);
+              col = {base[0] * k, base[1] * k, base[2] * k};
+            }
           }
         }
       }

@@ -12,6 +12,8 @@
 #include "vgeo/core/thread_pool.h"
 #include "vgeo/cull/cull.h"
 #include "vgeo/raster/visbuffer.h"
+#include "vgeo/shadow/light.h"
+#include "vgeo/shadow/virtual_shadow.h"
 
 namespace vgeo {
 
@@ -36,6 +38,10 @@ struct ShadeInput {
   float ambient = 0.25f;
   float threshold_px = 1.0f;                // τ, the scale of the error view
   const std::vector<uint32_t>* overdraw = nullptr;  // per pixel count (ShadeView::kOverdraw)
+  // Scene lights (spec/shadow.md §2): null or empty, the fixed light_direction above; else the
+  // sum over lights, each × its shadow term read from `shadows` (null: every term 1).
+  const std::vector<Light>* lights = nullptr;
+  const ShadowFrame* shadows = nullptr;
 };
 
 // Inverse-transpose of the 3x3 part of `m` (normals to world), scaled arbitrarily (the

@@ -1,0 +1,157 @@
+#pragma once
+// Virtual shadow maps, CPU reference (normative: spec/shadow.md). Every shadowing light has one
+// (spot), six (point) or kDirectionalLevels (directional clipmap) virtual depth maps of
+// 16384² texels in 128² pages with mips; each frame the pages the visible pixels sample are
+// marked, given physical slots from a fixed pool (reusing cached pages), and the missing ones
+// drawn through the software raster scissored to the page. Records are flat arrays (page table,
+// pool texels, needed keys) a GPU path can upload as they are.
+// Based on: Karis et al., "Nanite: A Deep Dive" (SIGGRAPH 2021), §"Virtual shadow maps",
+// §"Multi-view rendering", §"Culling and addressing to pages", §"Nanite shadow LOD"; the seed
+// notes' §"Virtual shadow buffer".
+#include <cstdint>
+#include <vector>
+
+#include "vgeo/core/thread_pool.h"
+#include "vgeo/cull/cull.h"
+#include "vgeo/dag/cluster_dag.h"
+#include "vgeo/raster/visbuffer.h"
+#include "vgeo/shadow/light.h"
+
+namespace vgeo {
+
+// spec/shadow.md §3: 128-texel pages, a 128 x 128 page table at mip 0 (16384² texels), mips 0..7.
+inline constexpr uint32_t kShadowPageTexels = 128;
+inline constexpr uint32_t kShadowPagesPerSide = 128;
+inline constexpr uint32_t kShadowMips = 8;
+// Directional clipmap levels: level k's side is 4r·2^(k−7); 8 levels span 128x in texel size
+// (the coarsest covers the scene from anywhere inside it, the finest ~r/32).
+inline constexpr uint32_t kDirectionalLevels = 8;
+// Physical pool (spec/shadow.md §5): 1024 pages x 64 KiB = 64 MiB of depth.
+inline constexpr uint32_t kShadowPoolPages = 1024;
+// Shadow LOD bias (seed: "Defaults to 2 pixels of error"): τ_s = kShadowLodBias · τ.
+inline constexpr float kShadowLodBias = 2.0f;
+// Slope part of the bias is clamped here (tan of ~86.4°): beyond it Lambert is < 0.063 and the
+// bias would grow without bound at grazing angles.
+inline constexpr double kMaxShadowSlope = 16.0;
+
+struct ShadowOptions {
+  // Virtual size: pages per side at mip 0 (spec value 128; tests shrink it so a brute-force
+  // full-resolution map fits in memory). A power of two ≥ 2^(kShadowMips−1).
+  uint32_t pages_per_side = kShadowPagesPerSide;
+  uint32_t pool_pages = kShadowPoolPages;
+  float threshold_px = 1.0f;  // τ of the primary view (τ_s = kShadowLodBias · τ)
+};
+
+struct ShadowSceneBounds {
+  Vec3d center;
+  double radius = 1;
+};
+// spec/shadow.md §3: centre of the world AABB of every instance's mesh-AABB corners, radius the
+// largest corner distance (1 when 0).
+ShadowSceneBounds shadow_scene_bounds(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances);
+
+// One virtual shadow map of a frame: its light view and projection.
+struct ShadowMapView {
+  LightType type = LightType::kDirectional;
+  uint32_t light = 0;   // scene light index
+  uint32_t index = 0;   // spot 0; point face 0..5; directional level 0..7
+  bool ortho = false;
+  Mat4d world_to_light;  // light view (looks down −Z)
+  Mat4d light_to_clip;   // perspective_reversed_z, or the level's orthographic window
+  double tan_half = 0;   // perspective: tan(fov/2)
+  double z_near = 0;     // perspective: z_s
+  double side = 0;       // ortho: S_k (light-view units)
+  int64_t origin_x = 0, origin_y = 0;  // ortho: world page index of the window's page (0, 0)
+  double depth_range = 0;              // ortho: 4r
+  Vec3d eye;                           // E of spec/shadow.md §3
+  uint32_t table_offset = 0;           // first page-table entry of this map's mip 0
+};
+
+// A texel a pixel needs (select_shadow_texel).
+struct ShadowTexel {
+  uint32_t map = 0, mip = 0, x = 0, y = 0;  // texel (x, y) of mip `mip` of maps[map]
+  double dist = 0;                          // the point's light-view depth (−z)
+};
+
+inline constexpr uint32_t kNoShadowSlot = 0xFFFFFFFFu;
+
+// The frame's maps, page table and needed set (spec/shadow.md §3–§5).
+struct ShadowFrame {
+  ShadowOptions options;
+  ShadowSceneBounds bounds;
+  std::vector<ShadowMapView> maps;        // shadowing lights' maps, light by light
+  std::vector<uint32_t> light_first_map;  // per scene light: first map, kNoShadowSlot if none
+  std::vector<uint32_t> light_map_count;  // per scene light
+  // Page table: for map i, mip m: entries table_offset + mip_table_offset(m) + y·side_m + x,
+  // each a physical slot or kNoShadowSlot; `needed` marks the pages of this frame.
+  std::vector<uint32_t> page_table;
+  std::vector<uint8_t> needed;
+  const std::vector<float>* pool_texels = nullptr;  // the pool's texels (ShadowCache::texels); null: own_texels
+  std::vector<float> own_texels;                    // the pool when no cache is kept
+  uint64_t lights = 0;                              // shadowing lights
+  uint64_t pages_marked = 0, pages_cached = 0, pages_drawn = 0, pages_dropped = 0, clusters_drawn = 0;
+};
+
+// What survives between frames (spec/shadow.md §5): the pool and the pages it holds.
+struct ShadowCache {
+  bool valid = false;
+  std::vector<Light> lights;
+  ShadowSceneBounds bounds;
+  std::vector<Mat4d> transforms;  // instance transforms the pages were drawn with
+  std::vector<float> texels;      // pool: slot s at [s·128², (s+1)·128²)
+  // Per slot: the page it holds (map key) or unused. Keys name world pages (stable for
+  // directional levels whose window moved with the camera).
+  struct SlotKey {
+    uint32_t light = 0, map = 0, mip = 0;
+    int64_t x = 0, y = 0;
+    bool used = false;
+    friend bool operator==(const SlotKey&, const SlotKey&) = default;
+  };
+  std::vector<SlotKey> slots;
+};
+
+// Step shadow_mark's setup: the maps of every shadowing light for a camera at `camera_position`.
+ShadowFrame make_shadow_frame(const std::vector<Light>& lights, const ShadowSceneBounds& bounds,
+                              const Vec3d& camera_position, const ShadowOptions& options);
+
+// spec/shadow.md §4: the sample point of pixel (x, y) with reversed-Z depth `depth` (world,
+// double) and its footprint (world size of one pixel there).
+Vec3d shadow_sample_point(const ViewParams& view, const Mat4d& view_to_world, uint32_t x, uint32_t y, float depth,
+                          double* footprint);
+// Inverse of a rigid transform (rotation + translation).
+Mat4d rigid_inverse(const Mat4d& m);
+
+// spec/shadow.md §4: the texel light `light` needs at world point p with footprint f; false
+// when none (a non-shadowing light, outside a spot's cone, outside every clipmap level).
+bool select_shadow_texel(const ShadowFrame& frame, uint32_t light, const Vec3d& p, double footprint,
+                         ShadowTexel* out);
+// Texel size (light-view units) of `texel`'s map and mip at its depth.
+double shadow_texel_size(const ShadowFrame& frame, const ShadowTexel& texel);
+// Page-table entry of the page holding `texel`.
+size_t shadow_page_entry(const ShadowFrame& frame, const ShadowTexel& texel);
+
+// Step shadow_mark (spec/shadow.md §4): marks the page of every texel a covered pixel of `vis`
+// needs, for every shadowing light. Deterministic for any thread count.
+void mark_shadow_pages(const VisBuffer& vis, const ViewParams& view, const std::vector<Light>& lights,
+                       ThreadPool& pool, ShadowFrame* frame);
+
+// Step shadow_draw (spec/shadow.md §5): reuses cached pages (when neither the light nor an
+// overlapping caster moved), allocates slots in page-table order and draws every other needed
+// page: per (map, mip) the LOD cut with τ_s, each cut cluster rasterized into every needed page
+// its texel rectangle overlaps. `cache` null: nothing is kept (every needed page drawn).
+void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                       const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame, ShadowCache* cache);
+
+// spec/shadow.md §6: 1 (lit) or 0 (shadowed) for light `light` at the sample point p (world),
+// footprint f, world normal n (unit) with c = n·l > 0.
+float shadow_term(const ShadowFrame& frame, uint32_t light, const Vec3d& p, double footprint, double cos_nl);
+
+// Reference for tests: texels of the whole mip `mip` of map `map` (R_m x R_m, row-major)
+// drawn in one pass with the same cut and raster (spec/shadow.md §5, "the page's texels are
+// exactly those of the whole map").
+std::vector<float> draw_full_shadow_map(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                                        const ShadowFrame& frame, uint32_t map, uint32_t mip, ThreadPool& pool);
+// The depth stored for `texel` (0 when its page has no slot).
+float shadow_stored_depth(const ShadowFrame& frame, const ShadowTexel& texel);
+
+}  // namespace vgeo

@@ -1,0 +1,84 @@
+// Scene lights (spec/shadow.md §1): every field read as specified; every bad field one coded error.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "vgeo/core/error.h"
+#include "vgeo/render/scene_lights.h"
+
+namespace vgeo {
+namespace {
+
+std::string code_of(const std::string& lights) {
+  try {
+    parse_scene_lights(nlohmann::json::parse(lights), "<test>");
+  } catch (const VgeoError& e) {
+    EXPECT_EQ(e.error().line().find('\n'), std::string::npos);
+    return e.error().code;
+  }
+  return "";
+}
+
+TEST(SceneLights, FieldsAreReadNormalizedAndDefaulted) {
+  auto lights = parse_scene_lights(nlohmann::json::parse(R"([
+      {"type": "directional", "direction": [0, -2, 0]},
+      {"type": "spot", "position": [1, 2, 3], "direction": [1, 0, 0], "cone_degrees": 90, "shadows": false,
+       "color": [1, 0.5, 0], "intensity": 3},
+      {"type": "point", "position": [0, 1, 0]}])"), "<test>");
+  ASSERT_EQ(lights.size(), 3u);
+  EXPECT_EQ(lights[0].type, LightType::kDirectional);
+  EXPECT_EQ(lights[0].direction.y, -1.0);
+  EXPECT_TRUE(lights[0].shadows);
+  EXPECT_EQ(lights[0].intensity, 1.0f);
+  EXPECT_EQ(lights[1].type, LightType::kSpot);
+  EXPECT_NEAR(lights[1].cone_radians, M_PI / 2, 1e-15);
+  EXPECT_FALSE(lights[1].shadows);
+  EXPECT_EQ(lights[1].color[1], 0.5f);
+  EXPECT_EQ(lights[1].intensity, 3.0f);
+  EXPECT_EQ(lights[2].type, LightType::kPoint);
+  EXPECT_EQ(lights[2].position.y, 1.0);
+  EXPECT_TRUE(has_shadowing_light(lights));
+  EXPECT_FALSE(has_shadowing_light({lights[1]}));
+}
+
+TEST(SceneLights, BadFieldsFailWithStableCodes) {
+  struct Case {
+    const char* lights;
+    const char* code;
+  };
+  const Case cases[] = {
+      {R"({})", "SCENE_FIELD_TYPE"},
+      {R"([1])", "SCENE_FIELD_TYPE"},
+      {R"([{}])", "SCENE_MISSING_FIELD"},
+      {R"([{"type": 1}])", "SCENE_FIELD_TYPE"},
+      {R"([{"type": "area"}])", "SCENE_LIGHT_TYPE"},
+      {R"([{"type": "directional"}])", "SCENE_MISSING_FIELD"},
+      {R"([{"type": "directional", "direction": [0, 0, 0]}])", "SCENE_LIGHT_VALUE"},
+      {R"([{"type": "directional", "direction": [0, -1]}])", "SCENE_FIELD_TYPE"},
+      {R"([{"type": "directional", "direction": [0, "a", 1]}])", "SCENE_FIELD_TYPE"},
+      {R"([{"type": "directional", "direction": [0, 1e300, 1]}])", "SCENE_LIGHT_VALUE"},
+      {R"([{"type": "directional", "direction": [0, -1, 0], "position": [0, 0, 0]}])", "SCENE_UNKNOWN_FIELD"},
+      {R"([{"type": "directional", "direction": [0, -1, 0], "colour": [1, 1, 1]}])", "SCENE_UNKNOWN_FIELD"},
+      {R"([{"type": "directional", "direction": [0, -1, 0], "cone_degrees": 30}])", "SCENE_UNKNOWN_FIELD"},
+      {R"([{"type": "directional", "direction": [0, -1, 0], "shadows": 1}])", "SCENE_FIELD_TYPE"},
+      {R"([{"type": "directional", "direction": [0, -1, 0], "color": [1, -1, 1]}])", "SCENE_LIGHT_VALUE"},
+      {R"([{"type": "directional", "direction": [0, -1, 0], "intensity": -1}])", "SCENE_LIGHT_VALUE"},
+      {R"([{"type": "directional", "direction": [0, -1, 0], "intensity": "1"}])", "SCENE_FIELD_TYPE"},
+      {R"([{"type": "point"}])", "SCENE_MISSING_FIELD"},
+      {R"([{"type": "point", "position": [0, 0, 0], "direction": [0, -1, 0]}])", "SCENE_UNKNOWN_FIELD"},
+      {R"([{"type": "point", "position": [0, 0, 2e12]}])", "SCENE_LIGHT_VALUE"},
+      {R"([{"type": "spot", "position": [0, 0, 0]}])", "SCENE_MISSING_FIELD"},
+      {R"([{"type": "spot", "direction": [0, -1, 0]}])", "SCENE_MISSING_FIELD"},
+      {R"([{"type": "spot", "position": [0, 0, 0], "direction": [0, -1, 0], "cone_degrees": 0}])", "SCENE_LIGHT_VALUE"},
+      {R"([{"type": "spot", "position": [0, 0, 0], "direction": [0, -1, 0], "cone_degrees": 180}])", "SCENE_LIGHT_VALUE"},
+  };
+  for (const Case& c : cases) EXPECT_EQ(code_of(c.lights), c.code) << c.lights;
+  std::string many = "[";
+  for (size_t i = 0; i <= kMaxSceneLights; ++i)
+    many += std::string(i ? "," : "") + R"({"type": "directional", "direction": [0, -1, 0]})";
+  EXPECT_EQ(code_of(many + "]"), "SCENE_TOO_LARGE");
+  EXPECT_EQ(code_of("[]"), "");
+}
+
+}  // namespace
+}  // namespace vgeo

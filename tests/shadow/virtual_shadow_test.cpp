@@ -1,0 +1,379 @@
+// Virtual shadow maps (spec/shadow.md): the pages equal a brute-force full-resolution map of the
+// same cut at every sampled texel; marking never misses a sampled page; a static scene's second
+// frame draws nothing; moving lights and casters invalidate; hard cases stay finite.
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include <cmath>
+#include <map>
+
+#include "render/render_helpers.h"
+#include "vgeo/core/thread_pool.h"
+#include "vgeo/render/frame.h"
+#include "vgeo/shadow/virtual_shadow.h"
+
+namespace vgeo {
+namespace {
+
+Light directional(Vec3d d) {
+  Light l;
+  l.type = LightType::kDirectional;
+  double n = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+  l.direction = {d.x / n, d.y / n, d.z / n};
+  return l;
+}
+Light spot(Vec3d p, Vec3d d, double cone_degrees) {
+  Light l = directional(d);
+  l.type = LightType::kSpot;
+  l.position = p;
+  l.cone_radians = cone_degrees * M_PI / 180;
+  return l;
+}
+Light point(Vec3d p) {
+  Light l;
+  l.type = LightType::kPoint;
+  l.position = p;
+  return l;
+}
+
+// The primary view's visibility buffer of `scene` (no shading: the shadow steps do not run).
+Frame primary_frame(const RenderScene& scene, const Camera& camera, ThreadPool& pool) {
+  RenderSettings settings;
+  settings.shade = false;
+  Frame frame;
+  render_frame(FrameInputs{scene, camera, settings, pool, nullptr, false}, &frame);
+  return frame;
+}
+
+// What check_pages did: texels checked and every kind of failure found.
+struct PageCheck {
+  uint64_t checked = 0, mismatched = 0, unmarked = 0, wrong_mip = 0, dropped = 0, drawn_not_marked = 0;
+  bool ok() const { return mismatched == 0 && unmarked == 0 && wrong_mip == 0 && dropped == 0 && drawn_not_marked == 0; }
+};
+
+// Every texel any covered pixel samples is marked, has a slot, and its stored depth equals the
+// brute-force map of the same (map, mip) drawn in one pass.
+PageCheck check_pages(const RenderScene& scene, const Camera& camera, uint32_t pages_per_side, float tau = 1.0f) {
+  ThreadPool pool(3);
+  RenderSettings settings;
+  settings.shade = false;
+  settings.threshold_px = tau;
+  Frame primary;
+  render_frame(FrameInputs{scene, camera, settings, pool, nullptr, false}, &primary);
+  ShadowOptions options;
+  options.pages_per_side = pages_per_side;
+  options.pool_pages = 1u << 16;  // nothing dropped: every needed page is drawn
+  options.threshold_px = tau;
+  ShadowFrame frame = make_shadow_frame(scene.lights, shadow_scene_bounds(scene.meshes, scene.instances),
+                                        camera.position, options);
+  mark_shadow_pages(primary.vis, primary.view, scene.lights, pool, &frame);
+  draw_shadow_pages(scene.meshes, scene.instances, scene.lights, pool, &frame, nullptr);
+  PageCheck out;
+  out.dropped = frame.pages_dropped;
+  out.drawn_not_marked = frame.pages_drawn != frame.pages_marked;
+  std::map<std::pair<uint32_t, uint32_t>, std::vector<float>> brute;
+  const Mat4d view_to_world = rigid_inverse(primary.view.world_to_view);
+  for (uint32_t y = 0; y < primary.vis.height; ++y)
+    for (uint32_t x = 0; x < primary.vis.width; ++x) {
+      uint64_t key = primary.vis.keys[size_t(y) * primary.vis.width + x];
+      if (!key) continue;
+      double f;
+      Vec3d p = shadow_sample_point(primary.view, view_to_world, x, y, vis_key_depth(key), &f);
+      for (uint32_t l = 0; l < scene.lights.size(); ++l) {
+        ShadowTexel t;
+        if (!select_shadow_texel(frame, l, p, f, &t)) continue;
+        // One texel ≈ one pixel (spec/shadow.md §4): the texel is no larger than the footprint
+        // unless it is the finest there is, and twice it would be larger, unless it is the
+        // coarsest there is. (A directional point outside the finer levels' windows takes a
+        // coarser level: only the second half holds there.)
+        const double texel = shadow_texel_size(frame, t);
+        const ShadowMapView& m = frame.maps[t.map];
+        const bool finest = t.mip == 0 && (!m.ortho || m.index == 0);
+        const bool coarsest = (pages_per_side >> t.mip) == 1 && (!m.ortho || m.index + 1 == kDirectionalLevels);
+        out.wrong_mip += (!m.ortho && !(texel <= f || finest)) || !(2 * texel > f || coarsest);
+        const size_t e = shadow_page_entry(frame, t);
+        out.unmarked += !frame.needed[e] || frame.page_table[e] == kNoShadowSlot;
+        auto& full = brute[{t.map, t.mip}];
+        if (full.empty()) full = draw_full_shadow_map(scene.meshes, scene.instances, frame, t.map, t.mip, pool);
+        const uint32_t r_m = (pages_per_side * kShadowPageTexels) >> t.mip;
+        out.mismatched += shadow_stored_depth(frame, t) != full[size_t(t.y) * r_m + t.x];
+        ++out.checked;
+      }
+    }
+  return out;
+}
+
+uint64_t check_pages_against_brute_force(const RenderScene& scene, const Camera& camera, uint32_t pages_per_side) {
+  PageCheck c = check_pages(scene, camera, pages_per_side);
+  EXPECT_EQ(c.unmarked, 0u);
+  EXPECT_EQ(c.wrong_mip, 0u);
+  EXPECT_EQ(c.dropped, 0u);
+  EXPECT_EQ(c.drawn_not_marked, 0u);
+  EXPECT_EQ(c.mismatched, 0u) << "of " << c.checked;
+  return c.checked;
+}
+
+TEST(VirtualShadow, PagesEqualBruteForceMapOfTheSameCutAtEverySampledTexel) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  scene.lights = {directional({-0.4, -0.8, -0.45}), spot({2, 6, 4}, {-0.3, -1, -0.6}, 80), point({1.5, 3.0, 1.5})};
+  const Camera cameras[] = {test::look_camera({0, 3, 8}, {0, 1, -2}), test::look_camera({6, 1.5, 2}, {0, 1, -4}),
+                            test::look_camera({0, 9, 0.5}, {0, 0, -2})};
+  for (const Camera& c : cameras) EXPECT_GT(check_pages_against_brute_force(scene, c, 8), 1000u);
+}
+
+// Frames of one history: returns each frame's shadow statistics.
+std::vector<ShadowFrameStats> render_frames(RenderScene& scene, const std::vector<Camera>& cameras,
+                                            const std::function<void(size_t, RenderScene&)>& change = {}) {
+  ThreadPool pool(2);
+  RenderSettings settings;
+  FrameHistory history;
+  std::vector<ShadowFrameStats> out;
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    if (change) change(i, scene);
+    Frame frame;
+    render_frame(FrameInputs{scene, cameras[i], settings, pool, &history, i + 1 < cameras.size()}, &frame);
+    EXPECT_TRUE(frame.stats.has_shadow);
+    out.push_back(frame.stats.shadow);
+  }
+  return out;
+}
+
+TEST(VirtualShadow, StaticSceneSecondFrameDrawsNoPage) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  scene.lights = {directional({-0.4, -0.8, -0.45}), point({1.5, 3.0, 1.5})};
+  const Camera c = test::look_camera({0, 3, 8}, {0, 1, -2});
+  auto stats = render_frames(scene, {c, c, c});
+  EXPECT_GT(stats[0].pages_drawn, 0u);
+  EXPECT_EQ(stats[0].pages_drawn, stats[0].pages_marked);
+  for (size_t i = 1; i < stats.size(); ++i) {
+    EXPECT_EQ(stats[i].pages_drawn, 0u) << i;
+    EXPECT_EQ(stats[i].pages_cached, stats[i].pages_marked) << i;
+  }
+}
+
+TEST(VirtualShadow, MovingLightRedrawsItsPagesAndMovingCasterTheOverlappedOnes) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  scene.lights = {directional({-0.4, -0.8, -0.45}), point({1.5, 3.0, 1.5})};
+  const Camera c = test::look_camera({0, 3, 8}, {0, 1, -2});
+  auto light_moves = render_frames(scene, {c, c}, [](size_t i, RenderScene& s) {
+    if (i == 1) s.lights[1].position.x += 0.25;
+  });
+  // The point light's pages are all redrawn, the directional light's all reused.
+  EXPECT_GT(light_moves[1].pages_drawn, 0u);
+  EXPECT_GT(light_moves[1].pages_cached, 0u);
+  EXPECT_EQ(light_moves[1].pages_drawn + light_moves[1].pages_cached, light_moves[1].pages_marked);
+
+  RenderScene scene2 = test::make_row_scene(1.0, 0.0, 3);
+  scene2.lights = {directional({-0.4, -0.8, -0.45})};
+  auto caster_moves = render_frames(scene2, {c, c}, [](size_t i, RenderScene& s) {
+    if (i == 1) s.instances[3].object_to_world.at(0, 3) += 0.1;  // the farthest sphere
+  });
+  EXPECT_GT(caster_moves[1].pages_drawn, 0u);
+  EXPECT_LT(caster_moves[1].pages_drawn, caster_moves[1].pages_marked);
+}
+
+TEST(VirtualShadow, ImageIsIdenticalForAnyThreadCount) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  scene.lights = {directional({-0.4, -0.8, -0.45}), spot({2, 6, 4}, {-0.3, -1, -0.6}, 80), point({1.5, 3.0, 1.5})};
+  const Camera c = test::look_camera({0, 3, 8}, {0, 1, -2});
+  std::vector<uint8_t> first;
+  for (unsigned threads : {1u, 3u}) {
+    ThreadPool pool(threads);
+    RenderSettings settings;
+    Frame frame;
+    render_frame(FrameInputs{scene, c, settings, pool, nullptr, false}, &frame);
+    if (first.empty()) first = frame.image.rgb;
+    else EXPECT_EQ(frame.image.rgb, first);
+  }
+}
+
+// Hard cases: a light parallel to the ground, a point light inside a sphere, a spot light at a
+// caster's surface: every step finite, nothing dropped, and the lit image differs from ambient.
+TEST(VirtualShadow, HardCasesStayFinite) {
+  const Camera c = test::look_camera({0, 3, 8}, {0, 1, -2});
+  const std::vector<std::vector<Light>> cases = {
+      {directional({1, 0, 0})},
+      {directional({0, -1, 0})},
+      {point({0, 1.2, 0})},                          // the centre of the first sphere
+      {spot({0, 2.2, 0}, {0, -1, 0}, 170)},          // at the sphere's top, a near-hemisphere cone
+  };
+  for (const auto& lights : cases) {
+    RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+    scene.lights = lights;
+    ThreadPool pool(2);
+    RenderSettings settings;
+    Frame frame;
+    render_frame(FrameInputs{scene, c, settings, pool, nullptr, false}, &frame);
+    ASSERT_TRUE(frame.stats.has_shadow);
+    EXPECT_EQ(frame.stats.shadow.pages_dropped, 0u);
+    EXPECT_EQ(frame.image.rgb.size(), size_t(c.width) * c.height * 3);
+    for (const ShadowMapView& m : frame.shadow.maps)
+      for (double v : m.light_to_clip.m) EXPECT_TRUE(std::isfinite(v));
+  }
+}
+
+TEST(VirtualShadow, NoShadowingLightSkipsTheShadowSteps) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 1);
+  ThreadPool pool(2);
+  RenderSettings settings;
+  for (bool with_light : {false, true}) {
+    scene.lights.clear();
+    if (with_light) {
+      scene.lights = {directional({0, -1, 0})};
+      scene.lights[0].shadows = false;
+    }
+    Frame frame;
+    render_frame(FrameInputs{scene, test::look_camera({0, 3, 8}, {0, 1, -2}), settings, pool, nullptr, false}, &frame);
+    EXPECT_FALSE(frame.stats.has_shadow);
+    int skipped = 0;
+    for (const auto& [name, reason] : frame.stats.skipped)
+      if (name == "shadow_mark" || name == "shadow_draw") {
+        EXPECT_EQ(reason, "no shadowing light");
+        ++skipped;
+      }
+    EXPECT_EQ(skipped, 2);
+  }
+}
+
+}  // namespace
+}  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+// The clipmap's edges: a camera at the scene's rim looking outwards and one far above it; every
+// sampled texel still equals the brute-force map (pages at the level windows' borders included).
+TEST(VirtualShadow, ClipmapEdgePagesEqualBruteForce) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  scene.lights = {directional({-0.3, -0.5, 0.8})};
+  const Camera cameras[] = {test::look_camera({14, 1.5, 14}, {0, 0, -6}), test::look_camera({0, 40, 1}, {0, 0, 0})};
+  for (const Camera& c : cameras) EXPECT_GT(check_pages_against_brute_force(scene, c, 8), 100u);
+}
+
+// A moving camera: the directional levels' windows move; pages keep their world keys, so the
+// second frame reuses the pages it still needs and draws only the new ones.
+TEST(VirtualShadow, MovingCameraReusesWorldPages) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  scene.lights = {directional({-0.4, -0.8, -0.45})};
+  auto stats = render_frames(scene, {test::look_camera({0, 3, 8}, {0, 1, -2}), test::look_camera({0.5, 3, 7.5}, {0.5, 1, -2.5})});
+  EXPECT_GT(stats[1].pages_cached, 0u);
+  EXPECT_EQ(stats[1].pages_cached + stats[1].pages_drawn, stats[1].pages_marked);
+}
+
+}  // namespace
+}  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+TEST(VirtualShadow, PlanSkipsShadowStepsWithTheirReasons) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 1);
+  scene.lights = {directional({0, -1, 0})};
+  RenderSettings settings;
+  FrameContext context;
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowMark).when, StepCondition::kRun);
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowDraw).when, StepCondition::kRun);
+  settings.view = ShadeView::kTriangle;
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowMark).skip_reason, "shadows not shown by this view");
+  settings.view = ShadeView::kLit;
+  settings.shade = false;
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowDraw).skip_reason, "shading not requested");
+  settings.shade = true;
+  context.streamed = true;
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowMark).skip_reason,
+            "shadows with streaming not supported yet");
+}
+
+// spec/shadow.md §2: one white directional light along the fixed light's direction, without
+// shadows, shades as the scene without lights (to the rounding of the two formulas: at most one
+// 8-bit step); with shadows every pixel is as bright or darker, and some are darker.
+TEST(VirtualShadow, LightSumMatchesTheFixedLightAndShadowsOnlyDarken) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  const Camera c = test::look_camera({0, 3, 8}, {0, 1, -2});
+  ThreadPool pool(2);
+  RenderSettings settings;
+  auto image = [&]() {
+    Frame frame;
+    render_frame(FrameInputs{scene, c, settings, pool, nullptr, false}, &frame);
+    return frame.image.rgb;
+  };
+  const std::vector<uint8_t> fixed = image();
+  scene.lights = {directional({-0.4, -0.8, -0.45})};
+  scene.lights[0].shadows = false;
+  const std::vector<uint8_t> unshadowed = image();
+  scene.lights[0].shadows = true;
+  const std::vector<uint8_t> shadowed = image();
+  ASSERT_EQ(fixed.size(), unshadowed.size());
+  int max_step = 0;
+  uint64_t darker = 0, brighter = 0;
+  for (size_t i = 0; i < fixed.size(); ++i) {
+    max_step = std::max(max_step, std::abs(int(fixed[i]) - int(unshadowed[i])));
+    darker += shadowed[i] < unshadowed[i];
+    brighter += shadowed[i] > unshadowed[i];
+  }
+  EXPECT_LE(max_step, 1);
+  EXPECT_GT(darker, 100u);
+  EXPECT_EQ(brighter, 0u);
+}
+
+}  // namespace
+}  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+const RenderScene& property_scene() {
+  static const RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  return scene;
+}
+
+// Random lights (each type, directions including axis-aligned and grazing ones, positions inside
+// and around the casters), cameras and τ on a shrunk page table: every sampled texel is marked,
+// has a slot, is of the right mip and equals the brute-force map of the same cut.
+RC_GTEST_PROP(VirtualShadow, RandomLightsPagesEqualBruteForce, ()) {
+  RenderScene scene = property_scene();
+  const int type = *rc::gen::inRange(0, 3);
+  auto coord = [](int lo, int hi) { return *rc::gen::inRange(lo, hi) * 0.5; };
+  Vec3d d{coord(-4, 5), coord(-4, 1), coord(-4, 5)};
+  if (d.x == 0 && d.y == 0 && d.z == 0) d.y = -1;
+  Vec3d p{coord(-8, 9), coord(1, 12), coord(-12, 5)};
+  if (type == 0) scene.lights = {directional(d)};
+  else if (type == 1) scene.lights = {spot(p, d, *rc::gen::element(20.0, 60.0, 120.0, 170.0))};
+  else scene.lights = {point(p)};
+  const Camera camera = test::look_camera({coord(-16, 17), coord(1, 16), coord(-10, 20)}, {coord(-4, 5), 1.0, coord(-10, 2)},
+                                          *rc::gen::element(64u, 160u), *rc::gen::element(48u, 120u));
+  const PageCheck c = check_pages(scene, camera, *rc::gen::element(4u, 8u), *rc::gen::element(0.5f, 1.0f, 4.0f));
+  RC_CLASSIFY(c.checked == 0, "no texel sampled");
+  RC_ASSERT(c.ok());
+}
+
+}  // namespace
+}  // namespace vgeo
+
+#include "support/paths.h"
+#include "vgeo/render/run.h"
+#include "vgeo/render/scene_file.h"
+
+namespace vgeo {
+namespace {
+
+// The example light scenes load through the scene file and render with their shadow passes.
+TEST(VirtualShadow, ExampleLightScenesRenderWithShadowPasses) {
+  for (const char* name : {"directional.json", "spot.json", "point.json"}) {
+    SceneFile f = load_scene_file((test::source_dir() / "tests" / "shadow" / "scenes" / name).string(), {});
+    ASSERT_EQ(f.scene.lights.size(), 1u) << name;
+    RenderRequest r;
+    r.threads = 2;
+    RenderReport report = render_scene(f, r);
+    ASSERT_FALSE(report.frames.empty()) << name;
+    const FrameStats& last = report.frames.back();
+    EXPECT_NE(last.find("shadow_mark"), nullptr) << name;
+    EXPECT_NE(last.find("shadow_draw"), nullptr) << name;
+    EXPECT_TRUE(last.has_shadow) << name;
+    EXPECT_GT(last.shadow.pages_drawn, 0u) << name;
+    EXPECT_EQ(last.shadow.pages_dropped, 0u) << name;
+  }
+}
+
+}  // namespace
+}  // namespace vgeo
