@@ -4,6 +4,7 @@
 // without any shadowing light (the shadow steps skipped: today's frame).
 #include <cmath>
 
+#include "bench_render.h"
 #include "bench_shapes.h"
 #include "bench_suites.h"
 #include "vgeo/core/progress.h"
@@ -42,11 +43,6 @@ std::vector<Light> light_set(size_t n) {
     out.push_back(p);
   }
   return out;
-}
-
-double pass_ms(const FrameStats& s, const char* name) {
-  const PassStats* p = s.find(name);
-  return p ? p->ms : 0.0;
 }
 
 }  // namespace
@@ -105,8 +101,8 @@ void run_shadows_suite(const BenchConfig& cfg, SuiteReport& out) {
           const double t0 = now_seconds();
           render_frame({scene, cam, s, pool, &history, true}, &frames[k]);
           wall[k].push_back(now_seconds() - t0);
-          mark[k].push_back(pass_ms(frames[k].stats, "shadow_mark"));
-          draw[k].push_back(pass_ms(frames[k].stats, "shadow_draw"));
+          mark[k].push_back(passes_ms(frames[k].stats, {"shadow_mark"}));
+          draw[k].push_back(passes_ms(frames[k].stats, {"shadow_draw"}));
         }
         progress.advance();
       }

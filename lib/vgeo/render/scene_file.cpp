@@ -20,8 +20,6 @@ namespace {
 
 using namespace scene_detail;
 
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
-
 // Default scene sizes: ~130k triangles per mesh builds in about a second and still shows
 // several LOD levels across the view; the ground's scale is 20 x 1.6 x 20 of the [-1,1]^2 terrain.
 constexpr uint64_t kDefaultSceneSphereTriangles = 131072, kDefaultSceneGroundTriangles = 131072;
@@ -76,7 +74,7 @@ struct Pose {
 
 Pose read_pose(const Ctx& c, const json& j, const std::string& path) {
   Pose p;
-  if (!j.contains("position")) bad(c, "SCENE_MISSING_FIELD", path + ".position: required");
+  require(c, j, path, "position");
   auto pos = get_vector(c, j, path, "position", 3);
   p.position = {pos[0], pos[1], pos[2]};
   if (j.contains("look_at") == j.contains("orientation"))
@@ -169,7 +167,7 @@ SceneFile parse_scene_json(const std::string& text, const std::string& where, co
   if (version != kSceneFileVersion)
     bad(c, "SCENE_VERSION", "version " + std::to_string(version) + " unsupported (expected " + std::to_string(kSceneFileVersion) + ")");
   for (const char* key : {"meshes", "instances", "cameras"})
-    if (!doc.contains(key)) bad(c, "SCENE_MISSING_FIELD", std::string("scene.") + key + ": required");
+    require(c, doc, "scene", key);
 
   SceneFile out;
   if (doc.contains("materials")) {

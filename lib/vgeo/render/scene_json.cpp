@@ -18,19 +18,21 @@ void check_keys(const Ctx& c, const json& obj, const std::string& path, std::ini
     if (!ok.count(it.key())) bad(c, "SCENE_UNKNOWN_FIELD", path + "." + it.key() + ": unknown field");
 }
 
+void require(const Ctx& c, const json& obj, const std::string& path, const char* key) {
+  if (!obj.contains(key)) bad(c, "SCENE_MISSING_FIELD", path + "." + key + ": required");
+}
+
 double get_number(const Ctx& c, const json& obj, const std::string& path, const char* key, double def,
-                  double lo, double hi, bool required) {
-  if (!obj.contains(key)) {
-    if (required) bad(c, "SCENE_MISSING_FIELD", path + "." + key + ": required");
-    return def;
-  }
+                  double lo, double hi, bool required, bool lo_open) {
+  if (required) require(c, obj, path, key);
+  if (!obj.contains(key)) return def;
   const json& v = obj[key];
   if (!v.is_number()) bad(c, "SCENE_FIELD_TYPE", path + "." + key + ": expected a number");
   double d = v.get<double>();
-  if (!std::isfinite(d) || d < lo || d > hi) {
+  if (!std::isfinite(d) || d < lo || (lo_open && d == lo) || d > hi) {
     std::ostringstream s;
-    s << path << "." << key << ": " << d << " outside [" << lo << ", " << hi << "]";
-    bad(c, "SCENE_BAD_VALUE", s.str());
+    s << path << "." << key << ": " << d << " outside " << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
+    bad(c, c.value_code, s.str());
   }
   return d;
 }
@@ -43,10 +45,8 @@ bool get_bool(const Ctx& c, const json& obj, const std::string& path, const char
 
 std::string get_string(const Ctx& c, const json& obj, const std::string& path, const char* key,
                        const std::string& def, bool required) {
-  if (!obj.contains(key)) {
-    if (required) bad(c, "SCENE_MISSING_FIELD", path + "." + key + ": required");
-    return def;
-  }
+  if (required) require(c, obj, path, key);
+  if (!obj.contains(key)) return def;
   if (!obj[key].is_string()) bad(c, "SCENE_FIELD_TYPE", path + "." + key + ": expected a string");
   return obj[key].get<std::string>();
 }
@@ -60,7 +60,7 @@ std::vector<double> get_vector(const Ctx& c, const json& obj, const std::string&
   for (const json& e : *it) {
     if (!e.is_number()) bad(c, "SCENE_FIELD_TYPE", p + ": expected numbers");
     double d = e.get<double>();
-    if (!std::isfinite(d) || std::abs(d) > limit) bad(c, "SCENE_BAD_VALUE", p + ": value not finite or beyond ±1e12");
+    if (!std::isfinite(d) || std::abs(d) > limit) bad(c, c.value_code, p + ": value not finite or beyond ±1e12");
     out.push_back(d);
   }
   return out;
@@ -69,10 +69,14 @@ std::vector<double> get_vector(const Ctx& c, const json& obj, const std::string&
 const json& get_array(const Ctx& c, const json& obj, const std::string& path, const char* key, size_t max) {
   // find, not operator[]: a const json's operator[] on a missing key is undefined behaviour
   // (fuzz_camera_path: heap overflow on a path with "frames" but no "keyframes").
+  static const json kAbsent;  // null: not an array
   const auto it = obj.find(key);
-  if (it == obj.end() || !it->is_array()) bad(c, "SCENE_FIELD_TYPE", path + key + ": expected an array");
-  const json& v = *it;
-  if (v.size() > max) bad(c, "SCENE_TOO_LARGE", path + key + ": more than " + std::to_string(max) + " entries");
+  return expect_array(c, it == obj.end() ? kAbsent : *it, path + key, max);
+}
+
+const json& expect_array(const Ctx& c, const json& v, const std::string& name, size_t max) {
+  if (!v.is_array()) bad(c, "SCENE_FIELD_TYPE", name + ": expected an array");
+  if (v.size() > max) bad(c, "SCENE_TOO_LARGE", name + ": more than " + std::to_string(max) + " entries");
   return v;
 }
 

@@ -1,127 +1,102 @@
 // The scene file's lights (spec/shadow.md §1). Every bad field is one coded line; the JSON shape
-// codes are those of every other scene field (spec/scene.md §Error codes).
+// codes are those of every other scene field (spec/scene.md §Error codes), read by the scene
+// file's field readers (scene_json.h) with SCENE_LIGHT_VALUE as the out-of-range code.
 #include "vgeo/render/scene_lights.h"
 
+#include <array>
 #include <cmath>
-#include <set>
-#include <sstream>
 
 #include "vgeo/core/error.h"
+#include "vgeo/render/scene_json.h"
 
 namespace vgeo {
 
 namespace {
 
+using scene_detail::bad;
+using scene_detail::Ctx;
+using scene_detail::kDegToRad;
 using json = nlohmann::json;
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+
 // Ranges of spec/shadow.md §1: a cone wider than 179° has no finite perspective projection;
-// colours and intensities beyond 1e6 only overflow float sums; positions beyond 1e12 are the
-// scene file's bound on every coordinate.
-constexpr double kMaxConeDegrees = 179.0, kMaxColor = 1e6, kMaxCoordinate = 1e12;
+// colours and intensities beyond 1e6 only overflow float sums. Positions and directions keep the
+// scene file's bound on every coordinate (get_vector's ±1e12).
+constexpr double kMaxConeDegrees = 179.0, kDefaultConeDegrees = 60.0, kMaxColor = 1e6;
 // A direction shorter than this cannot be normalized meaningfully.
 constexpr double kMinDirectionLength = 1e-12;
 
-struct LightCtx {
-  const std::string& where;
-  std::string path;
-  [[noreturn]] void bad(const std::string& code, const std::string& what) const { fail(code, where, path + what); }
-};
+LightType read_type(const Ctx& c, const json& obj, const std::string& path) {
+  const std::string name = scene_detail::get_string(c, obj, path, "type", "", /*required=*/true);
+  for (LightType t : {LightType::kDirectional, LightType::kSpot, LightType::kPoint})
+    if (name == light_type_name(t)) return t;
+  bad(c, "SCENE_LIGHT_TYPE", path + ".type: unknown light type '" + name + "' (directional, spot, point)");
+}
 
-void check_light_keys(const LightCtx& c, const json& obj, const std::set<std::string>& allowed) {
+// Whether a light of type t takes field `key` (spec/shadow.md §1's table): direction, position and
+// cone_degrees only some types; every other light field all of them.
+bool takes(LightType t, const std::string& key) {
+  if (key == "direction") return t != LightType::kPoint;
+  if (key == "position") return t != LightType::kDirectional;
+  if (key == "cone_degrees") return t == LightType::kSpot;
+  return true;
+}
+
+// A field the light's type does not take is an unknown field of that light.
+void check_typed_fields(const Ctx& c, const json& obj, const std::string& path, LightType t) {
   for (auto it = obj.begin(); it != obj.end(); ++it)
-    if (!allowed.count(it.key()))
-      c.bad("SCENE_UNKNOWN_FIELD", "." + it.key() + ": unknown field for a " + obj["type"].get<std::string>() + " light");
+    if (!takes(t, it.key()))
+      bad(c, "SCENE_UNKNOWN_FIELD", path + "." + it.key() + ": unknown field for a " + light_type_name(t) + " light");
 }
 
-const json& required(const LightCtx& c, const json& obj, const char* key) {
-  const auto it = obj.find(key);
-  if (it == obj.end()) c.bad("SCENE_MISSING_FIELD", std::string(".") + key + ": required");
-  return *it;
+// obj[key], a required 3-vector.
+std::array<double, 3> read_vec3(const Ctx& c, const json& obj, const std::string& path, const char* key) {
+  scene_detail::require(c, obj, path, key);
+  std::vector<double> v = scene_detail::get_vector(c, obj, path, key, 3);
+  return {v[0], v[1], v[2]};
 }
 
-std::array<double, 3> read_vec3(const LightCtx& c, const json& v, const char* key) {
-  if (!v.is_array() || v.size() != 3) c.bad("SCENE_FIELD_TYPE", std::string(".") + key + ": expected an array of 3 numbers");
-  std::array<double, 3> out{};
-  for (size_t k = 0; k < 3; ++k) {
-    if (!v[k].is_number()) c.bad("SCENE_FIELD_TYPE", std::string(".") + key + ": expected numbers");
-    out[k] = v[k].get<double>();
-    if (!std::isfinite(out[k]) || std::abs(out[k]) > kMaxCoordinate)
-      c.bad("SCENE_LIGHT_VALUE", std::string(".") + key + ": value not finite or beyond ±1e12");
-  }
-  return out;
-}
-
-double read_number(const LightCtx& c, const json& obj, const char* key, double def, double lo, double hi,
-                   bool lo_open) {
-  const auto it = obj.find(key);
-  if (it == obj.end()) return def;
-  if (!it->is_number()) c.bad("SCENE_FIELD_TYPE", std::string(".") + key + ": expected a number");
-  double d = it->get<double>();
-  if (!std::isfinite(d) || d < lo || (lo_open && d == lo) || d > hi) {
-    std::ostringstream s;
-    s << "." << key << ": " << d << " outside " << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
-    c.bad("SCENE_LIGHT_VALUE", s.str());
-  }
-  return d;
-}
-
-Vec3d read_direction(const LightCtx& c, const json& obj) {
-  std::array<double, 3> d = read_vec3(c, required(c, obj, "direction"), "direction");
+Vec3d read_direction(const Ctx& c, const json& obj, const std::string& path) {
+  std::array<double, 3> d = read_vec3(c, obj, path, "direction");
   double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-  if (!(len > kMinDirectionLength)) c.bad("SCENE_LIGHT_VALUE", ".direction: zero length");
+  if (!(len > kMinDirectionLength)) bad(c, c.value_code, path + ".direction: zero length");
   return {d[0] / len, d[1] / len, d[2] / len};
 }
 
-LightType read_type(const LightCtx& c, const json& obj) {
-  const json& t = required(c, obj, "type");
-  if (!t.is_string()) c.bad("SCENE_FIELD_TYPE", ".type: expected a string");
-  const std::string name = t.get<std::string>();
-  if (name == "directional") return LightType::kDirectional;
-  if (name == "spot") return LightType::kSpot;
-  if (name == "point") return LightType::kPoint;
-  c.bad("SCENE_LIGHT_TYPE", ".type: unknown light type '" + name + "' (directional, spot, point)");
-}
-
-Light read_light(const LightCtx& c, const json& obj) {
-  if (!obj.is_object()) c.bad("SCENE_FIELD_TYPE", ": expected an object");
+Light read_light(const Ctx& c, const json& obj, const std::string& path) {
+  scene_detail::check_keys(c, obj, path,
+                           {"type", "direction", "position", "cone_degrees", "shadows", "color", "intensity"});
   Light light;
-  light.type = read_type(c, obj);
-  std::set<std::string> allowed{"type", "shadows", "color", "intensity"};
-  if (light.type != LightType::kPoint) allowed.insert("direction");
-  if (light.type != LightType::kDirectional) allowed.insert("position");
-  if (light.type == LightType::kSpot) allowed.insert("cone_degrees");
-  check_light_keys(c, obj, allowed);
-  if (light.type != LightType::kPoint) light.direction = read_direction(c, obj);
-  if (light.type != LightType::kDirectional) {
-    std::array<double, 3> p = read_vec3(c, required(c, obj, "position"), "position");
+  light.type = read_type(c, obj, path);
+  check_typed_fields(c, obj, path, light.type);
+  if (takes(light.type, "direction")) light.direction = read_direction(c, obj, path);
+  if (takes(light.type, "position")) {
+    std::array<double, 3> p = read_vec3(c, obj, path, "position");
     light.position = {p[0], p[1], p[2]};
   }
-  if (light.type == LightType::kSpot)
-    light.cone_radians = read_number(c, obj, "cone_degrees", 60, 0, kMaxConeDegrees, true) * kDegToRad;
-  if (const auto it = obj.find("shadows"); it != obj.end()) {
-    if (!it->is_boolean()) c.bad("SCENE_FIELD_TYPE", ".shadows: expected true/false");
-    light.shadows = it->get<bool>();
-  }
-  if (const auto it = obj.find("color"); it != obj.end()) {
-    std::array<double, 3> col = read_vec3(c, *it, "color");
+  if (takes(light.type, "cone_degrees"))
+    light.cone_radians = scene_detail::get_number(c, obj, path, "cone_degrees", kDefaultConeDegrees, 0,
+                                                  kMaxConeDegrees, /*required=*/false, /*lo_open=*/true) *
+                         kDegToRad;
+  light.shadows = scene_detail::get_bool(c, obj, path, "shadows", light.shadows);
+  if (obj.contains("color")) {
+    std::vector<double> col = scene_detail::get_vector(c, obj, path, "color", 3);
     for (size_t k = 0; k < 3; ++k) {
-      if (col[k] < 0 || col[k] > kMaxColor) c.bad("SCENE_LIGHT_VALUE", ".color: components in [0, 1e6]");
+      if (col[k] < 0 || col[k] > kMaxColor) bad(c, c.value_code, path + ".color: components in [0, 1e6]");
       light.color[k] = float(col[k]);
     }
   }
-  light.intensity = float(read_number(c, obj, "intensity", 1, 0, kMaxColor, false));
+  light.intensity = float(scene_detail::get_number(c, obj, path, "intensity", light.intensity, 0, kMaxColor));
   return light;
 }
 
 }  // namespace
 
 std::vector<Light> parse_scene_lights(const json& lights, const std::string& where) {
-  if (!lights.is_array()) fail("SCENE_FIELD_TYPE", where, "lights: expected an array");
-  if (lights.size() > kMaxSceneLights)
-    fail("SCENE_TOO_LARGE", where, "lights: more than " + std::to_string(kMaxSceneLights) + " entries");
+  // Lights name no files and take no load options: no base folder, no options.
+  const Ctx c{where, "", nullptr, "SCENE_LIGHT_VALUE"};
+  scene_detail::expect_array(c, lights, "lights", kMaxSceneLights);
   std::vector<Light> out;
-  for (size_t i = 0; i < lights.size(); ++i)
-    out.push_back(read_light(LightCtx{where, "lights[" + std::to_string(i) + "]"}, lights[i]));
+  for (size_t i = 0; i < lights.size(); ++i) out.push_back(read_light(c, lights[i], "lights[" + std::to_string(i) + "]"));
   return out;
 }
 
