@@ -8,7 +8,7 @@
 
 namespace vgeo {
 
-static double now_seconds() {
+double steady_seconds() {
   using namespace std::chrono;
   return duration<double>(steady_clock::now().time_since_epoch()).count();
 }
@@ -27,7 +27,7 @@ void Progress::advance(size_t delta) { set(done_ + delta); }
 void Progress::set(size_t done) {
   done_ = done;
   if (!enabled_) return;
-  double t = now_seconds();
+  double t = steady_seconds();
   // Redraw at most 10 times a second: terminal output must not cost measurable time.
   if (t - last_draw_ >= 0.1) {
     last_draw_ = t;

@@ -21,6 +21,9 @@ class Progress {
   double last_draw_ = 0;
 };
 
+// Seconds on the monotonic clock (phase timings and progress pacing; differences only).
+double steady_seconds();
+
 // True when stderr is a terminal and the CI environment variable is not set.
 bool progress_wanted();
 

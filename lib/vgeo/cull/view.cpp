@@ -10,7 +10,6 @@
 namespace vgeo {
 
 namespace {
-Vec3d sub(Vec3d a, Vec3d b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 Vec3d crossd(Vec3d a, Vec3d b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 double lengthd(Vec3d a) { return std::sqrt(a.x * a.x + a.y * a.y + a.z * a.z); }
 Vec3d scaled(Vec3d a, double s) { return {a.x * s, a.y * s, a.z * s}; }

@@ -16,6 +16,7 @@ namespace vgeo {
 struct Vec3d {
   double x = 0, y = 0, z = 0;
 };
+inline Vec3d sub(Vec3d a, Vec3d b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 
 // A pinhole camera with a reversed-Z infinite-far projection.
 struct Camera {

@@ -32,11 +32,6 @@ using namespace build_detail;
 
 namespace {
 
-double now_seconds() {
-  using namespace std::chrono;
-  return duration<double>(steady_clock::now().time_since_epoch()).count();
-}
-
 struct WorkCluster {
   TriangleSet triangles;
   uint32_t level = 0;
@@ -476,7 +471,7 @@ void pin_seam_vertices(BuildState& s) {
 
 // ---- 1. validate, weld ----
 void prepare(BuildState& s) {
-  const double t0 = now_seconds();
+  const double t0 = steady_seconds();
   validate_mesh(s.mesh);
   s.report.input_triangles = s.mesh.triangle_count();
   s.welded = weld_positions(s.mesh);
@@ -488,12 +483,12 @@ void prepare(BuildState& s) {
   s.locks.locked.assign(vertex_count, 0);
   pin_seam_vertices(s);
   s.fins = find_fins(s.welded, s.pool);
-  s.report.seconds_prepare = now_seconds() - t0;
+  s.report.seconds_prepare = steady_seconds() - t0;
 }
 
 // ---- 2. leaf clusters ----
 void build_leaves(BuildState& s) {
-  const double t0 = now_seconds();
+  const double t0 = steady_seconds();
   // Large meshes are cut into spatially coherent chunks (cells of a 16^3 grid in Morton
   // order, consecutive cells merged up to kLeafChunkTriangles) clustered in parallel.
   // The chunking depends only on the mesh, so the output does not depend on threads.
@@ -516,17 +511,17 @@ void build_leaves(BuildState& s) {
     c.bounds = cluster_sphere(s.mesh, c.triangles);
     c.lod_bounds = c.bounds;
   });
-  s.report.seconds_cluster = now_seconds() - t0;
-  const double te = now_seconds();
+  s.report.seconds_cluster = steady_seconds() - t0;
+  const double te = steady_seconds();
   std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
   for (size_t i = 0; i < s.clusters.size(); ++i) leaf_sets[i] = &s.clusters[i].triangles;
   s.leaf_surface = build_leaf_surface(s.mesh, leaf_sets, s.pool);
-  s.report.seconds_error += now_seconds() - te;
+  s.report.seconds_error += steady_seconds() - te;
 }
 
 // ---- 3a. level edges: per-cluster open edges (grouping) and the level's report ----
 void count_level_edges(BuildState& s, LevelState& L) {
-  const double t0 = now_seconds();
+  const double t0 = steady_seconds();
   const std::vector<uint32_t>& active = L.active;
   L.report.level = L.level;
   L.report.clusters = active.size();
@@ -543,14 +538,14 @@ void count_level_edges(BuildState& s, LevelState& L) {
   }
   L.report.boundary_edge_fraction = sa ? double(so) / double(sa) : 0.0;
   L.report.average_fill = double(L.report.triangles) / double(active.size()) / kMaxClusterTriangles;
-  s.report.seconds_edges += now_seconds() - t0;
+  s.report.seconds_edges += steady_seconds() - t0;
 }
 
 // ---- 3b. blocks, and the locks/edges of vertices used by two blocks ----
 // Groups never span blocks, so a vertex used by two blocks is used by two groups and is
 // locked up front; every other vertex belongs to one block, whose task decides it.
 void plan_blocks(BuildState& s, LevelState& L) {
-  const double t0 = now_seconds();
+  const double t0 = steady_seconds();
   const std::vector<uint32_t>& active = L.active;
   const bool last_level = L.level + 1 >= kMaxLevels;
   L.simplify_allowed = !(active.size() == 1 || last_level);
@@ -576,14 +571,14 @@ void plan_blocks(BuildState& s, LevelState& L) {
     for (size_t i = 0; i < active.size(); ++i) sets[i] = &s.clusters[active[i]].triangles;
     L.cross_edges = lock_cross_block_vertices(s.welded, sets, block_of, s.pool, s.locks.owner, s.locks.locked);
   }
-  L.seconds_cross = now_seconds() - t0;
+  L.seconds_cross = steady_seconds() - t0;
 }
 
 // ---- 3c. block task: METIS grouping, then the locks and shared edges of the block ----
 // (its own vertices only: cross-block ones are locked already, so tasks never race).
 void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
   Block& blk = L.blocks[b];
-  const double tb = now_seconds();
+  const double tb = steady_seconds();
   {
     const size_t n = blk.items.size();
     std::vector<const TriangleSet*> sets(n);
@@ -600,7 +595,7 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
     for (auto& g : blk.groups)
       for (uint32_t& m : g) m = L.active[blk.items[m]];
   }
-  const double tl = now_seconds();
+  const double tl = steady_seconds();
   blk.seconds_group = tl - tb;
   std::vector<uint32_t>& owner = s.locks.owner;
   std::vector<uint8_t>& locked = s.locks.locked;
@@ -632,7 +627,7 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
       blk.shared_edges.push_back(e);
   });
   blk.results.resize(blk.groups.size());
-  blk.seconds_locks = now_seconds() - tl;
+  blk.seconds_locks = steady_seconds() - tl;
 }
 
 // ---- 3d. group task: simplify, check the border, split, measure the error ----
@@ -645,7 +640,7 @@ bool reduces_enough(const TriangleSet& before, const TriangleSet& after) {
 void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   const Block& blk = L.blocks[b];
   GroupResult& r = L.blocks[b].results[g];
-  const double ts = now_seconds();
+  const double ts = steady_seconds();
   TriangleSet merged;
   for (uint32_t m : blk.groups[g]) {
     const TriangleSet& t = s.clusters[m].triangles;
@@ -679,20 +674,20 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     if (!sealed && !have_folded) folded_over_border = simplified, have_folded = true;
   }
   if (!sealed && have_folded) simplified = std::move(folded_over_border), sealed = true;
-  const double tm = now_seconds();
+  const double tm = steady_seconds();
   r.seconds_simplify = tm - ts;
   if (!sealed) return;
   std::vector<uint32_t> scratch = s.scratch.take();
   r.clusters = split_into_clusters(s.welded, simplified.triangles, scratch, s.internal.group_split);
   s.scratch.give(std::move(scratch));
-  r.seconds_split = now_seconds() - tm;
+  r.seconds_split = steady_seconds() - tm;
   r.terminal = false;
-  const double tv = now_seconds();
+  const double tv = steady_seconds();
   // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the distance from the
   // simplified surface to the leaves, measured as verify measures it; the members' stored
   // error is a floor (the parent's error takes the max with it anyway).
   r.error = leaf_deviation(s.leaf_surface, s.mesh, merged, simplified.triangles, max_member_error);
-  r.seconds_error = now_seconds() - tv;
+  r.seconds_error = steady_seconds() - tv;
 }
 
 // ---- 3e. the level scheduler: one pipelined parallel region per level ----
@@ -778,7 +773,7 @@ void account_level_time(BuildReport& rep, const LevelState& L, double wall) {
 // ---- 3f. combine in group order: groups, generated clusters, retired vertices/edges ----
 // Returns the next level's active clusters.
 std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
-  const double tc = now_seconds();
+  const double tc = steady_seconds();
   std::vector<GroupResult> results;
   std::vector<std::vector<uint32_t>> level_groups;
   for (Block& blk : L.blocks) {
@@ -861,7 +856,7 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
     std::sort(retired_edges.begin(), retired_edges.end());
     retired_edges.erase(std::unique(retired_edges.begin(), retired_edges.end()), retired_edges.end());
   }
-  s.report.seconds_combine += now_seconds() - tc;
+  s.report.seconds_combine += steady_seconds() - tc;
   return next;
 }
 
@@ -877,9 +872,9 @@ void build_levels(BuildState& s) {
     L.active = std::move(active);
     count_level_edges(s, L);
     plan_blocks(s, L);
-    const double region_start = now_seconds();
+    const double region_start = steady_seconds();
     if (L.simplify_allowed) run_level(s, L);
-    account_level_time(s.report, L, now_seconds() - region_start);
+    account_level_time(s.report, L, steady_seconds() - region_start);
     active = combine_level(s, L);
     processed += L.report.triangles;
     progress.set(std::min<size_t>(processed, s.mesh.triangle_count()));
@@ -889,7 +884,7 @@ void build_levels(BuildState& s) {
 
 // ---- 4. layout: groups in creation order (sorted by level), clusters sorted by group ----
 ClusterDag lay_out(BuildState& s) {
-  const double t0 = now_seconds();
+  const double t0 = steady_seconds();
   const Mesh& mesh = s.mesh;
   const std::vector<WorkCluster>& clusters = s.clusters;
   const std::vector<WorkGroup>& groups = s.groups;
@@ -1015,20 +1010,20 @@ ClusterDag lay_out(BuildState& s) {
   });
   // Only vertices referenced by triangles count as leaf positions.
   dag.bounds = s.mesh_box;
-  s.report.seconds_layout = now_seconds() - t0;
+  s.report.seconds_layout = steady_seconds() - t0;
   return dag;
 }
 
 // ---- 5. culling hierarchy ----
 void build_hierarchy(BuildState& s, ClusterDag& dag) {
-  const double t0 = now_seconds();
+  const double t0 = steady_seconds();
   if (!dag.groups.empty()) {
     std::vector<uint32_t> items(dag.groups.size());
     for (size_t i = 0; i < items.size(); ++i) items[i] = uint32_t(i);
     BvhBuilder bvh{dag.groups, dag.bvh_nodes};
     bvh.build(items, 0, items.size());
   }
-  s.report.seconds_hierarchy = now_seconds() - t0;
+  s.report.seconds_hierarchy = steady_seconds() - t0;
 }
 
 // Totals of spec/dag.md §4 that need the finished DAG.
@@ -1054,14 +1049,14 @@ ClusterDag build_dag(const Mesh& mesh, const BuildOptions& options, BuildReport*
 // The steps of spec/dag.md §2, in order.
 ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions& options,
                                             const InternalBuildOptions& internal, BuildReport* report) {
-  const double t_start = now_seconds();
+  const double t_start = steady_seconds();
   BuildState s(mesh, options, internal);
   prepare(s);
   build_leaves(s);
   build_levels(s);
   ClusterDag dag = lay_out(s);
   build_hierarchy(s, dag);
-  finish_report(s.report, dag, now_seconds() - t_start);
+  finish_report(s.report, dag, steady_seconds() - t_start);
   if (report) *report = std::move(s.report);
   return dag;
 }

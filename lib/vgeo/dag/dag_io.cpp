@@ -23,9 +23,9 @@ constexpr size_t kSphereBytes = 16;
 constexpr size_t kClusterBytes = 8 * 4 + 3 * kSphereBytes + 2 * 4;
 constexpr size_t kGroupBytes = 6 * 4 + 2 * kSphereBytes + 4;
 constexpr size_t kBvhNodeBytes = 2 * kSphereBytes + 4 + 4 + 4 + kBvhMaxChildren * 4;
-constexpr size_t kMeshHeaderBytes = 4 + 4 + 6 * 4 + 6 * 4;
-constexpr size_t kMaterialMinBytes = 4 + 4 * 4;
-constexpr size_t kInstanceBytes = 4 + 16 * 4;
+constexpr size_t kDagMeshHeaderBytes = 4 + 4 + 6 * 4 + 6 * 4;
+constexpr size_t kDagMaterialMinBytes = 4 + 4 * 4;
+constexpr size_t kDagInstanceBytes = 4 + 16 * 4;
 
 // The decoder's reader: truncation is DAGFILE_TRUNCATED ("file ends inside ...").
 ByteReader file_reader(const uint8_t* data, size_t size, const std::string& where) {
@@ -232,10 +232,10 @@ std::vector<uint8_t> encode_dag_file(const BuiltScene& scene) {
   ByteWriter w;
   {
     // Reserve the whole file: the large arrays are appended without regrowth.
-    size_t size = 8 + 4 * 4 + scene.instances.size() * kInstanceBytes;
-    for (const Material& m : scene.materials) size += kMaterialMinBytes + m.name.size();
+    size_t size = 8 + 4 * 4 + scene.instances.size() * kDagInstanceBytes;
+    for (const Material& m : scene.materials) size += kDagMaterialMinBytes + m.name.size();
     for (const ClusterDag& d : scene.meshes)
-      size += kMeshHeaderBytes + kClusterBytes * d.clusters.size() + kGroupBytes * d.groups.size() +
+      size += kDagMeshHeaderBytes + kClusterBytes * d.clusters.size() + kGroupBytes * d.groups.size() +
               4 * d.generated_clusters.size() + kBvhNodeBytes * d.bvh_nodes.size() +
               4 * (d.positions.size() + d.normals.size() + d.uvs.size()) + d.indices.size() +
               4 * d.triangle_materials.size();
@@ -264,8 +264,8 @@ BuiltScene decode_dag_file(const uint8_t* data, size_t size, const std::string& 
   if (version != kVersion)
     fail("DAGFILE_BAD_VERSION", where, "version " + std::to_string(version) + ", expected " + std::to_string(kVersion));
   uint32_t mesh_count = r.u32(), material_count = r.u32(), instance_count = r.u32();
-  r.need(uint64_t(mesh_count) * kMeshHeaderBytes + uint64_t(material_count) * kMaterialMinBytes +
-             uint64_t(instance_count) * kInstanceBytes,
+  r.need(uint64_t(mesh_count) * kDagMeshHeaderBytes + uint64_t(material_count) * kDagMaterialMinBytes +
+             uint64_t(instance_count) * kDagInstanceBytes,
          "the scene tables");
   BuiltScene s;
   s.materials.resize(material_count);

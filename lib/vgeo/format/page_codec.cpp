@@ -59,13 +59,13 @@ struct StripIndex {
   uint16_t corners_begin[kMaxClusterVertices + 1];
   uint8_t corner_position[3 * kMaxClusterTriangles], corner_index[3 * kMaxClusterTriangles],
       corner_next[3 * kMaxClusterTriangles];
-  // The first triangle of p's run across edge k of p (kNoTriangle if none), the corner where
+  // The first triangle of p's run across edge k of p (kNoStripTriangle if none), the corner where
   // the shared edge starts in it, and whether more follow (non-manifold edges: found again
   // by for_each_across, ascending like the first).
   uint8_t across_first[kMaxClusterTriangles][3], across_corner[kMaxClusterTriangles][3];
   bool across_more[kMaxClusterTriangles][3];
 };
-constexpr uint8_t kNoTriangle = 0xFF;
+constexpr uint8_t kNoStripTriangle = 0xFF;
 
 // Each of the triangles of p's run that hold directed edge from -> to, by ascending position,
 // until `f` returns true.
@@ -116,9 +116,9 @@ void index_strips(const uint8_t (*tris)[3], const uint32_t* mat, const uint32_t*
     }
   for (uint32_t p = 0; p < tc; ++p)
     for (uint32_t k = 0; k < 3; ++k) {
-      x->across_first[p][k] = kNoTriangle, x->across_corner[p][k] = 0, x->across_more[p][k] = false;
+      x->across_first[p][k] = kNoStripTriangle, x->across_corner[p][k] = 0, x->across_more[p][k] = false;
       for_each_across(*x, p, x->tri[p][(k + 1) % 3], x->tri[p][k], [&](uint32_t q, uint32_t j) {
-        if (x->across_first[p][k] != kNoTriangle) return x->across_more[p][k] = true;
+        if (x->across_first[p][k] != kNoStripTriangle) return x->across_more[p][k] = true;
         x->across_first[p][k] = uint8_t(q), x->across_corner[p][k] = uint8_t(j);
         return false;
       });
@@ -147,7 +147,7 @@ struct StripOrder {
 // triangle where the shared (reversed) edge starts; -1 if none.
 int across(const StripIndex& x, const StripOrder& s, uint32_t p, uint32_t k, uint32_t* corner) {
   const uint8_t first = x.across_first[p][k];
-  if (first == kNoTriangle) return -1;
+  if (first == kNoStripTriangle) return -1;
   if (!s.visited[first]) {
     *corner = x.across_corner[p][k];
     return first;

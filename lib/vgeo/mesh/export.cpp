@@ -20,7 +20,6 @@ namespace {
 // glTF constants (glTF 2.0 spec, section 5; the GLB container's in vgeo/mesh/glb.h).
 constexpr int kComponentFloat = 5126, kComponentUint = 5125;
 constexpr int kTargetArrayBuffer = 34962, kTargetElementArrayBuffer = 34963;
-constexpr int kModeTriangles = 4;
 // Text formats are formatted into this many bytes before each write.
 constexpr size_t kTextFlush = size_t(1) << 20;
 
@@ -208,7 +207,7 @@ void encode_glb_to(const Scene& scene, ByteSink& sink, const std::string& where)
                            {"componentType", kComponentUint}, {"count", 3 * uint64_t(g.first[k + 1] - g.first[k])},
                            {"type", "SCALAR"}});
       prims.push_back({{"attributes", attributes}, {"indices", accessors.size() - 1},
-                       {"material", g.used_materials[k]}, {"mode", kModeTriangles}});
+                       {"material", g.used_materials[k]}, {"mode", kGltfModeTriangles}});
     }
     json mesh_json = {{"primitives", prims}};
     if (!m.name.empty()) mesh_json["name"] = m.name;

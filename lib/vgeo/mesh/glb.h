@@ -12,5 +12,7 @@ inline constexpr uint32_t kGlbChunkJson = 0x4E4F534A;  // "JSON"
 inline constexpr uint32_t kGlbChunkBin = 0x004E4942;   // "BIN\0"
 inline constexpr size_t kGlbHeaderBytes = 12;          // magic, version, length
 inline constexpr size_t kGlbChunkHeaderBytes = 8;      // chunkLength, chunkType
+// glTF 2.0 §5.24 mesh.primitive.mode: TRIANGLES (the reader also takes strips and fans).
+inline constexpr int kGltfModeTriangles = 4;
 
 }  // namespace vgeo

@@ -22,7 +22,7 @@ namespace {
 constexpr double kAffineTolerance = 1e-6;
 
 constexpr int kModePoints = 0, kModeLines = 1, kModeLineLoop = 2, kModeLineStrip = 3;
-constexpr int kModeTriangles = 4, kModeTriangleStrip = 5, kModeTriangleFan = 6;
+constexpr int kModeTriangleStrip = 5, kModeTriangleFan = 6;
 
 // Geometry-neutral extensions: they change appearance only, so a file requiring them still
 // imports correctly. KHR_mesh_quantization widens the accepted accessor component types.
@@ -394,7 +394,7 @@ void GltfReader::append_primitive(const tinygltf::Primitive& prim, const std::st
   const bool indexed = prim.indices >= 0;
   const size_t ncorners = indexed ? index_count(prim.indices, role + " indices") : vcount;
   size_t tris = 0;
-  if (prim.mode == kModeTriangles) {
+  if (prim.mode == kGltfModeTriangles) {
     if (ncorners % 3 != 0)
       error("ACCESSOR_COUNT_MISMATCH", role + ": TRIANGLES needs a multiple of 3 corners, got " +
                                            std::to_string(ncorners));
@@ -404,15 +404,15 @@ void GltfReader::append_primitive(const tinygltf::Primitive& prim, const std::st
   }
   budget_.charge(tris, 16, "triangles");
   std::vector<uint32_t> corners;
-  if (indexed && prim.mode != kModeTriangles) {
+  if (indexed && prim.mode != kGltfModeTriangles) {
     corners.resize(ncorners);
     decode_indices(prim.indices, corners.data(), role + " indices");
   }
   const size_t first_index = mesh.indices.size();
   mesh.indices.resize(first_index + tris * 3);
   uint32_t* dst = mesh.indices.data() + first_index;
-  if (indexed && prim.mode == kModeTriangles) decode_indices(prim.indices, dst, role + " indices");
-  const uint32_t* local = indexed ? (prim.mode == kModeTriangles ? dst : corners.data()) : nullptr;
+  if (indexed && prim.mode == kGltfModeTriangles) decode_indices(prim.indices, dst, role + " indices");
+  const uint32_t* local = indexed ? (prim.mode == kGltfModeTriangles ? dst : corners.data()) : nullptr;
   if (local != nullptr) {
     for (size_t i = 0; i < ncorners; ++i)
       if (local[i] >= vcount)
@@ -421,7 +421,7 @@ void GltfReader::append_primitive(const tinygltf::Primitive& prim, const std::st
   }
   const uint32_t base = uint32_t(first_vertex);
   auto corner = [&](size_t i) -> uint32_t { return base + (local != nullptr ? local[i] : uint32_t(i)); };
-  if (prim.mode == kModeTriangles) {
+  if (prim.mode == kGltfModeTriangles) {
     if (indexed) {
       if (base != 0)
         for (size_t i = 0; i < ncorners; ++i) dst[i] += base;
@@ -454,7 +454,7 @@ void GltfReader::import_mesh(size_t gltf_mesh, Mesh& mesh) {
   mesh.name = src.name.empty() ? "mesh" + std::to_string(gltf_mesh) : src.name;
   bool has_normals = false, has_uvs = false;
   for (const auto& prim : src.primitives) {
-    if (prim.mode != kModeTriangles && prim.mode != kModeTriangleStrip && prim.mode != kModeTriangleFan) continue;
+    if (prim.mode != kGltfModeTriangles && prim.mode != kModeTriangleStrip && prim.mode != kModeTriangleFan) continue;
     has_normals |= prim.attributes.count("NORMAL") > 0;
     has_uvs |= prim.attributes.count("TEXCOORD_0") > 0;
   }
@@ -467,7 +467,7 @@ void GltfReader::import_mesh(size_t gltf_mesh, Mesh& mesh) {
       warn("PRIMITIVE_MODE_SKIPPED", role + " has mode " + std::to_string(prim.mode) + " (points/lines)");
       continue;
     }
-    if (prim.mode != kModeTriangles && prim.mode != kModeTriangleStrip && prim.mode != kModeTriangleFan)
+    if (prim.mode != kGltfModeTriangles && prim.mode != kModeTriangleStrip && prim.mode != kModeTriangleFan)
       error("PRIMITIVE_MODE_INVALID", role + " has mode " + std::to_string(prim.mode) + ", not in [0, 6]");
     if (prim.extensions.count("KHR_draco_mesh_compression"))
       error("EXTENSION_UNSUPPORTED", role + " uses KHR_draco_mesh_compression, which vgeo does not decode");
