@@ -10,8 +10,6 @@
 namespace vgeo {
 
 namespace {
-Vec3d crossd(Vec3d a, Vec3d b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double lengthd(Vec3d a) { return std::sqrt(a.x * a.x + a.y * a.y + a.z * a.z); }
 Vec3d scaled(Vec3d a, double s) { return {a.x * s, a.y * s, a.z * s}; }
 // |cross| below this (for unit inputs) means "parallel": sin(angle) < 1e-9.
 constexpr double kParallelEpsilon = 1e-9;
@@ -19,14 +17,14 @@ constexpr double kParallelEpsilon = 1e-9;
 
 bool look_at_orientation(Vec3d eye, Vec3d target, Vec3d up, std::array<double, 4>* out) {
   Vec3d f = sub(target, eye);
-  double fl = lengthd(f), ul = lengthd(up);
+  double fl = length(f), ul = length(up);
   if (!(fl > 0) || !(ul > 0) || !std::isfinite(fl) || !std::isfinite(ul)) return false;
   f = scaled(f, 1 / fl);
-  Vec3d r = crossd(f, scaled(up, 1 / ul));
-  double rl = lengthd(r);
+  Vec3d r = cross(f, scaled(up, 1 / ul));
+  double rl = length(r);
   if (!(rl > kParallelEpsilon)) return false;
   r = scaled(r, 1 / rl);
-  Vec3d u = crossd(r, f);
+  Vec3d u = cross(r, f);
   // Rotation matrix columns: camera +X = r, +Y = u, +Z = -f.
   double m00 = r.x, m10 = r.y, m20 = r.z;
   double m01 = u.x, m11 = u.y, m21 = u.z;

@@ -17,6 +17,9 @@ struct Vec3d {
   double x = 0, y = 0, z = 0;
 };
 inline Vec3d sub(Vec3d a, Vec3d b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline double dot(Vec3d a, Vec3d b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline Vec3d cross(Vec3d a, Vec3d b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+inline double length(Vec3d a) { return std::sqrt(dot(a, a)); }
 
 // A pinhole camera with a reversed-Z infinite-far projection.
 struct Camera {

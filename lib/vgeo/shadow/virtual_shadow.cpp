@@ -48,10 +48,6 @@ uint32_t mip_count(uint32_t pages_per_side) {
   return mips;
 }
 
-double dot(const Vec3d& a, const Vec3d& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-Vec3d cross(const Vec3d& a, const Vec3d& b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
 Vec3d normalized(const Vec3d& v) {
   double l = std::sqrt(dot(v, v));
   return {v.x / l, v.y / l, v.z / l};
