@@ -90,6 +90,75 @@ void upload_raster_inputs(GpuRenderer& r, const std::vector<Mat4>& object_to_cli
   std::memset(r.vis.mapped, 0, vis_bytes);
 }
 
+static_assert(kGpuShadowPageTexels == kShadowPageTexels);
+constexpr size_t kShadowPageTexelCount = size_t(kShadowPageTexels) * kShadowPageTexels;
+
+// The shadow raster's inputs (GpuRenderer's shadow_* buffers) from a draw list; returns the
+// element count.
+uint32_t upload_shadow_elements(GpuRenderer& r, const RenderScene& scene, const ShadowDrawList& list) {
+  GpuContext& gpu = *r.gpu;
+  const size_t instance_count = scene.instances.size();
+  std::vector<GpuInstance> instances(list.object_to_clip.size() * instance_count);
+  for (size_t v = 0; v < list.object_to_clip.size(); ++v)
+    for (size_t i = 0; i < instance_count; ++i) {
+      GpuInstance& g = instances[v * instance_count + i];
+      std::memcpy(g.object_to_clip, list.object_to_clip[v][i].m, sizeof(g.object_to_clip));
+      g.mesh = scene.instances[i].mesh;
+    }
+  std::vector<GpuShadowPage> pages(list.pages.size());
+  std::vector<GpuVisibleCluster> elements;
+  std::vector<uint32_t> element_page;
+  for (size_t d = 0; d < list.pages.size(); ++d) {
+    const ShadowPageDraw& p = list.pages[d];
+    pages[d] = {p.raster.virtual_width, p.raster.window_x, p.raster.window_y, p.slot, p.raster.z_near, {0, 0, 0}};
+    for (const VisibleCluster& c : list.clusters[d]) {
+      elements.push_back({uint32_t(p.view * instance_count + c.instance), c.cluster});
+      element_page.push_back(uint32_t(d));
+    }
+  }
+  // An element's index is the key's visible-cluster field (raster.glsl's big-triangle ids).
+  if (elements.size() > kMaxVisibleClusters)
+    fail("GPU_SCENE_TOO_LARGE", gpu.device_name,
+         std::to_string(elements.size()) + " cluster-page draws of the shadow pages, more than one raster pass "
+             "addresses (" + std::to_string(kMaxVisibleClusters) + ")",
+         kExitUsage);
+  auto put = [&](GpuBuffer& b, const auto& data) {
+    const uint64_t bytes = data.size() * sizeof(data[0]);
+    check_buffer_range(gpu, bytes, "the shadow raster's inputs");
+    ensure_size(gpu, b, bytes);
+    if (bytes) std::memcpy(b.mapped, data.data(), bytes);
+  };
+  put(r.shadow_instances, instances);
+  put(r.shadow_pages, pages);
+  put(r.shadow_elements, elements);
+  put(r.shadow_element_page, element_page);
+  return uint32_t(elements.size());
+}
+
+// Draws the listed pages into r.shadow_pool (already holding the pool, drawn slots cleared).
+void raster_shadow_pages(GpuRenderer& r, uint32_t element_count) {
+  GpuRecorder& rec = *r.recorder;
+  const GpuGeometryBuffers g{&r.pages, &r.locations, &r.meshes, &r.shadow_instances, &r.shadow_elements, &r.vis};
+  const GpuShadowRasterBuffers buffers{{g, &r.counters}, &r.shadow_pages, &r.shadow_element_page, &r.shadow_pool};
+  // Bound but not read by the shadow variant: the visibility buffer and the path words (a
+  // renderer that drew no primary view yet has neither).
+  ensure_size(*r.gpu, r.vis, sizeof(uint64_t));
+  ensure_size(*r.gpu, r.raster->paths, sizeof(uint32_t));
+  begin_commands(rec);
+  cmd_fill(rec, r.counters, 0);
+  record_gpu_shadow_raster(rec, *r.raster, buffers, element_count);
+  continue_commands(rec);  // the host cuts the deferred big triangles into tiles (spec/raster.md §13.5)
+  RasterSplitStats tiled;
+  record_gpu_shadow_raster_tiles(rec, *r.raster, buffers, element_count, &tiled);
+  submit_and_wait(rec);
+  const uint32_t overflow = r.counters.data<uint32_t>()[kGpuRasterOverflowWord];
+  if (overflow != 0)  // never a silently wrong page (raster_range's guard)
+    fail("GPU_SCENE_TOO_LARGE", r.gpu->device_name,
+         std::to_string(overflow) + " shadow-page triangle(s) needed more pixel-loop iterations than the compute "
+             "rasterizer's loop budget (spec/raster.md §13.5)",
+         kExitUsage);
+}
+
 // shade.cpp shade_frame on the GPU: every view, from the visibility buffer now in r.vis.
 void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& settings, const Camera& camera,
                 Frame* out) {
@@ -165,6 +234,26 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
 }
 
 }  // namespace
+
+void draw_shadow_pages_vulkan(GpuRenderer& r, const RenderScene& scene, ThreadPool& pool, ShadowFrame* frame,
+                              ShadowCache* cache) {
+  ShadowCache local;
+  ShadowCache* c = cache ? cache : &local;
+  const ShadowDrawList list = begin_shadow_draw(scene.meshes, scene.instances, scene.lights, pool, frame, c);
+  GpuContext& gpu = *r.gpu;
+  const uint64_t pool_bytes = c->texels.size() * sizeof(float);
+  check_buffer_range(gpu, pool_bytes, "the shadow page pool");
+  ensure_size(gpu, r.shadow_pool, std::max<uint64_t>(pool_bytes, 4));
+  if (pool_bytes) std::memcpy(r.shadow_pool.mapped, c->texels.data(), pool_bytes);
+  float* device_pool = r.shadow_pool.data<float>();
+  for (const ShadowPageDraw& p : list.pages)
+    std::memset(device_pool + p.slot * kShadowPageTexelCount, 0, kShadowPageTexelCount * sizeof(float));
+  if (!list.pages.empty()) raster_shadow_pages(r, upload_shadow_elements(r, scene, list));
+  for (const ShadowPageDraw& p : list.pages)
+    std::memcpy(c->texels.data() + p.slot * kShadowPageTexelCount, device_pool + p.slot * kShadowPageTexelCount,
+                kShadowPageTexelCount * sizeof(float));
+  end_shadow_draw(scene.instances, scene.lights, frame, c, cache != nullptr);
+}
 
 namespace {
 
@@ -311,8 +400,17 @@ class VulkanFrameExecutor final : public FrameExecutor {
         shade_pass(r_, in_.scene, in_.settings, in_.camera, out_);
         break;
       case FrameStep::kShadowMark:
+        // Marking on the host from the visibility buffer read back (the CPU's code, one
+        // implementation; lavapipe's device memory is host memory).
+        std::memcpy(out_->vis.keys.data(), r_.vis.mapped, out_->vis.keys.size() * sizeof(uint64_t));
+        shadow_mark_step(in_, out_);
+        shadows_drawn_ = true;
+        break;
       case FrameStep::kShadowDraw:
-        fail("GPU_SHADOWS_UNSUPPORTED", "vulkan", "shadow steps are not supported by the Vulkan executor yet", kExitUsage);
+        draw_shadow_pages_vulkan(r_, in_.scene, in_.pool, &out_->shadow,
+                                 in_.history ? &in_.history->shadow_cache : nullptr);
+        r.shadow = shadow_frame_stats(out_->shadow);
+        break;
     }
     return r;
   }
@@ -359,6 +457,7 @@ class VulkanFrameExecutor final : public FrameExecutor {
   }
 
   GpuRenderer& r_;
+  bool shadows_drawn_ = false;  // shadow_mark ran: the shade pass applies the shadow terms
   const FrameInputs& in_;
   Frame* out_;
   RasterSplitStats* split_;  // clusters and triangles per raster path, summed over the passes

@@ -22,6 +22,10 @@ struct GpuRenderer {
   GpuBuffer pages, locations, meshes, materials;
   // Per frame, grown on demand.
   GpuBuffer instances, visible, vis, counters, shade_instances, shade_clusters, overdraw, image;
+  // The virtual shadow pages (spec/shadow.md §5, draw_shadow_pages_vulkan): a GpuInstance per
+  // (view, instance), the elements (cluster × page), each element's page, the pages drawn
+  // (GpuShadowPage) and the physical pool (float bits, ShadowCache::texels' layout).
+  GpuBuffer shadow_instances, shadow_elements, shadow_element_page, shadow_pages, shadow_pool;
   // The cull passes (gpu_cull.h): DAG records once, a working set per view size.
   GpuTraversal traversal = kDefaultGpuTraversal;
   GpuCullPipelines cull;

@@ -57,6 +57,12 @@ VGEO_CONSTANT uint32_t kRasterBindPaths = 7u;     // kGpuRasterPath* per visible
 VGEO_CONSTANT uint32_t kRasterBindBig = 8u;       // GpuBigTriangle[]
 VGEO_CONSTANT uint32_t kRasterBindTiles = 9u;     // GpuRasterTile[]
 VGEO_CONSTANT uint32_t kRasterBindingCount = 10u;
+// raster_shadow.comp / raster_shadow_tiles.comp (raster.glsl with VGEO_RASTER_SHADOW_PASS):
+// the compute rasterizer's bindings, then the shadow pages (spec/shadow.md §5).
+VGEO_CONSTANT uint32_t kRasterBindShadowPages = 10u;        // GpuShadowPage per page drawn
+VGEO_CONSTANT uint32_t kRasterBindShadowElementPage = 11u;  // page index per element (visible index)
+VGEO_CONSTANT uint32_t kRasterBindShadowPool = 12u;         // float depth bits per pool texel
+VGEO_CONSTANT uint32_t kRasterShadowBindingCount = 13u;
 // The hardware raster pipeline (hw_raster.vert reads the geometry, hw_raster.frag writes the
 // visibility buffer and the counters): the compute rasterizer's first bindings.
 VGEO_CONSTANT uint32_t kHwRasterBindingCount = 7u;
@@ -89,6 +95,7 @@ VGEO_CONSTANT uint32_t kSmokeBindingCount = 2u;
 // The raster and shade shaders share the geometry bindings and extend them.
 static_assert(kRasterBindCounters == kGeomBindingCount && kShadeBindInstances == kGeomBindingCount);
 static_assert(kHwRasterBindingCount == kRasterBindCounters + 1);  // through the counters
+static_assert(kRasterBindShadowPages == kRasterBindingCount);
 }  // namespace vgeo
 #endif
 #endif

@@ -112,6 +112,21 @@ VGEO_CONSTANT uint32_t kGpuRasterLoopMargin = 1024u;
 VGEO_CONSTANT uint32_t kGpuRasterOverflowWord = 2u;
 VGEO_CONSTANT uint32_t kGpuRasterBigWord = 3u;
 
+// The virtual shadow pages' raster (shaders/raster_shadow*.comp, spec/shadow.md §5): the
+// texels per page side (shadow/virtual_shadow.h kShadowPageTexels; checked in gpu_frame.cpp) and one
+// record per page drawn this frame. The elements (GpuVisibleCluster, instance = the index of
+// its view's GpuInstance: per view and instance the float object→clip of the light) each name
+// their page (one uint per element).
+VGEO_CONSTANT uint32_t kGpuShadowPageTexels = 128u;
+struct GpuShadowPage {
+  uint32_t viewport;   // R_m: the mip's side, the raster's viewport (virtual_width/height)
+  uint32_t window_x;   // the page's first texel in the mip (RasterOptions::window_x)
+  uint32_t window_y;
+  uint32_t slot;       // pool slot: texels [slot · 128², (slot + 1) · 128²) of the pool
+  float z_near;        // RasterOptions::z_near
+  uint32_t reserved[3];
+};
+
 // Per instance and frame, for shading (shade.cpp): object→view (column-major Mat4d::m) and
 // the normal matrix (cofactor matrix of the 3x3 part, sign-corrected; row-major 3x3).
 struct GpuShadeInstance {
@@ -163,6 +178,7 @@ static_assert(sizeof(GpuRasterParams) == 48 && offsetof(GpuRasterParams, z_near)
 static_assert(sizeof(GpuBigTriangle) == 32 && sizeof(GpuRasterTile) == 16);
 static_assert(sizeof(GpuShadeInstance) == 208 && offsetof(GpuShadeInstance, normal_matrix) == 128);
 static_assert(sizeof(GpuShadeCluster) == 16);
+static_assert(sizeof(GpuShadowPage) == 32 && offsetof(GpuShadowPage, z_near) == 16);
 static_assert(sizeof(GpuMaterial) == 16);
 static_assert(sizeof(GpuShadeParams) == 72 && offsetof(GpuShadeParams, width) == 40 && offsetof(GpuShadeParams, ambient) == 56);
 }  // namespace vgeo
