@@ -2,7 +2,9 @@
 // Deferred shading of the visibility buffer: the GLSL image of lib/vgeo/shade/shade.cpp,
 // every view (lit, triangle, cluster, group, lod, error, overdraw). Same double arithmetic
 // where the CPU uses double; sRGB by the formula the CPU tabulates (the rule allows 1/255).
-// One invocation per pixel; output RGBA8 packed in a uint32 (A = 255).
+// One invocation per pixel; output RGBA8 packed in a uint32 (A = 255). With scene lights, the
+// sum over lights with each shadowing light's shadow term read from the virtual shadow maps
+// (spec/shadow.md §2, §4, §6), in the CPU's double arithmetic operation for operation.
 #extension GL_EXT_shader_explicit_arithmetic_types : require
 #extension GL_GOOGLE_include_directive : require
 #include "vgeo/core/vis_key.h"
@@ -17,6 +19,11 @@ layout(std430, binding = kShadeBindClusters) readonly buffer ShadeClusters { Gpu
 layout(std430, binding = kShadeBindMaterials) readonly buffer Materials { GpuMaterial materials[]; };
 layout(std430, binding = kShadeBindOverdraw) readonly buffer Overdraw { uint32_t overdraw[]; };
 layout(std430, binding = kShadeBindImage) writeonly buffer Image { uint32_t image[]; };
+layout(std430, binding = kShadeBindLitFrame) readonly buffer LitFrame { GpuLitFrame lit; };
+layout(std430, binding = kShadeBindLights) readonly buffer Lights { GpuShadeLight lights[]; };
+layout(std430, binding = kShadeBindShadowMaps) readonly buffer ShadowMaps { GpuShadowMap shadow_maps[]; };
+layout(std430, binding = kShadeBindShadowTable) readonly buffer ShadowTable { uint32_t shadow_table[]; };
+layout(std430, binding = kShadeBindShadowPool) readonly buffer ShadowPool { float shadow_pool[]; };
 layout(push_constant) uniform Push { GpuShadeParams params; };
 
 #define VGEO_PAGE_WORD(i) page_words[i]
@@ -75,13 +82,180 @@ vec3 octahedral_decode(uint32_t qx, uint32_t qy, uint32_t bits) {
   return vec3(x / len, y / len, z / len);
 }
 
+// ---- virtual shadow maps (virtual_shadow.cpp, spec/shadow.md §3–§6) ----
+
+const uint32_t kDirectional = 0u, kSpot = 1u, kPoint = 2u;  // LightType
+const uint32_t kNoShadowSlot = 0xFFFFFFFFu;
+
+// transform_point with rows 0..2 of a row-major matrix.
+dvec3 rows_times_point(double m[12], dvec3 p) {
+  precise double x = m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3];
+  precise double y = m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7];
+  precise double z = m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11];
+  return dvec3(x, y, z);
+}
+
+uint32_t point_face(dvec3 d) {
+  const double ax = abs(d.x), ay = abs(d.y), az = abs(d.z);
+  if (ax >= ay && ax >= az) return d.x >= 0.0 ? 0u : 1u;
+  if (ay >= az) return d.y >= 0.0 ? 2u : 3u;
+  return d.z >= 0.0 ? 4u : 5u;
+}
+
+// project_to_ndc: (ndc.x, ndc.y); `finite` both finite.
+dvec2 project_to_ndc(uint32_t map, dvec3 v, out bool finite) {
+  const GpuShadowMap m = shadow_maps[map];
+  precise double cx = m.light_to_clip[0] * v.x + m.light_to_clip[1] * v.y + m.light_to_clip[2] * v.z + m.light_to_clip[3];
+  precise double cy = m.light_to_clip[4] * v.x + m.light_to_clip[5] * v.y + m.light_to_clip[6] * v.z + m.light_to_clip[7];
+  precise double cw = m.light_to_clip[12] * v.x + m.light_to_clip[13] * v.y + m.light_to_clip[14] * v.z + m.light_to_clip[15];
+  precise double nx = cx / cw;
+  precise double ny = cy / cw;
+  finite = !isinf(nx) && !isnan(nx) && !isinf(ny) && !isnan(ny);
+  return dvec2(nx, ny);
+}
+
+bool inside_map(dvec2 n, bool finite) { return finite && abs(n.x) <= 1.0 && abs(n.y) <= 1.0; }
+
+// The largest j ≤ max_step with t0·2^j ≤ f, by exact doubling (0 when t0 > f).
+int mip_step(double t0, double f, int max_step) {
+  int j = 0;
+  precise double t = t0;
+  while (j < max_step && t * 2.0 <= f) {
+    t *= 2.0;
+    ++j;
+  }
+  return j;
+}
+
+struct ShadowTexel {
+  uint32_t map, mip, x, y;
+  double dist;
+};
+
+ShadowTexel texel_of(uint32_t map, uint32_t mip, dvec2 n, double dist, uint32_t size) {
+  const double r = double(size >> mip);
+  precise double u = (n.x * 0.5 + 0.5) * r;
+  precise double v = (0.5 - n.y * 0.5) * r;
+  const double last = r - 1.0;
+  return ShadowTexel(map, mip, uint32_t(clamp(floor(u), 0.0, last)), uint32_t(clamp(floor(v), 0.0, last)), dist);
+}
+
+// select_shadow_texel: false when the light needs nothing at p.
+bool select_shadow_texel(uint32_t light, dvec3 p, double footprint, out ShadowTexel t) {
+  t = ShadowTexel(0u, 0u, 0u, 0u, 0.0);
+  const GpuShadeLight l = lights[light];
+  if (l.shadows == 0u) return false;
+  const uint32_t first = l.first_map;
+  const uint32_t size = lit.pages_per_side * kGpuShadowPageTexels;
+  const int mips = int(lit.mips);
+  if (l.type == kDirectional) {
+    const dvec3 v = rows_times_point(shadow_maps[first].world_to_light, p);  // every level shares the light view
+    const double dist = -v.z;
+    const int levels = int(lit.directional_levels);
+    precise double t0 = shadow_maps[first].side / double(size);
+    const int j = mip_step(t0, footprint, levels - 1 + mips - 1);
+    for (int k = min(j, levels - 1); k < levels; ++k) {
+      bool finite;
+      const dvec2 n = project_to_ndc(first + uint32_t(k), v, finite);
+      if (!inside_map(n, finite)) continue;
+      const bool beyond_coarsest = k == levels - 1 && j > levels - 1;
+      const uint32_t mip = beyond_coarsest ? uint32_t(min(j - (levels - 1), mips - 1)) : 0u;
+      t = texel_of(first + uint32_t(k), mip, n, dist, size);
+      return true;
+    }
+    return false;
+  }
+  const GpuShadowMap m0 = shadow_maps[first];
+  uint32_t map = first;
+  if (l.type == kPoint) {
+    precise dvec3 d = p - dvec3(m0.eye[0], m0.eye[1], m0.eye[2]);
+    map = first + point_face(d);
+  }
+  const GpuShadowMap m = shadow_maps[map];
+  const dvec3 v = rows_times_point(m.world_to_light, p);
+  const double dist = -v.z;
+  if (!(dist > m.z_near)) return false;
+  bool finite;
+  const dvec2 n = project_to_ndc(map, v, finite);
+  if (!finite || (l.type == kSpot && !inside_map(n, finite))) return false;
+  precise double t0 = 2.0 * m.tan_half * dist / double(size);
+  const int j = mip_step(t0, footprint, mips - 1);
+  t = texel_of(map, uint32_t(j), n, dist, size);
+  return true;
+}
+
+float shadow_stored_depth(ShadowTexel t) {
+  const uint32_t pages = lit.pages_per_side;
+  uint32_t entry = shadow_maps[t.map].table_offset;
+  for (uint32_t k = 0u; k < t.mip; ++k) entry += (pages >> k) * (pages >> k);
+  entry += (t.y / kGpuShadowPageTexels) * (pages >> t.mip) + t.x / kGpuShadowPageTexels;
+  const uint32_t slot = shadow_table[entry];
+  if (slot == kNoShadowSlot) return 0.0;
+  return shadow_pool[slot * kGpuShadowPageTexels * kGpuShadowPageTexels +
+                     (t.y % kGpuShadowPageTexels) * kGpuShadowPageTexels + t.x % kGpuShadowPageTexels];
+}
+
+// shadow_term: 1 (lit) or 0 (shadowed); c = n·l > 0.
+double shadow_term(uint32_t light, dvec3 p, double footprint, double c) {
+  ShadowTexel t;
+  if (!select_shadow_texel(light, p, footprint, t)) return 1.0;
+  const GpuShadowMap m = shadow_maps[t.map];
+  const double r_m = double((lit.pages_per_side * kGpuShadowPageTexels) >> t.mip);
+  precise double texel = m.ortho != 0u ? m.side / r_m : 2.0 * m.tan_half * t.dist / r_m;
+  precise double slope = min(sqrt(max(0.0, 1.0 - c * c)) / c, lit.max_slope);
+  precise double bias = texel * (1.0 + slope) + lit.tau * footprint + lit.tau_s * texel;
+  precise double d = t.dist - bias;
+  precise double ortho_depth = 1.0 - d / m.depth_range;
+  precise double persp_depth = m.z_near / max(d, m.z_near);
+  const float receiver = m.ortho != 0u ? float(ortho_depth) : float(persp_depth);
+  return shadow_stored_depth(t) > receiver ? 0.0 : 1.0;
+}
+
+// shadow_sample_point: pixel (x, y)'s world point at reversed-Z depth `depth`, its footprint.
+dvec3 shadow_sample_point(uint32_t x, uint32_t y, float depth, out double footprint) {
+  precise double vd = lit.z_near / double(depth);
+  precise double px = ((double(x) + 0.5) / double(params.width) * 2.0 - 1.0) * params.tan_half_x * vd;
+  precise double py = (1.0 - (double(y) + 0.5) / double(params.height) * 2.0) * params.tan_half_y * vd;
+  precise double f = 2.0 * params.tan_half_y * vd / double(params.height);
+  footprint = f;
+  return rows_times_point(lit.view_to_world, dvec3(px, py, -vd));
+}
+
+// shade.cpp sum_lights: Σ color × intensity × cone × lambert × shadow per channel, unit normal n.
+dvec3 sum_lights(dvec3 p, double footprint, dvec3 n) {
+  dvec3 sum = dvec3(0.0);
+  for (uint32_t i = 0u; i < lit.light_count; ++i) {
+    const GpuShadeLight l = lights[i];
+    dvec3 dir = dvec3(l.direction[0], l.direction[1], l.direction[2]);
+    dvec3 lv;
+    if (l.type == kDirectional) {
+      lv = -dir;
+    } else {
+      precise dvec3 d = dvec3(l.position[0], l.position[1], l.position[2]) - p;
+      precise double len = sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+      precise dvec3 q = dvec3(d.x / len, d.y / len, d.z / len);  // len 0: NaN, rejected below
+      lv = q;
+    }
+    precise double c = n.x * lv.x + n.y * lv.y + n.z * lv.z;
+    if (!(c > 0.0)) continue;
+    precise double spot_cos = -(lv.x * dir.x + lv.y * dir.y + lv.z * dir.z);
+    if (l.type == kSpot && !(spot_cos >= l.cos_half_cone)) continue;
+    const double shadow = l.shadows != 0u ? shadow_term(i, p, footprint, c) : 1.0;
+    for (int k = 0; k < 3; ++k) {
+      precise double add = double(l.color[k]) * double(l.intensity) * c * shadow;
+      sum[k] += add;
+    }
+  }
+  return sum;
+}
+
 dvec3 vertex_position(MemoryCluster c, uint32_t v, int32_t step_log2) {
   return dvec3(double(dequantize_position(memory_vertex_channel(c, v, 0u), step_log2)),
                double(dequantize_position(memory_vertex_channel(c, v, 1u), step_log2)),
                double(dequantize_position(memory_vertex_channel(c, v, 2u), step_log2)));
 }
 
-vec3 shade_lit(uint32_t x, uint32_t y, GpuVisibleCluster v, uint32_t tri) {
+vec3 shade_lit(uint32_t x, uint32_t y, GpuVisibleCluster v, uint32_t tri, float depth) {
   GpuInstance inst = instances[v.instance];
   GpuShadeInstance si = shade_instances[v.instance];
   GpuMesh mesh = meshes[inst.mesh];
@@ -145,6 +319,21 @@ vec3 shade_lit(uint32_t x, uint32_t y, GpuVisibleCluster v, uint32_t tri) {
     GpuMaterial m = materials[mat];
     base = vec4(m.base_color[0], m.base_color[1], m.base_color[2], m.base_color[3]);
   }
+  if (lit.light_count != 0u) {
+    double footprint;
+    const dvec3 sp = shadow_sample_point(x, y, depth, footprint);
+    dvec3 un = dvec3(0.0);
+    if (nl > 0.0) {
+      precise dvec3 q = dvec3(wn[0] / nl, wn[1] / nl, wn[2] / nl);
+      un = q;
+    }
+    const dvec3 sum = sum_lights(sp, footprint, un);
+    const double a = double(params.ambient), one_minus_a = double(1.0 - params.ambient);
+    precise float kr = float(a + one_minus_a * sum.x);
+    precise float kg = float(a + one_minus_a * sum.y);
+    precise float kb = float(a + one_minus_a * sum.z);
+    return vec3(base.r * kr, base.g * kg, base.b * kb);
+  }
   precise float k = float(double(params.ambient) + double(1.0 - params.ambient) * lambert);
   return base.rgb * k;
 }
@@ -167,7 +356,7 @@ void main() {
     else if (params.view == kGroup) col = id_colour(uint64_t(v.instance), uint64_t(sc.group) | (uint64_t(1) << 40));
     else if (params.view == kLod) col = heat(sc.level_count > 1u ? float(sc.level) / float(sc.level_count - 1u) : 0.0);
     else if (params.view == kError) col = heat(sc.projected_error / max(params.threshold_px, 1e-6));
-    else col = shade_lit(x, y, v, tri);
+    else col = shade_lit(x, y, v, tri, uintBitsToFloat(vis_key_depth_bits(key)));
   }
   image[p] = to_srgb8(col.r) | (to_srgb8(col.g) << 8) | (to_srgb8(col.b) << 16) | (255u << 24);
 }

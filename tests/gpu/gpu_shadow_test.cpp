@@ -4,11 +4,13 @@
 // light scenes and over two frames with a moving caster and a moving light.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 
 #include "gpu/gpu_testing.h"
 #include "support/paths.h"
 #include "vgeo/gpu/gpu_frame.h"
+#include "vgeo/render/compare.h"
 #include "vgeo/render/frame.h"
 #include "vgeo/render/scene_file.h"
 
@@ -109,6 +111,48 @@ TEST(GpuShadow, MovingCasterAndMovingLightRedrawTheSamePagesAsCpu) {
       expect_same_draw(*renderer, scene, camera, pool, &cpu_cache, &vk_cache, "light and camera moved");
   EXPECT_EQ(light.pages_cached, 0u);
   EXPECT_EQ(light.pages_drawn, light.pages_marked);
+  testing::expect_no_validation_messages(*gpu);
+}
+
+// The whole lit frame through both executors (spec/shadow.md §6, spec/raster.md §Backends
+// agree): shadow_mark and shadow_draw run on Vulkan, the pages equal the CPU's bit for bit and
+// the shaded image (with the shadow terms) keeps the rule, over frames where a caster and then
+// the light move, each backend with its own history (its own cache).
+TEST(GpuShadow, LitFramesKeepTheRuleWithShadowPagesComparedOverMovingFrames) {
+  auto gpu = testing::make_test_gpu();
+  ASSERT_TRUE(gpu);
+  ThreadPool pool(2);
+  for (const char* name : {"directional.json", "point.json"}) {
+    SceneFile sf = load_light_scene(name);
+    RenderScene scene = sf.scene;
+    GpuRendererPtr renderer = create_gpu_renderer(*gpu, scene, memory_form_pages(sf));
+    FrameHistory cpu_history, vk_history;
+    for (int f = 0; f < 3; ++f) {
+      if (f == 1) scene.instances[3].object_to_world.at(0, 3) += 0.2;  // a caster moves
+      if (f == 2) {  // the light moves
+        if (scene.lights[0].type == LightType::kPoint) scene.lights[0].position.y += 0.3;
+        else scene.lights[0].direction = {-0.4 / std::sqrt(0.96), -0.8 / std::sqrt(0.96), -0.4 / std::sqrt(0.96)};
+      }
+      Frame cpu, vk;
+      render_frame({scene, sf.cameras[0], sf.settings, pool, &cpu_history, true}, &cpu);
+      render_frame_vulkan(*renderer, {scene, sf.cameras[0], sf.settings, pool, &vk_history, true}, &vk);
+      const std::string what = std::string(name) + " frame " + std::to_string(f);
+      ASSERT_TRUE(cpu.stats.has_shadow && vk.stats.has_shadow) << what;
+      EXPECT_GT(cpu.stats.shadow.pages_marked, 0u) << what;
+      if (f == 1) {
+        EXPECT_GT(cpu.stats.shadow.pages_cached, 0u) << what;
+        EXPECT_GT(cpu.stats.shadow.pages_drawn, 0u) << what;
+      }
+      const FrameComparison c = compare_frames(scene, scene.meshes, sf.cameras[0], cpu, vk, false);
+      EXPECT_TRUE(c.shadow_compared) << what;
+      EXPECT_TRUE(c.shadow_tables_equal) << what;
+      EXPECT_EQ(c.shadow_texels_differing, 0u) << what;
+      EXPECT_TRUE(c.shaded) << what;
+      EXPECT_EQ(c.vis_pixels_differing, 0u) << what;
+      EXPECT_LE(c.max_channel_diff, 1) << what;
+      EXPECT_TRUE(c.holds()) << what;
+    }
+  }
   testing::expect_no_validation_messages(*gpu);
 }
 

@@ -159,10 +159,82 @@ void raster_shadow_pages(GpuRenderer& r, uint32_t element_count) {
          kExitUsage);
 }
 
+// Row-major rows 0..2 of a Mat4d (GpuShadowMap, GpuLitFrame).
+void put_rows(const Mat4d& m, double* out, int rows) {
+  for (int row = 0; row < rows; ++row)
+    for (int col = 0; col < 4; ++col) out[4 * row + col] = m.at(row, col);
+}
+
+// The lit view's lights and shadow maps (spec/shadow.md §2, §6) for shade.comp: `shadows` the
+// frame's maps when shadow_draw ran (r.shadow_pool then holds the pool), else null (every
+// shadow term 1, as shade.cpp without ShadeInput::shadows).
+void upload_lit_frame(GpuRenderer& r, const RenderScene& scene, const RenderSettings& settings, const Frame& out,
+                      const ShadowFrame* shadows) {
+  GpuContext& gpu = *r.gpu;
+  GpuLitFrame frame{};
+  put_rows(rigid_inverse(out.view.world_to_view), frame.view_to_world, 3);
+  frame.z_near = out.view.z_near;
+  frame.light_count = settings.view == ShadeView::kLit ? uint32_t(scene.lights.size()) : 0u;
+  const ShadowOptions options = shadows ? shadows->options : ShadowOptions{};
+  frame.tau = double(options.threshold_px);  // shadow_term's τ, τ_s
+  frame.tau_s = double(kShadowLodBias) * frame.tau;
+  frame.max_slope = kMaxShadowSlope;
+  frame.pages_per_side = options.pages_per_side;
+  uint32_t mips = 1;
+  while (mips < kShadowMips && (options.pages_per_side >> mips) > 0) ++mips;  // virtual_shadow.cpp mip_count
+  frame.mips = mips;
+  frame.directional_levels = kDirectionalLevels;
+  std::vector<GpuShadeLight> lights(std::max<size_t>(scene.lights.size(), 1));
+  for (size_t i = 0; i < scene.lights.size(); ++i) {
+    const Light& l = scene.lights[i];
+    GpuShadeLight& g = lights[i];
+    g = {};
+    g.position[0] = l.position.x, g.position[1] = l.position.y, g.position[2] = l.position.z;
+    g.direction[0] = l.direction.x, g.direction[1] = l.direction.y, g.direction[2] = l.direction.z;
+    g.cos_half_cone = std::cos(0.5 * l.cone_radians);
+    std::copy(l.color.begin(), l.color.end(), g.color);
+    g.intensity = l.intensity;
+    g.type = uint32_t(l.type);
+    const bool has_maps = shadows && i < shadows->light_first_map.size() && shadows->light_first_map[i] != kNoShadowSlot;
+    g.shadows = l.shadows && has_maps ? 1u : 0u;
+    g.first_map = has_maps ? shadows->light_first_map[i] : 0u;
+    g.map_count = has_maps ? shadows->light_map_count[i] : 0u;
+  }
+  std::vector<GpuShadowMap> maps(shadows ? std::max<size_t>(shadows->maps.size(), 1) : 1);
+  for (size_t k = 0; shadows && k < shadows->maps.size(); ++k) {
+    const ShadowMapView& m = shadows->maps[k];
+    GpuShadowMap& g = maps[k];
+    g = {};
+    put_rows(m.world_to_light, g.world_to_light, 3);
+    put_rows(m.light_to_clip, g.light_to_clip, 4);
+    g.eye[0] = m.eye.x, g.eye[1] = m.eye.y, g.eye[2] = m.eye.z;
+    g.tan_half = m.tan_half;
+    g.z_near = m.z_near;
+    g.side = m.side;
+    g.depth_range = m.depth_range;
+    g.type = uint32_t(m.type);
+    g.ortho = m.ortho ? 1u : 0u;
+    g.table_offset = m.table_offset;
+  }
+  const std::vector<uint32_t> no_table{kNoShadowSlot};
+  const std::vector<uint32_t>& table = shadows && !shadows->page_table.empty() ? shadows->page_table : no_table;
+  auto put = [&](GpuBuffer& b, const void* data, uint64_t bytes) {
+    check_buffer_range(gpu, bytes, "the lit view's lights and shadow maps");
+    ensure_size(gpu, b, bytes);
+    std::memcpy(b.mapped, data, bytes);
+  };
+  put(r.lit_frame, &frame, sizeof frame);
+  put(r.shade_lights, lights.data(), lights.size() * sizeof(GpuShadeLight));
+  put(r.shadow_maps, maps.data(), maps.size() * sizeof(GpuShadowMap));
+  put(r.shadow_table, table.data(), table.size() * sizeof(uint32_t));
+  if (!shadows) ensure_size(gpu, r.shadow_pool, sizeof(float));  // bound, never read
+}
+
 // shade.cpp shade_frame on the GPU: every view, from the visibility buffer now in r.vis.
 void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& settings, const Camera& camera,
-                Frame* out) {
+                const ShadowFrame* shadows, Frame* out) {
   GpuContext& gpu = *r.gpu;
+  upload_lit_frame(r, scene, settings, *out, shadows);
   const ShadeInput defaults;
   std::vector<GpuShadeInstance> si(scene.instances.size());
   for (size_t i = 0; i < si.size(); ++i) {
@@ -221,7 +293,12 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
                                    {kShadeBindClusters, &r.shade_clusters},
                                    {kShadeBindMaterials, &r.materials},
                                    {kShadeBindOverdraw, &r.overdraw},
-                                   {kShadeBindImage, &r.image}});
+                                   {kShadeBindImage, &r.image},
+                                   {kShadeBindLitFrame, &r.lit_frame},
+                                   {kShadeBindLights, &r.shade_lights},
+                                   {kShadeBindShadowMaps, &r.shadow_maps},
+                                   {kShadeBindShadowTable, &r.shadow_table},
+                                   {kShadeBindShadowPool, &r.shadow_pool}});
   cmd_dispatch(rec, r.shade, gpu_bindings(kShadeBindingCount, bindings), &params, uint32_t((pixels + kShadeGroupSize - 1) / kShadeGroupSize));
   submit_and_wait(rec);
 
@@ -274,11 +351,9 @@ class VulkanFrameExecutor final : public FrameExecutor {
     const RenderSettings& settings = in.settings;
     FrameHistory* history = in.history;
     GpuContext& gpu = *r.gpu;
-    // spec/shadow.md §6: lights and shadows have no Vulkan steps yet; refuse rather than shade
-    // differently from the CPU reference.
-    if (!scene.lights.empty())
-      fail("GPU_SHADOWS_UNSUPPORTED", "vulkan", "scene lights and shadows are not supported by the Vulkan executor yet",
-           kExitUsage);
+    // Lights and shadows (spec/shadow.md) run here as on the CPU: the shadow test's double
+    // arithmetic needs shaderFloat64, which create_gpu_context requires of every device (the
+    // raster's arithmetic needs it too), so no lit scene is refused.
     object_to_clip_ = begin_frame(scene, camera, out);  // the CPU executor's matrices, bit for bit
     std::vector<GpuInstance> instances(scene.instances.size());
     for (size_t i = 0; i < instances.size(); ++i) {
@@ -397,7 +472,7 @@ class VulkanFrameExecutor final : public FrameExecutor {
                       out_->instance_views, out_->view, in_.pool, &out_->overdraw);
         break;
       case FrameStep::kShade:
-        shade_pass(r_, in_.scene, in_.settings, in_.camera, out_);
+        shade_pass(r_, in_.scene, in_.settings, in_.camera, shadows_drawn_ ? &out_->shadow : nullptr, out_);
         break;
       case FrameStep::kShadowMark:
         // Marking on the host from the visibility buffer read back (the CPU's code, one

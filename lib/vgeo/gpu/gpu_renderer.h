@@ -26,6 +26,9 @@ struct GpuRenderer {
   // (view, instance), the elements (cluster × page), each element's page, the pages drawn
   // (GpuShadowPage) and the physical pool (float bits, ShadowCache::texels' layout).
   GpuBuffer shadow_instances, shadow_elements, shadow_element_page, shadow_pages, shadow_pool;
+  // The lit view's lights and shadow maps (shade.comp; GpuLitFrame, GpuShadeLight, GpuShadowMap,
+  // the frame's page table).
+  GpuBuffer lit_frame, shade_lights, shadow_maps, shadow_table;
   // The cull passes (gpu_cull.h): DAG records once, a working set per view size.
   GpuTraversal traversal = kDefaultGpuTraversal;
   GpuCullPipelines cull;

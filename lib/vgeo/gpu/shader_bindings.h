@@ -73,7 +73,12 @@ VGEO_CONSTANT uint32_t kShadeBindClusters = 7u;   // GpuShadeCluster per visible
 VGEO_CONSTANT uint32_t kShadeBindMaterials = 8u;  // GpuMaterial[]
 VGEO_CONSTANT uint32_t kShadeBindOverdraw = 9u;   // uint per pixel (overdraw view)
 VGEO_CONSTANT uint32_t kShadeBindImage = 10u;     // RGBA8 per pixel
-VGEO_CONSTANT uint32_t kShadeBindingCount = 11u;
+VGEO_CONSTANT uint32_t kShadeBindLitFrame = 11u;    // GpuLitFrame
+VGEO_CONSTANT uint32_t kShadeBindLights = 12u;      // GpuShadeLight per scene light
+VGEO_CONSTANT uint32_t kShadeBindShadowMaps = 13u;  // GpuShadowMap per shadow map of the frame
+VGEO_CONSTANT uint32_t kShadeBindShadowTable = 14u; // ShadowFrame::page_table (slot per entry)
+VGEO_CONSTANT uint32_t kShadeBindShadowPool = 15u;  // the physical pool (float depths)
+VGEO_CONSTANT uint32_t kShadeBindingCount = 16u;
 
 // raster_split.comp.
 VGEO_CONSTANT uint32_t kSplitBindMeshes = 0u;           // GpuMesh[]

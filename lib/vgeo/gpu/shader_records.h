@@ -163,6 +163,52 @@ struct GpuShadeParams {
   uint32_t reserved;
 };
 
+// Scene lights and their virtual shadow maps for shaders/shade.comp's lit view (spec/shadow.md
+// §2, §4, §6; shade.cpp sum_lights, virtual_shadow.cpp select_shadow_texel / shadow_term).
+// Doubles first (std430 aligns them to 8).
+struct GpuShadeLight {
+  double position[3];     // Light::position (spot, point)
+  double direction[3];    // Light::direction (unit; directional, spot)
+  double cos_half_cone;   // spot: std::cos(0.5 · cone_radians), evaluated on the host
+  float color[3];
+  float intensity;
+  uint32_t type;          // LightType
+  uint32_t shadows;       // 1: Light::shadows and the frame drew its maps (shadow term read)
+  uint32_t first_map;     // ShadowFrame::light_first_map
+  uint32_t map_count;     // ShadowFrame::light_map_count
+  uint32_t reserved[2];
+};
+
+// One ShadowMapView: the light view's rows 0..2 and the projection, row-major (Mat4d::at(r, c)
+// at r · 4 + c).
+struct GpuShadowMap {
+  double world_to_light[12];
+  double light_to_clip[16];
+  double eye[3];
+  double tan_half;
+  double z_near;
+  double side;
+  double depth_range;
+  uint32_t type;          // LightType
+  uint32_t ortho;
+  uint32_t table_offset;
+  uint32_t reserved;
+};
+
+// The frame's part of the lit view with lights: view → world (rows 0..2 of the rigid inverse,
+// row-major), the view's near plane, the shadow test's constants (spec/shadow.md §6).
+struct GpuLitFrame {
+  double view_to_world[12];
+  double z_near;          // ViewParams::z_near
+  double tau;             // ShadowOptions::threshold_px (τ)
+  double tau_s;           // kShadowLodBias · τ
+  double max_slope;       // kMaxShadowSlope
+  uint32_t light_count;   // 0: the fixed light of GpuShadeParams::light
+  uint32_t pages_per_side;  // ShadowOptions::pages_per_side
+  uint32_t mips;          // mips per map
+  uint32_t directional_levels;  // kDirectionalLevels
+};
+
 // Workgroup size of the raster shader: one invocation per triangle of a cluster.
 VGEO_CONSTANT uint32_t kGpuRasterGroupSize = 128u;
 // Largest workgroup count per dispatch dimension the host uses (Vulkan guarantees 65535).
@@ -179,6 +225,9 @@ static_assert(sizeof(GpuBigTriangle) == 32 && sizeof(GpuRasterTile) == 16);
 static_assert(sizeof(GpuShadeInstance) == 208 && offsetof(GpuShadeInstance, normal_matrix) == 128);
 static_assert(sizeof(GpuShadeCluster) == 16);
 static_assert(sizeof(GpuShadowPage) == 32 && offsetof(GpuShadowPage, z_near) == 16);
+static_assert(sizeof(GpuShadeLight) == 96 && offsetof(GpuShadeLight, color) == 56 && offsetof(GpuShadeLight, type) == 72);
+static_assert(sizeof(GpuShadowMap) == 296 && offsetof(GpuShadowMap, type) == 280);
+static_assert(sizeof(GpuLitFrame) == 144 && offsetof(GpuLitFrame, light_count) == 128);
 static_assert(sizeof(GpuMaterial) == 16);
 static_assert(sizeof(GpuShadeParams) == 72 && offsetof(GpuShadeParams, width) == 40 && offsetof(GpuShadeParams, ambient) == 56);
 }  // namespace vgeo
