@@ -31,6 +31,7 @@ struct Golden {
   // A scene with a shadowing light (spec/shadow.md): every frame is shaded (so shadow_draw runs
   // and the cache carries over), and every frame's shadow pages are compared bit for bit.
   bool shadows = false;
+  bool shadow_cache_used = false;  // some frame after the first reuses cached pages (a moving camera)
 };
 
 // The streamed fly-through's budget: the pinned pages plus this share of the rest (pages are
@@ -57,7 +58,7 @@ const Golden kGoldens[] = {
     {"light_directional", "tests/shadow/scenes/directional.json", ShadeView::kLit, 160, 90, 1, false, true},
     {"light_spot", "tests/shadow/scenes/spot.json", ShadeView::kLit, 160, 90, 1, false, true},
     {"light_point", "tests/shadow/scenes/point.json", ShadeView::kLit, 160, 90, 1, false, true},
-    {"light_flight", "tests/golden/scenes/light_flight.json", ShadeView::kLit, 0, 0, 0, false, true},
+    {"light_flight", "tests/golden/scenes/light_flight.json", ShadeView::kLit, 0, 0, 0, false, true, true},
 };
 
 SceneFile load_golden_scene(const Golden& g) {
@@ -132,6 +133,9 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
       EXPECT_TRUE(ref.frames[f].has_shadow) << g.name << " frame " << f;
       EXPECT_GT(ref.frames[f].shadow.pages_marked, 0u) << g.name << " frame " << f;
     }
+    uint64_t cached = 0;
+    for (size_t f = 1; f < ref.frames.size(); ++f) cached += ref.frames[f].shadow.pages_cached;
+    if (g.shadow_cache_used) EXPECT_GT(cached, 0u) << g.name << ": the flight never reuses a cached page";
   }
 
   RenderRequest vk = cpu;
