@@ -32,6 +32,11 @@ struct Golden {
   // and the cache carries over), and every frame's shadow pages are compared bit for bit.
   bool shadows = false;
   bool shadow_cache_used = false;  // some frame after the first reuses cached pages (a moving camera)
+  // The scene's moves (spec/scene.md §Moves) at this frame (> 1; 0: none): the frame before it
+  // draws no page (a static scene's pages are all cached), the moved frame redraws every page
+  // of the light (a light moved) or only some (a caster moved: `caster`).
+  uint32_t moved_at = 0;
+  bool caster = false;
 };
 
 // The streamed fly-through's budget: the pinned pages plus this share of the rest (pages are
@@ -59,6 +64,8 @@ const Golden kGoldens[] = {
     {"light_spot", "tests/shadow/scenes/spot.json", ShadeView::kLit, 160, 90, 1, false, true},
     {"light_point", "tests/shadow/scenes/point.json", ShadeView::kLit, 160, 90, 1, false, true},
     {"light_flight", "tests/golden/scenes/light_flight.json", ShadeView::kLit, 0, 0, 0, false, true, true},
+    {"light_moving", "tests/golden/scenes/light_moving.json", ShadeView::kLit, 0, 0, 4, false, true, true, 2},
+    {"caster_moving", "tests/golden/scenes/caster_moving.json", ShadeView::kLit, 0, 0, 4, false, true, true, 2, true},
 };
 
 SceneFile load_golden_scene(const Golden& g) {
@@ -135,7 +142,16 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
     }
     uint64_t cached = 0;
     for (size_t f = 1; f < ref.frames.size(); ++f) cached += ref.frames[f].shadow.pages_cached;
-    if (g.shadow_cache_used) EXPECT_GT(cached, 0u) << g.name << ": the flight never reuses a cached page";
+    if (g.shadow_cache_used) EXPECT_GT(cached, 0u) << g.name << ": no frame reuses a cached page";
+    if (g.moved_at) {
+      ASSERT_LT(g.moved_at, ref.frames.size());
+      const ShadowFrameStats& before = ref.frames[g.moved_at - 1].shadow;
+      const ShadowFrameStats& moved = ref.frames[g.moved_at].shadow;
+      EXPECT_EQ(before.pages_drawn, 0u) << g.name << ": the static frame before the move drew pages";
+      EXPECT_GT(moved.pages_drawn, 0u) << g.name << ": the move invalidated nothing";
+      if (g.caster) EXPECT_LT(moved.pages_drawn, moved.pages_marked) << g.name << ": a caster move redrew every page";
+      else EXPECT_EQ(moved.pages_drawn, moved.pages_marked) << g.name << ": a light move kept cached pages";
+    }
   }
 
   RenderRequest vk = cpu;

@@ -179,6 +179,12 @@ SceneFrameRenderer::SceneFrameRenderer(const SceneFile& file, const RenderSettin
                                        bool synchronous_stream)
     : file_(file), pool_(pool) {
   if (file.streaming) streaming_ = start_scene_streaming(file, settings.threshold_px, synchronous_stream);
+  else if (!file.moves.empty()) moved_ = std::make_unique<RenderScene>(file.scene);
+}
+
+void SceneFrameRenderer::apply_moves(uint32_t frame) {
+  RenderScene* scene = streaming_ ? &streaming_->scene : moved_.get();
+  if (scene) apply_scene_moves(file_.moves, frame, &scene->lights, &scene->instances);
 }
 
 FrameInputs SceneFrameRenderer::frame_inputs(const Camera& camera, const RenderSettings& settings, bool has_next_frame) {
@@ -209,6 +215,8 @@ RenderReport run_frames(const SceneFile& file, const RenderRequest& request, con
     const bool save = frame_is_saved(request, f, last);
     RenderSettings s = settings;
     s.shade = last || save;  // only images that are kept are shaded; the others stop at the visibility buffer
+    renderer.apply_moves(f);
+    if (reference) reference->apply_moves(f);
     renderer.render(camera, s, !last, &frame);
     report.frames.push_back(frame.stats);
     if (reference) {
