@@ -337,8 +337,11 @@ struct PageStream {
              uint32_t m, bool report, ThreadPool& tp)
       : dag(d), slots(s), q(mq), o(fo), mesh(m), want_report(report), pool(tp) {}
 
-  size_t window_first = 0;                  // page-order position of window[0]
-  std::vector<CanonicalCluster> window;     // canonical clusters of positions [window_first, …)
+  // Canonical clusters of page-order positions [window_first, window_first + window_count).
+  // The storage only grows and is reused batch after batch (canonicalize_cluster overwrites
+  // its output whole), so its pages are faulted in once, not once per batch.
+  size_t window_first = 0, window_count = 0;
+  std::vector<CanonicalCluster> window;
   PageRange open{0, 0, kPageHeadMem, kPageHeadRaw};
   std::vector<PageRange> complete;          // closed pages not yet encoded
   std::vector<PageOut> pages;
@@ -347,8 +350,9 @@ struct PageStream {
   const CanonicalCluster& at(size_t pos) const { return window[pos - window_first]; }
 
   void canonicalize_batch(size_t first, size_t count) {
-    const size_t base = window.size();
-    window.resize(base + count);
+    const size_t base = window_count;
+    if (window.size() < base + count) window.resize(base + count);
+    window_count = base + count;
     parallel_for_ordered_errors(pool, count, [&](size_t k) {
       canonicalize_cluster(dag, slots[first + k], q, &window[base + k]);
     });
@@ -390,8 +394,10 @@ struct PageStream {
 
   // Keeps only the open page's clusters.
   void drop_encoded() {
-    const size_t keep_from = open.count ? open.first : window_first + window.size();
-    window.erase(window.begin(), window.begin() + ptrdiff_t(keep_from - window_first));
+    const size_t keep_from = open.count ? open.first : window_first + window_count;
+    const size_t drop = keep_from - window_first;
+    std::move(window.begin() + ptrdiff_t(drop), window.begin() + ptrdiff_t(window_count), window.begin());
+    window_count -= drop;
     window_first = keep_from;
   }
 
