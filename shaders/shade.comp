@@ -195,20 +195,87 @@ float shadow_stored_depth(ShadowTexel t) {
                      (t.y % kGpuShadowPageTexels) * kGpuShadowPageTexels + t.x % kGpuShadowPageTexels];
 }
 
-// shadow_term: 1 (lit) or 0 (shadowed); c = n·l > 0.
-double shadow_term(uint32_t light, dvec3 p, double footprint, double c) {
+// clamped_slope: tan of the angle of cosine c, at most max_slope (max_slope when c ≤ 0).
+double clamped_slope(double c) {
+  if (!(c > 0.0)) return lit.max_slope;
+  precise double s = min(sqrt(max(0.0, 1.0 - c * c)) / c, lit.max_slope);
+  return s;
+}
+
+// receiver_depth: the receiver's depth at light-view distance dist − b on map m.
+float receiver_depth(uint32_t map, double dist, double b) {
+  const GpuShadowMap m = shadow_maps[map];
+  precise double d = dist - b;
+  precise double ortho_depth = 1.0 - d / m.depth_range;
+  precise double persp_depth = m.z_near / max(d, m.z_near);
+  return m.ortho != 0u ? float(ortho_depth) : float(persp_depth);
+}
+
+// The pixel's inputs to the shadow test of one light (virtual_shadow.h ShadowReceiver).
+struct ShadowReceiver {
+  uint32_t x, y;
+  dvec3 p;
+  double footprint;
+  dvec3 normal, to_light;
+  double cos_nl;
+};
+
+// screen_trace_hits: the seeds' short screen-space trace through the primary depth buffer.
+bool screen_trace_hits(ShadowReceiver r, double len, double zone) {
+  const dvec3 camera = dvec3(lit.view_to_world[3], lit.view_to_world[7], lit.view_to_world[11]);
+  precise dvec3 to_eye = camera - r.p;
+  precise double eye_len = sqrt(to_eye.x * to_eye.x + to_eye.y * to_eye.y + to_eye.z * to_eye.z);
+  precise double c_v = (r.normal.x * to_eye.x + r.normal.y * to_eye.y + r.normal.z * to_eye.z) / eye_len;
+  const double view_slope = clamped_slope(c_v);
+  const double f = r.footprint;
+  precise double thickness = 2.0 * zone + f;
+  const double max_steps = double(lit.trace_max_steps);
+  precise double step = max(f, len / max_steps);
+  const uint32_t steps = uint32_t(min(max_steps, ceil(len / step)));
+  const double width = double(params.width), height = double(params.height);
+  for (uint32_t k = 1u; k <= steps; ++k) {
+    precise double t = min(double(k) * step, len);
+    precise dvec3 q_world = dvec3(r.p.x + t * r.to_light.x, r.p.y + t * r.to_light.y, r.p.z + t * r.to_light.z);
+    const dvec3 q = rows_times_point(lit.world_to_view, q_world);
+    const double vd_q = -q.z;
+    if (!(vd_q > lit.z_near)) return false;  // the ray left the view through the near plane
+    precise double sx = ((q.x / vd_q) / params.tan_half_x * 0.5 + 0.5) * width;
+    precise double sy = (0.5 - (q.y / vd_q) / params.tan_half_y * 0.5) * height;
+    if (!(sx >= 0.0 && sx < width && sy >= 0.0 && sy < height)) return false;  // off the convex screen: stays off
+    const uint32_t px = uint32_t(floor(sx)), py = uint32_t(floor(sy));
+    if (px == r.x && py == r.y) continue;  // the receiver's own pixel shows the receiver
+    const uint64_t key = vis[py * params.width + px];
+    if (key == uint64_t(0)) continue;
+    precise double eps = 2.0 * params.tan_half_y * vd_q / height * (1.0 + view_slope);
+    precise double delta = vd_q - lit.z_near / double(uintBitsToFloat(vis_key_depth_bits(key)));
+    if (delta > eps && delta <= eps + thickness) return true;
+  }
+  return false;
+}
+
+// shadow_test / shadow_term: 1 (lit) or 0 (shadowed); r.cos_nl > 0.
+double shadow_term(uint32_t light, ShadowReceiver r) {
   ShadowTexel t;
-  if (!select_shadow_texel(light, p, footprint, t)) return 1.0;
+  if (!select_shadow_texel(light, r.p, r.footprint, t)) return 1.0;
   const GpuShadowMap m = shadow_maps[t.map];
   const double r_m = double((lit.pages_per_side * kGpuShadowPageTexels) >> t.mip);
   precise double texel = m.ortho != 0u ? m.side / r_m : 2.0 * m.tan_half * t.dist / r_m;
-  precise double slope = min(sqrt(max(0.0, 1.0 - c * c)) / c, lit.max_slope);
-  precise double bias = texel * (1.0 + slope) + lit.tau * footprint + lit.tau_s * texel;
-  precise double d = t.dist - bias;
-  precise double ortho_depth = 1.0 - d / m.depth_range;
-  precise double persp_depth = m.z_near / max(d, m.z_near);
-  const float receiver = m.ortho != 0u ? float(ortho_depth) : float(persp_depth);
-  return shadow_stored_depth(t) > receiver ? 0.0 : 1.0;
+  const double slope = clamped_slope(r.cos_nl);
+  precise double sampling_bias = texel * (1.0 + slope);
+  precise double mismatch = (lit.tau * r.footprint + lit.tau_s * texel) * (1.0 + slope);
+  precise double zone = sampling_bias + mismatch;
+  const float stored = shadow_stored_depth(t);
+  const float d_lit = receiver_depth(t.map, t.dist, sampling_bias);
+  const float d_far = receiver_depth(t.map, t.dist, zone);
+  if (!(stored > d_lit)) return 1.0;  // lit
+  if (stored > d_far) return 0.0;     // a far caster
+  double len = zone;
+  if (m.ortho == 0u) {  // a spot or point light: the trace ends at the light
+    precise dvec3 to_light = dvec3(m.eye[0], m.eye[1], m.eye[2]) - r.p;
+    precise double light_len = sqrt(to_light.x * to_light.x + to_light.y * to_light.y + to_light.z * to_light.z);
+    len = min(len, light_len);
+  }
+  return screen_trace_hits(r, len, zone) ? 0.0 : 1.0;
 }
 
 // shadow_sample_point: pixel (x, y)'s world point at reversed-Z depth `depth`, its footprint.
@@ -222,7 +289,7 @@ dvec3 shadow_sample_point(uint32_t x, uint32_t y, float depth, out double footpr
 }
 
 // shade.cpp sum_lights: Σ color × intensity × cone × lambert × shadow per channel, unit normal n.
-dvec3 sum_lights(dvec3 p, double footprint, dvec3 n) {
+dvec3 sum_lights(uint32_t x, uint32_t y, dvec3 p, double footprint, dvec3 n) {
   dvec3 sum = dvec3(0.0);
   for (uint32_t i = 0u; i < lit.light_count; ++i) {
     const GpuShadeLight l = lights[i];
@@ -240,7 +307,7 @@ dvec3 sum_lights(dvec3 p, double footprint, dvec3 n) {
     if (!(c > 0.0)) continue;
     precise double spot_cos = -(lv.x * dir.x + lv.y * dir.y + lv.z * dir.z);
     if (l.type == kSpot && !(spot_cos >= l.cos_half_cone)) continue;
-    const double shadow = l.shadows != 0u ? shadow_term(i, p, footprint, c) : 1.0;
+    const double shadow = l.shadows != 0u ? shadow_term(i, ShadowReceiver(x, y, p, footprint, n, lv, c)) : 1.0;
     for (int k = 0; k < 3; ++k) {
       precise double add = double(l.color[k]) * double(l.intensity) * c * shadow;
       sum[k] += add;
@@ -327,7 +394,7 @@ vec3 shade_lit(uint32_t x, uint32_t y, GpuVisibleCluster v, uint32_t tri, float 
       precise dvec3 q = dvec3(wn[0] / nl, wn[1] / nl, wn[2] / nl);
       un = q;
     }
-    const dvec3 sum = sum_lights(sp, footprint, un);
+    const dvec3 sum = sum_lights(x, y, sp, footprint, un);
     const double a = double(params.ambient), one_minus_a = double(1.0 - params.ambient);
     precise float kr = float(a + one_minus_a * sum.x);
     precise float kg = float(a + one_minus_a * sum.y);

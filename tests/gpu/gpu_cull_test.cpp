@@ -382,7 +382,9 @@ TEST(GpuCull, FinestHzbAndLongPersistentRunsEqualCpu) {
   for (GpuTraversal t : kTraversals) {
     CullRun gpu = run_gpu(c, t);
     EXPECT_EQ(compare(cpu, gpu), "") << (t == GpuTraversal::kPersistent ? "persistent" : "level");
-    if (t == GpuTraversal::kPersistent) EXPECT_GT(gpu.persistent_dispatches, 3u);  // > one per pass
+    if (t == GpuTraversal::kPersistent) {
+      EXPECT_GT(gpu.persistent_dispatches, 3u);  // > one per pass
+    }
   }
   testing::expect_no_validation_messages(*test_gpu()->context);
 }

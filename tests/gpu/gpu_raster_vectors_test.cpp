@@ -133,11 +133,15 @@ TEST(RasterVectors, ComputeBitIdenticalAndHardwareKeepsTheRule) {
         EXPECT_TRUE(hw_pixel_ok(kind)) << name << " pixel " << x << "," << y << ": " << hw_pixel_name(kind) << " ref "
                                        << std::hex << ref << " hw " << got << std::dec;
         // Every accepted difference lies inside the file's mask.
-        if (kind == HwPixel::kAmbiguousDepth) EXPECT_TRUE(v.mask[p] & kRasterMaskDepth) << name << " " << x << "," << y;
-        if (kind == HwPixel::kAmbiguousClipCoverage)
+        if (kind == HwPixel::kAmbiguousDepth) {
+          EXPECT_TRUE(v.mask[p] & kRasterMaskDepth) << name << " " << x << "," << y;
+        }
+        if (kind == HwPixel::kAmbiguousClipCoverage) {
           EXPECT_TRUE(v.mask[p] & kRasterMaskClipEdge) << name << " " << x << "," << y;
-        if (kind == HwPixel::kAmbiguousSnapCoverage)
+        }
+        if (kind == HwPixel::kAmbiguousSnapCoverage) {
           EXPECT_TRUE((v.mask[p] & kRasterMaskEdge) && !v.exact_transform) << name << " " << x << "," << y;
+        }
       }
     std::printf("%-18s mask %3llu px; hw: identical %3llu depth-only %3llu ambiguous depth %llu clip %llu snap %llu\n",
                 name.c_str(), (unsigned long long)mask_pixels, (unsigned long long)agreement.count(HwPixel::kIdentical),

@@ -241,15 +241,6 @@ void parallel_for_ordered_errors(ThreadPool& pool, size_t n, const std::function
     if (e) std::rethrow_exception(e);
 }
 
-// Every cluster of the mesh quantized and in canonical order (each cluster independently).
-void canonicalize_clusters(const ClusterDag& dag, const MeshQuantization& q, ThreadPool& pool,
-                           std::vector<CanonicalCluster>* canon) {
-  canon->clear();
-  canon->resize(dag.clusters.size());
-  parallel_for_ordered_errors(pool, dag.clusters.size(),
-                              [&](size_t c) { canonicalize_cluster(dag, uint32_t(c), q, &(*canon)[c]); });
-}
-
 // Placement: coarsest level first (root page = top of the DAG), then spatial order of the
 // groups (Morton code of the bounds centre), clusters of a group consecutively. Returns the
 // cluster ids in page order.
@@ -286,38 +277,17 @@ std::vector<uint32_t> place_clusters(const ClusterDag& dag) {
   return slots;
 }
 
-// Page breaks (sizes only, no encoding): clusters fill a page in page order until the next
-// one would exceed the page size in memory form or the raw disk bound.
+// Clusters are canonicalized in page order, a batch at a time, and each page is encoded as soon
+// as it is complete, so only the canonical clusters of the open pages are held (not the whole
+// mesh's: 139 MB on a 1M-triangle sphere). 4096 clusters ≈ 80 pages of work per batch for the
+// pool, about 10 MB of canonical clusters.
+constexpr size_t kCanonicalBatchClusters = 4096;
 constexpr uint64_t kPageHeadMem = 4, kPageHeadRaw = 12;  // cluster count; magic, count, ref total
-std::vector<PageRange> break_pages(const std::vector<CanonicalCluster>& canon, const std::vector<uint32_t>& slots,
-                                   const MeshQuantization& q, const FormatOptions& o) {
-  const uint32_t max_raw = max_raw_page_size(o.page_size);
-  std::vector<PageRange> pages;
-  PageRange cur{0, 0, kPageHeadMem, kPageHeadRaw};
-  for (size_t i = 0; i < slots.size(); ++i) {
-    const CanonicalCluster& c = canon[slots[i]];
-    const uint64_t m = 4ull * memory_cluster_words(c, q.channel_count());
-    const uint64_t r = disk_cluster_bytes(c, q.channel_count(), o.version);
-    if (cur.count && (cur.memory_bytes + m > o.page_size || cur.raw_bound + r > max_raw)) {
-      pages.push_back(cur);
-      cur = PageRange{i, 0, kPageHeadMem, kPageHeadRaw};
-    }
-    assert(cur.memory_bytes + m <= o.page_size && cur.raw_bound + r <= max_raw);
-    cur.count += 1;
-    cur.memory_bytes += m;
-    cur.raw_bound += r;
-  }
-  if (cur.count) pages.push_back(cur);
-  return pages;
-}
 
 // One page: disk form, memory form (its size goes to the page table), compression, CRC.
-PageOut encode_page(const std::vector<CanonicalCluster>& canon, const std::vector<uint32_t>& slots,
-                    const PageRange& range, const MeshQuantization& q, uint32_t mesh, const FormatOptions& o,
-                    bool want_report) {
-  std::vector<const CanonicalCluster*> clusters;
-  clusters.reserve(range.count);
-  for (size_t k = 0; k < range.count; ++k) clusters.push_back(&canon[slots[range.first + k]]);
+// `clusters` are the page's canonical clusters in page order.
+PageOut encode_page(const std::vector<const CanonicalCluster*>& clusters, const PageRange& range,
+                    const MeshQuantization& q, uint32_t mesh, const FormatOptions& o, bool want_report) {
   PageOut p;
   p.mesh = mesh;
   p.clusters = uint32_t(range.count);
@@ -345,18 +315,104 @@ PageOut encode_page(const std::vector<CanonicalCluster>& canon, const std::vecto
   return p;
 }
 
-// Every page of one mesh, encoded in parallel; the result is in page order whatever the
-// thread count.
-std::vector<PageOut> encode_pages(const std::vector<CanonicalCluster>& canon, const std::vector<uint32_t>& slots,
-                                  const MeshQuantization& q, uint32_t mesh, const FormatOptions& o, ThreadPool& pool,
-                                  bool want_report) {
-  const std::vector<PageRange> ranges = break_pages(canon, slots, q, o);
-  std::vector<PageOut> pages(ranges.size());
-  parallel_for_ordered_errors(pool, ranges.size(), [&](size_t i) {
-    pages[i] = encode_page(canon, slots, ranges[i], q, mesh, o, want_report);
-  });
-  return pages;
-}
+// Cluster counts of the report, summed in page order.
+struct ClusterTotals {
+  uint64_t clusters = 0, triangles = 0, vertices = 0, wide_index_clusters = 0;
+};
+
+// The pages of one mesh: canonicalize a batch of clusters (in parallel), break pages (sizes
+// only: clusters fill a page in page order until the next one would exceed the page size in
+// memory form or the raw disk bound), encode the completed pages (in parallel), drop their
+// clusters. Pages, report sums and the error thrown are the same for any thread count.
+struct PageStream {
+  const ClusterDag& dag;
+  const std::vector<uint32_t>& slots;  // cluster ids in page order
+  const MeshQuantization& q;
+  const FormatOptions& o;
+  uint32_t mesh = 0;
+  bool want_report = false;
+  ThreadPool& pool;
+
+  PageStream(const ClusterDag& d, const std::vector<uint32_t>& s, const MeshQuantization& mq, const FormatOptions& fo,
+             uint32_t m, bool report, ThreadPool& tp)
+      : dag(d), slots(s), q(mq), o(fo), mesh(m), want_report(report), pool(tp) {}
+
+  // Canonical clusters of page-order positions [window_first, window_first + window_count).
+  // The storage only grows and is reused batch after batch (canonicalize_cluster overwrites
+  // its output whole), so its pages are faulted in once, not once per batch.
+  size_t window_first = 0, window_count = 0;
+  std::vector<CanonicalCluster> window;
+  PageRange open{0, 0, kPageHeadMem, kPageHeadRaw};
+  std::vector<PageRange> complete;          // closed pages not yet encoded
+  std::vector<PageOut> pages;
+  ClusterTotals totals;
+
+  const CanonicalCluster& at(size_t pos) const { return window[pos - window_first]; }
+
+  void canonicalize_batch(size_t first, size_t count) {
+    const size_t base = window_count;
+    if (window.size() < base + count) window.resize(base + count);
+    window_count = base + count;
+    parallel_for_ordered_errors(pool, count, [&](size_t k) {
+      canonicalize_cluster(dag, slots[first + k], q, &window[base + k]);
+    });
+  }
+
+  void break_batch(size_t first, size_t count) {
+    const uint32_t max_raw = max_raw_page_size(o.page_size);
+    for (size_t i = first; i < first + count; ++i) {
+      const CanonicalCluster& c = at(i);
+      totals.clusters += 1;
+      totals.triangles += c.triangle_count;
+      totals.vertices += c.vertex_count;
+      totals.wide_index_clusters += index_offset_bits(c) > kNaniteIndexOffsetBits ? 1 : 0;
+      const uint64_t m = 4ull * memory_cluster_words(c, q.channel_count());
+      const uint64_t r = disk_cluster_bytes(c, q.channel_count(), o.version);
+      if (open.count && (open.memory_bytes + m > o.page_size || open.raw_bound + r > max_raw)) {
+        complete.push_back(open);
+        open = PageRange{i, 0, kPageHeadMem, kPageHeadRaw};
+      }
+      assert(open.memory_bytes + m <= o.page_size && open.raw_bound + r <= max_raw);
+      open.count += 1;
+      open.memory_bytes += m;
+      open.raw_bound += r;
+    }
+  }
+
+  void encode_complete() {
+    const size_t base = pages.size();
+    pages.resize(base + complete.size());
+    parallel_for_ordered_errors(pool, complete.size(), [&](size_t i) {
+      const PageRange& range = complete[i];
+      std::vector<const CanonicalCluster*> clusters;
+      clusters.reserve(range.count);
+      for (size_t k = 0; k < range.count; ++k) clusters.push_back(&at(range.first + k));
+      pages[base + i] = encode_page(clusters, range, q, mesh, o, want_report);
+    });
+    complete.clear();
+  }
+
+  // Keeps only the open page's clusters.
+  void drop_encoded() {
+    const size_t keep_from = open.count ? open.first : window_first + window_count;
+    const size_t drop = keep_from - window_first;
+    std::move(window.begin() + ptrdiff_t(drop), window.begin() + ptrdiff_t(window_count), window.begin());
+    window_count -= drop;
+    window_first = keep_from;
+  }
+
+  void run() {
+    for (size_t first = 0; first < slots.size(); first += kCanonicalBatchClusters) {
+      const size_t count = std::min(kCanonicalBatchClusters, slots.size() - first);
+      canonicalize_batch(first, count);
+      break_batch(first, count);
+      encode_complete();
+      drop_encoded();
+    }
+    if (open.count) complete.push_back(open);
+    encode_complete();
+  }
+};
 
 void add_components(const ComponentBytes& a, ComponentBytes* sum) {
   sum->positions += a.positions;
@@ -403,7 +459,6 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
   ThreadPool pool(o.threads);
   std::vector<PageOut> pages;
   FormatReport rep;
-  std::vector<CanonicalCluster> canon;
   for (uint32_t mi = 0; mi < scene.meshes.size(); ++mi) {
     const ClusterDag& dag = scene.meshes[mi];
     MeshQuantization q;
@@ -428,16 +483,15 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
     for (uint32_t id : dag.generated_clusters)
       if (id >= nc) encode_fail("generated cluster id outside the DAG");
 
-    canonicalize_clusters(dag, q, pool, &canon);
     const std::vector<uint32_t> slots = place_clusters(dag);
-    std::vector<PageOut> mesh_pages = encode_pages(canon, slots, q, mi, o, pool, report != nullptr);
+    PageStream stream(dag, slots, q, o, mi, report != nullptr, pool);
+    stream.run();
+    std::vector<PageOut>& mesh_pages = stream.pages;
     if (report) {
-      for (uint32_t c : slots) {
-        rep.clusters += 1;
-        rep.triangles += canon[c].triangle_count;
-        rep.vertices += canon[c].vertex_count;
-        rep.wide_index_clusters += index_offset_bits(canon[c]) > kNaniteIndexOffsetBits ? 1 : 0;
-      }
+      rep.clusters += stream.totals.clusters;
+      rep.triangles += stream.totals.triangles;
+      rep.vertices += stream.totals.vertices;
+      rep.wide_index_clusters += stream.totals.wide_index_clusters;
       // Summed in page order: the same doubles for any thread count.
       for (const PageOut& p : mesh_pages) add_page_report(p, o.page_size, &rep);
     }

@@ -173,6 +173,7 @@ void upload_lit_frame(GpuRenderer& r, const RenderScene& scene, const RenderSett
   GpuContext& gpu = *r.gpu;
   GpuLitFrame frame{};
   put_rows(rigid_inverse(out.view.world_to_view), frame.view_to_world, 3);
+  put_rows(out.view.world_to_view, frame.world_to_view, 3);
   frame.z_near = out.view.z_near;
   frame.light_count = settings.view == ShadeView::kLit ? uint32_t(scene.lights.size()) : 0u;
   const ShadowOptions options = shadows ? shadows->options : ShadowOptions{};
@@ -184,6 +185,7 @@ void upload_lit_frame(GpuRenderer& r, const RenderScene& scene, const RenderSett
   while (mips < kShadowMips && (options.pages_per_side >> mips) > 0) ++mips;  // virtual_shadow.cpp mip_count
   frame.mips = mips;
   frame.directional_levels = kDirectionalLevels;
+  frame.trace_max_steps = kShadowTraceMaxSteps;
   std::vector<GpuShadeLight> lights(std::max<size_t>(scene.lights.size(), 1));
   for (size_t i = 0; i < scene.lights.size(); ++i) {
     const Light& l = scene.lights[i];

@@ -196,9 +196,11 @@ struct GpuShadowMap {
 };
 
 // The frame's part of the lit view with lights: view → world (rows 0..2 of the rigid inverse,
-// row-major), the view's near plane, the shadow test's constants (spec/shadow.md §6).
+// row-major; its column 3 is the camera position the trace starts from), world → view, the
+// view's near plane, the shadow test's constants (spec/shadow.md §6).
 struct GpuLitFrame {
   double view_to_world[12];
+  double world_to_view[12];  // ViewParams::world_to_view rows 0..2 (the screen-space trace)
   double z_near;          // ViewParams::z_near
   double tau;             // ShadowOptions::threshold_px (τ)
   double tau_s;           // kShadowLodBias · τ
@@ -207,6 +209,8 @@ struct GpuLitFrame {
   uint32_t pages_per_side;  // ShadowOptions::pages_per_side
   uint32_t mips;          // mips per map
   uint32_t directional_levels;  // kDirectionalLevels
+  uint32_t trace_max_steps;     // kShadowTraceMaxSteps
+  uint32_t reserved;
 };
 
 // Workgroup size of the raster shader: one invocation per triangle of a cluster.
@@ -227,7 +231,7 @@ static_assert(sizeof(GpuShadeCluster) == 16);
 static_assert(sizeof(GpuShadowPage) == 32 && offsetof(GpuShadowPage, z_near) == 16);
 static_assert(sizeof(GpuShadeLight) == 96 && offsetof(GpuShadeLight, color) == 56 && offsetof(GpuShadeLight, type) == 72);
 static_assert(sizeof(GpuShadowMap) == 296 && offsetof(GpuShadowMap, type) == 280);
-static_assert(sizeof(GpuLitFrame) == 144 && offsetof(GpuLitFrame, light_count) == 128);
+static_assert(sizeof(GpuLitFrame) == 248 && offsetof(GpuLitFrame, light_count) == 224);
 static_assert(sizeof(GpuMaterial) == 16);
 static_assert(sizeof(GpuShadeParams) == 72 && offsetof(GpuShadeParams, width) == 40 && offsetof(GpuShadeParams, ambient) == 56);
 }  // namespace vgeo

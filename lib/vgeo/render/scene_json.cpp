@@ -2,6 +2,7 @@
 #include "vgeo/render/scene_json.h"
 
 #include <cmath>
+#include <cstdio>
 #include <set>
 #include <sstream>
 
@@ -51,6 +52,15 @@ std::string get_string(const Ctx& c, const json& obj, const std::string& path, c
   return obj[key].get<std::string>();
 }
 
+// The limit as the message writes it: "1e12", "1e6" (a power of ten), else the shortest decimal.
+static std::string format_limit(double limit) {
+  char buf[32];
+  const double e = std::log10(limit);
+  if (e == std::floor(e) && e >= 1) std::snprintf(buf, sizeof buf, "1e%d", int(e));
+  else std::snprintf(buf, sizeof buf, "%g", limit);
+  return buf;
+}
+
 std::vector<double> get_vector(const Ctx& c, const json& obj, const std::string& path, const char* key, size_t n,
                                double limit) {
   std::string p = path + "." + key;
@@ -60,7 +70,7 @@ std::vector<double> get_vector(const Ctx& c, const json& obj, const std::string&
   for (const json& e : *it) {
     if (!e.is_number()) bad(c, "SCENE_FIELD_TYPE", p + ": expected numbers");
     double d = e.get<double>();
-    if (!std::isfinite(d) || std::abs(d) > limit) bad(c, c.value_code, p + ": value not finite or beyond ±1e12");
+    if (!std::isfinite(d) || std::abs(d) > limit) bad(c, c.value_code, p + ": value not finite or beyond ±" + format_limit(limit));
     out.push_back(d);
   }
   return out;

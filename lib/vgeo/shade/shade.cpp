@@ -81,9 +81,11 @@ Rgb heat(float t) {
 }
 
 // spec/shadow.md §2: Σ over lights of color × intensity × cone × lambert × shadow, per channel,
-// at the pixel's sample point p (world) with unit world normal n.
-std::array<double, 3> sum_lights(const std::vector<Light>& lights, const ShadowFrame* shadows, const Vec3d& p,
-                                 double footprint, const double n[3]) {
+// at pixel (x, y) with sample point p (world) and unit world normal n; the shadow test's trace
+// walks `screen`.
+std::array<double, 3> sum_lights(const std::vector<Light>& lights, const ShadowFrame* shadows,
+                                 const ShadowScreen& screen, uint32_t x, uint32_t y, const Vec3d& p, double footprint,
+                                 const double n[3]) {
   std::array<double, 3> sum{0, 0, 0};
   for (uint32_t i = 0; i < lights.size(); ++i) {
     const Light& light = lights[i];
@@ -101,7 +103,11 @@ std::array<double, 3> sum_lights(const std::vector<Light>& lights, const ShadowF
         !(-(l[0] * light.direction.x + l[1] * light.direction.y + l[2] * light.direction.z) >=
           std::cos(0.5 * light.cone_radians)))
       continue;
-    const double shadow = light.shadows && shadows ? shadow_term(*shadows, i, p, footprint, c) : 1.0;
+    double shadow = 1.0;
+    if (light.shadows && shadows) {
+      const ShadowReceiver receiver{x, y, p, footprint, {n[0], n[1], n[2]}, {l[0], l[1], l[2]}, c};
+      shadow = shadow_term(*shadows, i, receiver, screen);
+    }
     for (int k = 0; k < 3; ++k) sum[k] += double(light.color[k]) * light.intensity * c * shadow;
   }
   return sum;
@@ -153,6 +159,7 @@ void shade_frame(const ShadeInput& in, ShadeView mode, ThreadPool& pool, Image* 
   double lx = L.x / ll, ly = L.y / ll, lz = L.z / ll;
   const bool scene_lights = in.lights && !in.lights->empty();
   const Mat4d view_to_world = rigid_inverse(view.world_to_view);
+  const ShadowScreen screen = make_shadow_screen(vis, view);
   LodView lv;
   lv.pixels_per_unit_at_1 = view.pixels_per_unit_at_1;
   lv.z_near = float(view.z_near);
@@ -247,7 +254,7 @@ void shade_frame(const ShadeInput& in, ShadeView mode, ThreadPool& pool, Image* 
               double un[3] = {0, 0, 0};
               if (nl > 0)
                 for (int a = 0; a < 3; ++a) un[a] = wn[a] / nl;
-              std::array<double, 3> sum = sum_lights(*in.lights, in.shadows, sp, f, un);
+              std::array<double, 3> sum = sum_lights(*in.lights, in.shadows, screen, x, uint32_t(y), sp, f, un);
               col = {base[0] * float(in.ambient + (1 - in.ambient) * sum[0]),
                      base[1] * float(in.ambient + (1 - in.ambient) * sum[1]),
                      base[2] * float(in.ambient + (1 - in.ambient) * sum[2])};

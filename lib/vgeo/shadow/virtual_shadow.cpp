@@ -4,7 +4,9 @@
 // size, page table with mips, marking by one texel ≈ one pixel, caching), §"Multi-view
 // rendering", §"Culling and addressing to pages" (one cluster emitted per overlapped page,
 // scissored to it), §"Nanite shadow LOD" (LOD from the light's projection, 2 px shadow LOD bias);
-// the seed notes' §"Virtual shadow buffer" (reuse when neither light nor caster moved).
+// the seed notes' §"Virtual shadow buffer" (reuse when neither light nor caster moved; the
+// screen-space trace "walking a few pixels towards the light source if the difference in depths
+// is small"; Karis et al.'s "short screen space trace to span the zone where they could differ").
 // Multi-view: one cull traverses every instance once for all page views (each (map, mip) with
 // pages to draw), then one raster pass draws every page. The traversal is flat over clusters
 // (the BVH/persistent-thread traversal of lib/vgeo/cull is single-view and perspective-only).
@@ -742,17 +744,109 @@ void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<
   end_shadow_draw(instances, lights, frame, c, cache != nullptr);
 }
 
-float shadow_term(const ShadowFrame& frame, uint32_t light, const Vec3d& p, double footprint, double cos_nl) {
-  ShadowTexel t;
-  if (!select_shadow_texel(frame, light, p, footprint, &t)) return 1.0f;
-  const ShadowMapView& m = frame.maps[t.map];
-  const double texel = shadow_texel_size(frame, t);
-  const double slope = std::min(std::sqrt(std::max(0.0, 1 - cos_nl * cos_nl)) / cos_nl, kMaxShadowSlope);
+ShadowScreen make_shadow_screen(const VisBuffer& vis, const ViewParams& view) {
+  ShadowScreen s;
+  s.vis = &vis;
+  s.view = &view;
+  const Mat4d view_to_world = rigid_inverse(view.world_to_view);
+  s.camera = {view_to_world.at(0, 3), view_to_world.at(1, 3), view_to_world.at(2, 3)};
+  return s;
+}
+
+namespace {
+
+// tan of the angle between a unit normal and a unit direction with cosine c, clamped to
+// kMaxShadowSlope (and kMaxShadowSlope when c ≤ 0: the surface faces away).
+double clamped_slope(double c) {
+  if (!(c > 0)) return kMaxShadowSlope;
+  return std::min(std::sqrt(std::max(0.0, 1 - c * c)) / c, kMaxShadowSlope);
+}
+
+// Receiver depth at light-view distance dist − b on map m (spec/shadow.md §6).
+float receiver_depth(const ShadowMapView& m, double dist, double b) {
+  const double d = dist - b;
+  return m.ortho ? float(1 - d / m.depth_range) : float(m.z_near / std::max(d, m.z_near));
+}
+
+// The seeds' short screen-space trace (spec/shadow.md §6): walks from the receiver towards the
+// light over the LOD-mismatch zone through the primary depth buffer; true when a visible surface
+// lies in front of the ray (beyond the own-surface tolerance ε, within the thickness h).
+bool screen_trace_hits(const ShadowReceiver& r, const ShadowScreen& screen, double length, double zone,
+                       uint32_t* steps_read) {
+  const ViewParams& view = *screen.view;
+  const VisBuffer& vis = *screen.vis;
+  const Vec3d to_eye = sub(screen.camera, r.p);
+  const double eye_len = std::sqrt(dot(to_eye, to_eye));
+  const double view_slope = clamped_slope(dot(r.normal, to_eye) / eye_len);
+  const double f = r.footprint;
+  // h: the map's occluder lies within D of P (one texel ≤ f laterally), so within 2D + f of any
+  // trace point; a surface further in front hides the ray from the eye but is not that caster.
+  const double thickness = 2 * zone + f;
+  const double step = std::max(f, length / kShadowTraceMaxSteps);
+  const uint32_t steps = uint32_t(std::min<double>(kShadowTraceMaxSteps, std::ceil(length / step)));
+  for (uint32_t k = 1; k <= steps; ++k) {
+    const double t = std::min(k * step, length);
+    const Vec3d q_world{r.p.x + t * r.to_light.x, r.p.y + t * r.to_light.y, r.p.z + t * r.to_light.z};
+    const Vec3d q = transform_point(view.world_to_view, q_world);
+    const double vd_q = -q.z;
+    if (!(vd_q > view.z_near)) return false;  // the ray left the view through the near plane
+    const double sx = ((q.x / vd_q) / view.tan_half_x * 0.5 + 0.5) * view.width;
+    const double sy = (0.5 - (q.y / vd_q) / view.tan_half_y * 0.5) * view.height;
+    // A segment's projection is a segment: once off the (convex) screen it stays off.
+    if (!(sx >= 0 && sx < view.width && sy >= 0 && sy < view.height)) return false;
+    const uint32_t px = uint32_t(std::floor(sx)), py = uint32_t(std::floor(sy));
+    if (px == r.x && py == r.y) continue;  // the receiver's own pixel shows the receiver
+    ++*steps_read;
+    const uint64_t key = vis.keys[size_t(py) * vis.width + px];
+    if (!key) continue;
+    // ε: one pixel (at the trace point's depth) of lateral offset at the receiver's slope to the
+    // eye: the receiver's own surface, above which the ray runs, sampled at a pixel centre up to
+    // √2/2 pixel from the trace point's projection, is at most that much nearer the eye.
+    const double eps = 2 * view.tan_half_y * vd_q / view.height * (1 + view_slope);
+    const double delta = vd_q - view.z_near / double(vis_key_depth(key));
+    if (delta > eps && delta <= eps + thickness) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+ShadowTestDetail shadow_test(const ShadowFrame& frame, uint32_t light, const ShadowReceiver& r,
+                             const ShadowScreen& screen) {
+  ShadowTestDetail out;
+  if (!select_shadow_texel(frame, light, r.p, r.footprint, &out.texel)) return out;
+  const ShadowMapView& m = frame.maps[out.texel.map];
+  const double texel = shadow_texel_size(frame, out.texel);
+  const double slope = clamped_slope(r.cos_nl);
   const double tau = frame.options.threshold_px, tau_s = double(kShadowLodBias) * tau;
-  const double bias = texel * (1 + slope) + tau * footprint + tau_s * texel;
-  const double d = t.dist - bias;
-  const float receiver = m.ortho ? float(1 - d / m.depth_range) : float(m.z_near / std::max(d, m.z_near));
-  return shadow_stored_depth(frame, t) > receiver ? 0.0f : 1.0f;
+  // b_t: one texel of lateral offset at the surface's slope (the sample point is not the texel
+  // centre). M: the largest distance between the primary cut (τ pixels of f) and the shadow cut
+  // (τ_s texels) along the light: each cut's deviation times 1 + s ≥ 1/c, the secant.
+  const double sampling_bias = texel * (1 + slope);
+  const double mismatch = (tau * r.footprint + tau_s * texel) * (1 + slope);
+  out.zone = sampling_bias + mismatch;
+  out.stored = shadow_stored_depth(frame, out.texel);
+  out.d_lit = receiver_depth(m, out.texel.dist, sampling_bias);
+  out.d_far = receiver_depth(m, out.texel.dist, out.zone);
+  if (!(out.stored > out.d_lit)) {
+    out.decision = ShadowDecision::kLit;
+  } else if (out.stored > out.d_far) {
+    out.decision = ShadowDecision::kFarCaster;
+  } else {
+    double length = out.zone;
+    if (!m.ortho) {  // a spot or point light: the trace ends at the light
+      const Vec3d to_light = sub(frame.maps[out.texel.map].eye, r.p);
+      length = std::min(length, std::sqrt(dot(to_light, to_light)));
+    }
+    out.decision = screen_trace_hits(r, screen, length, out.zone, &out.trace_steps) ? ShadowDecision::kTraceHit
+                                                                                       : ShadowDecision::kTraceMiss;
+  }
+  return out;
+}
+
+float shadow_term(const ShadowFrame& frame, uint32_t light, const ShadowReceiver& r, const ShadowScreen& screen) {
+  const ShadowDecision d = shadow_test(frame, light, r, screen).decision;
+  return d == ShadowDecision::kFarCaster || d == ShadowDecision::kTraceHit ? 0.0f : 1.0f;
 }
 
 std::vector<float> draw_full_shadow_map(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,

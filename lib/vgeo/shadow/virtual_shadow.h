@@ -32,8 +32,13 @@ inline constexpr uint32_t kShadowPoolPages = 1024;
 // Shadow LOD bias (seed: "Defaults to 2 pixels of error"): τ_s = kShadowLodBias · τ.
 inline constexpr float kShadowLodBias = 2.0f;
 // Slope part of the bias is clamped here (tan of ~86.4°): beyond it Lambert is < 0.063 and the
-// bias would grow without bound at grazing angles.
+// bias would grow without bound at grazing angles. The trace's view slope uses the same clamp.
 inline constexpr double kMaxShadowSlope = 16.0;
+// Screen-space trace (spec/shadow.md §6): at most this many depth-buffer samples per light per
+// pixel. Steps are one pixel footprint long (≤ 1 screen pixel each) until the LOD-mismatch zone
+// is longer than 16 footprints (only at slopes s > ~3 with τ = 1); then the zone is split into 16
+// equal steps: the seeds' "walk a few pixels", with a bounded cost per pixel.
+inline constexpr uint32_t kShadowTraceMaxSteps = 16;
 
 struct ShadowOptions {
   // Virtual size: pages per side at mip 0 (spec value 128; tests shrink it so a brute-force
@@ -168,9 +173,45 @@ ShadowDrawList begin_shadow_draw(const std::vector<ClusterDag>& meshes, const st
 void end_shadow_draw(const std::vector<CullInstance>& instances, const std::vector<Light>& lights, ShadowFrame* frame,
                      ShadowCache* cache, bool kept);
 
-// spec/shadow.md §6: 1 (lit) or 0 (shadowed) for light `light` at the sample point p (world),
-// footprint f, world normal n (unit) with c = n·l > 0.
-float shadow_term(const ShadowFrame& frame, uint32_t light, const Vec3d& p, double footprint, double cos_nl);
+// The primary view the shadow test's screen-space trace walks (spec/shadow.md §6): its
+// visibility buffer (depths), view, and the eye's world position.
+struct ShadowScreen {
+  const VisBuffer* vis = nullptr;
+  const ViewParams* view = nullptr;
+  Vec3d camera;  // translation of view_to_world
+};
+ShadowScreen make_shadow_screen(const VisBuffer& vis, const ViewParams& view);
+
+// One pixel's inputs to the shadow test of one light (spec/shadow.md §6).
+struct ShadowReceiver {
+  uint32_t x = 0, y = 0;  // the pixel
+  Vec3d p;                // its sample point (world)
+  double footprint = 0;   // f
+  Vec3d normal;           // unit shading normal (world)
+  Vec3d to_light;         // l: unit, towards the light
+  double cos_nl = 0;      // c = n·l > 0, as the shading computed it
+};
+
+// How the shadow test decided (spec/shadow.md §6).
+enum class ShadowDecision : uint8_t {
+  kNoTexel,    // the pixel needs no texel of this light (lit)
+  kLit,        // stored ≤ d_lit: nothing nearer the light beyond the sampling bias
+  kFarCaster,  // stored > d_far: a caster beyond the LOD-mismatch zone (shadowed, no trace)
+  kTraceHit,   // in the zone; the screen-space trace found the caster (shadowed)
+  kTraceMiss,  // in the zone; the trace found nothing: LOD mismatch, not a caster (lit)
+};
+struct ShadowTestDetail {
+  ShadowDecision decision = ShadowDecision::kNoTexel;
+  ShadowTexel texel;
+  float stored = 0, d_lit = 0, d_far = 0;  // the texel's depth and the two receiver depths
+  double zone = 0;                        // D = b_t + M, the far end of the zone (light-view units)
+  uint32_t trace_steps = 0;               // depth-buffer samples the trace read
+};
+// spec/shadow.md §6, every intermediate of the decision (tests, statistics).
+ShadowTestDetail shadow_test(const ShadowFrame& frame, uint32_t light, const ShadowReceiver& receiver,
+                             const ShadowScreen& screen);
+// spec/shadow.md §6: 1 (lit) or 0 (shadowed).
+float shadow_term(const ShadowFrame& frame, uint32_t light, const ShadowReceiver& receiver, const ShadowScreen& screen);
 
 // Reference for tests: texels of the whole mip `mip` of map `map` (R_m x R_m, row-major)
 // drawn in one pass with the same cut and raster (spec/shadow.md §5, "the page's texels are
