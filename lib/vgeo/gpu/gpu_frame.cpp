@@ -232,6 +232,37 @@ void upload_lit_frame(GpuRenderer& r, const RenderScene& scene, const RenderSett
   if (!shadows) ensure_size(gpu, r.shadow_pool, sizeof(float));  // bound, never read
 }
 
+// Step shadow_mark on the device (shadow_mark.comp, spec/shadow.md §4): out->shadow (made by
+// begin_shadow_mark) gets the needed pages of the covered pixels of r.vis.
+void shadow_mark_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& settings, Frame* out) {
+  GpuContext& gpu = *r.gpu;
+  ShadowFrame& frame = out->shadow;
+  upload_lit_frame(r, scene, settings, *out, &frame);
+  const uint64_t bytes = std::max<uint64_t>(frame.needed.size(), 1) * sizeof(uint32_t);
+  check_buffer_range(gpu, bytes, "the shadow page marks");
+  ensure_size(gpu, r.shadow_needed, bytes);
+  std::memset(r.shadow_needed.mapped, 0, bytes);
+  GpuShadeParams params{};
+  params.tan_half_x = out->view.tan_half_x;
+  params.tan_half_y = out->view.tan_half_y;
+  params.width = out->view.width;
+  params.height = out->view.height;
+  const uint64_t pixels = uint64_t(params.width) * params.height;
+  GpuRecorder& rec = *r.recorder;
+  begin_commands(rec);
+  cmd_dispatch(rec, r.shadow_mark,
+               gpu_bindings(kMarkBindingCount, {{kMarkBindVis, &r.vis},
+                                                {kMarkBindLitFrame, &r.lit_frame},
+                                                {kMarkBindLights, &r.shade_lights},
+                                                {kMarkBindShadowMaps, &r.shadow_maps},
+                                                {kMarkBindNeeded, &r.shadow_needed}}),
+               &params, uint32_t((pixels + kShadeGroupSize - 1) / kShadeGroupSize));
+  submit_and_wait(rec);
+  const uint32_t* marks = r.shadow_needed.data<uint32_t>();
+  for (size_t e = 0; e < frame.needed.size(); ++e) frame.needed[e] = uint8_t(marks[e] != 0);
+  for (uint8_t n : frame.needed) frame.pages_marked += n;  // as mark_shadow_pages counts
+}
+
 // shade.cpp shade_frame on the GPU: every view, from the visibility buffer now in r.vis.
 void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& settings, const Camera& camera,
                 const ShadowFrame* shadows, Frame* out) {
@@ -477,10 +508,11 @@ class VulkanFrameExecutor final : public FrameExecutor {
         shade_pass(r_, in_.scene, in_.settings, in_.camera, shadows_drawn_ ? &out_->shadow : nullptr, out_);
         break;
       case FrameStep::kShadowMark:
-        // Marking on the host from the visibility buffer read back (the CPU's code, one
-        // implementation; lavapipe's device memory is host memory).
-        std::memcpy(out_->vis.keys.data(), r_.vis.mapped, out_->vis.keys.size() * sizeof(uint64_t));
-        shadow_mark_step(in_, out_);
+        // The maps on the host (a few matrices per light), the marks on the device from its
+        // visibility buffer (shadow_mark.comp: the reference's texel selection in its
+        // arithmetic); the needed set is read back for the allocation and the cull.
+        begin_shadow_mark(in_, out_);
+        shadow_mark_pass(r_, in_.scene, in_.settings, out_);
         shadows_drawn_ = true;
         break;
       case FrameStep::kShadowDraw:

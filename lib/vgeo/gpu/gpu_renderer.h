@@ -18,7 +18,7 @@ struct GpuRenderer {
   std::unique_ptr<GpuRecorder> recorder;
   std::unique_ptr<GpuRasterPasses> raster;
   GpuRendererOptions options;
-  ComputePipeline shade;
+  ComputePipeline shade, shadow_mark;  // shade.comp, shadow_mark.comp
   GpuBuffer pages, locations, meshes, materials;
   // Per frame, grown on demand.
   GpuBuffer instances, visible, vis, counters, shade_instances, shade_clusters, overdraw, image;
@@ -29,6 +29,7 @@ struct GpuRenderer {
   // The lit view's lights and shadow maps (shade.comp; GpuLitFrame, GpuShadeLight, GpuShadowMap,
   // the frame's page table).
   GpuBuffer lit_frame, shade_lights, shadow_maps, shadow_table;
+  GpuBuffer shadow_needed;  // shadow_mark.comp's marks: uint per page-table entry
   // The cull passes (gpu_cull.h): DAG records once, a working set per view size.
   GpuTraversal traversal = kDefaultGpuTraversal;
   GpuCullPipelines cull;

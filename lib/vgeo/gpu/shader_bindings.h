@@ -80,6 +80,14 @@ VGEO_CONSTANT uint32_t kShadeBindShadowTable = 14u; // ShadowFrame::page_table (
 VGEO_CONSTANT uint32_t kShadeBindShadowPool = 15u;  // the physical pool (float depths)
 VGEO_CONSTANT uint32_t kShadeBindingCount = 16u;
 
+// shadow_mark.comp (spec/shadow.md §4): the primary keys, the lit frame's records, the marks.
+VGEO_CONSTANT uint32_t kMarkBindVis = 0u;         // uint64 visibility keys
+VGEO_CONSTANT uint32_t kMarkBindLitFrame = 1u;    // GpuLitFrame
+VGEO_CONSTANT uint32_t kMarkBindLights = 2u;      // GpuShadeLight per scene light
+VGEO_CONSTANT uint32_t kMarkBindShadowMaps = 3u;  // GpuShadowMap per shadow map
+VGEO_CONSTANT uint32_t kMarkBindNeeded = 4u;      // uint per page-table entry (1: needed)
+VGEO_CONSTANT uint32_t kMarkBindingCount = 5u;
+
 // raster_split.comp.
 VGEO_CONSTANT uint32_t kSplitBindMeshes = 0u;           // GpuMesh[]
 VGEO_CONSTANT uint32_t kSplitBindInstances = 1u;        // GpuInstance[]

@@ -316,11 +316,15 @@ class CpuFrameExecutor final : public FrameExecutor {
 
 }  // namespace
 
-void shadow_mark_step(const FrameInputs& in, Frame* out) {
+void begin_shadow_mark(const FrameInputs& in, Frame* out) {
   ShadowOptions options;
   options.threshold_px = in.settings.threshold_px;
   out->shadow = make_shadow_frame(in.scene.lights, shadow_scene_bounds(in.scene.meshes, in.scene.instances),
                                   in.camera.position, options);
+}
+
+void shadow_mark_step(const FrameInputs& in, Frame* out) {
+  begin_shadow_mark(in, out);
   mark_shadow_pages(out->vis, out->view, in.scene.lights, in.pool, &out->shadow);
 }
 
