@@ -9,6 +9,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <unordered_map>
 
 #include "vgeo/core/error.h"
 #include "vgeo/core/lod.h"
@@ -97,14 +98,11 @@ constexpr size_t kShadowPageTexelCount = size_t(kShadowPageTexels) * kShadowPage
 // element count.
 uint32_t upload_shadow_elements(GpuRenderer& r, const RenderScene& scene, const ShadowDrawList& list) {
   GpuContext& gpu = *r.gpu;
-  const size_t instance_count = scene.instances.size();
-  std::vector<GpuInstance> instances(list.object_to_clip.size() * instance_count);
-  for (size_t v = 0; v < list.object_to_clip.size(); ++v)
-    for (size_t i = 0; i < instance_count; ++i) {
-      GpuInstance& g = instances[v * instance_count + i];
-      std::memcpy(g.object_to_clip, list.object_to_clip[v][i].m, sizeof(g.object_to_clip));
-      g.mesh = scene.instances[i].mesh;
-    }
+  // One GpuInstance per (view, instance) some element draws (not views × instances: most
+  // instances overlap few views), numbered in order of first use.
+  const uint64_t instance_count = scene.instances.size();
+  std::unordered_map<uint64_t, uint32_t> view_instance;
+  std::vector<GpuInstance> instances;
   std::vector<GpuShadowPage> pages(list.pages.size());
   std::vector<GpuVisibleCluster> elements;
   std::vector<uint32_t> element_page;
@@ -112,7 +110,13 @@ uint32_t upload_shadow_elements(GpuRenderer& r, const RenderScene& scene, const 
     const ShadowPageDraw& p = list.pages[d];
     pages[d] = {p.raster.virtual_width, p.raster.window_x, p.raster.window_y, p.slot, p.raster.z_near, {0, 0, 0}};
     for (const VisibleCluster& c : list.clusters[d]) {
-      elements.push_back({uint32_t(p.view * instance_count + c.instance), c.cluster});
+      auto [it, added] = view_instance.try_emplace(p.view * instance_count + c.instance, uint32_t(instances.size()));
+      if (added) {
+        GpuInstance& g = instances.emplace_back();
+        std::memcpy(g.object_to_clip, list.object_to_clip[p.view][c.instance].m, sizeof(g.object_to_clip));
+        g.mesh = scene.instances[c.instance].mesh;
+      }
+      elements.push_back({it->second, c.cluster});
       element_page.push_back(uint32_t(d));
     }
   }
