@@ -8,10 +8,19 @@
 // triangles whose pixel box exceeds kGpuRasterTileSize in x or y; raster_tiles.comp, the tile
 // pass (one invocation per kGpuRasterTileSize² tile of a deferred box), which draws them with
 // the same arithmetic (spec/raster.md §13.5). Two binaries, so neither pays for the other's
-// branches per triangle.
+// branches per triangle. Both again with VGEO_RASTER_SHADOW_PASS (raster_shadow.comp,
+// raster_shadow_tiles.comp): the virtual shadow pages (spec/shadow.md §5), where element i of
+// the visible list is drawn into page shadow_pages[shadow_element_page[i]]: set up in that
+// page's mip viewport, only the page's 128² texels visited (the CPU's RasterOptions window),
+// and the texel's float depth bits atomicMax'ed into the page's pool slot (the CPU keeps the
+// depth of the largest key, whose depth is the largest: the same value).
 #extension GL_EXT_shader_explicit_arithmetic_types : require
 #extension GL_EXT_shader_atomic_int64 : require
 const bool kTilePass = VGEO_RASTER_TILE_PASS != 0;
+#ifndef VGEO_RASTER_SHADOW_PASS
+#define VGEO_RASTER_SHADOW_PASS 0
+#endif
+const bool kShadowPass = VGEO_RASTER_SHADOW_PASS != 0;
 #include "vgeo/core/cull_shared.h"
 #include "vgeo/core/vis_key.h"
 #include "vgeo/gpu/shader_records.h"
@@ -29,6 +38,11 @@ layout(std430, binding = kRasterBindPaths) readonly buffer Paths { uint32_t path
 layout(std430, binding = kRasterBindBig) buffer BigTriangles { GpuBigTriangle big[]; };
 layout(std430, binding = kRasterBindTiles) readonly buffer Tiles { GpuRasterTile tiles[]; };
 layout(push_constant) uniform Push { GpuRasterParams params; };
+#if VGEO_RASTER_SHADOW_PASS
+layout(std430, binding = kRasterBindShadowPages) readonly buffer ShadowPages { GpuShadowPage shadow_pages[]; };
+layout(std430, binding = kRasterBindShadowElementPage) readonly buffer ShadowElementPage { uint32_t shadow_element_page[]; };
+layout(std430, binding = kRasterBindShadowPool) buffer ShadowPool { uint32_t shadow_pool[]; };
+#endif
 
 #define VGEO_PAGE_WORD(i) page_words[i]
 #include "memory_page.glsl"
@@ -116,6 +130,11 @@ int64_t ceil_div(int64_t a, int64_t b) { return -floor_div(-a, b); }
 
 const double kMinWrittenDepth = 1.1754943508222875e-38LF;  // FLT_MIN = 2^-126, exact in double
 
+// The pixels a triangle may write (raster.cpp Setup's clamp): the viewport, or the shadow
+// page's window in its mip (inclusive); the shadow page's pool slot.
+int64_t g_clip_x0, g_clip_x1, g_clip_y0, g_clip_y1;
+uint32_t g_slot;
+
 // One oriented triangle's setup (raster.cpp Setup).
 int64_t g_vx[3], g_vy[3], g_dx[3], g_dy[3], g_bias[3];
 int64_t g_x0, g_y0;
@@ -176,10 +195,10 @@ bool raster_triangle(ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, uint32_t
   }
   int64_t min_x = min(v0.x, min(v1.x, v2.x)), max_x = max(v0.x, max(v1.x, v2.x));
   int64_t min_y = min(v0.y, min(v1.y, v2.y)), max_y = max(v0.y, max(v1.y, v2.y));
-  int64_t min_px = max(int64_t(0), ceil_div(min_x - kHalfPixel, kSubpixelScale));
-  int64_t max_px = min(int64_t(params.width) - int64_t(1), floor_div(max_x - kHalfPixel, kSubpixelScale));
-  int64_t min_py = max(int64_t(0), ceil_div(min_y - kHalfPixel, kSubpixelScale));
-  int64_t max_py = min(int64_t(params.height) - int64_t(1), floor_div(max_y - kHalfPixel, kSubpixelScale));
+  int64_t min_px = max(g_clip_x0, ceil_div(min_x - kHalfPixel, kSubpixelScale));
+  int64_t max_px = min(g_clip_x1, floor_div(max_x - kHalfPixel, kSubpixelScale));
+  int64_t min_py = max(g_clip_y0, ceil_div(min_y - kHalfPixel, kSubpixelScale));
+  int64_t max_py = min(g_clip_y1, floor_div(max_y - kHalfPixel, kSubpixelScale));
   const int64_t tile_size = int64_t(kGpuRasterTileSize);
   if (kTilePass) {
     min_px = max(min_px, int64_t(scope.lo.x));
@@ -219,8 +238,13 @@ bool raster_triangle(ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, uint32_t
     int64_t px = min_px;
     for (; px <= max_px; ++px)
       if (edge_at(0, px, py) >= int64_t(0) && edge_at(1, px, py) >= int64_t(0) && edge_at(2, px, py) >= int64_t(0)) {
+#if VGEO_RASTER_SHADOW_PASS
+        const uint32_t texel = uint32_t(py - g_clip_y0) * kGpuShadowPageTexels + uint32_t(px - g_clip_x0);
+        atomicMax(shadow_pool[g_slot * kGpuShadowPageTexels * kGpuShadowPageTexels + texel], floatBitsToUint(depth_at(px, py)));
+#else
         uint64_t key = pack_vis_key_bits(floatBitsToUint(depth_at(px, py)), 0u, 0u) | uint64_t(id_bits);
         atomicMax(vis[uint32_t(py) * params.width + uint32_t(px)], key);
+#endif
         ++written;
       }
     if (px <= max_px) overflow = true;  // the row was left early: the limiter ran out
@@ -268,9 +292,26 @@ void draw_triangle(uint32_t visible_index, uint32_t tri, int fan_only, PixelScop
   MemoryCluster c = memory_cluster(loc.page_word, loc.cluster_in_page, mesh.channel_count);
   if (tri >= c.triangle_count) return;
 
-  const double z_near = double(params.z_near);
-  const double scale_x = double(params.width) * double(kSubpixelScale);
-  const double scale_y = double(params.height) * double(kSubpixelScale);
+  double z_near = double(params.z_near);
+  double scale_x = double(params.width) * double(kSubpixelScale);
+  double scale_y = double(params.height) * double(kSubpixelScale);
+  g_clip_x0 = int64_t(0);
+  g_clip_y0 = int64_t(0);
+  g_clip_x1 = int64_t(params.width) - int64_t(1);
+  g_clip_y1 = int64_t(params.height) - int64_t(1);
+#if VGEO_RASTER_SHADOW_PASS
+  {
+    const GpuShadowPage page = shadow_pages[shadow_element_page[visible_index]];
+    z_near = double(page.z_near);
+    scale_x = double(page.viewport) * double(kSubpixelScale);
+    scale_y = scale_x;
+    g_clip_x0 = int64_t(page.window_x);
+    g_clip_y0 = int64_t(page.window_y);
+    g_clip_x1 = g_clip_x0 + int64_t(kGpuShadowPageTexels) - int64_t(1);
+    g_clip_y1 = g_clip_y0 + int64_t(kGpuShadowPageTexels) - int64_t(1);
+    g_slot = page.slot;
+  }
+#endif
   uvec3 idx = memory_triangle(c, tri);
   if (idx.x >= c.vertex_count || idx.y >= c.vertex_count || idx.z >= c.vertex_count) return;
   TransformedVertex tv[3];

@@ -2,7 +2,9 @@
 // Deferred shading of the visibility buffer: the GLSL image of lib/vgeo/shade/shade.cpp,
 // every view (lit, triangle, cluster, group, lod, error, overdraw). Same double arithmetic
 // where the CPU uses double; sRGB by the formula the CPU tabulates (the rule allows 1/255).
-// One invocation per pixel; output RGBA8 packed in a uint32 (A = 255).
+// One invocation per pixel; output RGBA8 packed in a uint32 (A = 255). With scene lights, the
+// sum over lights with each shadowing light's shadow term read from the virtual shadow maps
+// (spec/shadow.md §2, §4, §6), in the CPU's double arithmetic operation for operation.
 #extension GL_EXT_shader_explicit_arithmetic_types : require
 #extension GL_GOOGLE_include_directive : require
 #include "vgeo/core/vis_key.h"
@@ -17,6 +19,11 @@ layout(std430, binding = kShadeBindClusters) readonly buffer ShadeClusters { Gpu
 layout(std430, binding = kShadeBindMaterials) readonly buffer Materials { GpuMaterial materials[]; };
 layout(std430, binding = kShadeBindOverdraw) readonly buffer Overdraw { uint32_t overdraw[]; };
 layout(std430, binding = kShadeBindImage) writeonly buffer Image { uint32_t image[]; };
+layout(std430, binding = kShadeBindLitFrame) readonly buffer LitFrame { GpuLitFrame lit; };
+layout(std430, binding = kShadeBindLights) readonly buffer Lights { GpuShadeLight lights[]; };
+layout(std430, binding = kShadeBindShadowMaps) readonly buffer ShadowMaps { GpuShadowMap shadow_maps[]; };
+layout(std430, binding = kShadeBindShadowTable) readonly buffer ShadowTable { uint32_t shadow_table[]; };
+layout(std430, binding = kShadeBindShadowPool) readonly buffer ShadowPool { float shadow_pool[]; };
 layout(push_constant) uniform Push { GpuShadeParams params; };
 
 #define VGEO_PAGE_WORD(i) page_words[i]
@@ -75,13 +82,133 @@ vec3 octahedral_decode(uint32_t qx, uint32_t qy, uint32_t bits) {
   return vec3(x / len, y / len, z / len);
 }
 
+#include "shadow_select.glsl"
+
+float shadow_stored_depth(ShadowTexel t) {
+  const uint32_t slot = shadow_table[shadow_page_entry(t)];
+  if (slot == kNoShadowSlot) return 0.0;
+  return shadow_pool[slot * kGpuShadowPageTexels * kGpuShadowPageTexels +
+                     (t.y % kGpuShadowPageTexels) * kGpuShadowPageTexels + t.x % kGpuShadowPageTexels];
+}
+
+// clamped_slope: tan of the angle of cosine c, at most max_slope (max_slope when c ≤ 0).
+double clamped_slope(double c) {
+  if (!(c > 0.0)) return lit.max_slope;
+  precise double s = min(sqrt(max(0.0, 1.0 - c * c)) / c, lit.max_slope);
+  return s;
+}
+
+// receiver_depth: the receiver's depth at light-view distance dist − b on map m.
+float receiver_depth(uint32_t map, double dist, double b) {
+  const GpuShadowMap m = shadow_maps[map];
+  precise double d = dist - b;
+  precise double ortho_depth = 1.0 - d / m.depth_range;
+  precise double persp_depth = m.z_near / max(d, m.z_near);
+  return m.ortho != 0u ? float(ortho_depth) : float(persp_depth);
+}
+
+// The pixel's inputs to the shadow test of one light (virtual_shadow.h ShadowReceiver).
+struct ShadowReceiver {
+  uint32_t x, y;
+  dvec3 p;
+  double footprint;
+  dvec3 normal, to_light;
+  double cos_nl;
+};
+
+// screen_trace_hits: the seeds' short screen-space trace through the primary depth buffer.
+bool screen_trace_hits(ShadowReceiver r, double len, double zone) {
+  const dvec3 camera = dvec3(lit.view_to_world[3], lit.view_to_world[7], lit.view_to_world[11]);
+  precise dvec3 to_eye = camera - r.p;
+  precise double eye_len = sqrt(to_eye.x * to_eye.x + to_eye.y * to_eye.y + to_eye.z * to_eye.z);
+  precise double c_v = (r.normal.x * to_eye.x + r.normal.y * to_eye.y + r.normal.z * to_eye.z) / eye_len;
+  const double view_slope = clamped_slope(c_v);
+  const double f = r.footprint;
+  precise double thickness = 2.0 * zone + f;
+  const double max_steps = double(lit.trace_max_steps);
+  precise double step = max(f, len / max_steps);
+  const uint32_t steps = uint32_t(min(max_steps, ceil(len / step)));
+  const double width = double(params.width), height = double(params.height);
+  for (uint32_t k = 1u; k <= steps; ++k) {
+    precise double t = min(double(k) * step, len);
+    precise dvec3 q_world = dvec3(r.p.x + t * r.to_light.x, r.p.y + t * r.to_light.y, r.p.z + t * r.to_light.z);
+    const dvec3 q = rows_times_point(lit.world_to_view, q_world);
+    const double vd_q = -q.z;
+    if (!(vd_q > lit.z_near)) return false;  // the ray left the view through the near plane
+    precise double sx = ((q.x / vd_q) / params.tan_half_x * 0.5 + 0.5) * width;
+    precise double sy = (0.5 - (q.y / vd_q) / params.tan_half_y * 0.5) * height;
+    if (!(sx >= 0.0 && sx < width && sy >= 0.0 && sy < height)) return false;  // off the convex screen: stays off
+    const uint32_t px = uint32_t(floor(sx)), py = uint32_t(floor(sy));
+    if (px == r.x && py == r.y) continue;  // the receiver's own pixel shows the receiver
+    const uint64_t key = vis[py * params.width + px];
+    if (key == uint64_t(0)) continue;
+    precise double eps = 2.0 * params.tan_half_y * vd_q / height * (1.0 + view_slope);
+    precise double delta = vd_q - lit.z_near / double(uintBitsToFloat(vis_key_depth_bits(key)));
+    if (delta > eps && delta <= eps + thickness) return true;
+  }
+  return false;
+}
+
+// shadow_test / shadow_term: 1 (lit) or 0 (shadowed); r.cos_nl > 0.
+double shadow_term(uint32_t light, ShadowReceiver r) {
+  ShadowTexel t;
+  if (!select_shadow_texel(light, r.p, r.footprint, t)) return 1.0;
+  const GpuShadowMap m = shadow_maps[t.map];
+  const double r_m = double((lit.pages_per_side * kGpuShadowPageTexels) >> t.mip);
+  precise double texel = m.ortho != 0u ? m.side / r_m : 2.0 * m.tan_half * t.dist / r_m;
+  const double slope = clamped_slope(r.cos_nl);
+  precise double sampling_bias = texel * (1.0 + slope);
+  precise double mismatch = (lit.tau * r.footprint + lit.tau_s * texel) * (1.0 + slope);
+  precise double zone = sampling_bias + mismatch;
+  const float stored = shadow_stored_depth(t);
+  const float d_lit = receiver_depth(t.map, t.dist, sampling_bias);
+  const float d_far = receiver_depth(t.map, t.dist, zone);
+  if (!(stored > d_lit)) return 1.0;  // lit
+  if (stored > d_far) return 0.0;     // a far caster
+  double len = zone;
+  if (m.ortho == 0u) {  // a spot or point light: the trace ends at the light
+    precise dvec3 to_light = dvec3(m.eye[0], m.eye[1], m.eye[2]) - r.p;
+    precise double light_len = sqrt(to_light.x * to_light.x + to_light.y * to_light.y + to_light.z * to_light.z);
+    len = min(len, light_len);
+  }
+  return screen_trace_hits(r, len, zone) ? 0.0 : 1.0;
+}
+
+// shade.cpp sum_lights: Σ color × intensity × cone × lambert × shadow per channel, unit normal n.
+dvec3 sum_lights(uint32_t x, uint32_t y, dvec3 p, double footprint, dvec3 n) {
+  dvec3 sum = dvec3(0.0);
+  for (uint32_t i = 0u; i < lit.light_count; ++i) {
+    const GpuShadeLight l = lights[i];
+    dvec3 dir = dvec3(l.direction[0], l.direction[1], l.direction[2]);
+    dvec3 lv;
+    if (l.type == kDirectional) {
+      lv = -dir;
+    } else {
+      precise dvec3 d = dvec3(l.position[0], l.position[1], l.position[2]) - p;
+      precise double len = sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+      precise dvec3 q = dvec3(d.x / len, d.y / len, d.z / len);  // len 0: NaN, rejected below
+      lv = q;
+    }
+    precise double c = n.x * lv.x + n.y * lv.y + n.z * lv.z;
+    if (!(c > 0.0)) continue;
+    precise double spot_cos = -(lv.x * dir.x + lv.y * dir.y + lv.z * dir.z);
+    if (l.type == kSpot && !(spot_cos >= l.cos_half_cone)) continue;
+    const double shadow = l.shadows != 0u ? shadow_term(i, ShadowReceiver(x, y, p, footprint, n, lv, c)) : 1.0;
+    for (int k = 0; k < 3; ++k) {
+      precise double add = double(l.color[k]) * double(l.intensity) * c * shadow;
+      sum[k] += add;
+    }
+  }
+  return sum;
+}
+
 dvec3 vertex_position(MemoryCluster c, uint32_t v, int32_t step_log2) {
   return dvec3(double(dequantize_position(memory_vertex_channel(c, v, 0u), step_log2)),
                double(dequantize_position(memory_vertex_channel(c, v, 1u), step_log2)),
                double(dequantize_position(memory_vertex_channel(c, v, 2u), step_log2)));
 }
 
-vec3 shade_lit(uint32_t x, uint32_t y, GpuVisibleCluster v, uint32_t tri) {
+vec3 shade_lit(uint32_t x, uint32_t y, GpuVisibleCluster v, uint32_t tri, float depth) {
   GpuInstance inst = instances[v.instance];
   GpuShadeInstance si = shade_instances[v.instance];
   GpuMesh mesh = meshes[inst.mesh];
@@ -145,6 +272,21 @@ vec3 shade_lit(uint32_t x, uint32_t y, GpuVisibleCluster v, uint32_t tri) {
     GpuMaterial m = materials[mat];
     base = vec4(m.base_color[0], m.base_color[1], m.base_color[2], m.base_color[3]);
   }
+  if (lit.light_count != 0u) {
+    double footprint;
+    const dvec3 sp = shadow_sample_point(x, y, depth, footprint);
+    dvec3 un = dvec3(0.0);
+    if (nl > 0.0) {
+      precise dvec3 q = dvec3(wn[0] / nl, wn[1] / nl, wn[2] / nl);
+      un = q;
+    }
+    const dvec3 sum = sum_lights(x, y, sp, footprint, un);
+    const double a = double(params.ambient), one_minus_a = double(1.0 - params.ambient);
+    precise float kr = float(a + one_minus_a * sum.x);
+    precise float kg = float(a + one_minus_a * sum.y);
+    precise float kb = float(a + one_minus_a * sum.z);
+    return vec3(base.r * kr, base.g * kg, base.b * kb);
+  }
   precise float k = float(double(params.ambient) + double(1.0 - params.ambient) * lambert);
   return base.rgb * k;
 }
@@ -167,7 +309,7 @@ void main() {
     else if (params.view == kGroup) col = id_colour(uint64_t(v.instance), uint64_t(sc.group) | (uint64_t(1) << 40));
     else if (params.view == kLod) col = heat(sc.level_count > 1u ? float(sc.level) / float(sc.level_count - 1u) : 0.0);
     else if (params.view == kError) col = heat(sc.projected_error / max(params.threshold_px, 1e-6));
-    else col = shade_lit(x, y, v, tri);
+    else col = shade_lit(x, y, v, tri, uintBitsToFloat(vis_key_depth_bits(key)));
   }
   image[p] = to_srgb8(col.r) | (to_srgb8(col.g) << 8) | (to_srgb8(col.b) << 16) | (255u << 24);
 }

@@ -28,6 +28,15 @@ struct Golden {
   uint32_t width = 0, height = 0;  // 0: the scene's resolution
   uint32_t frames = 0;             // 0: the scene's camera path, else 1
   bool streamed = false;           // scene = the stream fixture's fly-through at kStreamBudgetShare
+  // A scene with a shadowing light (spec/shadow.md): every frame is shaded (so shadow_draw runs
+  // and the cache carries over), and every frame's shadow pages are compared bit for bit.
+  bool shadows = false;
+  bool shadow_cache_used = false;  // some frame after the first reuses cached pages (a moving camera)
+  // The scene's moves (spec/scene.md §Moves) at this frame (> 1; 0: none): the frame before it
+  // draws no page (a static scene's pages are all cached), the moved frame redraws every page
+  // of the light (a light moved) or only some (a caster moved: `caster`).
+  uint32_t moved_at = 0;
+  bool caster = false;
 };
 
 // The streamed fly-through's budget: the pinned pages plus this share of the rest (pages are
@@ -51,6 +60,12 @@ const Golden kGoldens[] = {
     {"view_error", "tests/scenes/spheres.json", ShadeView::kError, 160, 90},
     {"view_overdraw", "tests/scenes/spheres.json", ShadeView::kOverdraw, 160, 90},
     {"stream_flythrough", "", ShadeView::kLit, 0, 0, 0, true},
+    {"light_directional", "tests/shadow/scenes/directional.json", ShadeView::kLit, 160, 90, 1, false, true},
+    {"light_spot", "tests/shadow/scenes/spot.json", ShadeView::kLit, 160, 90, 1, false, true},
+    {"light_point", "tests/shadow/scenes/point.json", ShadeView::kLit, 160, 90, 1, false, true},
+    {"light_flight", "tests/golden/scenes/light_flight.json", ShadeView::kLit, 0, 0, 0, false, true, true},
+    {"light_moving", "tests/golden/scenes/light_moving.json", ShadeView::kLit, 0, 0, 4, false, true, true, 2},
+    {"caster_moving", "tests/golden/scenes/caster_moving.json", ShadeView::kLit, 0, 0, 4, false, true, true, 2, true},
 };
 
 SceneFile load_golden_scene(const Golden& g) {
@@ -93,6 +108,11 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
   cpu.threads = 2;
   const bool update = std::getenv("VGEO_UPDATE_GOLDENS") && std::string(std::getenv("VGEO_UPDATE_GOLDENS")) == "1";
   cpu.output_png = ((update ? expected_dir : out_dir) / (std::string(g.name) + ".png")).string();
+  if (g.shadows) {  // shade every frame: the shadow steps run only for shaded frames
+    cpu.out_dir = (out_dir / "cpu_frames").string();
+    fs::create_directories(cpu.out_dir);
+    cpu.save_every = 1;
+  }
   // The GPU's pages: the scene's own encodings transcoded (a streamed scene's page-file meshes
   // are drawn from each renderer's Streamer).
   const MemoryFormPages memory_form = memory_form_pages(sf);
@@ -114,8 +134,32 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
     EXPECT_EQ(j["image_hash"].get<std::string>(), hex64(ref.image_hash)) << g.name;
   }
 
+  if (g.shadows) {
+    ASSERT_FALSE(ref.frames.empty());
+    for (size_t f = 0; f < ref.frames.size(); ++f) {
+      EXPECT_TRUE(ref.frames[f].has_shadow) << g.name << " frame " << f;
+      EXPECT_GT(ref.frames[f].shadow.pages_marked, 0u) << g.name << " frame " << f;
+    }
+    uint64_t cached = 0;
+    for (size_t f = 1; f < ref.frames.size(); ++f) cached += ref.frames[f].shadow.pages_cached;
+    if (g.shadow_cache_used) EXPECT_GT(cached, 0u) << g.name << ": no frame reuses a cached page";
+    if (g.moved_at) {
+      ASSERT_LT(g.moved_at, ref.frames.size());
+      const ShadowFrameStats& before = ref.frames[g.moved_at - 1].shadow;
+      const ShadowFrameStats& moved = ref.frames[g.moved_at].shadow;
+      EXPECT_EQ(before.pages_drawn, 0u) << g.name << ": the static frame before the move drew pages";
+      EXPECT_GT(moved.pages_drawn, 0u) << g.name << ": the move invalidated nothing";
+      if (g.caster) EXPECT_LT(moved.pages_drawn, moved.pages_marked) << g.name << ": a caster move redrew every page";
+      else EXPECT_EQ(moved.pages_drawn, moved.pages_marked) << g.name << ": a light move kept cached pages";
+    }
+  }
+
   RenderRequest vk = cpu;
   vk.backend = Backend::kVulkan;
+  if (g.shadows) {
+    vk.out_dir = (out_dir / "vulkan_frames").string();
+    fs::create_directories(vk.out_dir);
+  }
   vk.compare_cpu = true;
   vk.gpu_validate = true;
   vk.output_png = (out_dir / "vulkan.png").string();
@@ -132,6 +176,13 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
                                                << " validation message(s), first: "
                                                << (got.validation_messages.empty() ? "" : got.validation_messages[0]);
   ASSERT_EQ(got.comparisons.size(), ref.frames.size());
+  if (g.shadows)
+    for (size_t f = 0; f < got.comparisons.size(); ++f) {
+      EXPECT_TRUE(got.comparisons[f].shadow_compared) << g.name << " frame " << f;
+      EXPECT_TRUE(got.comparisons[f].shadow_tables_equal) << g.name << " frame " << f;
+      EXPECT_EQ(got.comparisons[f].shadow_texels_differing, 0u) << g.name << " frame " << f;
+      EXPECT_EQ(got.frames[f].shadow, ref.frames[f].shadow) << g.name << " frame " << f;
+    }
   if (g.streamed) {
     // Streaming really ran on both, with pages installed along the path and the pool in use.
     ASSERT_TRUE(sf.streaming) << sf.stream_reason;
@@ -157,6 +208,10 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
     RenderRequest m = vk;
     m.raster = mode;
     m.output_png = (mode_dir / "vulkan.png").string();
+    if (!m.out_dir.empty()) {
+      m.out_dir = (mode_dir / "frames").string();
+      fs::create_directories(m.out_dir);
+    }
     m.diff_png = (mode_dir / "diff.png").string();
     m.failure_dir = mode_dir.string();
     RenderReport r = run_backend(sf, m, {gpu.get(), &memory_form});

@@ -48,13 +48,18 @@ TEST(GpuCli, UnknownDeviceIsAOneLineCodedError) {
   EXPECT_NE(r.output.find("error[GPU_DEVICE_NOT_FOUND]"), std::string::npos) << r.output;
 }
 
-// spec/shadow.md §6: the Vulkan executor has no light sum or shadow steps yet; a scene with
-// lights is refused with one coded line rather than shaded differently from the CPU reference.
-TEST(GpuCli, SceneWithLightsIsRefusedWithACode) {
-  const std::string scene = std::string(VGEO_SOURCE_DIR) + "/tests/shadow/scenes/directional.json";
-  test::CliResult r = test::run_cli("render '" + scene + "' --backend vulkan --no-cache");
-  EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_NE(r.output.find("error[GPU_SHADOWS_UNSUPPORTED]"), std::string::npos) << r.output;
+// spec/shadow.md: a scene with lights renders on Vulkan; --compare cpu covers the shadow pages
+// (page tables and pool texels bit-identical) and the shaded image (the rule).
+TEST(GpuCli, SceneWithLightsComparesShadowPagesAndImage) {
+  for (const char* name : {"directional.json", "spot.json", "point.json"}) {
+    const std::string scene = std::string(VGEO_SOURCE_DIR) + "/tests/shadow/scenes/" + name;
+    test::CliResult r = test::run_cli("render '" + scene + "' --backend vulkan --compare cpu --no-cache");
+    EXPECT_EQ(r.exit_code, 0) << name << "\n" << r.output;
+    EXPECT_NE(r.output.find("compare cpu, shadow pages: 1 frame(s); page tables equal; pool texels differing 0"),
+              std::string::npos)
+        << name << "\n" << r.output;
+    EXPECT_NE(r.output.find("rule holds"), std::string::npos) << name << "\n" << r.output;
+  }
 }
 
 TEST(GpuCli, CompareNeedsTheVulkanBackend) {

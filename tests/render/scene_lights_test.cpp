@@ -80,5 +80,69 @@ TEST(SceneLights, BadFieldsFailWithStableCodes) {
   EXPECT_EQ(code_of("[]"), "");
 }
 
+// spec/scene.md §Moves: a light's or an instance's new fields at a frame, applied in file order
+// and kept; every bad move one coded error.
+std::string move_code(const std::string& moves) {
+  const auto lights = parse_scene_lights(nlohmann::json::parse(R"([
+      {"type": "directional", "direction": [0, -1, 0]}, {"type": "point", "position": [0, 1, 0]}])"), "<test>");
+  try {
+    parse_scene_moves(nlohmann::json::parse(moves), "<test>", lights, 2);
+  } catch (const VgeoError& e) {
+    EXPECT_EQ(e.error().line().find('\n'), std::string::npos);
+    return e.error().code;
+  }
+  return "";
+}
+
+TEST(SceneMoves, MovesApplyAtTheirFrameAndStay) {
+  std::vector<Light> lights = parse_scene_lights(nlohmann::json::parse(R"([
+      {"type": "directional", "direction": [0, -1, 0]}, {"type": "point", "position": [0, 1, 0]}])"), "<test>");
+  std::vector<CullInstance> instances(2);
+  const auto moves = parse_scene_moves(nlohmann::json::parse(R"([
+      {"frame": 2, "light": 0, "direction": [0, 0, -3]}, {"frame": 2, "light": 1, "position": [1, 2, 3]},
+      {"frame": 1, "instance": 1, "translation": [4, 5, 6]}])"), "<test>", lights, 2);
+  apply_scene_moves(moves, 0, &lights, &instances);
+  EXPECT_EQ(lights[0].direction.y, -1.0);
+  EXPECT_EQ(instances[1].object_to_world.at(0, 3), 0.0);
+  apply_scene_moves(moves, 1, &lights, &instances);
+  EXPECT_EQ(instances[1].object_to_world.at(0, 3), 4.0);
+  EXPECT_EQ(instances[1].object_to_world.at(2, 3), 6.0);
+  EXPECT_EQ(instances[1].object_to_world.at(0, 0), 1.0);  // only the translation changes
+  apply_scene_moves(moves, 2, &lights, &instances);
+  EXPECT_EQ(lights[0].direction.z, -1.0);  // normalized
+  EXPECT_EQ(lights[1].position.z, 3.0);
+  EXPECT_EQ(instances[1].object_to_world.at(1, 3), 5.0);  // kept
+}
+
+TEST(SceneMoves, BadMovesFailWithStableCodes) {
+  struct Case {
+    const char* moves;
+    const char* code;
+  };
+  const Case cases[] = {
+      {R"({})", "SCENE_FIELD_TYPE"},
+      {R"([{"light": 0, "direction": [0, -1, 0]}])", "SCENE_MISSING_FIELD"},
+      {R"([{"frame": 1.5, "light": 0, "direction": [0, -1, 0]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": -1, "light": 0, "direction": [0, -1, 0]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 100001, "light": 0, "direction": [0, -1, 0]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 1, "direction": [0, -1, 0]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 1, "light": 0, "instance": 0, "direction": [0, -1, 0]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 1, "light": 2, "direction": [0, -1, 0]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 1, "instance": 2, "translation": [0, 0, 0]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 1, "light": 0, "position": [0, 0, 0]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 1, "light": 1, "direction": [0, -1, 0]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 1, "light": 0}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 1, "light": 0, "direction": [0, 0, 0]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 1, "instance": 0, "translation": [0, 0, 2e12]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 1, "light": 0, "translation": [0, 0, 0]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 1, "instance": 0}])", "SCENE_MISSING_FIELD"},
+      {R"([{"frame": 1, "instance": 0, "position": [0, 0, 0], "translation": [0, 0, 0]}])", "SCENE_BAD_MOVE"},
+      {R"([{"frame": 1, "instance": 0, "translation": [0, 0]}])", "SCENE_FIELD_TYPE"},
+      {R"([{"frame": 1, "instance": 0, "translation": [0, 0, 0], "speed": 1}])", "SCENE_UNKNOWN_FIELD"},
+  };
+  for (const Case& c : cases) EXPECT_EQ(move_code(c.moves), c.code) << c.moves;
+  EXPECT_EQ(move_code("[]"), "");
+}
+
 }  // namespace
 }  // namespace vgeo

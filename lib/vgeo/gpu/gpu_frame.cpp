@@ -9,6 +9,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <unordered_map>
 
 #include "vgeo/core/error.h"
 #include "vgeo/core/lod.h"
@@ -90,10 +91,187 @@ void upload_raster_inputs(GpuRenderer& r, const std::vector<Mat4>& object_to_cli
   std::memset(r.vis.mapped, 0, vis_bytes);
 }
 
+static_assert(kGpuShadowPageTexels == kShadowPageTexels);
+constexpr size_t kShadowPageTexelCount = size_t(kShadowPageTexels) * kShadowPageTexels;
+
+// The shadow raster's inputs (GpuRenderer's shadow_* buffers) from a draw list; returns the
+// element count.
+uint32_t upload_shadow_elements(GpuRenderer& r, const RenderScene& scene, const ShadowDrawList& list) {
+  GpuContext& gpu = *r.gpu;
+  // One GpuInstance per (view, instance) some element draws (not views × instances: most
+  // instances overlap few views), numbered in order of first use.
+  const uint64_t instance_count = scene.instances.size();
+  std::unordered_map<uint64_t, uint32_t> view_instance;
+  std::vector<GpuInstance> instances;
+  std::vector<GpuShadowPage> pages(list.pages.size());
+  std::vector<GpuVisibleCluster> elements;
+  std::vector<uint32_t> element_page;
+  for (size_t d = 0; d < list.pages.size(); ++d) {
+    const ShadowPageDraw& p = list.pages[d];
+    pages[d] = {p.raster.virtual_width, p.raster.window_x, p.raster.window_y, p.slot, p.raster.z_near, {0, 0, 0}};
+    for (const VisibleCluster& c : list.clusters[d]) {
+      auto [it, added] = view_instance.try_emplace(p.view * instance_count + c.instance, uint32_t(instances.size()));
+      if (added) {
+        GpuInstance& g = instances.emplace_back();
+        std::memcpy(g.object_to_clip, list.object_to_clip[p.view][c.instance].m, sizeof(g.object_to_clip));
+        g.mesh = scene.instances[c.instance].mesh;
+      }
+      elements.push_back({it->second, c.cluster});
+      element_page.push_back(uint32_t(d));
+    }
+  }
+  // An element's index is the key's visible-cluster field (raster.glsl's big-triangle ids).
+  if (elements.size() > kMaxVisibleClusters)
+    fail("GPU_SCENE_TOO_LARGE", gpu.device_name,
+         std::to_string(elements.size()) + " cluster-page draws of the shadow pages, more than one raster pass "
+             "addresses (" + std::to_string(kMaxVisibleClusters) + ")",
+         kExitUsage);
+  auto put = [&](GpuBuffer& b, const auto& data) {
+    const uint64_t bytes = data.size() * sizeof(data[0]);
+    check_buffer_range(gpu, bytes, "the shadow raster's inputs");
+    ensure_size(gpu, b, bytes);
+    if (bytes) std::memcpy(b.mapped, data.data(), bytes);
+  };
+  put(r.shadow_instances, instances);
+  put(r.shadow_pages, pages);
+  put(r.shadow_elements, elements);
+  put(r.shadow_element_page, element_page);
+  return uint32_t(elements.size());
+}
+
+// Draws the listed pages into r.shadow_pool (already holding the pool, drawn slots cleared).
+void raster_shadow_pages(GpuRenderer& r, uint32_t element_count) {
+  GpuRecorder& rec = *r.recorder;
+  const GpuGeometryBuffers g{&r.pages, &r.locations, &r.meshes, &r.shadow_instances, &r.shadow_elements, &r.vis};
+  const GpuShadowRasterBuffers buffers{{g, &r.counters}, &r.shadow_pages, &r.shadow_element_page, &r.shadow_pool};
+  // Bound but not read by the shadow variant: the visibility buffer and the path words (a
+  // renderer that drew no primary view yet has neither).
+  ensure_size(*r.gpu, r.vis, sizeof(uint64_t));
+  ensure_size(*r.gpu, r.raster->paths, sizeof(uint32_t));
+  begin_commands(rec);
+  cmd_fill(rec, r.counters, 0);
+  record_gpu_shadow_raster(rec, *r.raster, buffers, element_count);
+  continue_commands(rec);  // the host cuts the deferred big triangles into tiles (spec/raster.md §13.5)
+  RasterSplitStats tiled;
+  record_gpu_shadow_raster_tiles(rec, *r.raster, buffers, element_count, &tiled);
+  submit_and_wait(rec);
+  const uint32_t overflow = r.counters.data<uint32_t>()[kGpuRasterOverflowWord];
+  if (overflow != 0)  // never a silently wrong page (raster_range's guard)
+    fail("GPU_SCENE_TOO_LARGE", r.gpu->device_name,
+         std::to_string(overflow) + " shadow-page triangle(s) needed more pixel-loop iterations than the compute "
+             "rasterizer's loop budget (spec/raster.md §13.5)",
+         kExitUsage);
+}
+
+// Row-major rows 0..2 of a Mat4d (GpuShadowMap, GpuLitFrame).
+void put_rows(const Mat4d& m, double* out, int rows) {
+  for (int row = 0; row < rows; ++row)
+    for (int col = 0; col < 4; ++col) out[4 * row + col] = m.at(row, col);
+}
+
+// The lit view's lights and shadow maps (spec/shadow.md §2, §6) for shade.comp: `shadows` the
+// frame's maps when shadow_draw ran (r.shadow_pool then holds the pool), else null (every
+// shadow term 1, as shade.cpp without ShadeInput::shadows).
+void upload_lit_frame(GpuRenderer& r, const RenderScene& scene, const RenderSettings& settings, const Frame& out,
+                      const ShadowFrame* shadows) {
+  GpuContext& gpu = *r.gpu;
+  GpuLitFrame frame{};
+  put_rows(rigid_inverse(out.view.world_to_view), frame.view_to_world, 3);
+  put_rows(out.view.world_to_view, frame.world_to_view, 3);
+  frame.z_near = out.view.z_near;
+  frame.light_count = settings.view == ShadeView::kLit ? uint32_t(scene.lights.size()) : 0u;
+  const ShadowOptions options = shadows ? shadows->options : ShadowOptions{};
+  frame.tau = double(options.threshold_px);  // shadow_term's τ, τ_s
+  frame.tau_s = double(kShadowLodBias) * frame.tau;
+  frame.max_slope = kMaxShadowSlope;
+  frame.pages_per_side = options.pages_per_side;
+  uint32_t mips = 1;
+  while (mips < kShadowMips && (options.pages_per_side >> mips) > 0) ++mips;  // virtual_shadow.cpp mip_count
+  frame.mips = mips;
+  frame.directional_levels = kDirectionalLevels;
+  frame.trace_max_steps = kShadowTraceMaxSteps;
+  std::vector<GpuShadeLight> lights(std::max<size_t>(scene.lights.size(), 1));
+  for (size_t i = 0; i < scene.lights.size(); ++i) {
+    const Light& l = scene.lights[i];
+    GpuShadeLight& g = lights[i];
+    g = {};
+    g.position[0] = l.position.x, g.position[1] = l.position.y, g.position[2] = l.position.z;
+    g.direction[0] = l.direction.x, g.direction[1] = l.direction.y, g.direction[2] = l.direction.z;
+    g.cos_half_cone = std::cos(0.5 * l.cone_radians);
+    std::copy(l.color.begin(), l.color.end(), g.color);
+    g.intensity = l.intensity;
+    g.type = uint32_t(l.type);
+    const bool has_maps = shadows && i < shadows->light_first_map.size() && shadows->light_first_map[i] != kNoShadowSlot;
+    g.shadows = l.shadows && has_maps ? 1u : 0u;
+    g.first_map = has_maps ? shadows->light_first_map[i] : 0u;
+    g.map_count = has_maps ? shadows->light_map_count[i] : 0u;
+  }
+  std::vector<GpuShadowMap> maps(shadows ? std::max<size_t>(shadows->maps.size(), 1) : 1);
+  for (size_t k = 0; shadows && k < shadows->maps.size(); ++k) {
+    const ShadowMapView& m = shadows->maps[k];
+    GpuShadowMap& g = maps[k];
+    g = {};
+    put_rows(m.world_to_light, g.world_to_light, 3);
+    put_rows(m.light_to_clip, g.light_to_clip, 4);
+    g.eye[0] = m.eye.x, g.eye[1] = m.eye.y, g.eye[2] = m.eye.z;
+    g.tan_half = m.tan_half;
+    g.z_near = m.z_near;
+    g.side = m.side;
+    g.depth_range = m.depth_range;
+    g.type = uint32_t(m.type);
+    g.ortho = m.ortho ? 1u : 0u;
+    g.table_offset = m.table_offset;
+  }
+  const std::vector<uint32_t> no_table{kNoShadowSlot};
+  const std::vector<uint32_t>& table = shadows && !shadows->page_table.empty() ? shadows->page_table : no_table;
+  auto put = [&](GpuBuffer& b, const void* data, uint64_t bytes) {
+    check_buffer_range(gpu, bytes, "the lit view's lights and shadow maps");
+    ensure_size(gpu, b, bytes);
+    std::memcpy(b.mapped, data, bytes);
+  };
+  put(r.lit_frame, &frame, sizeof frame);
+  put(r.shade_lights, lights.data(), lights.size() * sizeof(GpuShadeLight));
+  put(r.shadow_maps, maps.data(), maps.size() * sizeof(GpuShadowMap));
+  put(r.shadow_table, table.data(), table.size() * sizeof(uint32_t));
+  if (!shadows) ensure_size(gpu, r.shadow_pool, sizeof(float));  // bound, never read
+}
+
+// Step shadow_mark on the device (shadow_mark.comp, spec/shadow.md §4): out->shadow (made by
+// begin_shadow_mark) gets the needed pages of the covered pixels of r.vis.
+void shadow_mark_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& settings, Frame* out) {
+  GpuContext& gpu = *r.gpu;
+  ShadowFrame& frame = out->shadow;
+  upload_lit_frame(r, scene, settings, *out, &frame);
+  const uint64_t bytes = std::max<uint64_t>(frame.needed.size(), 1) * sizeof(uint32_t);
+  check_buffer_range(gpu, bytes, "the shadow page marks");
+  ensure_size(gpu, r.shadow_needed, bytes);
+  std::memset(r.shadow_needed.mapped, 0, bytes);
+  GpuShadeParams params{};
+  params.tan_half_x = out->view.tan_half_x;
+  params.tan_half_y = out->view.tan_half_y;
+  params.width = out->view.width;
+  params.height = out->view.height;
+  const uint64_t pixels = uint64_t(params.width) * params.height;
+  GpuRecorder& rec = *r.recorder;
+  begin_commands(rec);
+  cmd_dispatch(rec, r.shadow_mark,
+               gpu_bindings(kMarkBindingCount, {{kMarkBindVis, &r.vis},
+                                                {kMarkBindLitFrame, &r.lit_frame},
+                                                {kMarkBindLights, &r.shade_lights},
+                                                {kMarkBindShadowMaps, &r.shadow_maps},
+                                                {kMarkBindNeeded, &r.shadow_needed}}),
+               &params, uint32_t((pixels + kShadeGroupSize - 1) / kShadeGroupSize));
+  submit_and_wait(rec);
+  const uint32_t* marks = r.shadow_needed.data<uint32_t>();
+  for (size_t e = 0; e < frame.needed.size(); ++e) frame.needed[e] = uint8_t(marks[e] != 0);
+  for (uint8_t n : frame.needed) frame.pages_marked += n;  // as mark_shadow_pages counts
+}
+
 // shade.cpp shade_frame on the GPU: every view, from the visibility buffer now in r.vis.
 void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& settings, const Camera& camera,
-                Frame* out) {
+                const ShadowFrame* shadows, Frame* out) {
   GpuContext& gpu = *r.gpu;
+  upload_lit_frame(r, scene, settings, *out, shadows);
   const ShadeInput defaults;
   std::vector<GpuShadeInstance> si(scene.instances.size());
   for (size_t i = 0; i < si.size(); ++i) {
@@ -152,7 +330,12 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
                                    {kShadeBindClusters, &r.shade_clusters},
                                    {kShadeBindMaterials, &r.materials},
                                    {kShadeBindOverdraw, &r.overdraw},
-                                   {kShadeBindImage, &r.image}});
+                                   {kShadeBindImage, &r.image},
+                                   {kShadeBindLitFrame, &r.lit_frame},
+                                   {kShadeBindLights, &r.shade_lights},
+                                   {kShadeBindShadowMaps, &r.shadow_maps},
+                                   {kShadeBindShadowTable, &r.shadow_table},
+                                   {kShadeBindShadowPool, &r.shadow_pool}});
   cmd_dispatch(rec, r.shade, gpu_bindings(kShadeBindingCount, bindings), &params, uint32_t((pixels + kShadeGroupSize - 1) / kShadeGroupSize));
   submit_and_wait(rec);
 
@@ -165,6 +348,26 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
 }
 
 }  // namespace
+
+void draw_shadow_pages_vulkan(GpuRenderer& r, const RenderScene& scene, ThreadPool& pool, ShadowFrame* frame,
+                              ShadowCache* cache) {
+  ShadowCache local;
+  ShadowCache* c = cache ? cache : &local;
+  const ShadowDrawList list = begin_shadow_draw(scene.meshes, scene.instances, scene.lights, pool, frame, c);
+  GpuContext& gpu = *r.gpu;
+  const uint64_t pool_bytes = c->texels.size() * sizeof(float);
+  check_buffer_range(gpu, pool_bytes, "the shadow page pool");
+  ensure_size(gpu, r.shadow_pool, std::max<uint64_t>(pool_bytes, 4));
+  if (pool_bytes) std::memcpy(r.shadow_pool.mapped, c->texels.data(), pool_bytes);
+  float* device_pool = r.shadow_pool.data<float>();
+  for (const ShadowPageDraw& p : list.pages)
+    std::memset(device_pool + p.slot * kShadowPageTexelCount, 0, kShadowPageTexelCount * sizeof(float));
+  if (!list.pages.empty()) raster_shadow_pages(r, upload_shadow_elements(r, scene, list));
+  for (const ShadowPageDraw& p : list.pages)
+    std::memcpy(c->texels.data() + p.slot * kShadowPageTexelCount, device_pool + p.slot * kShadowPageTexelCount,
+                kShadowPageTexelCount * sizeof(float));
+  end_shadow_draw(scene.instances, scene.lights, frame, c, cache != nullptr);
+}
 
 namespace {
 
@@ -185,11 +388,9 @@ class VulkanFrameExecutor final : public FrameExecutor {
     const RenderSettings& settings = in.settings;
     FrameHistory* history = in.history;
     GpuContext& gpu = *r.gpu;
-    // spec/shadow.md §6: lights and shadows have no Vulkan steps yet; refuse rather than shade
-    // differently from the CPU reference.
-    if (!scene.lights.empty())
-      fail("GPU_SHADOWS_UNSUPPORTED", "vulkan", "scene lights and shadows are not supported by the Vulkan executor yet",
-           kExitUsage);
+    // Lights and shadows (spec/shadow.md) run here as on the CPU: the shadow test's double
+    // arithmetic needs shaderFloat64, which create_gpu_context requires of every device (the
+    // raster's arithmetic needs it too), so no lit scene is refused.
     object_to_clip_ = begin_frame(scene, camera, out);  // the CPU executor's matrices, bit for bit
     std::vector<GpuInstance> instances(scene.instances.size());
     for (size_t i = 0; i < instances.size(); ++i) {
@@ -308,11 +509,21 @@ class VulkanFrameExecutor final : public FrameExecutor {
                       out_->instance_views, out_->view, in_.pool, &out_->overdraw);
         break;
       case FrameStep::kShade:
-        shade_pass(r_, in_.scene, in_.settings, in_.camera, out_);
+        shade_pass(r_, in_.scene, in_.settings, in_.camera, shadows_drawn_ ? &out_->shadow : nullptr, out_);
         break;
       case FrameStep::kShadowMark:
+        // The maps on the host (a few matrices per light), the marks on the device from its
+        // visibility buffer (shadow_mark.comp: the reference's texel selection in its
+        // arithmetic); the needed set is read back for the allocation and the cull.
+        begin_shadow_mark(in_, out_);
+        shadow_mark_pass(r_, in_.scene, in_.settings, out_);
+        shadows_drawn_ = true;
+        break;
       case FrameStep::kShadowDraw:
-        fail("GPU_SHADOWS_UNSUPPORTED", "vulkan", "shadow steps are not supported by the Vulkan executor yet", kExitUsage);
+        draw_shadow_pages_vulkan(r_, in_.scene, in_.pool, &out_->shadow,
+                                 in_.history ? &in_.history->shadow_cache : nullptr);
+        r.shadow = shadow_frame_stats(out_->shadow);
+        break;
     }
     return r;
   }
@@ -359,6 +570,7 @@ class VulkanFrameExecutor final : public FrameExecutor {
   }
 
   GpuRenderer& r_;
+  bool shadows_drawn_ = false;  // shadow_mark ran: the shade pass applies the shadow terms
   const FrameInputs& in_;
   Frame* out_;
   RasterSplitStats* split_;  // clusters and triangles per raster path, summed over the passes

@@ -81,6 +81,15 @@ GpuRendererPtr create_gpu_renderer_streamed(GpuContext& gpu, const RenderScene& 
                                             const GpuRendererOptions& options = {});
 const GpuPoolStats& gpu_pool_stats(const GpuRenderer& renderer);
 
+// Step shadow_draw on the device (spec/shadow.md §5): the CPU reference's cache, allocation and
+// multi-view cull (begin_shadow_draw), then every page to draw rasterized by the compute
+// rasterizer scissored to the page (one element per cluster and overlapped page) into the
+// device's pool, bit-identical to draw_shadow_pages. The pool is uploaded from cache->texels
+// first (the history is the truth, as for the HZB) and the drawn slots are read back into it,
+// so frame->pool_texels reads what the device holds. `cache` null: nothing is kept (as the CPU).
+void draw_shadow_pages_vulkan(GpuRenderer& renderer, const RenderScene& scene, ThreadPool& pool, ShadowFrame* frame,
+                              ShadowCache* cache);
+
 // Renders one frame of in.scene, a scene the renderer was made for (as render_frame:
 // plan_frame, then the Vulkan executor); FrameStats::raster_split counts the frame's clusters
 // and triangles per raster path. in.streaming is non-null exactly for a streamed renderer: the

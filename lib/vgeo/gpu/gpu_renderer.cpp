@@ -38,6 +38,7 @@ GpuRendererPtr create_renderer_common(GpuContext& gpu, const RenderScene& scene,
   r->recorder = create_gpu_recorder(gpu);
   r->raster = create_gpu_raster_passes(gpu, cluster_raster_infos(scene));
   r->shade = create_compute_pipeline(gpu, kShaderShade, kShadeBindingCount, sizeof(GpuShadeParams));
+  r->shadow_mark = create_compute_pipeline(gpu, kShaderShadowMark, kMarkBindingCount, sizeof(GpuShadeParams));
   r->counters = create_gpu_buffer(gpu, 64);
   std::vector<GpuMaterial> materials(scene.materials.size());
   for (size_t i = 0; i < materials.size(); ++i)

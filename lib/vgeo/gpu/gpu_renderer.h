@@ -18,10 +18,18 @@ struct GpuRenderer {
   std::unique_ptr<GpuRecorder> recorder;
   std::unique_ptr<GpuRasterPasses> raster;
   GpuRendererOptions options;
-  ComputePipeline shade;
+  ComputePipeline shade, shadow_mark;  // shade.comp, shadow_mark.comp
   GpuBuffer pages, locations, meshes, materials;
   // Per frame, grown on demand.
   GpuBuffer instances, visible, vis, counters, shade_instances, shade_clusters, overdraw, image;
+  // The virtual shadow pages (spec/shadow.md §5, draw_shadow_pages_vulkan): a GpuInstance per
+  // (view, instance), the elements (cluster × page), each element's page, the pages drawn
+  // (GpuShadowPage) and the physical pool (float bits, ShadowCache::texels' layout).
+  GpuBuffer shadow_instances, shadow_elements, shadow_element_page, shadow_pages, shadow_pool;
+  // The lit view's lights and shadow maps (shade.comp; GpuLitFrame, GpuShadeLight, GpuShadowMap,
+  // the frame's page table).
+  GpuBuffer lit_frame, shade_lights, shadow_maps, shadow_table;
+  GpuBuffer shadow_needed;  // shadow_mark.comp's marks: uint per page-table entry
   // The cull passes (gpu_cull.h): DAG records once, a working set per view size.
   GpuTraversal traversal = kDefaultGpuTraversal;
   GpuCullPipelines cull;

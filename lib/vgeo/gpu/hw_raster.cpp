@@ -173,6 +173,71 @@ std::vector<const GpuBuffer*> sw_buffers(const GpuRasterPasses& p, const GpuRast
   return gpu_bindings(kRasterBindingCount, bindings);
 }
 
+// raster.glsl's bindings with VGEO_RASTER_SHADOW_PASS.
+std::vector<const GpuBuffer*> shadow_buffers(const GpuRasterPasses& p, const GpuShadowRasterBuffers& b) {
+  std::vector<GpuBinding> bindings = geometry_bindings(b.raster.geometry);
+  bindings.insert(bindings.end(), {{kRasterBindCounters, b.raster.counters},
+                                   {kRasterBindPaths, &p.paths},
+                                   {kRasterBindBig, &p.big_triangles},
+                                   {kRasterBindTiles, &p.tiles},
+                                   {kRasterBindShadowPages, b.pages},
+                                   {kRasterBindShadowElementPage, b.element_page},
+                                   {kRasterBindShadowPool, b.pool}});
+  return gpu_bindings(kRasterShadowBindingCount, bindings);
+}
+
+// The tile pass of a cluster pass's deferred big triangles (spec/raster.md §13.5): each box in
+// tiles of kGpuRasterTileSize² from its corner, row by row, dispatched on `tiles_pipeline`
+// with `params` (tile_count and groups_x set here).
+void record_tiles(GpuRecorder& rec, GpuRasterPasses& p, const GpuBuffer& counters, const ComputePipeline& tiles_pipeline,
+                  const std::vector<const GpuBuffer*>& buffers, const GpuRasterParams& base, RasterSplitStats* split) {
+  const uint32_t count = counters.data<uint32_t>()[kGpuRasterBigWord];
+  if (count == 0) return;
+  if (count > kGpuRasterMaxBigTriangles)
+    fail("GPU_SCENE_TOO_LARGE", p.context->device_name,
+         std::to_string(count) + " triangles with a pixel box over " + std::to_string(kGpuRasterTileSize) +
+             " px in one raster pass, more than the compute rasterizer's big-triangle list holds (" +
+             std::to_string(kGpuRasterMaxBigTriangles) + ", spec/raster.md §13.5): use --raster hw or auto",
+         kExitUsage);
+  // The tile pass reads the list (and the big triangles) while the next batch waits for
+  // continue_commands.
+  const GpuBigTriangle* big = p.big_triangles.data<GpuBigTriangle>();
+  std::vector<GpuRasterTile> tiles;
+  const int32_t size = int32_t(kGpuRasterTileSize);
+  auto flush = [&] {
+    if (tiles.empty()) return;
+    ensure_gpu_buffer(*p.context, p.tiles, tiles.size() * sizeof(GpuRasterTile));
+    std::memcpy(p.tiles.mapped, tiles.data(), tiles.size() * sizeof(GpuRasterTile));
+    GpuRasterParams params = base;
+    params.tile_count = uint32_t(tiles.size());
+    const uint32_t groups = (params.tile_count + kGpuRasterGroupSize - 1) / kGpuRasterGroupSize;
+    params.groups_x = std::min(groups, kGpuMaxGroupsX);
+    cmd_dispatch(rec, tiles_pipeline, buffers, &params, params.groups_x, (groups + params.groups_x - 1) / params.groups_x);
+    split->sw_tiles += tiles.size();
+    tiles.clear();
+  };
+  for (uint32_t i = 0; i < count; ++i)
+    for (int32_t y = big[i].min_py; y <= big[i].max_py; y += size)
+      for (int32_t x = big[i].min_px; x <= big[i].max_px; x += size) {
+        if (tiles.size() == kGpuRasterTilesPerDispatch) {
+          flush();
+          continue_commands(rec);  // the dispatch has read its tiles before the list is rewritten
+        }
+        tiles.push_back({i, x, y, 0});
+      }
+  flush();
+  split->sw_tiled_triangles += count;
+}
+
+// The shadow raster's push constants: back faces drawn (spec/shadow.md §5); the viewport,
+// window and z_near come per element from its GpuShadowPage.
+GpuRasterParams shadow_params(uint32_t element_count) {
+  GpuRasterParams params{};
+  params.visible_count = element_count;
+  params.cull_backfaces = 0u;
+  return params;
+}
+
 }  // namespace
 
 std::vector<GpuBinding> geometry_bindings(const GpuGeometryBuffers& g) {
@@ -195,6 +260,9 @@ std::unique_ptr<GpuRasterPasses> create_gpu_raster_passes(GpuContext& gpu,
   p->sw = create_compute_pipeline(gpu, kShaderRaster, kRasterBindingCount, sizeof(GpuRasterParams));
   p->sw_tiles = create_compute_pipeline(gpu, kShaderRasterTiles, kRasterBindingCount, sizeof(GpuRasterParams));
   p->split = create_compute_pipeline(gpu, kShaderRasterSplit, kSplitBindingCount, sizeof(GpuRasterSplitParams));
+  p->shadow = create_compute_pipeline(gpu, kShaderRasterShadow, kRasterShadowBindingCount, sizeof(GpuRasterParams));
+  p->shadow_tiles =
+      create_compute_pipeline(gpu, kShaderRasterShadowTiles, kRasterShadowBindingCount, sizeof(GpuRasterParams));
   create_hw_pipeline(gpu, *p);
   p->cluster_info = create_gpu_buffer(gpu, cluster_info.size() * sizeof(GpuClusterRasterInfo));
   if (!cluster_info.empty())
@@ -261,43 +329,20 @@ void record_gpu_raster(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuff
 void record_gpu_raster_tiles(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuffers& b, const GpuRasterRequest& q,
                              RasterSplitStats* split) {
   if (q.mode == GpuRasterMode::kHw) return;
-  const uint32_t count = b.counters->data<uint32_t>()[kGpuRasterBigWord];
-  if (count == 0) return;
-  if (count > kGpuRasterMaxBigTriangles)
-    fail("GPU_SCENE_TOO_LARGE", p.context->device_name,
-         std::to_string(count) + " triangles with a pixel box over " + std::to_string(kGpuRasterTileSize) +
-             " px in one raster pass, more than the compute rasterizer's big-triangle list holds (" +
-             std::to_string(kGpuRasterMaxBigTriangles) + ", spec/raster.md §13.5): use --raster hw or auto",
-         kExitUsage);
-  // Each box in tiles of kGpuRasterTileSize² from its corner, row by row; the tile pass reads
-  // the list (and the big triangles) while the next batch waits for continue_commands.
-  const GpuBigTriangle* big = p.big_triangles.data<GpuBigTriangle>();
-  std::vector<GpuRasterTile> tiles;
-  const int32_t size = int32_t(kGpuRasterTileSize);
-  auto flush = [&] {
-    if (tiles.empty()) return;
-    ensure_gpu_buffer(*p.context, p.tiles, tiles.size() * sizeof(GpuRasterTile));
-    std::memcpy(p.tiles.mapped, tiles.data(), tiles.size() * sizeof(GpuRasterTile));
-    GpuRasterParams params = sw_params(q);
-    params.tile_count = uint32_t(tiles.size());
-    const uint32_t groups = (params.tile_count + kGpuRasterGroupSize - 1) / kGpuRasterGroupSize;
-    params.groups_x = std::min(groups, kGpuMaxGroupsX);
-    cmd_dispatch(rec, p.sw_tiles, sw_buffers(p, b), &params, params.groups_x,
-                 (groups + params.groups_x - 1) / params.groups_x);
-    split->sw_tiles += tiles.size();
-    tiles.clear();
-  };
-  for (uint32_t i = 0; i < count; ++i)
-    for (int32_t y = big[i].min_py; y <= big[i].max_py; y += size)
-      for (int32_t x = big[i].min_px; x <= big[i].max_px; x += size) {
-        if (tiles.size() == kGpuRasterTilesPerDispatch) {
-          flush();
-          continue_commands(rec);  // the dispatch has read its tiles before the list is rewritten
-        }
-        tiles.push_back({i, x, y, 0});
-      }
-  flush();
-  split->sw_tiled_triangles += count;
+  record_tiles(rec, p, *b.counters, p.sw_tiles, sw_buffers(p, b), sw_params(q), split);
+}
+
+void record_gpu_shadow_raster(GpuRecorder& rec, GpuRasterPasses& p, const GpuShadowRasterBuffers& b,
+                              uint32_t element_count) {
+  GpuRasterParams params = shadow_params(element_count);
+  params.groups_x = std::min(element_count, kGpuMaxGroupsX);
+  const uint32_t groups_y = params.groups_x ? (element_count + params.groups_x - 1) / params.groups_x : 0;
+  cmd_dispatch(rec, p.shadow, shadow_buffers(p, b), &params, params.groups_x, groups_y);
+}
+
+void record_gpu_shadow_raster_tiles(GpuRecorder& rec, GpuRasterPasses& p, const GpuShadowRasterBuffers& b,
+                                    uint32_t element_count, RasterSplitStats* split) {
+  record_tiles(rec, p, *b.raster.counters, p.shadow_tiles, shadow_buffers(p, b), shadow_params(element_count), split);
 }
 
 RasterSplitStats read_gpu_raster_split(const GpuRasterPasses& p) {

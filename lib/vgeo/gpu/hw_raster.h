@@ -43,6 +43,7 @@ inline constexpr float kAutoHwMinTriangleAreaPx = 64.0f;
 struct GpuRasterPasses {
   GpuContext* context = nullptr;
   ComputePipeline sw, sw_tiles, split;  // raster.comp, raster_tiles.comp, raster_split.comp
+  ComputePipeline shadow, shadow_tiles;  // raster_shadow.comp, raster_shadow_tiles.comp
   VkDescriptorSetLayout hw_set_layout = VK_NULL_HANDLE;
   VkPipelineLayout hw_layout = VK_NULL_HANDLE;
   VkPipeline hw = VK_NULL_HANDLE;
@@ -105,6 +106,21 @@ void record_gpu_raster(GpuRecorder& rec, GpuRasterPasses& passes, const GpuRaste
 // `split`. Throws GPU_SCENE_TOO_LARGE beyond kGpuRasterMaxBigTriangles big triangles.
 void record_gpu_raster_tiles(GpuRecorder& rec, GpuRasterPasses& passes, const GpuRasterBuffers& buffers,
                              const GpuRasterRequest& request, RasterSplitStats* split);
+// The virtual shadow pages (spec/shadow.md §5) by the compute rasterizer: `geometry.visible`
+// holds the elements (one per cluster and page it is drawn into), `geometry.instances` one
+// GpuInstance per (view, instance), `element_page` each element's index into `pages`
+// (GpuShadowPage), whose texels are atomicMax'ed into `pool` (float bits; the caller clears
+// the drawn slots). The record_gpu_raster / record_gpu_raster_tiles pair for shadow pages:
+// the cluster pass, then (after continue_commands) the deferred big triangles' tiles.
+struct GpuShadowRasterBuffers {
+  GpuRasterBuffers raster;
+  const GpuBuffer *pages, *element_page, *pool;
+};
+void record_gpu_shadow_raster(GpuRecorder& rec, GpuRasterPasses& passes, const GpuShadowRasterBuffers& buffers,
+                              uint32_t element_count);
+void record_gpu_shadow_raster_tiles(GpuRecorder& rec, GpuRasterPasses& passes, const GpuShadowRasterBuffers& buffers,
+                                    uint32_t element_count, RasterSplitStats* split);
+
 // After submit_and_wait: the split of the last recorded range.
 RasterSplitStats read_gpu_raster_split(const GpuRasterPasses& passes);
 

@@ -57,6 +57,12 @@ VGEO_CONSTANT uint32_t kRasterBindPaths = 7u;     // kGpuRasterPath* per visible
 VGEO_CONSTANT uint32_t kRasterBindBig = 8u;       // GpuBigTriangle[]
 VGEO_CONSTANT uint32_t kRasterBindTiles = 9u;     // GpuRasterTile[]
 VGEO_CONSTANT uint32_t kRasterBindingCount = 10u;
+// raster_shadow.comp / raster_shadow_tiles.comp (raster.glsl with VGEO_RASTER_SHADOW_PASS):
+// the compute rasterizer's bindings, then the shadow pages (spec/shadow.md §5).
+VGEO_CONSTANT uint32_t kRasterBindShadowPages = 10u;        // GpuShadowPage per page drawn
+VGEO_CONSTANT uint32_t kRasterBindShadowElementPage = 11u;  // page index per element (visible index)
+VGEO_CONSTANT uint32_t kRasterBindShadowPool = 12u;         // float depth bits per pool texel
+VGEO_CONSTANT uint32_t kRasterShadowBindingCount = 13u;
 // The hardware raster pipeline (hw_raster.vert reads the geometry, hw_raster.frag writes the
 // visibility buffer and the counters): the compute rasterizer's first bindings.
 VGEO_CONSTANT uint32_t kHwRasterBindingCount = 7u;
@@ -67,7 +73,20 @@ VGEO_CONSTANT uint32_t kShadeBindClusters = 7u;   // GpuShadeCluster per visible
 VGEO_CONSTANT uint32_t kShadeBindMaterials = 8u;  // GpuMaterial[]
 VGEO_CONSTANT uint32_t kShadeBindOverdraw = 9u;   // uint per pixel (overdraw view)
 VGEO_CONSTANT uint32_t kShadeBindImage = 10u;     // RGBA8 per pixel
-VGEO_CONSTANT uint32_t kShadeBindingCount = 11u;
+VGEO_CONSTANT uint32_t kShadeBindLitFrame = 11u;    // GpuLitFrame
+VGEO_CONSTANT uint32_t kShadeBindLights = 12u;      // GpuShadeLight per scene light
+VGEO_CONSTANT uint32_t kShadeBindShadowMaps = 13u;  // GpuShadowMap per shadow map of the frame
+VGEO_CONSTANT uint32_t kShadeBindShadowTable = 14u; // ShadowFrame::page_table (slot per entry)
+VGEO_CONSTANT uint32_t kShadeBindShadowPool = 15u;  // the physical pool (float depths)
+VGEO_CONSTANT uint32_t kShadeBindingCount = 16u;
+
+// shadow_mark.comp (spec/shadow.md §4): the primary keys, the lit frame's records, the marks.
+VGEO_CONSTANT uint32_t kMarkBindVis = 0u;         // uint64 visibility keys
+VGEO_CONSTANT uint32_t kMarkBindLitFrame = 1u;    // GpuLitFrame
+VGEO_CONSTANT uint32_t kMarkBindLights = 2u;      // GpuShadeLight per scene light
+VGEO_CONSTANT uint32_t kMarkBindShadowMaps = 3u;  // GpuShadowMap per shadow map
+VGEO_CONSTANT uint32_t kMarkBindNeeded = 4u;      // uint per page-table entry (1: needed)
+VGEO_CONSTANT uint32_t kMarkBindingCount = 5u;
 
 // raster_split.comp.
 VGEO_CONSTANT uint32_t kSplitBindMeshes = 0u;           // GpuMesh[]
@@ -89,6 +108,7 @@ VGEO_CONSTANT uint32_t kSmokeBindingCount = 2u;
 // The raster and shade shaders share the geometry bindings and extend them.
 static_assert(kRasterBindCounters == kGeomBindingCount && kShadeBindInstances == kGeomBindingCount);
 static_assert(kHwRasterBindingCount == kRasterBindCounters + 1);  // through the counters
+static_assert(kRasterBindShadowPages == kRasterBindingCount);
 }  // namespace vgeo
 #endif
 #endif

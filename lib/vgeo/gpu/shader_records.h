@@ -112,6 +112,21 @@ VGEO_CONSTANT uint32_t kGpuRasterLoopMargin = 1024u;
 VGEO_CONSTANT uint32_t kGpuRasterOverflowWord = 2u;
 VGEO_CONSTANT uint32_t kGpuRasterBigWord = 3u;
 
+// The virtual shadow pages' raster (shaders/raster_shadow*.comp, spec/shadow.md §5): the
+// texels per page side (shadow/virtual_shadow.h kShadowPageTexels; checked in gpu_frame.cpp) and one
+// record per page drawn this frame. The elements (GpuVisibleCluster, instance = the index of
+// its view's GpuInstance: per view and instance the float object→clip of the light) each name
+// their page (one uint per element).
+VGEO_CONSTANT uint32_t kGpuShadowPageTexels = 128u;
+struct GpuShadowPage {
+  uint32_t viewport;   // R_m: the mip's side, the raster's viewport (virtual_width/height)
+  uint32_t window_x;   // the page's first texel in the mip (RasterOptions::window_x)
+  uint32_t window_y;
+  uint32_t slot;       // pool slot: texels [slot · 128², (slot + 1) · 128²) of the pool
+  float z_near;        // RasterOptions::z_near
+  uint32_t reserved[3];
+};
+
 // Per instance and frame, for shading (shade.cpp): object→view (column-major Mat4d::m) and
 // the normal matrix (cofactor matrix of the 3x3 part, sign-corrected; row-major 3x3).
 struct GpuShadeInstance {
@@ -148,6 +163,56 @@ struct GpuShadeParams {
   uint32_t reserved;
 };
 
+// Scene lights and their virtual shadow maps for shaders/shade.comp's lit view (spec/shadow.md
+// §2, §4, §6; shade.cpp sum_lights, virtual_shadow.cpp select_shadow_texel / shadow_term).
+// Doubles first (std430 aligns them to 8).
+struct GpuShadeLight {
+  double position[3];     // Light::position (spot, point)
+  double direction[3];    // Light::direction (unit; directional, spot)
+  double cos_half_cone;   // spot: std::cos(0.5 · cone_radians), evaluated on the host
+  float color[3];
+  float intensity;
+  uint32_t type;          // LightType
+  uint32_t shadows;       // 1: Light::shadows and the frame drew its maps (shadow term read)
+  uint32_t first_map;     // ShadowFrame::light_first_map
+  uint32_t map_count;     // ShadowFrame::light_map_count
+  uint32_t reserved[2];
+};
+
+// One ShadowMapView: the light view's rows 0..2 and the projection, row-major (Mat4d::at(r, c)
+// at r · 4 + c).
+struct GpuShadowMap {
+  double world_to_light[12];
+  double light_to_clip[16];
+  double eye[3];
+  double tan_half;
+  double z_near;
+  double side;
+  double depth_range;
+  uint32_t type;          // LightType
+  uint32_t ortho;
+  uint32_t table_offset;
+  uint32_t reserved;
+};
+
+// The frame's part of the lit view with lights: view → world (rows 0..2 of the rigid inverse,
+// row-major; its column 3 is the camera position the trace starts from), world → view, the
+// view's near plane, the shadow test's constants (spec/shadow.md §6).
+struct GpuLitFrame {
+  double view_to_world[12];
+  double world_to_view[12];  // ViewParams::world_to_view rows 0..2 (the screen-space trace)
+  double z_near;          // ViewParams::z_near
+  double tau;             // ShadowOptions::threshold_px (τ)
+  double tau_s;           // kShadowLodBias · τ
+  double max_slope;       // kMaxShadowSlope
+  uint32_t light_count;   // 0: the fixed light of GpuShadeParams::light
+  uint32_t pages_per_side;  // ShadowOptions::pages_per_side
+  uint32_t mips;          // mips per map
+  uint32_t directional_levels;  // kDirectionalLevels
+  uint32_t trace_max_steps;     // kShadowTraceMaxSteps
+  uint32_t reserved;
+};
+
 // Workgroup size of the raster shader: one invocation per triangle of a cluster.
 VGEO_CONSTANT uint32_t kGpuRasterGroupSize = 128u;
 // Largest workgroup count per dispatch dimension the host uses (Vulkan guarantees 65535).
@@ -163,6 +228,10 @@ static_assert(sizeof(GpuRasterParams) == 48 && offsetof(GpuRasterParams, z_near)
 static_assert(sizeof(GpuBigTriangle) == 32 && sizeof(GpuRasterTile) == 16);
 static_assert(sizeof(GpuShadeInstance) == 208 && offsetof(GpuShadeInstance, normal_matrix) == 128);
 static_assert(sizeof(GpuShadeCluster) == 16);
+static_assert(sizeof(GpuShadowPage) == 32 && offsetof(GpuShadowPage, z_near) == 16);
+static_assert(sizeof(GpuShadeLight) == 96 && offsetof(GpuShadeLight, color) == 56 && offsetof(GpuShadeLight, type) == 72);
+static_assert(sizeof(GpuShadowMap) == 296 && offsetof(GpuShadowMap, type) == 280);
+static_assert(sizeof(GpuLitFrame) == 248 && offsetof(GpuLitFrame, light_count) == 224);
 static_assert(sizeof(GpuMaterial) == 16);
 static_assert(sizeof(GpuShadeParams) == 72 && offsetof(GpuShadeParams, width) == 40 && offsetof(GpuShadeParams, ambient) == 56);
 }  // namespace vgeo

@@ -2,6 +2,7 @@
 #include "vgeo/render/compare.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -83,6 +84,19 @@ HwRasterAgreement compare_hw_frame(const RenderScene& scene, const std::vector<C
 
 }  // namespace
 
+// The shadow part of a comparison (FrameComparison::shadow_*).
+static void compare_shadow_pages(const Frame& cpu, const Frame& gpu, FrameComparison* c) {
+  const ShadowFrame& a = cpu.shadow;
+  const ShadowFrame& b = gpu.shadow;
+  c->shadow_tables_equal = cpu.stats.has_shadow == gpu.stats.has_shadow && a.page_table == b.page_table &&
+                           a.needed == b.needed && shadow_frame_stats(a) == shadow_frame_stats(b);
+  const std::vector<float>& ta = a.pool_texels ? *a.pool_texels : a.own_texels;
+  const std::vector<float>& tb = b.pool_texels ? *b.pool_texels : b.own_texels;
+  if (ta.size() != tb.size()) c->shadow_tables_equal = false;
+  for (size_t i = 0; i < std::min(ta.size(), tb.size()); ++i)
+    c->shadow_texels_differing += std::bit_cast<uint32_t>(ta[i]) != std::bit_cast<uint32_t>(tb[i]);
+}
+
 FrameComparison compare_frames(const RenderScene& scene, const std::vector<ClusterDag>& geometry, const Camera& camera,
                                const Frame& cpu, const Frame& gpu, bool hw_rule) {
   FrameComparison c;
@@ -94,6 +108,8 @@ FrameComparison compare_frames(const RenderScene& scene, const std::vector<Clust
     c.vis_pixels_differing += !(denote(cpu.vis.keys[p], cpu.visible) == denote(gpu.vis.keys[p], gpu.visible));
   c.hw_rule = hw_rule;
   if (hw_rule && c.clusters_equal) c.hw = compare_hw_frame(scene, geometry, camera, cpu, gpu);
+  c.shadow_compared = !hw_rule && (cpu.stats.has_shadow || gpu.stats.has_shadow);
+  if (c.shadow_compared) compare_shadow_pages(cpu, gpu, &c);
   // Images are compared where both sides shaded this frame (the kept ones, run_frames).
   c.shaded = !cpu.image.rgb.empty() && cpu.image.rgb.size() == gpu.image.rgb.size();
   if (c.shaded)

@@ -22,8 +22,16 @@ struct FrameComparison {
   uint64_t pixels_over = 0;          // pixels with a channel more than 1/255 apart
   bool hw_rule = false;              // judged by the hardware rule (--raster hw|auto)
   HwRasterAgreement hw;              // per-pixel classes of the hardware rule
+  // The virtual shadow pages (spec/shadow.md §5), compared when either side drew them and the
+  // visibility buffers are held to bit identity (not under the hardware rule: its pixels, and
+  // so the marked pages, may differ): the same page table and counters, and every pool texel
+  // of the slots in use bit-identical.
+  bool shadow_compared = false;
+  bool shadow_tables_equal = true;
+  uint64_t shadow_texels_differing = 0;
   bool holds() const {
-    return clusters_equal && (hw_rule ? hw.failures() == 0 : vis_pixels_differing == 0) && max_channel_diff <= 1;
+    return clusters_equal && (hw_rule ? hw.failures() == 0 : vis_pixels_differing == 0) && max_channel_diff <= 1 &&
+           shadow_tables_equal && shadow_texels_differing == 0;
   }
 };
 

@@ -258,15 +258,13 @@ class CpuFrameExecutor final : public FrameExecutor {
         end_streamed_frame(in_.streaming, state.requests, state.clusters_coarser, out_->visible.size());
         break;
       case FrameStep::kShadowMark:
-        out_->shadow = make_shadow_frame(in_.scene.lights, shadow_scene_bounds(in_.scene.meshes, in_.scene.instances),
-                                         in_.camera.position, shadow_options());
-        mark_shadow_pages(out_->vis, view, in_.scene.lights, in_.pool, &out_->shadow);
+        shadow_mark_step(in_, out_);
         shadows_drawn_ = true;
         break;
       case FrameStep::kShadowDraw:
         draw_shadow_pages(in_.scene.meshes, in_.scene.instances, in_.scene.lights, in_.pool, &out_->shadow,
                           in_.history ? &in_.history->shadow_cache : nullptr);
-        r.shadow = shadow_stats(out_->shadow);
+        r.shadow = shadow_frame_stats(out_->shadow);
         break;
       case FrameStep::kOverdraw:
         overdraw_pass(in_.scene, geometry_, out_->visible, object_to_clip_, out_->instance_views, view, in_.pool,
@@ -305,15 +303,6 @@ class CpuFrameExecutor final : public FrameExecutor {
     return post;
   }
 
-  ShadowOptions shadow_options() const {
-    ShadowOptions o;
-    o.threshold_px = in_.settings.threshold_px;
-    return o;
-  }
-  static ShadowFrameStats shadow_stats(const ShadowFrame& f) {
-    return {f.lights, f.pages_marked, f.pages_cached, f.pages_drawn, f.pages_dropped, f.clusters_drawn};
-  }
-
   const FrameInputs& in_;
   Frame* out_;
   bool shadows_drawn_ = false;
@@ -326,6 +315,22 @@ class CpuFrameExecutor final : public FrameExecutor {
 };
 
 }  // namespace
+
+void begin_shadow_mark(const FrameInputs& in, Frame* out) {
+  ShadowOptions options;
+  options.threshold_px = in.settings.threshold_px;
+  out->shadow = make_shadow_frame(in.scene.lights, shadow_scene_bounds(in.scene.meshes, in.scene.instances),
+                                  in.camera.position, options);
+}
+
+void shadow_mark_step(const FrameInputs& in, Frame* out) {
+  begin_shadow_mark(in, out);
+  mark_shadow_pages(out->vis, out->view, in.scene.lights, in.pool, &out->shadow);
+}
+
+ShadowFrameStats shadow_frame_stats(const ShadowFrame& f) {
+  return {f.lights, f.pages_marked, f.pages_cached, f.pages_drawn, f.pages_dropped, f.clusters_drawn};
+}
 
 FrameContext frame_context(const FrameInputs& in) {
   const FrameHistory* history = in.history;

@@ -109,6 +109,15 @@ void overdraw_pass(const RenderScene& scene, const std::vector<ClusterDag>& geom
                    const std::vector<InstanceView>& views, const ViewParams& view, ThreadPool& pool,
                    std::vector<uint32_t>* counts);
 
+// Step shadow_mark of every executor (spec/shadow.md §4): the frame's shadow maps (out->shadow)
+// and the pages the covered pixels of out->vis need (the CPU executor's; the Vulkan executor
+// marks on the device, shadow_mark.comp, after begin_shadow_mark).
+void shadow_mark_step(const FrameInputs& in, Frame* out);
+// Its first half, for an executor that marks on its device: out->shadow's maps, nothing marked.
+void begin_shadow_mark(const FrameInputs& in, Frame* out);
+// The shadow counters of a frame whose shadow_draw ran (spec/shadow.md §7).
+ShadowFrameStats shadow_frame_stats(const ShadowFrame& f);
+
 // The plan's context from the inputs' history and streaming state.
 FrameContext frame_context(const FrameInputs& in);
 

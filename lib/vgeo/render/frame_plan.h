@@ -153,6 +153,7 @@ struct RasterSplitStats {
 // The virtual shadow maps' counters of a frame (spec/shadow.md §7).
 struct ShadowFrameStats {
   uint64_t lights = 0, pages_marked = 0, pages_cached = 0, pages_drawn = 0, pages_dropped = 0, clusters_drawn = 0;
+  friend bool operator==(const ShadowFrameStats&, const ShadowFrameStats&) = default;
 };
 
 struct FrameStats {

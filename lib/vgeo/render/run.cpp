@@ -179,6 +179,12 @@ SceneFrameRenderer::SceneFrameRenderer(const SceneFile& file, const RenderSettin
                                        bool synchronous_stream)
     : file_(file), pool_(pool) {
   if (file.streaming) streaming_ = start_scene_streaming(file, settings.threshold_px, synchronous_stream);
+  else if (!file.moves.empty()) moved_ = std::make_unique<RenderScene>(file.scene);
+}
+
+void SceneFrameRenderer::apply_moves(uint32_t frame) {
+  RenderScene* scene = streaming_ ? &streaming_->scene : moved_.get();
+  if (scene) apply_scene_moves(file_.moves, frame, &scene->lights, &scene->instances);
 }
 
 FrameInputs SceneFrameRenderer::frame_inputs(const Camera& camera, const RenderSettings& settings, bool has_next_frame) {
@@ -209,6 +215,8 @@ RenderReport run_frames(const SceneFile& file, const RenderRequest& request, con
     const bool save = frame_is_saved(request, f, last);
     RenderSettings s = settings;
     s.shade = last || save;  // only images that are kept are shaded; the others stop at the visibility buffer
+    renderer.apply_moves(f);
+    if (reference) reference->apply_moves(f);
     renderer.render(camera, s, !last, &frame);
     report.frames.push_back(frame.stats);
     if (reference) {
@@ -354,6 +362,19 @@ std::string RenderReport::table() const {
                   comparisons.size(), cluster_mismatch ? "DIFFER" : "equal", (unsigned long long)vis_diff, max_diff,
                   (unsigned long long)over, rule_holds ? "holds" : "FAILS");
     out += line;
+    uint64_t shadow_frames = 0, shadow_tables_differ = 0, shadow_texels = 0;
+    for (const FrameComparison& c : comparisons)
+      if (c.shadow_compared) {
+        ++shadow_frames;
+        shadow_tables_differ += !c.shadow_tables_equal;
+        shadow_texels += c.shadow_texels_differing;
+      }
+    if (shadow_frames) {
+      std::snprintf(line, sizeof line, "compare cpu, shadow pages: %llu frame(s); page tables %s; pool texels differing %llu\n",
+                    (unsigned long long)shadow_frames, shadow_tables_differ ? "DIFFER" : "equal",
+                    (unsigned long long)shadow_texels);
+      out += line;
+    }
     HwRasterAgreement hw;
     bool any_hw = false;
     for (const FrameComparison& c : comparisons)
@@ -419,6 +440,10 @@ std::string RenderReport::json() const {
         for (int k = 0; k < kHwPixelKinds; ++k) h[hw_pixel_name(HwPixel(k))] = fc.hw.pixels[k];
         h["max_depth_error_ratio"] = fc.hw.max_depth_error_ratio;
         e["hw_rule"] = h;
+      }
+      if (fc.shadow_compared) {
+        e["shadow_tables_equal"] = fc.shadow_tables_equal;
+        e["shadow_texels_differing"] = fc.shadow_texels_differing;
       }
       if (fc.shaded) {
         e["max_channel_diff"] = fc.max_channel_diff;

@@ -136,6 +136,9 @@ class FrameRenderer {
   virtual const RenderScene& scene() const = 0;
   virtual const FrameStreaming* streaming() const = 0;  // null when not streamed
   const std::vector<ClusterDag>& geometry() const { return streaming() ? streaming()->geometry : scene().meshes; }
+  // Before frame `frame`: the scene file's moves of that frame (spec/scene.md §Moves) applied
+  // to the renderer's scene, which keeps them.
+  virtual void apply_moves(uint32_t frame) { (void)frame; }
   // After the last frame: what only the backend knows (device, page pool, messages).
   virtual void finish(RenderReport* report) { (void)report; }
 };
@@ -146,7 +149,10 @@ class FrameRenderer {
 class SceneFrameRenderer : public FrameRenderer {
  public:
   SceneFrameRenderer(const SceneFile& file, const RenderSettings& settings, ThreadPool& pool, bool synchronous_stream);
-  const RenderScene& scene() const override { return streaming_ ? streaming_->scene : file_.scene; }
+  const RenderScene& scene() const override {
+    return streaming_ ? streaming_->scene : moved_ ? *moved_ : file_.scene;
+  }
+  void apply_moves(uint32_t frame) override;
   const FrameStreaming* streaming() const override { return streaming_ ? &streaming_->frame : nullptr; }
 
  protected:
@@ -154,6 +160,9 @@ class SceneFrameRenderer : public FrameRenderer {
   const SceneFile& file_;
   ThreadPool& pool_;
   std::unique_ptr<SceneStreaming> streaming_;
+  // A scene with moves and no streaming: the renderer's own copy, moved frame by frame (a
+  // streamed scene is moved in streaming_->scene, already the renderer's own).
+  std::unique_ptr<RenderScene> moved_;
   FrameHistory history_;
 };
 

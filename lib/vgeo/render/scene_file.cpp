@@ -162,7 +162,8 @@ SceneFile parse_scene_json(const std::string& text, const std::string& where, co
   Ctx c{where, base_dir, &options};
   json doc = json::parse(text, nullptr, false);
   if (doc.is_discarded()) bad(c, "SCENE_JSON_PARSE", "not valid JSON");
-  check_keys(c, doc, "scene", {"version", "materials", "meshes", "instances", "cameras", "camera_path", "settings", "lights"});
+  check_keys(c, doc, "scene", {"version", "materials", "meshes", "instances", "cameras", "camera_path", "settings", "lights",
+                                 "moves"});
   int version = int(get_number(c, doc, "scene", "version", 0, -1e9, 1e9, true));
   if (version != kSceneFileVersion)
     bad(c, "SCENE_VERSION", "version " + std::to_string(version) + " unsupported (expected " + std::to_string(kSceneFileVersion) + ")");
@@ -220,6 +221,8 @@ SceneFile parse_scene_json(const std::string& text, const std::string& where, co
     inst.object_to_world = instance_matrix(c, insts[i], path);
     out.scene.instances.push_back(inst);
   }
+  if (doc.contains("moves"))
+    out.moves = parse_scene_moves(doc["moves"], c.where, out.scene.lights, out.scene.instances.size());
   load_scene_meshes(c, doc, &out);
   for (const ClusterDag& dag : out.scene.meshes)
     for (uint32_t t : dag.triangle_materials)

@@ -12,6 +12,7 @@
 #include "vgeo/cull/view.h"
 #include "vgeo/format/format.h"
 #include "vgeo/render/frame.h"
+#include "vgeo/render/scene_lights.h"
 #include "vgeo/stream/stream.h"
 
 namespace vgeo {
@@ -60,6 +61,7 @@ struct SceneFile {
   std::vector<SceneMeshForm> mesh_forms;  // per scene mesh
   std::vector<Camera> cameras;  // at least one
   std::vector<Camera> path;     // expanded camera path (empty when the file has none)
+  std::vector<SceneMove> moves; // lights and instances changed at given frames (run_frames applies them)
   RenderSettings settings;
   // Streaming (spec/stream.md §Renderer), decided once, at load, from SceneLoadOptions::stream:
   std::optional<StreamOptions> stream;     // as requested (budget_bytes > 0); nullopt: no budget

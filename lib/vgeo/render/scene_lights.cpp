@@ -89,7 +89,77 @@ Light read_light(const Ctx& c, const json& obj, const std::string& path) {
   return light;
 }
 
+// A move's frame: frames are numbered from 0 and a camera path has at most 100000 (spec/scene.md).
+constexpr double kMaxMoveFrame = 100000;
+
+SceneMove read_move(const Ctx& c, const json& obj, const std::string& path, const std::vector<Light>& lights,
+                    size_t instance_count) {
+  scene_detail::check_keys(c, obj, path, {"frame", "light", "instance", "position", "direction", "translation"});
+  SceneMove m;
+  const double frame = scene_detail::get_number(c, obj, path, "frame", 0, 0, kMaxMoveFrame, /*required=*/true);
+  if (frame != std::floor(frame)) bad(c, "SCENE_BAD_MOVE", path + ".frame: an integer");
+  m.frame = uint32_t(frame);
+  if (obj.contains("light") == obj.contains("instance"))
+    bad(c, "SCENE_BAD_MOVE", path + ": exactly one of light, instance");
+  m.light = obj.contains("light");
+  const size_t count = m.light ? lights.size() : instance_count;
+  const char* key = m.light ? "light" : "instance";
+  const double index = scene_detail::get_number(c, obj, path, key, 0, 0, 1e9, /*required=*/true);
+  if (index != std::floor(index) || index >= double(count))
+    bad(c, "SCENE_BAD_MOVE", path + "." + key + ": no " + key + " " + std::to_string(uint64_t(index)));
+  m.index = uint32_t(index);
+  if (!m.light) {
+    for (const char* k : {"position", "direction"})
+      if (obj.contains(k)) bad(c, "SCENE_BAD_MOVE", path + "." + k + ": an instance move takes translation only");
+    std::array<double, 3> t = read_vec3(c, obj, path, "translation");
+    m.translation = Vec3d{t[0], t[1], t[2]};
+    return m;
+  }
+  if (obj.contains("translation")) bad(c, "SCENE_BAD_MOVE", path + ".translation: a light move takes position, direction");
+  const LightType type = lights[m.index].type;
+  for (const char* k : {"position", "direction"})
+    if (obj.contains(k) && !takes(type, k))
+      bad(c, "SCENE_BAD_MOVE", path + "." + k + ": not a field of a " + light_type_name(type) + " light");
+  if (!obj.contains("position") && !obj.contains("direction"))
+    bad(c, "SCENE_BAD_MOVE", path + ": a light move needs position or direction");
+  if (obj.contains("position")) {
+    std::array<double, 3> p = read_vec3(c, obj, path, "position");
+    m.position = Vec3d{p[0], p[1], p[2]};
+  }
+  if (obj.contains("direction")) m.direction = read_direction(c, obj, path);
+  return m;
+}
+
 }  // namespace
+
+std::vector<SceneMove> parse_scene_moves(const json& moves, const std::string& where, const std::vector<Light>& lights,
+                                         size_t instance_count) {
+  // Every out-of-range value of a move (a frame, a zero direction, a coordinate beyond ±1e12)
+  // is SCENE_BAD_MOVE, as every other bad move.
+  const Ctx c{where, "", nullptr, "SCENE_BAD_MOVE"};
+  scene_detail::expect_array(c, moves, "moves", kMaxSceneMoves);
+  std::vector<SceneMove> out;
+  for (size_t i = 0; i < moves.size(); ++i)
+    out.push_back(read_move(c, moves[i], "moves[" + std::to_string(i) + "]", lights, instance_count));
+  return out;
+}
+
+void apply_scene_moves(const std::vector<SceneMove>& moves, uint32_t frame, std::vector<Light>* lights,
+                       std::vector<CullInstance>* instances) {
+  for (const SceneMove& m : moves) {
+    if (m.frame != frame) continue;
+    if (m.light) {
+      Light& l = (*lights)[m.index];
+      if (m.position) l.position = *m.position;
+      if (m.direction) l.direction = *m.direction;
+    } else {
+      Mat4d& t = (*instances)[m.index].object_to_world;
+      t.at(0, 3) = m.translation->x;
+      t.at(1, 3) = m.translation->y;
+      t.at(2, 3) = m.translation->z;
+    }
+  }
+}
 
 std::vector<Light> parse_scene_lights(const json& lights, const std::string& where) {
   // Lights name no files and take no load options: no base folder, no options.

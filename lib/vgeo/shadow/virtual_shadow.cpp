@@ -513,25 +513,18 @@ std::vector<std::vector<VisibleCluster>> cull_page_views(const std::vector<Clust
   return page_clusters;
 }
 
-// The raster of every page view in one parallel pass: each page's clusters into a 128² target
+// The raster of every page in one parallel pass: each page's clusters into a 128² target
 // scissored to the page in its mip's coordinates (spec/shadow.md §5); depths into its slot.
 void raster_page_views(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
-                       const ShadowFrame& frame, const std::vector<ShadowPageView>& views,
-                       const std::vector<PageDraw>& draws, const std::vector<std::vector<VisibleCluster>>& page_clusters,
-                       ThreadPool& pool, std::vector<float>* texels) {
-  std::vector<uint32_t> view_of_draw(draws.size());
-  for (uint32_t k = 0, d = 0; k < views.size(); ++k)
-    while (d < draws.size() && draws[d].map == views[k].map && draws[d].mip == views[k].mip) view_of_draw[d++] = k;
-  pool.parallel_for(draws.size(), [&](size_t d) {
-    const ShadowPageView& v = views[view_of_draw[d]];
+                       const ShadowDrawList& list, ThreadPool& pool, std::vector<float>* texels) {
+  pool.parallel_for(list.pages.size(), [&](size_t d) {
+    const ShadowPageDraw& page_draw = list.pages[d];
     VisBuffer page;
     page.resize(kShadowPageTexels, kShadowPageTexels);
-    RasterOptions ro = shadow_raster_options(frame.maps[v.map], v.r_m);
-    ro.window_x = draws[d].x * kShadowPageTexels;
-    ro.window_y = draws[d].y * kShadowPageTexels;
-    for (const VisibleCluster& c : page_clusters[d])
-      raster_cut_cluster(meshes, instances, c, v.object_to_clip[c.instance], ro, page, nullptr);
-    float* out = texels->data() + size_t(draws[d].slot) * kPageTexelCount;
+    for (const VisibleCluster& c : list.clusters[d])
+      raster_cut_cluster(meshes, instances, c, list.object_to_clip[page_draw.view][c.instance], page_draw.raster, page,
+                         nullptr);
+    float* out = texels->data() + size_t(page_draw.slot) * kPageTexelCount;
     for (uint32_t i = 0; i < kPageTexelCount; ++i) out[i] = page.keys[i] ? vis_key_depth(page.keys[i]) : 0.0f;
   });
 }
@@ -701,30 +694,54 @@ void mark_shadow_pages(const VisBuffer& vis, const ViewParams& view, const std::
   for (uint8_t n : frame->needed) frame->pages_marked += n;
 }
 
+ShadowDrawList begin_shadow_draw(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                                 const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame,
+                                 ShadowCache* cache) {
+  invalidate_cache(meshes, instances, lights, *frame, cache);
+  const std::vector<PageDraw> draws = allocate_shadow_pages(frame, cache);
+  const size_t needed_texels = cache->slots.size() * size_t(kPageTexelCount);
+  if (cache->texels.size() < needed_texels) cache->texels.resize(needed_texels, 0.0f);
+  frame->pages_drawn = draws.size();
+  std::vector<ShadowPageView> views = make_page_views(meshes, instances, *frame, draws);
+  ShadowDrawList list;
+  list.clusters = cull_page_views(meshes, instances, *frame, views, draws.size(), pool);
+  for (const auto& clusters : list.clusters) frame->clusters_drawn += clusters.size();
+  list.pages.resize(draws.size());
+  for (uint32_t k = 0, d = 0; k < views.size(); ++k)
+    for (; d < draws.size() && draws[d].map == views[k].map && draws[d].mip == views[k].mip; ++d) {
+      ShadowPageDraw& p = list.pages[d];
+      p = {draws[d].map, draws[d].mip, draws[d].x, draws[d].y, draws[d].slot, k, {}};
+      p.raster = shadow_raster_options(frame->maps[p.map], views[k].r_m);
+      p.raster.window_x = p.x * kShadowPageTexels;
+      p.raster.window_y = p.y * kShadowPageTexels;
+    }
+  list.object_to_clip.reserve(views.size());
+  for (ShadowPageView& v : views) list.object_to_clip.push_back(std::move(v.object_to_clip));
+  return list;
+}
+
+void end_shadow_draw(const std::vector<CullInstance>& instances, const std::vector<Light>& lights, ShadowFrame* frame,
+                     ShadowCache* cache, bool kept) {
+  cache->valid = true;
+  cache->lights = lights;
+  cache->bounds = frame->bounds;
+  cache->transforms.resize(instances.size());
+  for (size_t i = 0; i < instances.size(); ++i) cache->transforms[i] = instances[i].object_to_world;
+  if (kept) {
+    frame->pool_texels = &cache->texels;
+  } else {
+    frame->own_texels = std::move(cache->texels);
+    frame->pool_texels = nullptr;  // own_texels (a pointer would not survive moving the frame)
+  }
+}
+
 void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
                        const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame, ShadowCache* cache) {
   ShadowCache local;
   ShadowCache* c = cache ? cache : &local;
-  invalidate_cache(meshes, instances, lights, *frame, c);
-  std::vector<PageDraw> draws = allocate_shadow_pages(frame, c);
-  const size_t needed_texels = c->slots.size() * size_t(kPageTexelCount);
-  if (c->texels.size() < needed_texels) c->texels.resize(needed_texels, 0.0f);
-  frame->pages_drawn = draws.size();
-  const std::vector<ShadowPageView> views = make_page_views(meshes, instances, *frame, draws);
-  const auto page_clusters = cull_page_views(meshes, instances, *frame, views, draws.size(), pool);
-  for (const auto& list : page_clusters) frame->clusters_drawn += list.size();
-  raster_page_views(meshes, instances, *frame, views, draws, page_clusters, pool, &c->texels);
-  c->valid = true;
-  c->lights = lights;
-  c->bounds = frame->bounds;
-  c->transforms.resize(instances.size());
-  for (size_t i = 0; i < instances.size(); ++i) c->transforms[i] = instances[i].object_to_world;
-  if (cache) {
-    frame->pool_texels = &cache->texels;
-  } else {
-    frame->own_texels = std::move(local.texels);
-    frame->pool_texels = nullptr;  // own_texels (a pointer would not survive moving the frame)
-  }
+  const ShadowDrawList list = begin_shadow_draw(meshes, instances, lights, pool, frame, c);
+  raster_page_views(meshes, instances, list, pool, &c->texels);
+  end_shadow_draw(instances, lights, frame, c, cache != nullptr);
 }
 
 ShadowScreen make_shadow_screen(const VisBuffer& vis, const ViewParams& view) {

@@ -14,6 +14,7 @@
 #include "vgeo/core/thread_pool.h"
 #include "vgeo/cull/cull.h"
 #include "vgeo/dag/cluster_dag.h"
+#include "vgeo/raster/raster.h"
 #include "vgeo/raster/visbuffer.h"
 #include "vgeo/shadow/light.h"
 
@@ -146,6 +147,31 @@ void mark_shadow_pages(const VisBuffer& vis, const ViewParams& view, const std::
 // its texel rectangle overlaps. `cache` null: nothing is kept (every needed page drawn).
 void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
                        const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame, ShadowCache* cache);
+
+// Step shadow_draw in three phases, so that every executor shares the cache, allocation and
+// multi-view cull and only the raster differs (the CPU's raster_page_views, Vulkan's compute
+// raster; spec/shadow.md §5). begin_shadow_draw invalidates the cache, allocates slots in
+// page-table order (filling the frame's page table and counters), grows cache->texels to the
+// slots in use and culls every view; the caller then writes each listed page's 128² texels into
+// its slot of cache->texels (every texel: 0 where nothing was drawn); end_shadow_draw records
+// what the pages were drawn with and points the frame at the pool (`kept` false: the cache is
+// the frame's own, its texels move into ShadowFrame::own_texels).
+struct ShadowPageDraw {
+  uint32_t map = 0, mip = 0, x = 0, y = 0;  // page (x, y) (local) of mip `mip` of maps[map]
+  uint32_t slot = 0;                        // the pool slot it is drawn into
+  uint32_t view = 0;                        // its view: index into ShadowDrawList::object_to_clip
+  RasterOptions raster;                     // the mip's viewport, the page's window, z_near, no back-face culling
+};
+struct ShadowDrawList {
+  std::vector<ShadowPageDraw> pages;                  // page-table order
+  std::vector<std::vector<VisibleCluster>> clusters;  // per page: its clusters, (instance, cluster) order
+  std::vector<std::vector<Mat4>> object_to_clip;      // per view (map, mip): float object→clip per instance
+};
+ShadowDrawList begin_shadow_draw(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                                 const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame,
+                                 ShadowCache* cache);
+void end_shadow_draw(const std::vector<CullInstance>& instances, const std::vector<Light>& lights, ShadowFrame* frame,
+                     ShadowCache* cache, bool kept);
 
 // The primary view the shadow test's screen-space trace walks (spec/shadow.md §6): its
 // visibility buffer (depths), view, and the eye's world position.
