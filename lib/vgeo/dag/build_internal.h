@@ -173,8 +173,8 @@ std::vector<uint64_t> lock_cross_block_vertices(const WeldedMesh& welded, const 
 
 // Knobs for measuring alternatives (benchmarks, tests); build_dag uses the defaults.
 struct InternalBuildOptions {
-  SplitMethod leaf_split = SplitMethod::kMeshopt;
-  SplitMethod group_split = SplitMethod::kMeshopt;
+  SplitMethod leaf_split = SplitMethod::kGrow;
+  SplitMethod group_split = SplitMethod::kGrow;
   uint32_t group_target_clusters = 0;  // 0: default_group_target_clusters(the simplifier)
   size_t group_block_clusters = kGroupBlockClusters;  // tests force small blocks
   double simplify_target_ratio = kSimplifyTargetRatio;

@@ -242,6 +242,12 @@ std::vector<TriangleSet> attach_degenerate(const WeldedMesh& welded, const Trian
       if (tie != kNone) best_cluster = tie_cluster, best_triangle = placements[tie].second;
     } else {
       // Candidates: the clusters of a used position; each must hold the other used positions.
+      // The first one with a triangle holding them all wins, else the first holding them: a
+      // cluster can hold two positions without their edge (it lies on its border, the edge's
+      // triangle in the next cluster), and where that next cluster falls into another group
+      // the degenerate one alone would carry the edge in this group: an edge shared with
+      // the other group that the simplifier drops with it (a broken border, a stuck group).
+      uint32_t fallback_cluster = kNone, fallback_triangle = kNone;
       for (auto [it, end] = uses_of(w[first]); it != end && best_cluster == kNone; ++it) {
         const uint32_t c = (*it)[1];
         if (tie_cluster != kNone && c != tie_cluster) continue;
@@ -266,12 +272,13 @@ std::vector<TriangleSet> attach_degenerate(const WeldedMesh& welded, const Trian
             all = welded.weld[tc[0]] == w[k] || welded.weld[tc[1]] == w[k] || welded.weld[tc[2]] == w[k];
           }
           if (all) {
-            anchor = uint32_t(t);
+            best_cluster = c, best_triangle = uint32_t(t);
             break;
           }
         }
-        best_cluster = c, best_triangle = anchor;
+        if (fallback_cluster == kNone) fallback_cluster = c, fallback_triangle = anchor;
       }
+      if (best_cluster == kNone) best_cluster = fallback_cluster, best_triangle = fallback_triangle;
     }
     for (int k = 0; k < 3; ++k)
       if (!used[k] && scratch[w[k]] == kNone) {

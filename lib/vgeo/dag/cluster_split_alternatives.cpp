@@ -25,9 +25,6 @@ namespace {
 // the cluster's centroid; a full cluster's successor starts next to it where the fewest
 // triangles are left; with no adjacent triangle the nearest unclustered one (k-d tree) joins.
 
-// Centroid distances are re-measured from the cluster's current centroid when it reaches
-// these sizes (the heap's keys are frozen in between): powers of two up to half a cluster.
-constexpr uint32_t kRecentreFirst = 4;
 // k-d tree leaves hold up to this many triangles (the nearest search scans a leaf linearly).
 constexpr uint32_t kKdLeafSize = 16;
 // Up to this many triangles (a group's split) the nearest search is a scan: building the
@@ -127,20 +124,20 @@ struct CentroidTree {
   }
 };
 
-// Candidate triangle of the growing cluster; smaller is better.
-struct GrowCandidate {
-  uint32_t priority;  // 0: adds no vertex; else 1 + new vertices (0 if it holds a last-triangle vertex)
-  float distance2;    // to the cluster centroid when keyed
+// Candidate of the growing cluster in its priority bucket: the triangle and its centroid
+// (copied, so a bucket scan reads one contiguous array).
+struct BucketEntry {
+  float x, y, z;
   uint32_t triangle;
-  bool operator>(const GrowCandidate& o) const {
-    if (priority != o.priority) return priority > o.priority;
-    if (distance2 != o.distance2) return distance2 > o.distance2;
-    return triangle > o.triangle;
-  }
 };
 
+// Candidate priorities: 0 adds no vertex; 1 + new vertices otherwise, 1 when it holds a vertex
+// where it is the last unclustered triangle (0..4).
+constexpr uint32_t kPriorityBuckets = 5;
+
 // The grower's state over one split: the triangles in local (compacted welded) ids, their
-// centroids, each vertex's unclustered triangles, and the cluster being grown.
+// centroids, each vertex's unclustered triangles, and the cluster being grown with its
+// candidates (the unclustered triangles at its vertices) bucketed by priority.
 struct Grower {
   Grower(const TriangleSet& t, std::vector<uint32_t>& s) : tris(t), scratch(s), n(t.triangle_count()) {}
   const TriangleSet& tris;
@@ -153,13 +150,16 @@ struct Grower {
   CentroidTree tree;
   std::vector<uint8_t> clustered;
   std::vector<uint32_t> in_cluster;  // stamp: index of the cluster using the vertex
-  std::vector<GrowCandidate> heap;
+  std::vector<uint32_t> joined;      // per vertex: its rank in the cluster using it
+  std::vector<BucketEntry> buckets[kPriorityBuckets];
+  std::vector<uint8_t> bucket_of;    // per triangle: its bucket, or kNoBucket
+  std::vector<uint32_t> slot_of;     // per triangle: its index in that bucket
   std::vector<uint32_t> ids;  // the cluster's triangles in order of addition
   std::vector<TriangleSet> out;
   uint32_t stamp = 0, cluster_vertices = 0;
-  double sum[3] = {0, 0, 0};
-  float centre[3] = {0, 0, 0};
+  float sum[3] = {0, 0, 0};  // of the cluster's triangle centroids
 };
+constexpr uint8_t kNoBucket = 0xFF;
 
 // Local ids, centroids and the vertex → triangle lists of `g.tris`.
 void index_triangles(Grower& g, const WeldedMesh& welded) {
@@ -185,6 +185,9 @@ void index_triangles(Grower& g, const WeldedMesh& welded) {
   }
   g.clustered.assign(n, 0);
   g.in_cluster.assign(vcount, kNone);
+  g.joined.resize(vcount);
+  g.bucket_of.assign(n, kNoBucket);
+  g.slot_of.resize(n);
 }
 
 uint32_t new_vertices(const Grower& g, uint32_t t) {
@@ -200,42 +203,50 @@ uint32_t priority_of(const Grower& g, uint32_t t) {
   return 1 + (dangling ? 0 : extra);
 }
 
-float distance2(const Grower& g, uint32_t t) { return squared_distance(&g.centroid[3 * size_t(t)], g.centre); }
-
-void push_candidate(Grower& g, uint32_t t) {
-  g.heap.push_back({priority_of(g, t), distance2(g, t), t});
-  std::push_heap(g.heap.begin(), g.heap.end(), std::greater<GrowCandidate>());
+void leave_bucket(Grower& g, uint32_t t) {
+  const uint8_t b = g.bucket_of[t];
+  if (b == kNoBucket) return;
+  std::vector<BucketEntry>& bucket = g.buckets[b];
+  const uint32_t slot = g.slot_of[t];
+  bucket[slot] = bucket.back();
+  g.slot_of[bucket[slot].triangle] = slot;
+  bucket.pop_back();
+  g.bucket_of[t] = kNoBucket;
 }
 
-// The cluster's centroid re-measured and every candidate re-keyed from it.
-void recentre(Grower& g) {
-  for (int k = 0; k < 3; ++k) g.centre[k] = float(g.sum[k] / double(g.ids.size()));
-  size_t kept = 0;
-  for (const GrowCandidate& c : g.heap)
-    if (!g.clustered[c.triangle]) g.heap[kept++] = {priority_of(g, c.triangle), distance2(g, c.triangle), c.triangle};
-  g.heap.resize(kept);
-  std::make_heap(g.heap.begin(), g.heap.end(), std::greater<GrowCandidate>());
+// (Re)files candidate t under its current priority.
+void file_candidate(Grower& g, uint32_t t) {
+  const uint32_t p = priority_of(g, t);
+  if (g.bucket_of[t] == p) return;
+  leave_bucket(g, t);
+  g.bucket_of[t] = uint8_t(p);
+  g.slot_of[t] = uint32_t(g.buckets[p].size());
+  const float* c = &g.centroid[3 * size_t(t)];
+  g.buckets[p].push_back({c[0], c[1], c[2], t});
 }
 
 // The grown cluster emitted; the next one starts empty.
 void finish_cluster(Grower& g) {
   if (!g.ids.empty()) emit_cluster(g.tris, g.ids.data(), g.ids.size(), g.scratch, g.out);
   g.ids.clear();
-  g.heap.clear();
+  for (std::vector<BucketEntry>& bucket : g.buckets) {
+    for (const BucketEntry& e : bucket) g.bucket_of[e.triangle] = kNoBucket;
+    bucket.clear();
+  }
   ++g.stamp;
   g.cluster_vertices = 0;
   g.sum[0] = g.sum[1] = g.sum[2] = 0;
 }
 
-// Triangle t joins the cluster: it leaves its vertices' lists, and the triangles at its new
-// vertices (or at a vertex where it is now the last one) become candidates.
+// Triangle t joins the cluster: it leaves its vertices' lists and its bucket; the triangles
+// at its new vertices become candidates, and those whose priority changed (a vertex joined,
+// or one of theirs now has a single unclustered triangle) are refiled.
 void add_triangle(Grower& g, uint32_t t) {
   g.clustered[t] = 1;
   g.tree.remove(t);
+  leave_bucket(g, t);
   g.ids.push_back(t);
   for (int k = 0; k < 3; ++k) g.sum[k] += g.centroid[3 * size_t(t) + k];
-  if (g.ids.size() == 1)
-    for (int k = 0; k < 3; ++k) g.centre[k] = g.centroid[3 * size_t(t) + k];
   const uint32_t* c = &g.local[3 * size_t(t)];
   for (int k = 0; k < 3; ++k) {
     const uint32_t v = c[k];
@@ -248,47 +259,58 @@ void add_triangle(Grower& g, uint32_t t) {
   }
   for (int k = 0; k < 3; ++k) {
     const uint32_t v = c[k];
+    const uint32_t* list = &g.adjacency[g.first[v]];
     if (g.in_cluster[v] != g.stamp) {
       g.in_cluster[v] = g.stamp;
-      ++g.cluster_vertices;
-      for (uint32_t i = 0; i < g.live[v]; ++i) push_candidate(g, g.adjacency[g.first[v] + i]);
+      g.joined[v] = g.cluster_vertices++;
+      for (uint32_t i = 0; i < g.live[v]; ++i) file_candidate(g, list[i]);
     } else if (g.live[v] == 1) {
-      push_candidate(g, g.adjacency[g.first[v]]);  // now the last triangle at v: a better candidate
+      file_candidate(g, list[0]);  // now the last triangle at v: dangling
     }
   }
-  const size_t size = g.ids.size();
-  if (size >= kRecentreFirst && (size & (size - 1)) == 0 && size < kMaxClusterTriangles) recentre(g);
 }
 
-// The best unclustered candidate (clustered ones are dropped from the heap); kNone if none.
-uint32_t best_candidate(Grower& g) {
-  while (!g.heap.empty() && g.clustered[g.heap.front().triangle]) {
-    std::pop_heap(g.heap.begin(), g.heap.end(), std::greater<GrowCandidate>());
-    g.heap.pop_back();
-  }
-  return g.heap.empty() ? kNone : g.heap.front().triangle;
+// Tie order of two equally near candidates: the one at the cluster's earliest vertex, then the
+// smaller id. On regular meshes (grids, UV spheres) ties are common, and preferring the
+// earliest vertices keeps the cluster growing around its start, as meshopt 0.18's scan of the
+// cluster's vertices in order does; breaking them by id alone grew strips along the index
+// order (a UV sphere with degenerate triangles ended with 12 roots instead of 1).
+uint32_t earliest_vertex(const Grower& g, uint32_t t) {
+  const uint32_t* c = &g.local[3 * size_t(t)];
+  uint32_t r = UINT32_MAX;
+  for (int k = 0; k < 3; ++k)
+    if (g.in_cluster[c[k]] == g.stamp) r = std::min(r, g.joined[c[k]]);
+  return r;
+}
+bool breaks_tie(const Grower& g, uint32_t t, uint32_t best) {
+  if (best == kNone) return true;
+  const uint32_t rt = earliest_vertex(g, t), rb = earliest_vertex(g, best);
+  return rt < rb || (rt == rb && t < best);
 }
 
-// The next cluster's first triangle, next to the full one: fewest new vertices, then the
-// fewest triangles left at its corners (so the sweep hugs the clustered region).
-uint32_t successor_seed(const Grower& g) {
-  uint32_t best = kNone, best_priority = UINT32_MAX, best_live = UINT32_MAX;
-  for (const GrowCandidate& cand : g.heap) {
-    const uint32_t t = cand.triangle;
-    if (g.clustered[t]) continue;
-    const uint32_t* c = &g.local[3 * size_t(t)];
-    const uint32_t p = priority_of(g, t), l = g.live[c[0]] + g.live[c[1]] + g.live[c[2]];
-    if (p < best_priority || (p == best_priority && (l < best_live || (l == best_live && t < best))))
-      best = t, best_priority = p, best_live = l;
+// The best candidate: lowest priority, then nearest the cluster's current centroid (ties:
+// breaks_tie); kNone if there is none.
+uint32_t best_candidate(const Grower& g) {
+  const float inv = 1.0f / float(g.ids.size());
+  const float cx = g.sum[0] * inv, cy = g.sum[1] * inv, cz = g.sum[2] * inv;
+  for (const std::vector<BucketEntry>& bucket : g.buckets) {
+    if (bucket.empty()) continue;
+    uint32_t best = kNone;
+    float best_d2 = FLT_MAX;
+    for (const BucketEntry& e : bucket) {
+      const float d2 = (e.x - cx) * (e.x - cx) + (e.y - cy) * (e.y - cy) + (e.z - cz) * (e.z - cz);
+      if (d2 < best_d2 || (d2 == best_d2 && breaks_tie(g, e.triangle, best))) best = e.triangle, best_d2 = d2;
+    }
+    return best;
   }
-  return best;
+  return kNone;
 }
 
 // The unclustered triangle nearest the cluster's centroid (a scan, or the k-d tree built on
 // first use for large splits); kNone when none is left.
 uint32_t nearest_to_cluster(Grower& g) {
   float c[3];
-  for (int k = 0; k < 3; ++k) c[k] = float(g.sum[k] / double(g.ids.size()));
+  for (int k = 0; k < 3; ++k) c[k] = g.sum[k] / float(g.ids.size());
   if (g.n > kNearestScanMaxTriangles) {
     if (!g.tree.built()) g.tree.build(g.centroid.data(), g.n, g.clustered);
     return g.tree.nearest(c, g.clustered);
@@ -303,14 +325,16 @@ uint32_t nearest_to_cluster(Grower& g) {
   return best;
 }
 
-// The triangle with the lowest centroid along x, then y, z (then id): sweeping from an
-// extreme leaves fewer enclosed remainders than starting inside.
+// The first triangle: the one whose centroid is nearest the origin (ties: smaller id), where
+// meshopt_buildMeshlets 0.18 starts (its empty cluster's centroid is the origin).
 uint32_t first_seed(const Grower& g) {
+  const float origin[3] = {0, 0, 0};
   uint32_t next = 0;
-  for (uint32_t t = 1; t < g.n; ++t)
-    if (std::lexicographical_compare(&g.centroid[3 * size_t(t)], &g.centroid[3 * size_t(t)] + 3,
-                                     &g.centroid[3 * size_t(next)], &g.centroid[3 * size_t(next)] + 3))
-      next = t;
+  float best_d2 = FLT_MAX;
+  for (uint32_t t = 0; t < g.n; ++t) {
+    const float d2 = squared_distance(&g.centroid[3 * size_t(t)], origin);
+    if (d2 < best_d2) next = t, best_d2 = d2;
+  }
   return next;
 }
 
@@ -327,7 +351,8 @@ std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet&
     const bool full = g.ids.size() >= kMaxClusterTriangles ||
                       (next != kNone && g.cluster_vertices + new_vertices(g, next) > kMaxClusterVertices);
     if (full) {
-      next = successor_seed(g);
+      // The full cluster's best candidate starts the next one (meshopt 0.18 moves it there);
+      // with none, the unclustered triangle nearest the full cluster's centroid.
       const uint32_t nearest = next == kNone ? nearest_to_cluster(g) : kNone;
       finish_cluster(g);
       if (next == kNone) next = nearest;
