@@ -17,7 +17,7 @@ namespace vgeo::build_detail {
 
 namespace {
 
-// k-d tree leaves hold up to this many triangles (the nearest search scans a leaf linearly).
+// Tree leaves hold up to this many triangles (the nearest search scans a leaf linearly).
 constexpr uint32_t kKdLeafSize = 16;
 // Up to this many triangles (a group's split) the nearest search is a scan: building the
 // tree would cost more than the few searches such a split makes.
@@ -27,92 +27,150 @@ inline float squared_distance(const float* a, const float* b) {
   return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
 }
 
-// Triangle centroids in a k-d tree whose nodes count their unclustered triangles, so the
-// nearest search skips clustered regions. Built on first use: connected meshes rarely need it.
+// Bits per axis of the Morton code that orders the centroids: 1024 cells per axis, finer than
+// the leaves on any mesh split here (a 2^17-triangle chunk has 8,192 leaves of 16).
+constexpr uint32_t kMortonBitsPerAxis = 10;
+// The Morton codes are sorted in passes of this many bits (one counting sort per axis' bits).
+constexpr uint32_t kRadixBits = kMortonBitsPerAxis;
+
+// Spreads the low 10 bits of x to every third bit (bit i to bit 3i).
+inline uint32_t spread_bits(uint32_t x) {
+  x &= 0x3FF;
+  x = (x | (x << 16)) & 0x030000FF;
+  x = (x | (x << 8)) & 0x0300F00F;
+  x = (x | (x << 4)) & 0x030C30C3;
+  x = (x | (x << 2)) & 0x09249249;
+  return x;
+}
+
+// Triangle centroids in a bounding-box tree whose nodes count their unclustered triangles, so
+// the nearest search skips clustered regions. Built on first use (connected meshes rarely need
+// it) in linear time: the centroids sorted along a Morton curve (radix sort), cut into leaves
+// of kKdLeafSize, and a complete binary tree over the leaves (node i has children 2i+1 and
+// 2i+2) whose boxes are merged bottom-up. The search is exact (nearest, ties by smaller id)
+// whatever the tree's shape; the shape only decides how much it prunes.
+// Based on: Lauterbach et al., "Fast BVH Construction on GPUs", Eurographics 2009 (LBVH:
+// primitives sorted by Morton code, a hierarchy over the sorted order).
 struct CentroidTree {
   struct Node {
-    uint32_t begin = 0, end = 0;  // range of `order`
-    uint32_t left = kNone, right = kNone, parent = kNone;
+    float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
     uint32_t remaining = 0;
-    float lo[3], hi[3];
   };
   std::vector<Node> nodes;
-  std::vector<uint32_t> order;  // triangle ids, leaf ranges contiguous
+  std::vector<uint32_t> order;  // triangle ids along the curve; leaf j holds [16j, 16j + 16)
   std::vector<uint32_t> leaf_of;
+  uint32_t leaf_base = 0;       // node index of leaf 0
   const float* centroids = nullptr;
 
   bool built() const { return centroids != nullptr; }
   void build(const float* c, size_t n, const std::vector<uint8_t>& clustered) {
     centroids = c;
-    order.clear();
-    for (uint32_t t = 0; t < n; ++t)
-      if (!clustered[t]) order.push_back(t);
+    sort_along_curve(n, clustered);
+    const uint32_t m = uint32_t(order.size());
+    const uint32_t leaves = (m + kKdLeafSize - 1) / kKdLeafSize;
+    uint32_t padded = 1;
+    while (padded < leaves) padded <<= 1;
+    leaf_base = padded - 1;
+    nodes.assign(2 * size_t(padded) - 1, Node());
     leaf_of.assign(n, kNone);
-    nodes.clear();
-    nodes.reserve(2 * (order.size() / kKdLeafSize + 1));
-    if (!order.empty()) split(0, uint32_t(order.size()), kNone);
-  }
-  uint32_t split(uint32_t begin, uint32_t end, uint32_t parent) {
-    const uint32_t id = uint32_t(nodes.size());
-    nodes.push_back(Node());
-    Node node;
-    node.begin = begin, node.end = end, node.parent = parent, node.remaining = end - begin;
-    for (int k = 0; k < 3; ++k) node.lo[k] = FLT_MAX, node.hi[k] = -FLT_MAX;
-    for (uint32_t i = begin; i < end; ++i)
-      for (int k = 0; k < 3; ++k) {
-        node.lo[k] = std::min(node.lo[k], centroids[3 * order[i] + k]);
-        node.hi[k] = std::max(node.hi[k], centroids[3 * order[i] + k]);
+    for (uint32_t j = 0; j < leaves; ++j) {
+      Node& leaf = nodes[leaf_base + j];
+      const uint32_t end = std::min(m, (j + 1) * kKdLeafSize);
+      for (uint32_t i = j * kKdLeafSize; i < end; ++i) {
+        const float* p = &centroids[3 * size_t(order[i])];
+        for (int k = 0; k < 3; ++k) leaf.lo[k] = std::min(leaf.lo[k], p[k]), leaf.hi[k] = std::max(leaf.hi[k], p[k]);
+        leaf_of[order[i]] = leaf_base + j;
       }
-    if (end - begin <= kKdLeafSize) {
-      for (uint32_t i = begin; i < end; ++i) leaf_of[order[i]] = id;
-      nodes[id] = node;
-      return id;
+      leaf.remaining = end - j * kKdLeafSize;
     }
-    int axis = 0;
-    for (int k = 1; k < 3; ++k)
-      if (node.hi[k] - node.lo[k] > node.hi[axis] - node.lo[axis]) axis = k;
-    const uint32_t mid = begin + (end - begin) / 2;
-    std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end, [&](uint32_t a, uint32_t b) {
-      const float ca = centroids[3 * a + axis], cb = centroids[3 * b + axis];
-      return ca < cb || (ca == cb && a < b);
-    });
-    nodes[id] = node;
-    const uint32_t left = split(begin, mid, id);
-    const uint32_t right = split(mid, end, id);
-    nodes[id].left = left, nodes[id].right = right;
-    return id;
+    for (uint32_t i = leaf_base; i-- > 0;) {
+      const Node &l = nodes[2 * i + 1], &r = nodes[2 * i + 2];
+      Node& node = nodes[i];
+      for (int k = 0; k < 3; ++k) node.lo[k] = std::min(l.lo[k], r.lo[k]), node.hi[k] = std::max(l.hi[k], r.hi[k]);
+      node.remaining = l.remaining + r.remaining;
+    }
+  }
+  // `order` = the unclustered triangles sorted by the Morton code of their centroid in the
+  // centroids' bounding box (ties by id: the passes are stable and start in id order).
+  void sort_along_curve(size_t n, const std::vector<uint8_t>& clustered) {
+    float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
+    for (size_t t = 0; t < n; ++t)
+      if (!clustered[t])
+        for (int k = 0; k < 3; ++k)
+          lo[k] = std::min(lo[k], centroids[3 * t + k]), hi[k] = std::max(hi[k], centroids[3 * t + k]);
+    constexpr float kCells = float(1u << kMortonBitsPerAxis);
+    float scale[3];
+    for (int k = 0; k < 3; ++k) scale[k] = hi[k] > lo[k] ? kCells / (hi[k] - lo[k]) : 0.0f;
+    std::vector<uint64_t> keys, sorted;  // code << 32 | id
+    keys.reserve(n);
+    for (size_t t = 0; t < n; ++t) {
+      if (clustered[t]) continue;
+      uint32_t code = 0;
+      for (int k = 0; k < 3; ++k) {
+        const float q = (centroids[3 * t + k] - lo[k]) * scale[k];
+        code |= spread_bits(std::min(uint32_t(std::max(q, 0.0f)), (1u << kMortonBitsPerAxis) - 1)) << k;
+      }
+      keys.push_back((uint64_t(code) << 32) | t);
+    }
+    sorted.resize(keys.size());
+    constexpr uint32_t kBuckets = 1u << kRadixBits;
+    for (uint32_t shift = 32; shift < 32 + 3 * kMortonBitsPerAxis; shift += kRadixBits) {
+      uint32_t start[kBuckets + 1] = {};
+      for (uint64_t key : keys) ++start[((key >> shift) & (kBuckets - 1)) + 1];
+      for (uint32_t b = 0; b < kBuckets; ++b) start[b + 1] += start[b];
+      for (uint64_t key : keys) sorted[start[(key >> shift) & (kBuckets - 1)]++] = key;
+      keys.swap(sorted);
+    }
+    order.resize(keys.size());
+    for (size_t i = 0; i < keys.size(); ++i) order[i] = uint32_t(keys[i]);
   }
   void remove(uint32_t t) {
     if (!built()) return;
-    for (uint32_t n = leaf_of[t]; n != kNone; n = nodes[n].parent) --nodes[n].remaining;
+    for (uint32_t n = leaf_of[t];; n = (n - 1) / 2) {
+      --nodes[n].remaining;
+      if (n == 0) break;
+    }
+  }
+  float box_d2(uint32_t id, const float* p) const {
+    const Node& node = nodes[id];
+    float d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const float d = std::max({node.lo[k] - p[k], 0.0f, p[k] - node.hi[k]});
+      d2 += d * d;
+    }
+    return d2;
   }
   // Nearest unclustered triangle to p (ties: smaller id); kNone when none is left.
   uint32_t nearest(const float* p, const std::vector<uint8_t>& clustered) const {
     uint32_t best = kNone;
     float best_d2 = FLT_MAX;
-    if (!nodes.empty()) search(0, p, clustered, best, best_d2);
+    if (!nodes.empty() && nodes[0].remaining > 0) search(0, box_d2(0, p), p, clustered, best, best_d2);
     return best;
   }
-  void search(uint32_t id, const float* p, const std::vector<uint8_t>& clustered, uint32_t& best, float& best_d2) const {
-    const Node& node = nodes[id];
-    if (node.remaining == 0) return;
-    float box_d2 = 0;
-    for (int k = 0; k < 3; ++k) {
-      const float d = std::max({node.lo[k] - p[k], 0.0f, p[k] - node.hi[k]});
-      box_d2 += d * d;
-    }
-    if (box_d2 > best_d2) return;
-    if (node.left == kNone) {
-      for (uint32_t i = node.begin; i < node.end; ++i) {
+  void search(uint32_t id, float node_d2, const float* p, const std::vector<uint8_t>& clustered, uint32_t& best,
+              float& best_d2) const {
+    if (nodes[id].remaining == 0 || node_d2 > best_d2) return;
+    if (id >= leaf_base) {
+      const uint32_t begin = (id - leaf_base) * kKdLeafSize;
+      const uint32_t end = std::min(uint32_t(order.size()), begin + kKdLeafSize);
+      for (uint32_t i = begin; i < end; ++i) {
         const uint32_t t = order[i];
         if (clustered[t]) continue;
-        const float d2 = squared_distance(&centroids[3 * t], p);
+        const float d2 = squared_distance(&centroids[3 * size_t(t)], p);
         if (d2 < best_d2 || (d2 == best_d2 && t < best)) best = t, best_d2 = d2;
       }
       return;
     }
-    search(node.left, p, clustered, best, best_d2);
-    search(node.right, p, clustered, best, best_d2);
+    // The nearer child first, so the farther one is more often pruned.
+    const uint32_t l = 2 * id + 1, r = 2 * id + 2;
+    const float dl = box_d2(l, p), dr = box_d2(r, p);
+    if (dl <= dr) {
+      search(l, dl, p, clustered, best, best_d2);
+      search(r, dr, p, clustered, best, best_d2);
+    } else {
+      search(r, dr, p, clustered, best, best_d2);
+      search(l, dl, p, clustered, best, best_d2);
+    }
   }
 };
 
