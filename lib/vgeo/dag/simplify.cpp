@@ -15,6 +15,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <iterator>
 #include <memory>
 #include <unordered_map>
@@ -156,12 +157,21 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
   // not a seam: meshopt 0.18 locks such a pair, and per-corner groups stopped reducing at
   // level 5 on bunny00). Their keys become
   // (welded id, material). Sorted welded ids, so the sub-mesh does not depend on corner order.
-  std::vector<std::pair<uint32_t, uint32_t>> wedge_of(unique_slots.size());  // (welded id, vertex)
-  for (size_t u = 0; u < unique_slots.size(); ++u) {
-    uint32_t v = uint32_t(unique_slots[u] >> 32);
-    wedge_of[u] = {welded.weld[v], v};
+  // A position has one wedge when one input vertex sits there and the group has one material
+  // (most meshes): then none is welded, and the sort below is skipped.
+  bool any_wedges = std::adjacent_find(group.materials.begin(), group.materials.end(),
+                                       std::not_equal_to<uint32_t>()) != group.materials.end();
+  for (size_t u = 0; u < unique_slots.size() && !any_wedges; ++u)
+    any_wedges = welded.copies[welded.weld[uint32_t(unique_slots[u] >> 32)]] > 1;
+  std::vector<std::pair<uint32_t, uint32_t>> wedge_of;  // (welded id, vertex)
+  if (any_wedges) {
+    wedge_of.resize(unique_slots.size());
+    for (size_t u = 0; u < unique_slots.size(); ++u) {
+      uint32_t v = uint32_t(unique_slots[u] >> 32);
+      wedge_of[u] = {welded.weld[v], v};
+    }
+    std::sort(wedge_of.begin(), wedge_of.end());
   }
-  std::sort(wedge_of.begin(), wedge_of.end());
   std::vector<uint32_t> welded_positions;  // sorted
   for (size_t i = 0; i < wedge_of.size();) {
     size_t j = i;
