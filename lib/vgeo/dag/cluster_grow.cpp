@@ -55,6 +55,7 @@ struct CentroidTree {
   struct Node {
     float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
     uint32_t remaining = 0;
+    uint32_t min_id = kNone;  // smallest unclustered triangle below (the tie order)
   };
   std::vector<Node> nodes;
   std::vector<uint32_t> order;  // triangle ids along the curve; leaf j holds [16j, 16j + 16)
@@ -80,6 +81,7 @@ struct CentroidTree {
         const float* p = &centroids[3 * size_t(order[i])];
         for (int k = 0; k < 3; ++k) leaf.lo[k] = std::min(leaf.lo[k], p[k]), leaf.hi[k] = std::max(leaf.hi[k], p[k]);
         leaf_of[order[i]] = leaf_base + j;
+        leaf.min_id = std::min(leaf.min_id, order[i]);
       }
       leaf.remaining = end - j * kKdLeafSize;
     }
@@ -88,6 +90,7 @@ struct CentroidTree {
       Node& node = nodes[i];
       for (int k = 0; k < 3; ++k) node.lo[k] = std::min(l.lo[k], r.lo[k]), node.hi[k] = std::max(l.hi[k], r.hi[k]);
       node.remaining = l.remaining + r.remaining;
+      node.min_id = std::min(l.min_id, r.min_id);
     }
   }
   // `order` = the unclustered triangles sorted by the Morton code of their centroid in the
@@ -98,17 +101,18 @@ struct CentroidTree {
       if (!clustered[t])
         for (int k = 0; k < 3; ++k)
           lo[k] = std::min(lo[k], centroids[3 * t + k]), hi[k] = std::max(hi[k], centroids[3 * t + k]);
-    constexpr float kCells = float(1u << kMortonBitsPerAxis);
-    float scale[3];
-    for (int k = 0; k < 3; ++k) scale[k] = hi[k] > lo[k] ? kCells / (hi[k] - lo[k]) : 0.0f;
+    // In double: a float scale over a denormal extent would overflow (0 · inf = NaN).
+    constexpr double kCells = double(1u << kMortonBitsPerAxis);
+    double scale[3];
+    for (int k = 0; k < 3; ++k) scale[k] = hi[k] > lo[k] ? kCells / (double(hi[k]) - double(lo[k])) : 0.0;
     std::vector<uint64_t> keys, sorted;  // code << 32 | id
     keys.reserve(n);
     for (size_t t = 0; t < n; ++t) {
       if (clustered[t]) continue;
       uint32_t code = 0;
       for (int k = 0; k < 3; ++k) {
-        const float q = (centroids[3 * t + k] - lo[k]) * scale[k];
-        code |= spread_bits(std::min(uint32_t(std::max(q, 0.0f)), (1u << kMortonBitsPerAxis) - 1)) << k;
+        const double q = (double(centroids[3 * t + k]) - double(lo[k])) * scale[k];
+        code |= spread_bits(uint32_t(std::clamp(q, 0.0, kCells - 1))) << k;
       }
       keys.push_back((uint64_t(code) << 32) | t);
     }
@@ -124,11 +128,23 @@ struct CentroidTree {
     order.resize(keys.size());
     for (size_t i = 0; i < keys.size(); ++i) order[i] = uint32_t(keys[i]);
   }
-  void remove(uint32_t t) {
+  // Triangle t (now clustered) leaves the counts and the smallest ids on its path.
+  void remove(uint32_t t, const std::vector<uint8_t>& clustered) {
     if (!built()) return;
-    for (uint32_t n = leaf_of[t];; n = (n - 1) / 2) {
+    const uint32_t leaf = leaf_of[t];
+    Node& l = nodes[leaf];
+    if (l.min_id == t) {
+      l.min_id = kNone;
+      const uint32_t begin = (leaf - leaf_base) * kKdLeafSize;
+      const uint32_t end = std::min(uint32_t(order.size()), begin + kKdLeafSize);
+      for (uint32_t i = begin; i < end; ++i)
+        if (!clustered[order[i]]) l.min_id = std::min(l.min_id, order[i]);
+    }
+    --l.remaining;
+    for (uint32_t n = leaf; n != 0;) {
+      n = (n - 1) / 2;
       --nodes[n].remaining;
-      if (n == 0) break;
+      nodes[n].min_id = std::min(nodes[2 * n + 1].min_id, nodes[2 * n + 2].min_id);
     }
   }
   float box_d2(uint32_t id, const float* p) const {
@@ -149,7 +165,10 @@ struct CentroidTree {
   }
   void search(uint32_t id, float node_d2, const float* p, const std::vector<uint8_t>& clustered, uint32_t& best,
               float& best_d2) const {
-    if (nodes[id].remaining == 0 || node_d2 > best_d2) return;
+    // A box at the best distance can only hold a winner with a smaller id: without this, a
+    // mesh whose distances all round to one value (squares underflowing at 1e-37 scale) made
+    // every search visit the whole tree.
+    if (nodes[id].remaining == 0 || node_d2 > best_d2 || (node_d2 == best_d2 && nodes[id].min_id > best)) return;
     if (id >= leaf_base) {
       const uint32_t begin = (id - leaf_base) * kKdLeafSize;
       const uint32_t end = std::min(uint32_t(order.size()), begin + kKdLeafSize);
@@ -161,10 +180,11 @@ struct CentroidTree {
       }
       return;
     }
-    // The nearer child first, so the farther one is more often pruned.
+    // The nearer child first (at equal distance the one with the smaller id), so the other
+    // one is more often pruned.
     const uint32_t l = 2 * id + 1, r = 2 * id + 2;
     const float dl = box_d2(l, p), dr = box_d2(r, p);
-    if (dl <= dr) {
+    if (dl < dr || (dl == dr && nodes[l].min_id <= nodes[r].min_id)) {
       search(l, dl, p, clustered, best, best_d2);
       search(r, dr, p, clustered, best, best_d2);
     } else {
@@ -293,7 +313,7 @@ void finish_cluster(Grower& g) {
 // or one of theirs now has a single unclustered triangle) are refiled.
 void add_triangle(Grower& g, uint32_t t) {
   g.clustered[t] = 1;
-  g.tree.remove(t);
+  g.tree.remove(t, g.clustered);
   leave_bucket(g, t);
   g.ids.push_back(t);
   for (int k = 0; k < 3; ++k) g.sum[k] += g.centroid[3 * size_t(t) + k];
