@@ -95,7 +95,8 @@ struct BuilderVariant {
     std::string l = simplifier == Simplifier::kOpenMesh ? "openmesh" : "meshopt";
     if (ratio != build_detail::kSimplifyTargetRatio) l += " r" + fmt(ratio);
     if (budget != build_detail::kSimplifyErrorBudget) l += " b" + fmt(budget);
-    if (split == build_detail::SplitMethod::kGrow) l += " grow";
+    if (split != build_detail::InternalBuildOptions{}.leaf_split)
+      l += split == build_detail::SplitMethod::kGrow ? " grow" : " meshopt-clusters";
     return l;
   }
 };

@@ -1,6 +1,8 @@
 // `vgeo build INPUT -o OUT [--simplifier meshopt|openmesh] [--threads N] [--page-size SIZE]
 // [--zstd-level L] [--report R.json]`: builds the cluster DAG of every mesh of INPUT and writes
 // the page format (spec/format.md; a page file is named *.vgp), or a VGEODAG1 file (spec/dag.md) when OUT ends in .vgeodag.
+#include <malloc.h>
+
 #include <chrono>
 #include <cstdio>
 #include <map>
@@ -140,6 +142,14 @@ void print_format_sizes(const FormatReport& r) {
               r.pages_stored_bytes ? raw / double(r.pages_stored_bytes) : 0.0);
 }
 
+// Allocations up to this size come from the heap, not from mmap: a build allocates and frees
+// arrays of the mesh's size (MBs to hundreds of MBs) on every level, and glibc's default
+// (mmap above 128 KiB, raised only up to 32 MiB as chunks are freed) hands each back to the
+// kernel, so the next one is faulted in and zeroed again. Measured on the 1M sphere, one
+// thread: 0.2 s less system time and 0.1-0.3 s less user time (about 8% of the build),
+// peak RSS +2% (docs/acceptance/issue23_buildspeed.md). 32 MiB alone gained nothing.
+constexpr int kBuildMmapThresholdBytes = 256 << 20;
+
 }  // namespace
 
 void add_build_command(CLI::App& app, Context& ctx) {
@@ -163,6 +173,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
                       "; `vgeo bench compression` measures size against CPU); ignored for .vgeodag");
   cmd->add_option("--report", args->report, "write the build report as JSON");
   cmd->callback([args, &ctx] {
+    mallopt(M_MMAP_THRESHOLD, kBuildMmapThresholdBytes);  // before the first large allocation
     FormatOptions format_options;
     if (!args->page_size.empty()) format_options.page_size = parse_page_size(args->page_size);  // before the build
     if (!args->zstd_level.empty()) format_options.zstd_level = parse_zstd_level(args->zstd_level);

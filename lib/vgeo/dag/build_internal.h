@@ -127,16 +127,16 @@ FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool);
 
 // Splits triangles into clusters of ≤ kMaxClusterTriangles triangles and
 // ≤ kMaxClusterVertices original vertices. Deterministic. `scratch` must have
-// weld.size() entries, all kNone, and is returned in that state. kMeshopt:
-// meshopt_buildMeshlets (the default); kMetis: recursive bisection; kGrow: the own greedy
-// grower (meshopt's rule, O(log) steps; measured in spec/dag.md §5, not the default).
+// weld.size() entries, all kNone, and is returned in that state. kGrow: the own greedy grower
+// (the default; meshopt_buildMeshlets 0.18's rule, cluster_grow.cpp); kMeshopt:
+// meshopt_buildMeshlets itself; kMetis: recursive bisection (both kept for measurement).
 enum class SplitMethod : uint8_t { kMeshopt = 0, kMetis = 1, kGrow = 2 };
 std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const TriangleSet& tris,
                                              std::vector<uint32_t>& scratch,
-                                             SplitMethod method = SplitMethod::kMeshopt);
+                                             SplitMethod method = SplitMethod::kGrow);
 
-// The splitters' shared steps (cluster_split.cpp) and the two kept for measurement
-// (cluster_split_alternatives.cpp), which split_into_clusters calls for kGrow and kMetis.
+// The splitters' shared steps (cluster_split.cpp), the grower (cluster_grow.cpp) and the two
+// kept for measurement (cluster_split_alternatives.cpp), which split_into_clusters calls.
 // Compacts the welded ids of `tris` into local ids [0, n) in order of first use.
 // Returns the welded ids per local id; `local_corner` gets 3 local ids per triangle.
 std::vector<uint32_t> compact_welded(const WeldedMesh& welded, const TriangleSet& tris,
@@ -147,6 +147,8 @@ std::vector<uint32_t> compact_welded(const WeldedMesh& welded, const TriangleSet
 void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<uint32_t>& scratch,
                   std::vector<TriangleSet>& out);
 std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch);
+std::vector<TriangleSet> split_meshopt(const WeldedMesh& welded, const TriangleSet& tris,
+                                       std::vector<uint32_t>& scratch);
 std::vector<TriangleSet> split_metis(const WeldedMesh& welded, const TriangleSet& tris,
                                      std::vector<uint32_t>& scratch);
 
@@ -173,8 +175,8 @@ std::vector<uint64_t> lock_cross_block_vertices(const WeldedMesh& welded, const 
 
 // Knobs for measuring alternatives (benchmarks, tests); build_dag uses the defaults.
 struct InternalBuildOptions {
-  SplitMethod leaf_split = SplitMethod::kMeshopt;
-  SplitMethod group_split = SplitMethod::kMeshopt;
+  SplitMethod leaf_split = SplitMethod::kGrow;
+  SplitMethod group_split = SplitMethod::kGrow;
   uint32_t group_target_clusters = 0;  // 0: default_group_target_clusters(the simplifier)
   size_t group_block_clusters = kGroupBlockClusters;  // tests force small blocks
   double simplify_target_ratio = kSimplifyTargetRatio;

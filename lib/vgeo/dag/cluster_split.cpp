@@ -1,9 +1,9 @@
-// Splitting a triangle set into clusters (spec/dag.md §2.2): meshopt_buildMeshlets on the
-// proper triangles, degenerate ones attached afterwards to the cluster that already uses their
-// positions; clusters over the vertex limit (attribute seams) bisected in order.
-// Based on: Kapoulkine, meshoptimizer 0.18, meshopt_buildMeshlets (called, not reimplemented).
-#include <meshoptimizer.h>
-
+// Splitting a triangle set into clusters (spec/dag.md §2.2): the splitter (the grower,
+// cluster_grow.cpp, by default) on the proper triangles, degenerate ones attached afterwards to
+// the cluster that already uses their positions; clusters over the vertex limit (attribute
+// seams) bisected in order.
+// Based on: Karis, Stubbe, Wihlidal, "Nanite: A Deep Dive", SIGGRAPH 2021, §"Build operations"
+// (clusters of 128 triangles); the degenerate-triangle placement is this project's own rule.
 #include <algorithm>
 #include <array>
 #include <cassert>
@@ -64,84 +64,12 @@ void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, st
 
 namespace {
 
-std::vector<TriangleSet> split_meshopt(const WeldedMesh& welded, const TriangleSet& tris,
-                                       std::vector<uint32_t>& scratch) {
-  const Mesh& mesh = *welded.mesh;
-  size_t tri_count = tris.triangle_count();
-  std::vector<uint32_t> local;
-  std::vector<uint32_t> welded_of_local = compact_welded(welded, tris, scratch, local);
-  size_t vcount = welded_of_local.size();
-  std::vector<float> positions(3 * vcount);
-  for (size_t i = 0; i < vcount; ++i)
-    std::memcpy(&positions[3 * i], &mesh.positions[3 * size_t(welded_of_local[i])], 12);
-
-  size_t max_meshlets = meshopt_buildMeshletsBound(local.size(), kMaxClusterVertices, kMaxClusterTriangles);
-  std::vector<meshopt_Meshlet> meshlets(max_meshlets);
-  // Worst-case sized output arrays that meshopt fills only in part (a cluster rarely reaches
-  // both limits): left uninitialised, so only the pages it writes are touched (a zero fill
-  // cost 1-3% of a build's CPU and its whole size in resident memory).
-  std::unique_ptr<unsigned int[]> meshlet_vertices(new unsigned int[max_meshlets * kMaxClusterVertices]);
-  std::unique_ptr<unsigned char[]> meshlet_triangles(new unsigned char[max_meshlets * kMaxClusterTriangles * 3]);
-  size_t meshlet_count = meshopt_buildMeshlets(meshlets.data(), meshlet_vertices.get(), meshlet_triangles.get(),
-                                               local.data(), local.size(), positions.data(), vcount,
-                                               sizeof(float) * 3, kMaxClusterVertices, kMaxClusterTriangles, 0.0f);
-
-  // Map meshlet triangles back to input triangles: meshopt keeps each triangle's corner
-  // order, so find an unused input triangle with the same local corners via the first
-  // corner's triangle list.
-  std::vector<uint32_t> first(vcount + 1, 0), list(3 * tri_count);
-  for (size_t i = 0; i < local.size(); ++i) ++first[local[i] + 1];
-  for (size_t v = 0; v < vcount; ++v) first[v + 1] += first[v];
-  {
-    std::vector<uint32_t> fill(first.begin(), first.end() - 1);
-    for (size_t i = 0; i < local.size(); ++i) list[fill[local[i]]++] = uint32_t(i / 3);
-  }
-  std::vector<uint8_t> used(tri_count, 0);
-  std::vector<TriangleSet> out;
-  std::vector<uint32_t> ids;
-  size_t assigned = 0;
-  for (size_t m = 0; m < meshlet_count; ++m) {
-    const meshopt_Meshlet& ml = meshlets[m];
-    ids.clear();
-    for (size_t t = 0; t < ml.triangle_count; ++t) {
-      const unsigned char* lt = &meshlet_triangles[ml.triangle_offset + 3 * t];
-      uint32_t a = meshlet_vertices[ml.vertex_offset + lt[0]];
-      uint32_t b = meshlet_vertices[ml.vertex_offset + lt[1]];
-      uint32_t c = meshlet_vertices[ml.vertex_offset + lt[2]];
-      uint32_t found = kNone;
-      for (uint32_t j = first[a]; j < first[a + 1]; ++j) {
-        uint32_t tri = list[j];
-        if (used[tri]) continue;
-        const uint32_t* lc = &local[3 * size_t(tri)];
-        if (lc[0] == a && lc[1] == b && lc[2] == c) {
-          found = tri;
-          break;
-        }
-      }
-      if (found == kNone) continue;  // cannot happen; the sweep below keeps every triangle
-      used[found] = 1;
-      ids.push_back(found);
-    }
-    assigned += ids.size();
-    if (!ids.empty()) emit_cluster(tris, ids.data(), ids.size(), scratch, out);
-  }
-  if (assigned != tri_count) {
-    // Defensive: any triangle meshopt did not report (it reports all) still gets a cluster.
-    ids.clear();
-    for (size_t t = 0; t < tri_count; ++t)
-      if (!used[t]) ids.push_back(uint32_t(t));
-    for (size_t i = 0; i < ids.size(); i += kMaxClusterTriangles)
-      emit_cluster(tris, ids.data() + i, std::min<size_t>(kMaxClusterTriangles, ids.size() - i), scratch, out);
-  }
-  return out;
-}
-
 std::vector<TriangleSet> split_proper(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch,
                                       SplitMethod method) {
   switch (method) {
     case SplitMethod::kMetis: return split_metis(welded, tris, scratch);
-    case SplitMethod::kGrow: return split_grow(welded, tris, scratch);
-    default: return split_meshopt(welded, tris, scratch);
+    case SplitMethod::kMeshopt: return split_meshopt(welded, tris, scratch);
+    default: return split_grow(welded, tris, scratch);
   }
 }
 
@@ -242,6 +170,12 @@ std::vector<TriangleSet> attach_degenerate(const WeldedMesh& welded, const Trian
       if (tie != kNone) best_cluster = tie_cluster, best_triangle = placements[tie].second;
     } else {
       // Candidates: the clusters of a used position; each must hold the other used positions.
+      // The first one with a triangle holding them all wins, else the first holding them: a
+      // cluster can hold two positions without their edge (it lies on its border, the edge's
+      // triangle in the next cluster), and where that next cluster falls into another group
+      // the degenerate one alone would carry the edge in this group: an edge shared with
+      // the other group that the simplifier drops with it (a broken border, a stuck group).
+      uint32_t fallback_cluster = kNone, fallback_triangle = kNone;
       for (auto [it, end] = uses_of(w[first]); it != end && best_cluster == kNone; ++it) {
         const uint32_t c = (*it)[1];
         if (tie_cluster != kNone && c != tie_cluster) continue;
@@ -266,12 +200,13 @@ std::vector<TriangleSet> attach_degenerate(const WeldedMesh& welded, const Trian
             all = welded.weld[tc[0]] == w[k] || welded.weld[tc[1]] == w[k] || welded.weld[tc[2]] == w[k];
           }
           if (all) {
-            anchor = uint32_t(t);
+            best_cluster = c, best_triangle = uint32_t(t);
             break;
           }
         }
-        best_cluster = c, best_triangle = anchor;
+        if (fallback_cluster == kNone) fallback_cluster = c, fallback_triangle = anchor;
       }
+      if (best_cluster == kNone) best_cluster = fallback_cluster, best_triangle = fallback_triangle;
     }
     for (int k = 0; k < 3; ++k)
       if (!used[k] && scratch[w[k]] == kNone) {

@@ -15,7 +15,9 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <iterator>
+#include <memory>
 #include <unordered_map>
 
 #include "vgeo/dag/build_internal.h"
@@ -125,14 +127,18 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
   const Mesh& mesh = *welded.mesh;
   size_t n = group.triangle_count();
   // Distinct (vertex << 32 | material) keys of the corners via an open addressing table
-  // (load ≤ 1/2); slot_of[i] remembers each corner's slot.
+  // (load ≤ 1/2); slot_of[i] is each corner's index into unique_slots (its distinct key).
+  // Only the key array is filled: a slot's unique index is read only once its key is set, so
+  // that array stays uninitialised (the table is sized for the worst case, 3n distinct keys,
+  // while groups have about n/2: filling it cost more than the lookups).
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
   while (slots < 6 * n) slots <<= 1, --shift;
   constexpr uint64_t kEmpty = ~uint64_t(0);  // vertex ids < 2^32 - 1, so never a key
   std::vector<uint64_t> slot_key(slots, kEmpty);
+  std::unique_ptr<uint32_t[]> unique_of_slot(new uint32_t[slots]);
   std::vector<uint32_t> slot_of(3 * n);
-  std::vector<std::pair<uint64_t, uint32_t>> unique_slots;  // (key, slot)
+  std::vector<uint64_t> unique_slots;  // distinct keys in order of first use
   unique_slots.reserve(3 * n);
   for (size_t i = 0; i < 3 * n; ++i) {
     const uint64_t key = (uint64_t(group.corners[i]) << 32) | group.materials[i / 3];
@@ -140,9 +146,10 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
     while (slot_key[h] != kEmpty && slot_key[h] != key) h = (h + 1) & (slots - 1);
     if (slot_key[h] == kEmpty) {
       slot_key[h] = key;
-      unique_slots.push_back({key, uint32_t(h)});
+      unique_of_slot[h] = uint32_t(unique_slots.size());
+      unique_slots.push_back(key);
     }
-    slot_of[i] = uint32_t(h);
+    slot_of[i] = unique_of_slot[h];
   }
   // Positions with more than kMaxSeamWedges wedges in the group, or more than kMaxSeamWedges
   // input vertices in the mesh, are welded: the second because above the leaves a group of a
@@ -150,12 +157,21 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
   // not a seam: meshopt 0.18 locks such a pair, and per-corner groups stopped reducing at
   // level 5 on bunny00). Their keys become
   // (welded id, material). Sorted welded ids, so the sub-mesh does not depend on corner order.
-  std::vector<std::pair<uint32_t, uint32_t>> wedge_of(unique_slots.size());  // (welded id, vertex)
-  for (size_t u = 0; u < unique_slots.size(); ++u) {
-    uint32_t v = uint32_t(unique_slots[u].first >> 32);
-    wedge_of[u] = {welded.weld[v], v};
+  // A position has one wedge when one input vertex sits there and the group has one material
+  // (most meshes): then none is welded, and the sort below is skipped.
+  bool any_wedges = std::adjacent_find(group.materials.begin(), group.materials.end(),
+                                       std::not_equal_to<uint32_t>()) != group.materials.end();
+  for (size_t u = 0; u < unique_slots.size() && !any_wedges; ++u)
+    any_wedges = welded.copies[welded.weld[uint32_t(unique_slots[u] >> 32)]] > 1;
+  std::vector<std::pair<uint32_t, uint32_t>> wedge_of;  // (welded id, vertex)
+  if (any_wedges) {
+    wedge_of.resize(unique_slots.size());
+    for (size_t u = 0; u < unique_slots.size(); ++u) {
+      uint32_t v = uint32_t(unique_slots[u] >> 32);
+      wedge_of[u] = {welded.weld[v], v};
+    }
+    std::sort(wedge_of.begin(), wedge_of.end());
   }
-  std::sort(wedge_of.begin(), wedge_of.end());
   std::vector<uint32_t> welded_positions;  // sorted
   for (size_t i = 0; i < wedge_of.size();) {
     size_t j = i;
@@ -167,22 +183,25 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
   auto is_welded = [&](uint32_t w) {
     return std::binary_search(welded_positions.begin(), welded_positions.end(), w);
   };
-  // Sub-mesh key per unique slot, then the sub-mesh vertex = rank among the distinct keys.
-  std::vector<uint64_t> sub_key_of_slot(slots);
+  // Sub-mesh key per distinct key, then the sub-mesh vertex = rank among the distinct sub-mesh
+  // keys (one sort of (sub-mesh key, distinct key) pairs).
+  std::vector<uint64_t> sub_key_of_slot(unique_slots.size());
+  std::vector<std::pair<uint64_t, uint32_t>> by_sub_key(unique_slots.size());
+  for (size_t u = 0; u < unique_slots.size(); ++u) {
+    const uint64_t key = unique_slots[u];
+    uint32_t v = uint32_t(key >> 32), w = welded.weld[v];
+    uint64_t sub = welded_positions.empty() || !is_welded(w) ? key : (uint64_t(w) << 32) | uint32_t(key);
+    sub_key_of_slot[u] = sub;
+    by_sub_key[u] = {sub, uint32_t(u)};
+  }
+  std::sort(by_sub_key.begin(), by_sub_key.end());
   std::vector<uint64_t> unique_keys;
   unique_keys.reserve(unique_slots.size());
-  for (auto [key, slot] : unique_slots) {
-    uint32_t v = uint32_t(key >> 32), w = welded.weld[v];
-    uint64_t sub = is_welded(w) ? (uint64_t(w) << 32) | uint32_t(key) : key;
-    sub_key_of_slot[slot] = sub;
-    unique_keys.push_back(sub);
+  std::vector<uint32_t> rank_of_slot(unique_slots.size());
+  for (const auto& [sub, u] : by_sub_key) {
+    if (unique_keys.empty() || unique_keys.back() != sub) unique_keys.push_back(sub);
+    rank_of_slot[u] = uint32_t(unique_keys.size() - 1);
   }
-  std::sort(unique_keys.begin(), unique_keys.end());
-  unique_keys.erase(std::unique(unique_keys.begin(), unique_keys.end()), unique_keys.end());
-  std::vector<uint32_t> rank_of_slot(slots);
-  for (auto [key, slot] : unique_slots)
-    rank_of_slot[slot] = uint32_t(std::lower_bound(unique_keys.begin(), unique_keys.end(), sub_key_of_slot[slot]) -
-                                  unique_keys.begin());
   std::vector<unsigned int> indices(3 * n);
   for (size_t i = 0; i < 3 * n; ++i) indices[i] = rank_of_slot[slot_of[i]];
   std::vector<float> positions(3 * unique_keys.size());

@@ -1,0 +1,436 @@
+// The default cluster splitter (spec/dag.md §2.2): a greedy grower. A cluster (welded ids,
+// ≤ kMaxClusterVertices positions, ≤ kMaxClusterTriangles triangles) grows by the adjacent
+// triangle that adds the fewest new positions (a triangle at a position with no other
+// unclustered triangle counts as adding one, so corners are not left behind), then by the
+// distance of its centroid to the cluster's current centroid; a full cluster's best candidate
+// starts the next cluster; with no adjacent triangle the nearest unclustered one joins.
+// Based on: Kapoulkine, meshoptimizer 0.18, meshopt_buildMeshlets with cone weight 0 (the
+// rule, reimplemented from its description; no code taken): the candidates live in priority
+// buckets with their centroids, so a step scans the cluster's frontier instead of every
+// cluster vertex's triangle list. Same clusters as meshopt 0.18 up to distance ties.
+#include <algorithm>
+#include <cfloat>
+
+#include "vgeo/dag/build_internal.h"
+
+namespace vgeo::build_detail {
+
+namespace {
+
+// Tree leaves hold up to this many triangles (the nearest search scans a leaf linearly).
+constexpr uint32_t kKdLeafSize = 16;
+// Up to this many triangles (a group's split) the nearest search is a scan: building the
+// tree would cost more than the few searches such a split makes.
+constexpr size_t kNearestScanMaxTriangles = 2048;
+
+inline float squared_distance(const float* a, const float* b) {
+  return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
+}
+
+// Bits per axis of the Morton code that orders the centroids: 1024 cells per axis, finer than
+// the leaves on any mesh split here (a 2^17-triangle chunk has 8,192 leaves of 16).
+constexpr uint32_t kMortonBitsPerAxis = 10;
+// The Morton codes are sorted in passes of this many bits (one counting sort per axis' bits).
+constexpr uint32_t kRadixBits = kMortonBitsPerAxis;
+
+// Spreads the low 10 bits of x to every third bit (bit i to bit 3i).
+inline uint32_t spread_bits(uint32_t x) {
+  x &= 0x3FF;
+  x = (x | (x << 16)) & 0x030000FF;
+  x = (x | (x << 8)) & 0x0300F00F;
+  x = (x | (x << 4)) & 0x030C30C3;
+  x = (x | (x << 2)) & 0x09249249;
+  return x;
+}
+
+// Triangle centroids in a bounding-box tree whose nodes count their unclustered triangles, so
+// the nearest search skips clustered regions. Built on first use (connected meshes rarely need
+// it) in linear time: the centroids sorted along a Morton curve (radix sort), cut into leaves
+// of kKdLeafSize, and a complete binary tree over the leaves (node i has children 2i+1 and
+// 2i+2) whose boxes are merged bottom-up. The search is exact (nearest, ties by smaller id)
+// whatever the tree's shape; the shape only decides how much it prunes.
+// Based on: Lauterbach et al., "Fast BVH Construction on GPUs", Eurographics 2009 (LBVH:
+// primitives sorted by Morton code, a hierarchy over the sorted order).
+struct CentroidTree {
+  struct Node {
+    float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
+    uint32_t remaining = 0;
+    uint32_t min_id = kNone;  // smallest unclustered triangle below (the tie order)
+  };
+  std::vector<Node> nodes;
+  std::vector<uint32_t> order;  // triangle ids along the curve; leaf j holds [16j, 16j + 16)
+  std::vector<uint32_t> leaf_of;
+  uint32_t leaf_base = 0;       // node index of leaf 0
+  const float* centroids = nullptr;
+
+  bool built() const { return centroids != nullptr; }
+  void build(const float* c, size_t n, const std::vector<uint8_t>& clustered) {
+    centroids = c;
+    sort_along_curve(n, clustered);
+    const uint32_t m = uint32_t(order.size());
+    const uint32_t leaves = (m + kKdLeafSize - 1) / kKdLeafSize;
+    uint32_t padded = 1;
+    while (padded < leaves) padded <<= 1;
+    leaf_base = padded - 1;
+    nodes.assign(2 * size_t(padded) - 1, Node());
+    leaf_of.assign(n, kNone);
+    for (uint32_t j = 0; j < leaves; ++j) {
+      Node& leaf = nodes[leaf_base + j];
+      const uint32_t end = std::min(m, (j + 1) * kKdLeafSize);
+      for (uint32_t i = j * kKdLeafSize; i < end; ++i) {
+        const float* p = &centroids[3 * size_t(order[i])];
+        for (int k = 0; k < 3; ++k) leaf.lo[k] = std::min(leaf.lo[k], p[k]), leaf.hi[k] = std::max(leaf.hi[k], p[k]);
+        leaf_of[order[i]] = leaf_base + j;
+        leaf.min_id = std::min(leaf.min_id, order[i]);
+      }
+      leaf.remaining = end - j * kKdLeafSize;
+    }
+    for (uint32_t i = leaf_base; i-- > 0;) {
+      const Node &l = nodes[2 * i + 1], &r = nodes[2 * i + 2];
+      Node& node = nodes[i];
+      for (int k = 0; k < 3; ++k) node.lo[k] = std::min(l.lo[k], r.lo[k]), node.hi[k] = std::max(l.hi[k], r.hi[k]);
+      node.remaining = l.remaining + r.remaining;
+      node.min_id = std::min(l.min_id, r.min_id);
+    }
+  }
+  // `order` = the unclustered triangles sorted by the Morton code of their centroid in the
+  // centroids' bounding box (ties by id: the passes are stable and start in id order).
+  void sort_along_curve(size_t n, const std::vector<uint8_t>& clustered) {
+    float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
+    for (size_t t = 0; t < n; ++t)
+      if (!clustered[t])
+        for (int k = 0; k < 3; ++k)
+          lo[k] = std::min(lo[k], centroids[3 * t + k]), hi[k] = std::max(hi[k], centroids[3 * t + k]);
+    // In double: a float scale over a denormal extent would overflow (0 · inf = NaN).
+    constexpr double kCells = double(1u << kMortonBitsPerAxis);
+    double scale[3];
+    for (int k = 0; k < 3; ++k) scale[k] = hi[k] > lo[k] ? kCells / (double(hi[k]) - double(lo[k])) : 0.0;
+    std::vector<uint64_t> keys, sorted;  // code << 32 | id
+    keys.reserve(n);
+    for (size_t t = 0; t < n; ++t) {
+      if (clustered[t]) continue;
+      uint32_t code = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double q = (double(centroids[3 * t + k]) - double(lo[k])) * scale[k];
+        code |= spread_bits(uint32_t(std::clamp(q, 0.0, kCells - 1))) << k;
+      }
+      keys.push_back((uint64_t(code) << 32) | t);
+    }
+    sorted.resize(keys.size());
+    constexpr uint32_t kBuckets = 1u << kRadixBits;
+    for (uint32_t shift = 32; shift < 32 + 3 * kMortonBitsPerAxis; shift += kRadixBits) {
+      uint32_t start[kBuckets + 1] = {};
+      for (uint64_t key : keys) ++start[((key >> shift) & (kBuckets - 1)) + 1];
+      for (uint32_t b = 0; b < kBuckets; ++b) start[b + 1] += start[b];
+      for (uint64_t key : keys) sorted[start[(key >> shift) & (kBuckets - 1)]++] = key;
+      keys.swap(sorted);
+    }
+    order.resize(keys.size());
+    for (size_t i = 0; i < keys.size(); ++i) order[i] = uint32_t(keys[i]);
+  }
+  // Triangle t (now clustered) leaves the counts and the smallest ids on its path.
+  void remove(uint32_t t, const std::vector<uint8_t>& clustered) {
+    if (!built()) return;
+    const uint32_t leaf = leaf_of[t];
+    Node& l = nodes[leaf];
+    if (l.min_id == t) {
+      l.min_id = kNone;
+      const uint32_t begin = (leaf - leaf_base) * kKdLeafSize;
+      const uint32_t end = std::min(uint32_t(order.size()), begin + kKdLeafSize);
+      for (uint32_t i = begin; i < end; ++i)
+        if (!clustered[order[i]]) l.min_id = std::min(l.min_id, order[i]);
+    }
+    --l.remaining;
+    for (uint32_t n = leaf; n != 0;) {
+      n = (n - 1) / 2;
+      --nodes[n].remaining;
+      nodes[n].min_id = std::min(nodes[2 * n + 1].min_id, nodes[2 * n + 2].min_id);
+    }
+  }
+  float box_d2(uint32_t id, const float* p) const {
+    const Node& node = nodes[id];
+    float d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const float d = std::max({node.lo[k] - p[k], 0.0f, p[k] - node.hi[k]});
+      d2 += d * d;
+    }
+    return d2;
+  }
+  // Nearest unclustered triangle to p (ties: smaller id); kNone when none is left.
+  uint32_t nearest(const float* p, const std::vector<uint8_t>& clustered) const {
+    uint32_t best = kNone;
+    float best_d2 = FLT_MAX;
+    if (!nodes.empty() && nodes[0].remaining > 0) search(0, box_d2(0, p), p, clustered, best, best_d2);
+    return best;
+  }
+  void search(uint32_t id, float node_d2, const float* p, const std::vector<uint8_t>& clustered, uint32_t& best,
+              float& best_d2) const {
+    // A box at the best distance can only hold a winner with a smaller id: without this, a
+    // mesh whose distances all round to one value (squares underflowing at 1e-37 scale) made
+    // every search visit the whole tree.
+    if (nodes[id].remaining == 0 || node_d2 > best_d2 || (node_d2 == best_d2 && nodes[id].min_id > best)) return;
+    if (id >= leaf_base) {
+      const uint32_t begin = (id - leaf_base) * kKdLeafSize;
+      const uint32_t end = std::min(uint32_t(order.size()), begin + kKdLeafSize);
+      for (uint32_t i = begin; i < end; ++i) {
+        const uint32_t t = order[i];
+        if (clustered[t]) continue;
+        const float d2 = squared_distance(&centroids[3 * size_t(t)], p);
+        if (d2 < best_d2 || (d2 == best_d2 && t < best)) best = t, best_d2 = d2;
+      }
+      return;
+    }
+    // The nearer child first (at equal distance the one with the smaller id), so the other
+    // one is more often pruned.
+    const uint32_t l = 2 * id + 1, r = 2 * id + 2;
+    const float dl = box_d2(l, p), dr = box_d2(r, p);
+    if (dl < dr || (dl == dr && nodes[l].min_id <= nodes[r].min_id)) {
+      search(l, dl, p, clustered, best, best_d2);
+      search(r, dr, p, clustered, best, best_d2);
+    } else {
+      search(r, dr, p, clustered, best, best_d2);
+      search(l, dl, p, clustered, best, best_d2);
+    }
+  }
+};
+
+// Candidate of the growing cluster in its priority bucket: the triangle and its centroid
+// (copied, so a bucket scan reads one contiguous array).
+struct BucketEntry {
+  float x, y, z;
+  uint32_t triangle;
+};
+
+// Candidate priorities: 0 adds no vertex; 1 + new vertices otherwise, 1 when it holds a vertex
+// where it is the last unclustered triangle (0..4).
+constexpr uint32_t kPriorityBuckets = 5;
+
+// The grower's state over one split: the triangles in local (compacted welded) ids, their
+// centroids, each vertex's unclustered triangles, and the cluster being grown with its
+// candidates (the unclustered triangles at its vertices) bucketed by priority.
+struct Grower {
+  Grower(const TriangleSet& t, std::vector<uint32_t>& s) : tris(t), scratch(s), n(t.triangle_count()) {}
+  const TriangleSet& tris;
+  std::vector<uint32_t>& scratch;
+  size_t n;                      // triangles
+  std::vector<uint32_t> local;   // 3 local vertex ids per triangle
+  std::vector<float> centroid;   // 3 per triangle
+  // Unclustered triangles per vertex (CSR; a triangle leaves its vertices' lists when clustered).
+  std::vector<uint32_t> first, live, adjacency;
+  CentroidTree tree;
+  std::vector<uint8_t> clustered;
+  std::vector<uint32_t> in_cluster;  // stamp: index of the cluster using the vertex
+  std::vector<uint32_t> joined;      // per vertex: its rank in the cluster using it
+  std::vector<BucketEntry> buckets[kPriorityBuckets];
+  std::vector<uint8_t> bucket_of;    // per triangle: its bucket, or kNoBucket
+  std::vector<uint32_t> slot_of;     // per triangle: its index in that bucket
+  std::vector<uint32_t> ids;  // the cluster's triangles in order of addition
+  std::vector<TriangleSet> out;
+  uint32_t stamp = 0, cluster_vertices = 0;
+  float sum[3] = {0, 0, 0};  // of the cluster's triangle centroids
+};
+constexpr uint8_t kNoBucket = 0xFF;
+
+// Local ids, centroids and the vertex → triangle lists of `g.tris`.
+void index_triangles(Grower& g, const WeldedMesh& welded) {
+  const Mesh& mesh = *welded.mesh;
+  const size_t n = g.n;
+  const std::vector<uint32_t> welded_of_local = compact_welded(welded, g.tris, g.scratch, g.local);
+  const size_t vcount = welded_of_local.size();
+  g.centroid.resize(3 * n);
+  for (size_t t = 0; t < n; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const size_t a = welded_of_local[g.local[3 * t]], b = welded_of_local[g.local[3 * t + 1]],
+                   c = welded_of_local[g.local[3 * t + 2]];
+      g.centroid[3 * t + k] = (mesh.positions[3 * a + k] + mesh.positions[3 * b + k] + mesh.positions[3 * c + k]) / 3.0f;
+    }
+  g.first.assign(vcount + 1, 0);
+  g.live.assign(vcount, 0);
+  g.adjacency.resize(3 * n);
+  for (uint32_t v : g.local) ++g.live[v];
+  for (size_t v = 0; v < vcount; ++v) g.first[v + 1] = g.first[v] + g.live[v];
+  {
+    std::vector<uint32_t> fill(g.first.begin(), g.first.end() - 1);
+    for (size_t i = 0; i < g.local.size(); ++i) g.adjacency[fill[g.local[i]]++] = uint32_t(i / 3);
+  }
+  g.clustered.assign(n, 0);
+  g.in_cluster.assign(vcount, kNone);
+  g.joined.resize(vcount);
+  g.bucket_of.assign(n, kNoBucket);
+  g.slot_of.resize(n);
+}
+
+uint32_t new_vertices(const Grower& g, uint32_t t) {
+  const uint32_t* c = &g.local[3 * size_t(t)];
+  return uint32_t(g.in_cluster[c[0]] != g.stamp) + (g.in_cluster[c[1]] != g.stamp) + (g.in_cluster[c[2]] != g.stamp);
+}
+
+uint32_t priority_of(const Grower& g, uint32_t t) {
+  const uint32_t extra = new_vertices(g, t);
+  if (extra == 0) return 0u;
+  const uint32_t* c = &g.local[3 * size_t(t)];
+  const bool dangling = g.live[c[0]] == 1 || g.live[c[1]] == 1 || g.live[c[2]] == 1;
+  return 1 + (dangling ? 0 : extra);
+}
+
+void leave_bucket(Grower& g, uint32_t t) {
+  const uint8_t b = g.bucket_of[t];
+  if (b == kNoBucket) return;
+  std::vector<BucketEntry>& bucket = g.buckets[b];
+  const uint32_t slot = g.slot_of[t];
+  bucket[slot] = bucket.back();
+  g.slot_of[bucket[slot].triangle] = slot;
+  bucket.pop_back();
+  g.bucket_of[t] = kNoBucket;
+}
+
+// (Re)files candidate t under its current priority.
+void file_candidate(Grower& g, uint32_t t) {
+  const uint32_t p = priority_of(g, t);
+  if (g.bucket_of[t] == p) return;
+  leave_bucket(g, t);
+  g.bucket_of[t] = uint8_t(p);
+  g.slot_of[t] = uint32_t(g.buckets[p].size());
+  const float* c = &g.centroid[3 * size_t(t)];
+  g.buckets[p].push_back({c[0], c[1], c[2], t});
+}
+
+// The grown cluster emitted; the next one starts empty.
+void finish_cluster(Grower& g) {
+  if (!g.ids.empty()) emit_cluster(g.tris, g.ids.data(), g.ids.size(), g.scratch, g.out);
+  g.ids.clear();
+  for (std::vector<BucketEntry>& bucket : g.buckets) {
+    for (const BucketEntry& e : bucket) g.bucket_of[e.triangle] = kNoBucket;
+    bucket.clear();
+  }
+  ++g.stamp;
+  g.cluster_vertices = 0;
+  g.sum[0] = g.sum[1] = g.sum[2] = 0;
+}
+
+// Triangle t joins the cluster: it leaves its vertices' lists and its bucket; the triangles
+// at its new vertices become candidates, and those whose priority changed (a vertex joined,
+// or one of theirs now has a single unclustered triangle) are refiled.
+void add_triangle(Grower& g, uint32_t t) {
+  g.clustered[t] = 1;
+  g.tree.remove(t, g.clustered);
+  leave_bucket(g, t);
+  g.ids.push_back(t);
+  for (int k = 0; k < 3; ++k) g.sum[k] += g.centroid[3 * size_t(t) + k];
+  const uint32_t* c = &g.local[3 * size_t(t)];
+  for (int k = 0; k < 3; ++k) {
+    const uint32_t v = c[k];
+    uint32_t* list = &g.adjacency[g.first[v]];
+    for (uint32_t i = 0; i < g.live[v]; ++i)
+      if (list[i] == t) {
+        list[i] = list[--g.live[v]];
+        break;
+      }
+  }
+  for (int k = 0; k < 3; ++k) {
+    const uint32_t v = c[k];
+    const uint32_t* list = &g.adjacency[g.first[v]];
+    if (g.in_cluster[v] != g.stamp) {
+      g.in_cluster[v] = g.stamp;
+      g.joined[v] = g.cluster_vertices++;
+      for (uint32_t i = 0; i < g.live[v]; ++i) file_candidate(g, list[i]);
+    } else if (g.live[v] == 1) {
+      file_candidate(g, list[0]);  // now the last triangle at v: dangling
+    }
+  }
+}
+
+// Tie order of two equally near candidates (common on regular meshes: grids, UV spheres): the
+// one at the cluster's earliest vertex, then the smaller id; meshopt 0.18 keeps the first it
+// meets scanning the cluster's vertices in order, so this is its order up to the order of a
+// vertex's triangles.
+uint32_t earliest_vertex(const Grower& g, uint32_t t) {
+  const uint32_t* c = &g.local[3 * size_t(t)];
+  uint32_t r = UINT32_MAX;
+  for (int k = 0; k < 3; ++k)
+    if (g.in_cluster[c[k]] == g.stamp) r = std::min(r, g.joined[c[k]]);
+  return r;
+}
+bool breaks_tie(const Grower& g, uint32_t t, uint32_t best) {
+  if (best == kNone) return true;
+  const uint32_t rt = earliest_vertex(g, t), rb = earliest_vertex(g, best);
+  return rt < rb || (rt == rb && t < best);
+}
+
+// The best candidate: lowest priority, then nearest the cluster's current centroid (ties:
+// breaks_tie); kNone if there is none.
+uint32_t best_candidate(const Grower& g) {
+  const float inv = 1.0f / float(g.ids.size());
+  const float cx = g.sum[0] * inv, cy = g.sum[1] * inv, cz = g.sum[2] * inv;
+  for (const std::vector<BucketEntry>& bucket : g.buckets) {
+    if (bucket.empty()) continue;
+    uint32_t best = kNone;
+    float best_d2 = FLT_MAX;
+    for (const BucketEntry& e : bucket) {
+      const float d2 = (e.x - cx) * (e.x - cx) + (e.y - cy) * (e.y - cy) + (e.z - cz) * (e.z - cz);
+      if (d2 < best_d2 || (d2 == best_d2 && breaks_tie(g, e.triangle, best))) best = e.triangle, best_d2 = d2;
+    }
+    return best;
+  }
+  return kNone;
+}
+
+// The unclustered triangle nearest the cluster's centroid (a scan, or the k-d tree built on
+// first use for large splits); kNone when none is left.
+uint32_t nearest_to_cluster(Grower& g) {
+  float c[3];
+  for (int k = 0; k < 3; ++k) c[k] = g.sum[k] / float(g.ids.size());
+  if (g.n > kNearestScanMaxTriangles) {
+    if (!g.tree.built()) g.tree.build(g.centroid.data(), g.n, g.clustered);
+    return g.tree.nearest(c, g.clustered);
+  }
+  uint32_t best = kNone;
+  float best_d2 = FLT_MAX;
+  for (uint32_t t = 0; t < g.n; ++t) {
+    if (g.clustered[t]) continue;
+    const float d2 = squared_distance(&g.centroid[3 * size_t(t)], c);
+    if (d2 < best_d2) best = t, best_d2 = d2;
+  }
+  return best;
+}
+
+// The first triangle: the one whose centroid is nearest the origin (ties: smaller id), where
+// meshopt_buildMeshlets 0.18 starts (its empty cluster's centroid is the origin).
+uint32_t first_seed(const Grower& g) {
+  const float origin[3] = {0, 0, 0};
+  uint32_t next = 0;
+  float best_d2 = FLT_MAX;
+  for (uint32_t t = 0; t < g.n; ++t) {
+    const float d2 = squared_distance(&g.centroid[3 * size_t(t)], origin);
+    if (d2 < best_d2) next = t, best_d2 = d2;
+  }
+  return next;
+}
+
+}  // namespace
+
+std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch) {
+  Grower g(tris, scratch);
+  index_triangles(g, welded);
+  uint32_t next = first_seed(g);
+  for (size_t done = 0; next != kNone;) {
+    add_triangle(g, next);
+    if (++done == g.n) break;
+    next = best_candidate(g);
+    const bool full = g.ids.size() >= kMaxClusterTriangles ||
+                      (next != kNone && g.cluster_vertices + new_vertices(g, next) > kMaxClusterVertices);
+    if (full) {
+      // The full cluster's best candidate starts the next one (meshopt 0.18 moves it there);
+      // with none, the unclustered triangle nearest the full cluster's centroid.
+      const uint32_t nearest = next == kNone ? nearest_to_cluster(g) : kNone;
+      finish_cluster(g);
+      if (next == kNone) next = nearest;
+    } else if (next == kNone) {
+      next = nearest_to_cluster(g);
+    }
+  }
+  finish_cluster(g);
+  return std::move(g.out);
+}
+
+}  // namespace vgeo::build_detail
