@@ -36,7 +36,8 @@ uint32_t bits(float f) {
 float leaf_deviation_of(const Mesh& mesh, const TriangleSet& leaves, const TriangleSet& input,
                         const TriangleSet& simplified, float floor, unsigned threads) {
   ThreadPool pool(threads);
-  const build_detail::LeafSurface surface = build_detail::build_leaf_surface(mesh, {&leaves}, pool);
+  const build_detail::WeldedMesh welded = build_detail::weld_positions(mesh);
+  const build_detail::LeafSurface surface = build_detail::build_leaf_surface(welded, {&leaves}, pool);
   return build_detail::leaf_deviation(surface, mesh, input, simplified, floor);
 }
 

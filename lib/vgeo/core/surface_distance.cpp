@@ -59,16 +59,39 @@ TriangleDistanceTree::TriangleDistanceTree(std::vector<float> corners, ThreadPoo
       for (int k = 0; k < 3; ++k) items[t].centroid[k] = (double(c[k]) + double(c[3 + k]) + double(c[6 + k])) / 3;
     }
   });
+  std::vector<Subtree> frontier, top;
+  build_structure(n, pool, items.data(), frontier, top);
+  // Corners in tree order: a leaf's triangles are adjacent in memory, and a triangle's id
+  // is its tree position.
+  corners_.resize(corners.size());
+  for_chunks(pool, n, kBuildChunk, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) std::copy_n(&corners[9 * size_t(items[i].triangle)], 9, &corners_[9 * i]);
+  });
+  std::vector<float>().swap(corners);
+  std::vector<BuildItem>().swap(items);
+  finish(n, pool, frontier, top);
+}
+
+TriangleDistanceTree::TriangleDistanceTree(const float* positions, std::vector<uint32_t> corner_ids, ThreadPool* pool)
+    : positions_(positions), corner_ids_(std::move(corner_ids)) {
+  const uint32_t n = uint32_t(corner_ids_.size() / 3);
+  if (n == 0) return;
+  std::vector<Subtree> frontier, top;
+  build_structure(n, pool, nullptr, frontier, top);
+  finish(n, pool, frontier, top);
+}
+
+void TriangleDistanceTree::build_structure(uint32_t n, ThreadPool* pool, BuildItem* items, std::vector<Subtree>& frontier,
+                                           std::vector<Subtree>& top) {
   std::map<uint32_t, uint32_t> memo;
   nodes_.resize(subtree_nodes(n, memo));
-  // The structure first (splits; boxes once the corners are in tree order). The top of the
-  // tree breadth first, each level's splits in parallel, until there are enough subtrees to
-  // build as independent tasks. Every node's place is fixed by the triangle counts alone
-  // (subtree_nodes), so the tree is the one the serial depth-first build makes, whatever
-  // the pool.
+  // The top of the tree breadth first, each level's splits in parallel, until there are
+  // enough subtrees to build as independent tasks. Every node's place is fixed by the
+  // triangle counts alone (subtree_nodes), so the tree is the one the serial depth-first
+  // build makes, whatever the pool.
   const size_t wanted = pool ? kSubtreesPerThread * pool->size() : 1;
-  std::vector<Subtree> frontier{{0, 0, n, 1}};
-  std::vector<Subtree> top;  // inner nodes split here, parents before children
+  frontier = {{0, 0, n, 1}};
+  top.clear();
   for (;;) {
     std::vector<size_t> splittable;
     for (size_t i = 0; i < frontier.size(); ++i)
@@ -77,9 +100,9 @@ TriangleDistanceTree::TriangleDistanceTree(std::vector<float> corners, ThreadPoo
     std::vector<uint32_t> mids(splittable.size());
     auto split_one = [&](size_t i) {
       const Subtree& at = frontier[splittable[i]];
-      mids[i] = split(items.data(), at.first, at.last);
+      mids[i] = split(items, at.first, at.last);
     };
-    if (pool && splittable.size() > 1)
+    if (pool && items && splittable.size() > 1)
       pool->parallel_for(splittable.size(), split_one);
     else
       for (size_t i = 0; i < splittable.size(); ++i) split_one(i);
@@ -99,30 +122,28 @@ TriangleDistanceTree::TriangleDistanceTree(std::vector<float> corners, ThreadPoo
     }
     frontier = std::move(next);
   }
-  auto for_frontier = [&](auto&& fn) {
-    if (pool && frontier.size() > 1)
-      pool->parallel_for(frontier.size(), fn);
-    else
-      for (size_t i = 0; i < frontier.size(); ++i) fn(i);
-  };
-  for_frontier([&](size_t i) { build(frontier[i], items.data()); });
-  // Corners in tree order: a leaf's triangles are adjacent in memory, and a triangle's id
-  // is its tree position.
-  corners_.resize(corners.size());
-  for_chunks(pool, n, kBuildChunk, [&](size_t begin, size_t end) {
-    for (size_t i = begin; i < end; ++i) std::copy_n(&corners[9 * size_t(items[i].triangle)], 9, &corners_[9 * i]);
-  });
-  std::vector<float>().swap(corners);
-  std::vector<BuildItem>().swap(items);
+  if (pool && frontier.size() > 1)
+    pool->parallel_for(frontier.size(), [&](size_t i) { build(frontier[i], items); });
+  else
+    for (const Subtree& at : frontier) build(at, items);
+}
+
+void TriangleDistanceTree::finish(uint32_t n, ThreadPool* pool, const std::vector<Subtree>& frontier,
+                                  const std::vector<Subtree>& top) {
   // Boxes bottom up: children follow their parent, and a subtree's descendants are the
   // nodes [next, next + subtree_nodes - 1).
+  std::map<uint32_t, uint32_t> memo;
   std::vector<uint32_t> descendants(frontier.size());
   for (size_t i = 0; i < frontier.size(); ++i) descendants[i] = subtree_nodes(frontier[i].last - frontier[i].first, memo) - 1;
-  for_frontier([&](size_t i) {
+  auto boxes = [&](size_t i) {
     const Subtree& at = frontier[i];
     for (uint32_t j = at.next + descendants[i]; j-- > at.next;) set_box(j);
     set_box(at.index);
-  });
+  };
+  if (pool && frontier.size() > 1)
+    pool->parallel_for(frontier.size(), boxes);
+  else
+    for (size_t i = 0; i < frontier.size(); ++i) boxes(i);
   for (size_t i = top.size(); i-- > 0;) set_box(top[i].index);
   parent_.assign(nodes_.size(), 0);
   leaf_of_.resize(n);
@@ -158,6 +179,7 @@ static double box_centre_d2(DVec3 p, const float* lo, const float* hi) {
 // The median split of items[first, last) (an inner node's triangles): along the longest axis
 // of the centroids' extent; returns where the second child's triangles begin.
 uint32_t TriangleDistanceTree::split(BuildItem* items, uint32_t first, uint32_t last) {
+  if (!items) return first + (last - first) / 2;
   const double inf = std::numeric_limits<double>::infinity();
   DVec3 clo{inf, inf, inf}, chi{-inf, -inf, -inf};
   for (uint32_t i = first; i < last; ++i) {
@@ -183,8 +205,12 @@ void TriangleDistanceTree::set_box(uint32_t index) {
   if (nd.count) {
     const float inf = std::numeric_limits<float>::infinity();
     for (int k = 0; k < 3; ++k) nd.lo[k] = inf, nd.hi[k] = -inf;
-    for (const float* c = &corners_[9 * size_t(nd.first)]; c != &corners_[9 * size_t(nd.first + nd.count)]; c += 3)
-      for (int k = 0; k < 3; ++k) nd.lo[k] = std::min(nd.lo[k], c[k]), nd.hi[k] = std::max(nd.hi[k], c[k]);
+    for (uint32_t t = nd.first; t < nd.first + nd.count; ++t)
+      for (int j = 0; j < 3; ++j) {
+        const DVec3 c = corner(t, j);  // exact: a float widened
+        const float xyz[3] = {float(c.x), float(c.y), float(c.z)};
+        for (int k = 0; k < 3; ++k) nd.lo[k] = std::min(nd.lo[k], xyz[k]), nd.hi[k] = std::max(nd.hi[k], xyz[k]);
+      }
     return;
   }
   const Node& l = nodes_[nd.first];
