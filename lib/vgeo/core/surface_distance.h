@@ -109,6 +109,7 @@ class TriangleDistanceTree {
   std::vector<float> corners_;  // soup: 9 per triangle, in tree order
   const float* positions_ = nullptr;   // indexed: the caller's positions
   std::vector<uint32_t> corner_ids_;   // indexed: 3 per triangle
+  uint32_t leaf_size_ = 0;             // triangles per tree leaf (at most)
   std::vector<Node> nodes_;
   std::vector<uint32_t> parent_;   // per node (root: 0)
   std::vector<uint32_t> leaf_of_;  // per triangle: its tree leaf
