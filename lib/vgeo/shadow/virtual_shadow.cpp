@@ -739,9 +739,10 @@ void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<
                        const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame, ShadowCache* cache) {
   ShadowCache local;
   ShadowCache* c = cache ? cache : &local;
-  const ShadowDrawList list = begin_shadow_draw(meshes, instances, lights, pool, frame, c);
-  raster_page_views(meshes, instances, list, pool, &c->texels);
+  auto list = std::make_shared<const ShadowDrawList>(begin_shadow_draw(meshes, instances, lights, pool, frame, c));
+  raster_page_views(meshes, instances, *list, pool, &c->texels);
   end_shadow_draw(instances, lights, frame, c, cache != nullptr);
+  frame->drawn = std::move(list);
 }
 
 ShadowScreen make_shadow_screen(const VisBuffer& vis, const ViewParams& view) {

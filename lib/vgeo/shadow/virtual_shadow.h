@@ -9,6 +9,7 @@
 // §"Multi-view rendering", §"Culling and addressing to pages", §"Nanite shadow LOD"; the seed
 // notes' §"Virtual shadow buffer".
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "vgeo/core/thread_pool.h"
@@ -82,6 +83,8 @@ struct ShadowTexel {
 inline constexpr uint32_t kNoShadowSlot = 0xFFFFFFFFu;
 
 // The frame's maps, page table and needed set (spec/shadow.md §3–§5).
+struct ShadowDrawList;  // below
+
 struct ShadowFrame {
   ShadowOptions options;
   ShadowSceneBounds bounds;
@@ -96,6 +99,9 @@ struct ShadowFrame {
   std::vector<float> own_texels;                    // the pool when no cache is kept
   uint64_t lights = 0;                              // shadowing lights
   uint64_t pages_marked = 0, pages_cached = 0, pages_drawn = 0, pages_dropped = 0, clusters_drawn = 0;
+  // What shadow_draw drew this frame (its pages, their elements and matrices), kept for the
+  // comparison of another backend's pages under the hardware rule (shadow_hw_rule.h).
+  std::shared_ptr<const ShadowDrawList> drawn;
 };
 
 // What survives between frames (spec/shadow.md §5): the pool and the pages it holds.
