@@ -191,6 +191,39 @@ TEST(StreamRender, ConvergedFrameEqualsTheUnstreamedFrame) {
   EXPECT_GE(paced_wall, std::chrono::milliseconds(10));  // 5 paced intervals of 2 ms (not after the last frame)
 }
 
+// spec/shadow.md §8: a lit scene renders with streaming: every frame runs the shadow steps (the
+// shadow views draw the resident cut, request theirs at lower priority), every frame's cut stays
+// valid within the budget, and once converged (the primary cut ideal, no provisional shadow page
+// left) the image equals the unstreamed one. A spot light: its map does not move with the
+// camera, so a page's depths do not depend on the frame that drew it.
+TEST(StreamRender, LitSceneRendersWithShadowsAndConvergesToTheUnstreamedImage) {
+  const test::StreamFixture& f = stream_fixture();
+  std::string json = test::stream_scene_json(f.path, 3, 20, 8, false);
+  json.insert(json.rfind('}'), ",\"lights\":[{\"type\":\"spot\",\"position\":[3,6,2],\"direction\":[-0.4,-1,-0.5],"
+                               "\"cone_degrees\":100}]");
+  SceneFile streamed = load(json, f.total - 1);
+  SceneFile plain = load(json, std::nullopt);
+  ASSERT_TRUE(streamed.streaming);
+  ASSERT_EQ(streamed.scene.lights.size(), 1u);
+  FrameChecker check;
+  check.file = &streamed;
+  check.budget = f.total - 1;
+  RenderRequest req;
+  req.threads = 2;
+  req.frames = 30;
+  RenderReport a = render_scene(streamed, req, std::ref(check));
+  EXPECT_EQ(check.frames_checked, 30u);
+  for (const FrameStats& s : a.frames) {
+    EXPECT_TRUE(s.has_shadow);
+    EXPECT_GT(s.shadow.pages_marked, 0u);
+  }
+  ASSERT_TRUE(a.frames.back().stream.cut_is_ideal);
+  EXPECT_EQ(a.frames.back().shadow.pages_drawn, 0u);  // converged: every page cached (none provisional)
+  RenderReport b = render_scene(plain, req);
+  EXPECT_EQ(a.vis_hash, b.vis_hash);
+  EXPECT_EQ(a.image_hash, b.image_hash);
+}
+
 // No budget, or data within it: the stream pass is absent and output is bit-identical.
 TEST(StreamRender, DataWithinBudgetMeansNoStreamPass) {
   const test::StreamFixture& f = stream_fixture();

@@ -278,10 +278,14 @@ TEST(VirtualShadow, PlanSkipsShadowStepsWithTheirReasons) {
   settings.view = ShadeView::kLit;
   settings.shade = false;
   EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowDraw).skip_reason, "shading not requested");
+  // An unshaded frame whose pages outlive it (a history's cache, a streamer's requests) draws them.
+  context.keep_history = true;
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowDraw).when, StepCondition::kRun);
+  context.keep_history = false;
   settings.shade = true;
-  context.streamed = true;
-  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowMark).skip_reason,
-            "shadows with streaming not supported yet");
+  context.streamed = true;  // shadows run with streaming too (spec/shadow.md §8)
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowMark).when, StepCondition::kRun);
+  EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowDraw).when, StepCondition::kRun);
 }
 
 // spec/shadow.md §2: one white directional light along the fixed light's direction, without
@@ -614,6 +618,39 @@ TEST(ShadowTrace, FindsAThinCasterNearItsReceiverAndOnlyIt) {
   EXPECT_GT(count[ShadowDecision::kLit], 1000u);
   EXPECT_GT(count[ShadowDecision::kTraceHit], 10u);
   EXPECT_EQ(false_hits, 0u);
+}
+
+}  // namespace
+}  // namespace vgeo
+
+namespace vgeo {
+namespace {
+
+// spec/shadow.md §1: in a sequence (a history), every frame draws its shadow pages, shaded or
+// not, so the last frame's image is the same whether the frames before it were shaded (saved)
+// or not: a directional light (its clipmap windows move with the camera, so which frame drew a
+// cached page matters) and a moving camera.
+TEST(VirtualShadow, LastImageDoesNotDependOnWhichEarlierFramesWereShaded) {
+  RenderScene scene = test::make_row_scene(1.0, 0.0, 3);
+  scene.lights = {directional({-0.4, -0.8, -0.45})};
+  const std::vector<Camera> cameras = {test::look_camera({0, 3, 8}, {0, 1, -2}), test::look_camera({1.5, 3, 6}, {0, 1, -3}),
+                                       test::look_camera({3, 2.5, 4}, {0, 1, -4})};
+  ThreadPool pool(2);
+  std::vector<uint8_t> images[2];
+  for (int shade_all = 0; shade_all < 2; ++shade_all) {
+    FrameHistory history;
+    for (size_t i = 0; i < cameras.size(); ++i) {
+      RenderSettings settings;
+      const bool last = i + 1 == cameras.size();
+      settings.shade = shade_all || last;
+      Frame frame;
+      render_frame(FrameInputs{scene, cameras[i], settings, pool, &history, !last}, &frame);
+      EXPECT_TRUE(frame.stats.has_shadow) << i;
+      if (last) images[shade_all] = frame.image.rgb;
+    }
+  }
+  EXPECT_FALSE(images[0].empty());
+  EXPECT_EQ(images[0], images[1]);
 }
 
 }  // namespace

@@ -185,11 +185,7 @@ ShadowTexel texel_of(uint32_t map, uint32_t mip, const Ndc& n, double dist, uint
 
 // ---- drawing ----
 
-// A page to draw this frame: its page-table entry, slot and place.
-struct PageDraw {
-  size_t entry = 0;
-  uint32_t slot = 0, map = 0, mip = 0, x = 0, y = 0;  // x, y: local page
-};
+using PageDraw = ShadowPageDraw;
 
 // Inclusive texel rectangle of a light-view sphere on (map, mip), one texel of margin; the
 // whole mip when the sphere reaches a perspective map's near plane.
@@ -242,15 +238,22 @@ ShadowLod shadow_lod(const ShadowFrame& frame, const ShadowMapView& m, uint32_t 
   lod.tau_s = kShadowLodBias * frame.options.threshold_px;
   return lod;
 }
+// A cluster's projected parent and lod errors in the view's texels.
+struct ShadowLodPx {
+  float parent = 0, lod = 0;
+};
+ShadowLodPx shadow_lod_px(const ShadowLod& lod, const DagCluster& cl, const Mat4d& object_to_light, double scale) {
+  if (lod.ortho)
+    return {float(double(error_to_view(cl.parent_error, scale)) / lod.texel),
+            float(double(error_to_view(cl.lod_error, scale)) / lod.texel)};
+  return {projected_error(sphere_to_view(object_to_light, scale, cl.parent_bounds), error_to_view(cl.parent_error, scale),
+                          lod.view),
+          projected_error(sphere_to_view(object_to_light, scale, cl.lod_bounds), error_to_view(cl.lod_error, scale),
+                          lod.view)};
+}
 bool shadow_lod_selects(const ShadowLod& lod, const DagCluster& cl, const Mat4d& object_to_light, double scale) {
-  if (lod.ortho) {
-    float parent_px = float(double(error_to_view(cl.parent_error, scale)) / lod.texel);
-    float lod_px = float(double(error_to_view(cl.lod_error, scale)) / lod.texel);
-    return cut_selects(parent_px, lod_px, lod.tau_s);
-  }
-  return lod_selects(sphere_to_view(object_to_light, scale, cl.lod_bounds), error_to_view(cl.lod_error, scale),
-                     sphere_to_view(object_to_light, scale, cl.parent_bounds), error_to_view(cl.parent_error, scale),
-                     lod.view, lod.tau_s);
+  const ShadowLodPx px = shadow_lod_px(lod, cl, object_to_light, scale);
+  return cut_selects(px.parent, px.lod, lod.tau_s);
 }
 
 // The whole cut of one view (the brute-force reference draws it all), in (instance, cluster) order.
@@ -477,61 +480,81 @@ std::vector<ShadowPageView> make_page_views(const std::vector<ClusterDag>& meshe
 // texel rectangle against the view's pages to draw) and emits one (page, cluster) element per
 // overlapped page (seed: "emit cluster per overlapped page"). Parallel over instances; the
 // per-page lists come out in (instance, cluster) order for any thread count.
-std::vector<std::vector<VisibleCluster>> cull_page_views(const std::vector<ClusterDag>& meshes,
-                                                         const std::vector<CullInstance>& instances,
-                                                         const ShadowFrame& frame,
-                                                         const std::vector<ShadowPageView>& views, size_t draw_count,
-                                                         ThreadPool& pool) {
+// Streaming (`usable` non-null, spec/shadow.md §8): the drawn cut is the resident rule of
+// spec/stream.md §Cut with τ_s; a page that an ideal-cut cluster not drawn overlaps is
+// provisional; each ideal-cut cluster overlapping a page to draw requests its group at the
+// lower priority of secondary_view_priority.
+void cull_page_views(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                     const ShadowFrame& frame, const std::vector<ShadowPageView>& views,
+                     const std::vector<std::vector<uint8_t>>* usable, ThreadPool& pool, ShadowDrawList* out) {
   struct Element {
     uint32_t draw, cluster;
   };
-  std::vector<std::vector<Element>> per_instance(instances.size());
+  struct InstanceOut {
+    std::vector<Element> elements;
+    std::vector<uint32_t> provisional;  // draws
+    std::vector<GroupRequest> requests;
+  };
+  std::vector<InstanceOut> per_instance(instances.size());
   const uint32_t size = virtual_size(frame);
+  const float tau = frame.options.threshold_px;
   pool.parallel_for(instances.size(), [&](size_t i) {
     const CullInstance& inst = instances[i];
     const ClusterDag& dag = meshes[inst.mesh];
+    const std::vector<uint8_t>* resident = usable && !(*usable)[inst.mesh].empty() ? &(*usable)[inst.mesh] : nullptr;
     const double scale = max_axis_scale(inst.object_to_world);
+    InstanceOut& io = per_instance[i];
     for (const ShadowPageView& v : views) {
       if (!v.instance_kept[i]) continue;
       const ShadowMapView& m = frame.maps[v.map];
       const Mat4d o2l = object_to_light(m, inst);
       for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
         const DagCluster& cl = dag.clusters[c];
-        if (!shadow_lod_selects(v.lod, cl, o2l, scale)) continue;
+        const ShadowLodPx px = shadow_lod_px(v.lod, cl, o2l, scale);
+        const bool ideal = cut_selects(px.parent, px.lod, v.lod.tau_s);
+        const bool drawn = resident ? resident_lod_test(cl, *resident, px.parent, px.lod, v.lod.tau_s).drawn : ideal;
+        if (!ideal && !drawn) continue;
         Sphere b = inflate_for_subtree_test(sphere_to_view(o2l, scale, cl.bounds));
         TexelRect rect = sphere_texel_rect(m, v.mip, size, {b.center.x, b.center.y, b.center.z}, b.radius);
+        bool overlaps = false;
         for_pages_to_draw(v, rect, [&](uint32_t d) {
-          per_instance[i].push_back({d, c});
+          overlaps = true;
+          if (drawn) io.elements.push_back({d, c});
+          else io.provisional.push_back(d);
           return true;
         });
+        if (usable && ideal && overlaps) io.requests.push_back({inst.mesh, cl.group, secondary_view_priority(px.parent, tau)});
       }
     }
   });
-  std::vector<std::vector<VisibleCluster>> page_clusters(draw_count);
-  for (uint32_t i = 0; i < instances.size(); ++i)
-    for (const Element& e : per_instance[i]) page_clusters[e.draw].push_back({i, e.cluster});
-  return page_clusters;
+  out->page_clusters.assign(out->draws.size(), {});
+  out->provisional.assign(out->draws.size(), 0);
+  for (uint32_t i = 0; i < instances.size(); ++i) {
+    for (const Element& e : per_instance[i].elements) out->page_clusters[e.draw].push_back({i, e.cluster});
+    for (uint32_t d : per_instance[i].provisional) out->provisional[d] = 1;
+    out->requests.insert(out->requests.end(), per_instance[i].requests.begin(), per_instance[i].requests.end());
+  }
 }
 
-// The raster of every page view in one parallel pass: each page's clusters into a 128² target
+// The raster of every page to draw in one parallel pass: each page's clusters into a 128² target
 // scissored to the page in its mip's coordinates (spec/shadow.md §5); depths into its slot.
 void raster_page_views(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
-                       const ShadowFrame& frame, const std::vector<ShadowPageView>& views,
-                       const std::vector<PageDraw>& draws, const std::vector<std::vector<VisibleCluster>>& page_clusters,
-                       ThreadPool& pool, std::vector<float>* texels) {
-  std::vector<uint32_t> view_of_draw(draws.size());
-  for (uint32_t k = 0, d = 0; k < views.size(); ++k)
-    while (d < draws.size() && draws[d].map == views[k].map && draws[d].mip == views[k].mip) view_of_draw[d++] = k;
-  pool.parallel_for(draws.size(), [&](size_t d) {
-    const ShadowPageView& v = views[view_of_draw[d]];
+                       const ShadowFrame& frame, const ShadowDrawList& list, ThreadPool& pool, std::vector<float>* texels) {
+  std::map<uint32_t, std::vector<Mat4>> object_to_clip;  // per map with pages to draw
+  for (const PageDraw& d : list.draws)
+    if (!object_to_clip.count(d.map)) object_to_clip[d.map] = shadow_clip_matrices(instances, frame.maps[d.map]);
+  const uint32_t size = virtual_size(frame);
+  pool.parallel_for(list.draws.size(), [&](size_t d) {
+    const PageDraw& draw = list.draws[d];
+    const std::vector<Mat4>& clip = object_to_clip.at(draw.map);
     VisBuffer page;
     page.resize(kShadowPageTexels, kShadowPageTexels);
-    RasterOptions ro = shadow_raster_options(frame.maps[v.map], v.r_m);
-    ro.window_x = draws[d].x * kShadowPageTexels;
-    ro.window_y = draws[d].y * kShadowPageTexels;
-    for (const VisibleCluster& c : page_clusters[d])
-      raster_cut_cluster(meshes, instances, c, v.object_to_clip[c.instance], ro, page, nullptr);
-    float* out = texels->data() + size_t(draws[d].slot) * kPageTexelCount;
+    RasterOptions ro = shadow_raster_options(frame.maps[draw.map], size >> draw.mip);
+    ro.window_x = draw.x * kShadowPageTexels;
+    ro.window_y = draw.y * kShadowPageTexels;
+    for (const VisibleCluster& c : list.page_clusters[d])
+      raster_cut_cluster(meshes, instances, c, clip[c.instance], ro, page, nullptr);
+    float* out = texels->data() + size_t(draw.slot) * kPageTexelCount;
     for (uint32_t i = 0; i < kPageTexelCount; ++i) out[i] = page.keys[i] ? vis_key_depth(page.keys[i]) : 0.0f;
   });
 }
@@ -701,19 +724,38 @@ void mark_shadow_pages(const VisBuffer& vis, const ViewParams& view, const std::
   for (uint8_t n : frame->needed) frame->pages_marked += n;
 }
 
-void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
-                       const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame, ShadowCache* cache) {
-  ShadowCache local;
-  ShadowCache* c = cache ? cache : &local;
+ShadowDrawList cull_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                                 const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame,
+                                 ShadowCache* cache, const std::vector<std::vector<uint8_t>>* usable) {
+  ShadowDrawList list;
+  ShadowCache* c = cache ? cache : &list.local_cache;
   invalidate_cache(meshes, instances, lights, *frame, c);
-  std::vector<PageDraw> draws = allocate_shadow_pages(frame, c);
+  list.draws = allocate_shadow_pages(frame, c);
+  frame->pages_drawn = list.draws.size();
+  const std::vector<ShadowPageView> views = make_page_views(meshes, instances, *frame, list.draws);
+  cull_page_views(meshes, instances, *frame, views, usable, pool, &list);
+  for (const auto& clusters : list.page_clusters) frame->clusters_drawn += clusters.size();
+  return list;
+}
+
+std::vector<VisibleCluster> shadow_draw_clusters(const ShadowDrawList& list) {
+  std::vector<VisibleCluster> out;
+  for (const auto& clusters : list.page_clusters) out.insert(out.end(), clusters.begin(), clusters.end());
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+void raster_shadow_pages(const std::vector<ClusterDag>& raster_meshes, const std::vector<CullInstance>& instances,
+                         const std::vector<Light>& lights, ThreadPool& pool, ShadowDrawList* list, ShadowFrame* frame,
+                         ShadowCache* cache) {
+  ShadowCache* c = cache ? cache : &list->local_cache;
   const size_t needed_texels = c->slots.size() * size_t(kPageTexelCount);
   if (c->texels.size() < needed_texels) c->texels.resize(needed_texels, 0.0f);
-  frame->pages_drawn = draws.size();
-  const std::vector<ShadowPageView> views = make_page_views(meshes, instances, *frame, draws);
-  const auto page_clusters = cull_page_views(meshes, instances, *frame, views, draws.size(), pool);
-  for (const auto& list : page_clusters) frame->clusters_drawn += list.size();
-  raster_page_views(meshes, instances, *frame, views, draws, page_clusters, pool, &c->texels);
+  raster_page_views(raster_meshes, instances, *frame, *list, pool, &c->texels);
+  // A provisional page (drawn coarser than its ideal cut while streaming) serves this frame only.
+  for (size_t d = 0; d < list->draws.size(); ++d)
+    if (list->provisional[d]) c->slots[list->draws[d].slot].used = false;
   c->valid = true;
   c->lights = lights;
   c->bounds = frame->bounds;
@@ -722,9 +764,15 @@ void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<
   if (cache) {
     frame->pool_texels = &cache->texels;
   } else {
-    frame->own_texels = std::move(local.texels);
+    frame->own_texels = std::move(list->local_cache.texels);
     frame->pool_texels = nullptr;  // own_texels (a pointer would not survive moving the frame)
   }
+}
+
+void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                       const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame, ShadowCache* cache) {
+  ShadowDrawList list = cull_shadow_pages(meshes, instances, lights, pool, frame, cache, nullptr);
+  raster_shadow_pages(meshes, instances, lights, pool, &list, frame, cache);
 }
 
 ShadowScreen make_shadow_screen(const VisBuffer& vis, const ViewParams& view) {

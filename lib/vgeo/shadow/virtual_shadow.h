@@ -16,6 +16,7 @@
 #include "vgeo/dag/cluster_dag.h"
 #include "vgeo/raster/visbuffer.h"
 #include "vgeo/shadow/light.h"
+#include "vgeo/stream/stream.h"
 
 namespace vgeo {
 
@@ -139,6 +140,36 @@ size_t shadow_page_entry(const ShadowFrame& frame, const ShadowTexel& texel);
 // needs, for every shadowing light. Deterministic for any thread count.
 void mark_shadow_pages(const VisBuffer& vis, const ViewParams& view, const std::vector<Light>& lights,
                        ThreadPool& pool, ShadowFrame* frame);
+
+// A page to draw this frame: its page-table entry, pool slot and place (x, y: local page).
+struct ShadowPageDraw {
+  size_t entry = 0;
+  uint32_t slot = 0, map = 0, mip = 0, x = 0, y = 0;
+};
+
+// What shadow_draw's cull phase hands its raster phase (between them, a streamed frame binds the
+// drawn clusters' geometry; spec/shadow.md §8).
+struct ShadowDrawList {
+  std::vector<ShadowPageDraw> draws;                       // pages to draw, in page-table order
+  std::vector<std::vector<VisibleCluster>> page_clusters;  // per draw, (instance, cluster) order
+  std::vector<uint8_t> provisional;    // per draw: drawn coarser than its ideal cut (streaming): not cached
+  std::vector<GroupRequest> requests;  // streaming: the shadow views' ideal-cut groups (scene mesh ids)
+  ShadowCache local_cache;             // the pool when the caller keeps no cache
+};
+
+// shadow_draw's cull phase: cache invalidation, slot allocation, the multi-view cull. `meshes`
+// need only the metadata (clusters, BVH root, bounds). `usable` (streaming): per scene mesh the
+// usable groups, empty = every group; null = not streamed.
+ShadowDrawList cull_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                                 const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame,
+                                 ShadowCache* cache, const std::vector<std::vector<uint8_t>>* usable);
+// The distinct (instance, cluster) pairs the draw list rasterizes, ascending.
+std::vector<VisibleCluster> shadow_draw_clusters(const ShadowDrawList& list);
+// shadow_draw's raster phase: every page of the list from `raster_meshes` (the vertex data of
+// the listed clusters), then the cache's bookkeeping; the frame's texels become readable.
+void raster_shadow_pages(const std::vector<ClusterDag>& raster_meshes, const std::vector<CullInstance>& instances,
+                         const std::vector<Light>& lights, ThreadPool& pool, ShadowDrawList* list, ShadowFrame* frame,
+                         ShadowCache* cache);
 
 // Step shadow_draw (spec/shadow.md §5): reuses cached pages (when neither the light nor an
 // overlapping caster moved), allocates slots in page-table order and draws every other needed
