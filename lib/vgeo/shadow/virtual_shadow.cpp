@@ -651,8 +651,11 @@ Vec3d shadow_sample_point(const ViewParams& view, const Mat4d& view_to_world, ui
 
 // ---- texel selection (spec/shadow.md §4) ----
 
-bool select_shadow_texel(const ShadowFrame& frame, uint32_t light, const Vec3d& p, double footprint, ShadowTexel* out) {
+bool select_shadow_texel(const ShadowFrame& frame, uint32_t light, const Vec3d& p, double pixel_footprint,
+                         ShadowTexel* out) {
   if (light >= frame.light_first_map.size() || frame.light_first_map[light] == kNoShadowSlot) return false;
+  // The largest texel the pixel may take: its footprint scaled by the density 2^−b (exact).
+  const double footprint = std::ldexp(pixel_footprint, -frame.options.texels_per_pixel_log2);
   const uint32_t first = frame.light_first_map[light];
   const ShadowMapView& m0 = frame.maps[first];
   const uint32_t size = virtual_size(frame);

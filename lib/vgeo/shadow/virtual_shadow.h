@@ -46,6 +46,10 @@ struct ShadowOptions {
   uint32_t pages_per_side = kShadowPagesPerSide;
   uint32_t pool_pages = kShadowPoolPages;
   float threshold_px = 1.0f;  // τ of the primary view (τ_s = kShadowLodBias · τ)
+  // Texel density (spec/shadow.md §4, step 2): a texel's side is at most 2^−b screen pixels
+  // (b = texels_per_pixel_log2). Frames use 0 (the seeds' one texel ≈ one pixel); `vgeo bench
+  // shadows` varies it to measure shadow error against texel density and time.
+  int texels_per_pixel_log2 = 0;
 };
 
 struct ShadowSceneBounds {
