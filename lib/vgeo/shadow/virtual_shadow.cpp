@@ -857,7 +857,7 @@ ShadowTestDetail shadow_test(const ShadowFrame& frame, uint32_t light, const Sha
   // centre). M: the largest distance between the primary cut (τ pixels of f) and the shadow cut
   // (τ_s texels) along the light: each cut's deviation times 1 + s ≥ 1/c, the secant.
   const double sampling_bias = texel * (1 + slope);
-  const double mismatch = (tau * r.footprint + tau_s * texel) * (1 + slope);
+  const double mismatch = (tau * r.footprint + tau_s * texel) * std::min(1 + slope, kMaxMismatchSecant);
   out.zone = sampling_bias + mismatch;
   out.stored = shadow_stored_depth(frame, out.texel);
   out.d_lit = receiver_depth(m, out.texel.dist, sampling_bias);

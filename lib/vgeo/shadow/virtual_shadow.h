@@ -34,6 +34,11 @@ inline constexpr float kShadowLodBias = 2.0f;
 // Slope part of the bias is clamped here (tan of ~86.4°): beyond it Lambert is < 0.063 and the
 // bias would grow without bound at grazing angles. The trace's view slope uses the same clamp.
 inline constexpr double kMaxShadowSlope = 16.0;
+// The LOD-mismatch zone's secant factor min(1 + s, 8) (spec/shadow.md §6): the zone covers the
+// mismatch along the light for c ≥ 1/8; at more grazing light (Lambert < 1/8) it stops growing,
+// so the trace stays short (a few pixels, as the seeds' "short screen space trace") and a far
+// caster stays a far caster: a zone of 17·(f + 2T) reached past a closed mesh around a point light.
+inline constexpr double kMaxMismatchSecant = 8.0;
 // Screen-space trace (spec/shadow.md §6): at most this many depth-buffer samples per light per
 // pixel. Steps are one pixel footprint long (≤ 1 screen pixel each) until the LOD-mismatch zone
 // is longer than 16 footprints (only at slopes s > ~3 with τ = 1); then the zone is split into 16
