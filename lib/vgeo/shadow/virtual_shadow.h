@@ -159,7 +159,7 @@ void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<
                        const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame, ShadowCache* cache);
 
 // Step shadow_draw in three phases, so that every executor shares the cache, allocation and
-// multi-view cull and only the raster differs (the CPU's raster_page_views, Vulkan's compute
+// multi-view cull and only the raster differs (the CPU's raster_shadow_pages_cpu, Vulkan's compute
 // raster; spec/shadow.md §5). begin_shadow_draw invalidates the cache, allocates slots in
 // page-table order (filling the frame's page table and counters), grows cache->texels to the
 // slots in use and culls every view; the caller then writes each listed page's 128² texels into
