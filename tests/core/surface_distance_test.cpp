@@ -1,6 +1,7 @@
 // TriangleDistanceTree (lib/vgeo/core/surface_distance.h): its queries are the brute-force
 // minimum over all triangles bit-exactly, for any start hint, and the tree a pool builds in
-// parallel answers exactly as the serial build.
+// parallel answers exactly as the serial build; the same for the indexed, order-keeping tree
+// (any order: its shape decides only the speed), whose corner() is the soup's corner.
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
@@ -39,6 +40,40 @@ RC_GTEST_PROP(TriangleDistanceTree, QueriesEqualBruteForceForAnyPool, ()) {
     RC_ASSERT(serial.nearest_distance_squared(p, &hint_serial) == expected);
     RC_ASSERT(parallel.nearest_distance_squared(p, &hint_parallel) == expected);
     // The decision at the distance itself and one ulp either side, from the last hint.
+    for (double threshold : {expected, std::nextafter(expected, 0.0), std::nextafter(expected, 1e300)}) {
+      RC_ASSERT(parallel.any_within_squared(p, threshold, &hint_any) == (expected <= threshold));
+      uint32_t fresh = ~0u;
+      RC_ASSERT(serial.any_within_squared(p, threshold, &fresh) == (expected <= threshold));
+    }
+  }
+}
+
+// Indexed triangles over a few grid vertices (shared, repeated and collinear corners), in
+// the caller's random order (no spatial coherence at all).
+RC_GTEST_PROP(TriangleDistanceTree, IndexedTreeQueriesEqualBruteForceForAnyPool, ()) {
+  const uint32_t vertices = *rc::gen::inRange<uint32_t>(3, 60), triangles = *rc::gen::inRange<uint32_t>(1, 400);
+  std::vector<float> positions, corners;
+  for (uint32_t i = 0; i < 3 * vertices; ++i) positions.push_back(float(*rc::gen::inRange(-8, 9)) * 0.25f);
+  std::vector<uint32_t> ids;
+  for (uint32_t i = 0; i < 3 * triangles; ++i) {
+    ids.push_back(*rc::gen::inRange<uint32_t>(0, vertices));
+    corners.insert(corners.end(), &positions[3 * size_t(ids.back())], &positions[3 * size_t(ids.back())] + 3);
+  }
+  ThreadPool pool(3);
+  const TriangleDistanceTree serial(positions.data(), ids), parallel(positions.data(), ids, &pool);
+  RC_ASSERT(serial.triangle_count() == triangles);
+  for (uint32_t t = 0; t < triangles; ++t)
+    for (int j = 0; j < 3; ++j) {
+      const DVec3 c = parallel.corner(t, j);
+      RC_ASSERT(c.x == corners[9 * t + 3 * j] && c.y == corners[9 * t + 3 * j + 1] && c.z == corners[9 * t + 3 * j + 2]);
+    }
+  uint32_t hint_serial = ~0u, hint_parallel = ~0u, hint_any = ~0u;
+  for (int k = 0; k < 20; ++k) {
+    const DVec3 p{double(*rc::gen::inRange(-80, 81)) / 32, double(*rc::gen::inRange(-80, 81)) / 32,
+                  double(*rc::gen::inRange(-80, 81)) / 32};
+    const double expected = brute_nearest(corners, p);
+    RC_ASSERT(serial.nearest_distance_squared(p, &hint_serial) == expected);
+    RC_ASSERT(parallel.nearest_distance_squared(p, &hint_parallel) == expected);
     for (double threshold : {expected, std::nextafter(expected, 0.0), std::nextafter(expected, 1e300)}) {
       RC_ASSERT(parallel.any_within_squared(p, threshold, &hint_any) == (expected <= threshold));
       uint32_t fresh = ~0u;

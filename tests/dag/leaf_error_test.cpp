@@ -36,7 +36,8 @@ uint32_t bits(float f) {
 float leaf_deviation_of(const Mesh& mesh, const TriangleSet& leaves, const TriangleSet& input,
                         const TriangleSet& simplified, float floor, unsigned threads) {
   ThreadPool pool(threads);
-  const build_detail::LeafSurface surface = build_detail::build_leaf_surface(mesh, {&leaves}, pool);
+  const build_detail::WeldedMesh welded = build_detail::weld_positions(mesh);
+  const build_detail::LeafSurface surface = build_detail::build_leaf_surface(welded, {&leaves}, pool);
   return build_detail::leaf_deviation(surface, mesh, input, simplified, floor);
 }
 
@@ -108,6 +109,46 @@ TEST(LeafError, HugeAmongTinyTrianglesStillBitIdentical) {
   for (float floor : {0.0f, reference * 0.5f, reference, reference * 2.0f})
     for (unsigned threads : {1u, 2u})
       EXPECT_EQ(bits(leaf_deviation_of(mesh, leaves, leaves, simplified, floor, threads)), bits(std::max(floor, reference)));
+}
+
+// A connected wavy sheet (a grid of cells, two triangles each, one column of vertices
+// duplicated as a seam: the walk crosses it by welded position) and simplified triangles over
+// its vertices, small and large: walks take real steps, some end at the sheet's border or at
+// the step limit and the tree decides. Bit-identical to the reference for floors 0 and above
+// the input's deviation, 1 and 2 threads.
+RC_GTEST_PROP(LeafError, ConnectedSheetWithSeamBitIdentical, ()) {
+  const int cells = *rc::gen::inRange(2, 24);
+  const int seam = *rc::gen::inRange(0, cells + 1);  // this column's vertices get a second copy
+  Mesh mesh;
+  std::vector<uint32_t> left(size_t(cells + 1) * size_t(cells + 1)), right(left.size());
+  for (int i = 0; i <= cells; ++i)
+    for (int j = 0; j <= cells; ++j) {
+      const float x = float(i), y = float(j), z = float((i * 5 + j * 3) % 7) * 0.125f;
+      const size_t k = size_t(i) * size_t(cells + 1) + size_t(j);
+      left[k] = right[k] = uint32_t(mesh.vertex_count());
+      mesh.positions.insert(mesh.positions.end(), {x, y, z});
+      if (i == seam) {
+        right[k] = uint32_t(mesh.vertex_count());
+        mesh.positions.insert(mesh.positions.end(), {x, y, z});
+      }
+    }
+  auto vertex = [&](int i, int j, bool right_of_seam) {
+    const size_t k = size_t(i) * size_t(cells + 1) + size_t(j);
+    return right_of_seam ? right[k] : left[k];
+  };
+  TriangleSet leaves;
+  for (int i = 0; i < cells; ++i)
+    for (int j = 0; j < cells; ++j) {
+      const bool r = i >= seam;  // cells right of the seam use its second copies
+      leaves.corners.insert(leaves.corners.end(), {vertex(i, j, r), vertex(i + 1, j, r), vertex(i + 1, j + 1, r)});
+      leaves.corners.insert(leaves.corners.end(), {vertex(i, j, r), vertex(i + 1, j + 1, r), vertex(i, j + 1, r)});
+      leaves.materials.insert(leaves.materials.end(), {0u, 0u});
+    }
+  const TriangleSet simplified = random_triangles(uint32_t(mesh.vertex_count()), &leaves, 1, 60);
+  const float reference = build_detail::round_up_to_float(reference_distance(mesh, leaves, simplified));
+  const float floor = *rc::gen::element(0.0f, reference * 0.5f, reference, reference * 2.0f);
+  const unsigned threads = *rc::gen::inRange(1u, 3u);
+  RC_ASSERT(bits(leaf_deviation_of(mesh, leaves, leaves, simplified, floor, threads)) == bits(std::max(floor, reference)));
 }
 
 }  // namespace

@@ -222,7 +222,8 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
     EXPECT_TRUE(r.validation_messages.empty()) << g.name << " --raster " << name << ": " << r.validation_messages.size()
                                                << " validation message(s), first: "
                                                << (r.validation_messages.empty() ? "" : r.validation_messages[0]);
-    HwRasterAgreement total;
+    HwRasterAgreement total, shadow_total;
+    uint64_t shadow_pages = 0;
     for (size_t f = 0; f < r.frames.size(); ++f) {
       ASSERT_TRUE(r.frames[f].has_raster_split) << g.name << " frame " << f;
       const RasterSplitStats& split = r.frames[f].raster_split;
@@ -230,6 +231,23 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
       EXPECT_EQ(split.sw_triangles + split.hw_triangles, r.frames[f].triangles_drawn) << g.name << " frame " << f;
       if (mode == GpuRasterMode::kHw) EXPECT_EQ(split.sw_clusters, 0u) << g.name << " frame " << f;
       total.add(r.comparisons[f].hw);
+      // The shadow pages both sides drew, under the shadow-page hardware rule (spec/shadow.md §8).
+      if (g.shadows) {
+        const FrameComparison& c = r.comparisons[f];
+        EXPECT_TRUE(c.shadow_hw_compared) << g.name << " --raster " << name << " frame " << f;
+        EXPECT_EQ(c.shadow_element_lists_differing, 0u) << g.name << " --raster " << name << " frame " << f;
+        EXPECT_EQ(c.shadow_hw.failures(), 0u) << g.name << " --raster " << name << " frame " << f;
+        shadow_pages += c.shadow_pages_compared;
+        shadow_total.add(c.shadow_hw);
+      }
+    }
+    if (g.shadows) {
+      EXPECT_GT(shadow_pages, 0u) << g.name << " --raster " << name << ": no shadow page compared";
+      std::printf("%s --raster %s: shadow pages compared %llu; texels depth only %llu, inside the mask %llu, max depth "
+                  "error %.3g x tolerance\n",
+                  g.name, name, (unsigned long long)shadow_pages,
+                  (unsigned long long)shadow_total.count(HwPixel::kDepthOnly), (unsigned long long)shadow_total.in_mask(),
+                  shadow_total.max_depth_error_ratio);
     }
     std::printf("%s --raster %s: sw/hw clusters %llu/%llu (last frame); pixels differing in depth only %llu, inside "
                 "the mask %llu (ambiguous depth %llu, clip coverage %llu, snap coverage %llu), max depth error %.3g x "

@@ -87,7 +87,7 @@ TEST(GpuCli, StreamBudgetCompareHoldsTheRule) {
   EXPECT_EQ(j["validation_messages"].get<int>(), 0);
 }
 
-// spec/shadow.md §8-§9: a lit scene streams on Vulkan as on the CPU: every frame of the path
+// spec/shadow.md §8, §9: a lit scene streams on Vulkan as on the CPU: every frame of the path
 // runs the shadow steps (the unshaded ones too: a history and streaming are present), the
 // shadow views draw the resident cut (provisional pages, lower-priority requests) from the
 // device page pool, and the page tables, counters and pool texels equal the CPU's on every frame.

@@ -4,7 +4,9 @@
 // light scenes and over two frames with a moving caster and a moving light.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 
 #include "gpu/gpu_testing.h"
@@ -13,6 +15,7 @@
 #include "vgeo/render/compare.h"
 #include "vgeo/render/frame.h"
 #include "vgeo/render/scene_file.h"
+#include "vgeo/shadow/shadow_hw_rule.h"
 
 namespace vgeo {
 namespace {
@@ -153,6 +156,116 @@ TEST(GpuShadow, LitFramesKeepTheRuleWithShadowPagesComparedOverMovingFrames) {
       EXPECT_TRUE(c.holds()) << what;
     }
   }
+  testing::expect_no_validation_messages(*gpu);
+}
+
+// The pool's texels of every page `frame` drew, classified by the shadow-page hardware rule
+// (spec/shadow.md §8) against `reference` (the CPU's frame, same marks, so the same slots).
+HwRasterAgreement classify_drawn_pages(const RenderScene& scene, const ShadowFrame& reference,
+                                       const std::vector<float>& hardware_texels) {
+  const std::vector<float>& ref = reference.pool_texels ? *reference.pool_texels : reference.own_texels;
+  const size_t page_texels = size_t(kShadowPageTexels) * kShadowPageTexels;
+  HwRasterAgreement agreement;
+  for (size_t d = 0; d < reference.drawn->pages.size(); ++d) {
+    const size_t at = reference.drawn->pages[d].slot * page_texels;
+    classify_shadow_page_hw(scene.meshes, scene.instances, *reference.drawn, d, ref.data() + at,
+                            hardware_texels.data() + at, &agreement);
+  }
+  return agreement;
+}
+
+// The hardware raster path of the shadow pages (spec/shadow.md §8): from the same marked pages,
+// the same allocation and counters as the CPU, and every texel of the drawn pages within the
+// shadow-page hardware rule; a planted error (one page's texels written one row off, or into
+// another page's slot) breaks it.
+TEST(GpuShadow, HardwareRasterPagesKeepTheShadowPageRuleOnTheExampleScenes) {
+  auto gpu = testing::make_test_gpu();
+  ASSERT_TRUE(gpu);
+  ThreadPool pool(2);
+  for (const char* name : {"directional.json", "spot.json", "point.json"}) {
+    SceneFile sf = load_light_scene(name);
+    GpuRendererPtr renderer = create_gpu_renderer(*gpu, sf.scene, memory_form_pages(sf));
+    ShadowFrame cpu = marked_frame(sf.scene, sf.cameras[0], pool);
+    ShadowFrame vk = cpu;
+    draw_shadow_pages(sf.scene.meshes, sf.scene.instances, sf.scene.lights, pool, &cpu, nullptr);
+    draw_shadow_pages_vulkan(*renderer, sf.scene, pool, &vk, nullptr, GpuRasterMode::kHw);
+    EXPECT_EQ(cpu.page_table, vk.page_table) << name;
+    EXPECT_EQ(shadow_frame_stats(cpu), shadow_frame_stats(vk)) << name;
+    ASSERT_TRUE(cpu.drawn && vk.drawn) << name;
+    ASSERT_GT(cpu.drawn->pages.size(), 1u) << name;
+    const HwRasterAgreement a = classify_drawn_pages(sf.scene, cpu, vk.own_texels);
+    uint64_t written = 0;
+    for (float t : vk.own_texels) written += t != 0.0f;
+    std::printf("%s: %zu pages, %llu texels written; identical %llu, depth only %llu, ambiguous depth %llu, clip %llu, "
+                "snap %llu, beyond %llu, violation %llu; max depth error %.3g tol\n",
+                name, cpu.drawn->pages.size(), (unsigned long long)written,
+                (unsigned long long)a.count(HwPixel::kIdentical), (unsigned long long)a.count(HwPixel::kDepthOnly),
+                (unsigned long long)a.count(HwPixel::kAmbiguousDepth),
+                (unsigned long long)a.count(HwPixel::kAmbiguousClipCoverage),
+                (unsigned long long)a.count(HwPixel::kAmbiguousSnapCoverage),
+                (unsigned long long)a.count(HwPixel::kDepthBeyondTolerance), (unsigned long long)a.count(HwPixel::kViolation),
+                a.max_depth_error_ratio);
+    EXPECT_GT(written, 0u) << name << ": no texel drawn, the comparison would prove nothing";
+    EXPECT_EQ(a.failures(), 0u) << name;
+    EXPECT_EQ(a.count(HwPixel::kIdentical) + a.count(HwPixel::kDepthOnly) + a.in_mask() + a.failures(),
+              cpu.drawn->pages.size() * kShadowPageTexels * kShadowPageTexels)
+        << name;
+
+    // Planted errors: the first page with drawn texels written one texel row lower (a wrong
+    // page offset), then the same page read from the next drawn page's slot (a wrong slot).
+    const size_t page_texels = size_t(kShadowPageTexels) * kShadowPageTexels;
+    size_t planted = 0;
+    while (planted < cpu.drawn->pages.size()) {
+      const size_t at = cpu.drawn->pages[planted].slot * page_texels;
+      if (std::any_of(vk.own_texels.begin() + at, vk.own_texels.begin() + at + page_texels, [](float t) { return t != 0; }))
+        break;
+      ++planted;
+    }
+    ASSERT_LT(planted, cpu.drawn->pages.size()) << name;
+    const size_t at = cpu.drawn->pages[planted].slot * page_texels;
+    std::vector<float> shifted = vk.own_texels;
+    std::copy(vk.own_texels.begin() + at, vk.own_texels.begin() + at + page_texels - kShadowPageTexels,
+              shifted.begin() + at + kShadowPageTexels);
+    EXPECT_GT(classify_drawn_pages(sf.scene, cpu, shifted).failures(), 0u) << name << ": a page offset by one row";
+    std::vector<float> swapped = vk.own_texels;
+    const size_t other = cpu.drawn->pages[(planted + 1) % cpu.drawn->pages.size()].slot * page_texels;
+    std::copy(vk.own_texels.begin() + other, vk.own_texels.begin() + other + page_texels, swapped.begin() + at);
+    EXPECT_GT(classify_drawn_pages(sf.scene, cpu, swapped).failures(), 0u) << name << ": a page from another slot";
+  }
+  testing::expect_no_validation_messages(*gpu);
+}
+
+// Whole lit frames under --raster hw (the primary view and the shadow pages by the hardware
+// raster) and auto (the shadow pages by the compute raster): compare_frames covers the pages
+// both sides drew under the shadow-page rule, and the comparison holds.
+TEST(GpuShadow, HardwareRasterLitFramesCompareTheShadowPagesUnderTheRule) {
+  auto gpu = testing::make_test_gpu();
+  ASSERT_TRUE(gpu);
+  ThreadPool pool(2);
+  for (GpuRasterMode mode : {GpuRasterMode::kHw, GpuRasterMode::kAuto})
+    for (const char* name : {"directional.json", "spot.json", "point.json"}) {
+      SceneFile sf = load_light_scene(name);
+      GpuRendererOptions options;
+      options.raster = mode;
+      GpuRendererPtr renderer =
+          create_gpu_renderer(*gpu, sf.scene, memory_form_pages(sf), kDefaultGpuTraversal, options);
+      Frame cpu, vk;
+      render_frame({sf.scene, sf.cameras[0], sf.settings, pool, nullptr, true}, &cpu);
+      render_frame_vulkan(*renderer, {sf.scene, sf.cameras[0], sf.settings, pool, nullptr, true}, &vk);
+      const std::string what = std::string(name) + " " + gpu_raster_mode_name(mode);
+      const FrameComparison c = compare_frames(sf.scene, sf.scene.meshes, sf.cameras[0], cpu, vk, true);
+      EXPECT_TRUE(c.shadow_hw_compared) << what;
+      EXPECT_GT(c.shadow_pages_compared, 0u) << what;
+      EXPECT_EQ(c.shadow_element_lists_differing, 0u) << what;
+      EXPECT_EQ(c.shadow_hw.failures(), 0u) << what;
+      // auto draws the pages with the compute raster: the compared pages are bit-identical.
+      if (mode == GpuRasterMode::kAuto) {
+        EXPECT_EQ(c.shadow_hw.count(HwPixel::kIdentical), c.shadow_pages_compared * kShadowPageTexels * kShadowPageTexels)
+            << what;
+      }
+      EXPECT_TRUE(c.holds()) << what << ": max channel diff " << c.max_channel_diff << ", hw failures "
+                             << c.hw.failures();
+    }
   testing::expect_no_validation_messages(*gpu);
 }
 

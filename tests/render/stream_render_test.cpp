@@ -192,7 +192,7 @@ TEST(StreamRender, ConvergedFrameEqualsTheUnstreamedFrame) {
   EXPECT_GE(paced_wall, std::chrono::milliseconds(10));  // 5 paced intervals of 2 ms (not after the last frame)
 }
 
-// spec/shadow.md §8: a lit scene renders with streaming: every frame runs the shadow steps (the
+// spec/shadow.md §9: a lit scene renders with streaming: every frame runs the shadow steps (the
 // shadow views draw the resident cut, request theirs at lower priority), every frame's cut stays
 // valid within the budget, and once converged (the primary cut ideal, no provisional shadow page
 // left) the image equals the unstreamed one. A spot light: its map does not move with the

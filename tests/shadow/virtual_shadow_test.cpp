@@ -283,7 +283,7 @@ TEST(VirtualShadow, PlanSkipsShadowStepsWithTheirReasons) {
   EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowDraw).when, StepCondition::kRun);
   context.keep_history = false;
   settings.shade = true;
-  context.streamed = true;  // shadows run with streaming too (spec/shadow.md §8)
+  context.streamed = true;  // shadows run with streaming too (spec/shadow.md §9)
   EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowMark).when, StepCondition::kRun);
   EXPECT_EQ(plan_frame(scene, settings, context).step(FrameStep::kShadowDraw).when, StepCondition::kRun);
 }

@@ -14,8 +14,12 @@
 namespace vgeo {
 namespace {
 
-// Triangles per tree leaf: a few exact tests beat a deeper tree.
+// Triangles per tree leaf of a soup tree: a few exact tests beat a deeper tree.
 constexpr uint32_t kLeafSize = 4;
+// Triangles per tree leaf of an indexed tree: its caller (the builder's stored error, which
+// walks over the surface first) asks it for ~0.5% of its points, so a 4× smaller node array
+// (fewer pages to fill; 4 MB instead of 16 on a 1M mesh) is worth a few more tests per query.
+constexpr uint32_t kIndexedLeafSize = 16;
 
 }  // namespace
 
@@ -37,18 +41,18 @@ constexpr size_t kSubtreesPerThread = 8;
 
 // Nodes of a subtree over m triangles (median splits: the children take m/2 and m - m/2).
 // Sizes at one depth differ by at most one, so the memo stays small.
-uint32_t subtree_nodes(uint32_t m, std::map<uint32_t, uint32_t>& memo) {
-  if (m <= kLeafSize) return 1;
+uint32_t subtree_nodes(uint32_t m, uint32_t leaf_size, std::map<uint32_t, uint32_t>& memo) {
+  if (m <= leaf_size) return 1;
   auto it = memo.find(m);
   if (it != memo.end()) return it->second;
-  const uint32_t count = 1 + subtree_nodes(m / 2, memo) + subtree_nodes(m - m / 2, memo);
+  const uint32_t count = 1 + subtree_nodes(m / 2, leaf_size, memo) + subtree_nodes(m - m / 2, leaf_size, memo);
   memo.emplace(m, count);
   return count;
 }
 
 }  // namespace
 
-TriangleDistanceTree::TriangleDistanceTree(std::vector<float> corners, ThreadPool* pool) {
+TriangleDistanceTree::TriangleDistanceTree(std::vector<float> corners, ThreadPool* pool) : leaf_size_(kLeafSize) {
   const uint32_t n = uint32_t(corners.size() / 9);
   if (n == 0) return;
   std::vector<BuildItem> items(n);  // build-time only
@@ -59,27 +63,50 @@ TriangleDistanceTree::TriangleDistanceTree(std::vector<float> corners, ThreadPoo
       for (int k = 0; k < 3; ++k) items[t].centroid[k] = (double(c[k]) + double(c[3 + k]) + double(c[6 + k])) / 3;
     }
   });
+  std::vector<Subtree> frontier, top;
+  build_structure(n, pool, items.data(), frontier, top);
+  // Corners in tree order: a leaf's triangles are adjacent in memory, and a triangle's id
+  // is its tree position.
+  corners_.resize(corners.size());
+  for_chunks(pool, n, kBuildChunk, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) std::copy_n(&corners[9 * size_t(items[i].triangle)], 9, &corners_[9 * i]);
+  });
+  std::vector<float>().swap(corners);
+  std::vector<BuildItem>().swap(items);
+  finish(n, pool, frontier, top);
+}
+
+TriangleDistanceTree::TriangleDistanceTree(const float* positions, std::vector<uint32_t> corner_ids, ThreadPool* pool)
+    : positions_(positions), corner_ids_(std::move(corner_ids)), leaf_size_(kIndexedLeafSize) {
+  const uint32_t n = uint32_t(corner_ids_.size() / 3);
+  if (n == 0) return;
+  std::vector<Subtree> frontier, top;
+  build_structure(n, pool, nullptr, frontier, top);
+  finish(n, pool, frontier, top);
+}
+
+void TriangleDistanceTree::build_structure(uint32_t n, ThreadPool* pool, BuildItem* items, std::vector<Subtree>& frontier,
+                                           std::vector<Subtree>& top) {
   std::map<uint32_t, uint32_t> memo;
-  nodes_.resize(subtree_nodes(n, memo));
-  // The structure first (splits; boxes once the corners are in tree order). The top of the
-  // tree breadth first, each level's splits in parallel, until there are enough subtrees to
-  // build as independent tasks. Every node's place is fixed by the triangle counts alone
-  // (subtree_nodes), so the tree is the one the serial depth-first build makes, whatever
-  // the pool.
+  nodes_.resize(subtree_nodes(n, leaf_size_, memo));
+  // The top of the tree breadth first, each level's splits in parallel, until there are
+  // enough subtrees to build as independent tasks. Every node's place is fixed by the
+  // triangle counts alone (subtree_nodes), so the tree is the one the serial depth-first
+  // build makes, whatever the pool.
   const size_t wanted = pool ? kSubtreesPerThread * pool->size() : 1;
-  std::vector<Subtree> frontier{{0, 0, n, 1}};
-  std::vector<Subtree> top;  // inner nodes split here, parents before children
+  frontier = {{0, 0, n, 1}};
+  top.clear();
   for (;;) {
     std::vector<size_t> splittable;
     for (size_t i = 0; i < frontier.size(); ++i)
-      if (frontier[i].last - frontier[i].first > kLeafSize) splittable.push_back(i);
+      if (frontier[i].last - frontier[i].first > leaf_size_) splittable.push_back(i);
     if (frontier.size() >= wanted || splittable.empty()) break;
     std::vector<uint32_t> mids(splittable.size());
     auto split_one = [&](size_t i) {
       const Subtree& at = frontier[splittable[i]];
-      mids[i] = split(items.data(), at.first, at.last);
+      mids[i] = split(items, at.first, at.last);
     };
-    if (pool && splittable.size() > 1)
+    if (pool && items && splittable.size() > 1)
       pool->parallel_for(splittable.size(), split_one);
     else
       for (size_t i = 0; i < splittable.size(); ++i) split_one(i);
@@ -95,34 +122,32 @@ TriangleDistanceTree::TriangleDistanceTree(std::vector<float> corners, ThreadPoo
       nodes_[at.index].count = 0;
       top.push_back(at);
       next.push_back({at.next, at.first, mid, at.next + 2});
-      next.push_back({at.next + 1, mid, at.last, at.next + 1 + subtree_nodes(mid - at.first, memo)});
+      next.push_back({at.next + 1, mid, at.last, at.next + 1 + subtree_nodes(mid - at.first, leaf_size_, memo)});
     }
     frontier = std::move(next);
   }
-  auto for_frontier = [&](auto&& fn) {
-    if (pool && frontier.size() > 1)
-      pool->parallel_for(frontier.size(), fn);
-    else
-      for (size_t i = 0; i < frontier.size(); ++i) fn(i);
-  };
-  for_frontier([&](size_t i) { build(frontier[i], items.data()); });
-  // Corners in tree order: a leaf's triangles are adjacent in memory, and a triangle's id
-  // is its tree position.
-  corners_.resize(corners.size());
-  for_chunks(pool, n, kBuildChunk, [&](size_t begin, size_t end) {
-    for (size_t i = begin; i < end; ++i) std::copy_n(&corners[9 * size_t(items[i].triangle)], 9, &corners_[9 * i]);
-  });
-  std::vector<float>().swap(corners);
-  std::vector<BuildItem>().swap(items);
+  if (pool && frontier.size() > 1)
+    pool->parallel_for(frontier.size(), [&](size_t i) { build(frontier[i], items); });
+  else
+    for (const Subtree& at : frontier) build(at, items);
+}
+
+void TriangleDistanceTree::finish(uint32_t n, ThreadPool* pool, const std::vector<Subtree>& frontier,
+                                  const std::vector<Subtree>& top) {
   // Boxes bottom up: children follow their parent, and a subtree's descendants are the
   // nodes [next, next + subtree_nodes - 1).
+  std::map<uint32_t, uint32_t> memo;
   std::vector<uint32_t> descendants(frontier.size());
-  for (size_t i = 0; i < frontier.size(); ++i) descendants[i] = subtree_nodes(frontier[i].last - frontier[i].first, memo) - 1;
-  for_frontier([&](size_t i) {
+  for (size_t i = 0; i < frontier.size(); ++i) descendants[i] = subtree_nodes(frontier[i].last - frontier[i].first, leaf_size_, memo) - 1;
+  auto boxes = [&](size_t i) {
     const Subtree& at = frontier[i];
     for (uint32_t j = at.next + descendants[i]; j-- > at.next;) set_box(j);
     set_box(at.index);
-  });
+  };
+  if (pool && frontier.size() > 1)
+    pool->parallel_for(frontier.size(), boxes);
+  else
+    for (size_t i = 0; i < frontier.size(); ++i) boxes(i);
   for (size_t i = top.size(); i-- > 0;) set_box(top[i].index);
   parent_.assign(nodes_.size(), 0);
   leaf_of_.resize(n);
@@ -158,6 +183,7 @@ static double box_centre_d2(DVec3 p, const float* lo, const float* hi) {
 // The median split of items[first, last) (an inner node's triangles): along the longest axis
 // of the centroids' extent; returns where the second child's triangles begin.
 uint32_t TriangleDistanceTree::split(BuildItem* items, uint32_t first, uint32_t last) {
+  if (!items) return first + (last - first) / 2;
   const double inf = std::numeric_limits<double>::infinity();
   DVec3 clo{inf, inf, inf}, chi{-inf, -inf, -inf};
   for (uint32_t i = first; i < last; ++i) {
@@ -183,8 +209,12 @@ void TriangleDistanceTree::set_box(uint32_t index) {
   if (nd.count) {
     const float inf = std::numeric_limits<float>::infinity();
     for (int k = 0; k < 3; ++k) nd.lo[k] = inf, nd.hi[k] = -inf;
-    for (const float* c = &corners_[9 * size_t(nd.first)]; c != &corners_[9 * size_t(nd.first + nd.count)]; c += 3)
-      for (int k = 0; k < 3; ++k) nd.lo[k] = std::min(nd.lo[k], c[k]), nd.hi[k] = std::max(nd.hi[k], c[k]);
+    for (uint32_t t = nd.first; t < nd.first + nd.count; ++t)
+      for (int j = 0; j < 3; ++j) {
+        const DVec3 c = corner(t, j);  // exact: a float widened
+        const float xyz[3] = {float(c.x), float(c.y), float(c.z)};
+        for (int k = 0; k < 3; ++k) nd.lo[k] = std::min(nd.lo[k], xyz[k]), nd.hi[k] = std::max(nd.hi[k], xyz[k]);
+      }
     return;
   }
   const Node& l = nodes_[nd.first];
@@ -197,7 +227,7 @@ void TriangleDistanceTree::set_box(uint32_t index) {
 // (2 entries per level) cannot overflow.
 uint32_t TriangleDistanceTree::build(Subtree at, BuildItem* items) {
   Node& nd = nodes_[at.index];
-  if (at.last - at.first <= kLeafSize) {
+  if (at.last - at.first <= leaf_size_) {
     nd.first = at.first;
     nd.count = at.last - at.first;
     return at.next;

@@ -38,17 +38,36 @@ bool point_triangle_within_squared(DVec3 p, DVec3 a, DVec3 b, DVec3 c, double th
 
 class ThreadPool;
 
-// Nearest-triangle queries against a fixed triangle soup (median-split AABB tree, double).
-// Corners and boxes are stored as float: every coordinate is a float input (mesh positions),
-// and a box's bounds are minima and maxima of them, so widening to double on load gives the
-// same doubles a double copy would, at half the memory (and fewer cache lines per query).
+// Nearest-triangle queries against a fixed set of triangles (AABB tree, double). Corners and
+// boxes are stored as float: every coordinate is a float input (mesh positions), and a box's
+// bounds are minima and maxima of them, so widening to double on load gives the same doubles
+// a double copy would, at half the memory (and fewer cache lines per query). Every query is
+// exact whatever the tree's shape: the shape decides only how fast.
 class TriangleDistanceTree {
  public:
   TriangleDistanceTree() = default;
-  // `corners`: 9 floats per triangle (3 corners × xyz). `pool` (optional; not from inside one
+  // A triangle soup, `corners`: 9 floats per triangle (3 corners × xyz), reordered into a
+  // median-split tree (longest axis of the centroids). `pool` (optional; not from inside one
   // of its own tasks) builds in parallel; the tree is the same for any pool and without one.
+  // Triangle ids are tree positions.
   explicit TriangleDistanceTree(std::vector<float> corners, ThreadPool* pool = nullptr);
+  // Indexed triangles kept in the caller's order: `positions` (3 floats per vertex, read in
+  // place: must outlive the tree) and `corner_ids` (3 vertex ids per triangle). Each node
+  // splits its range of triangles at the middle, so no centroid, sort or copy of the corners
+  // is made (the memory a soup tree fills is most of its build time); the caller's order must
+  // be spatially coherent (clusters of a spatially ordered mesh) for the boxes to be tight.
+  // Triangle ids are the caller's.
+  TriangleDistanceTree(const float* positions, std::vector<uint32_t> corner_ids, ThreadPool* pool = nullptr);
   bool empty() const { return nodes_.empty(); }
+  uint32_t triangle_count() const { return uint32_t(leaf_of_.size()); }
+  // Corner j of triangle t (t < triangle_count()). The tree tests triangle t as
+  // prepare_triangle(corner(t, 0), corner(t, 1), corner(t, 2)): a caller that looks for a
+  // nearby triangle itself before asking the tree makes the same decisions with it.
+  DVec3 corner(uint32_t t, int j) const {
+    const float* c = positions_ ? &positions_[3 * size_t(corner_ids_[3 * size_t(t) + size_t(j)])]
+                                : &corners_[9 * size_t(t) + 3 * size_t(j)];
+    return {c[0], c[1], c[2]};
+  }
   // Squared distance to the nearest triangle; `hint` (in/out) is a triangle to start from
   // (pass ~0u initially; an opaque tree position); +inf when empty.
   double nearest_distance_squared(DVec3 p, uint32_t* hint) const;
@@ -75,16 +94,22 @@ class TriangleDistanceTree {
   struct Subtree {
     uint32_t index, first, last, next;
   };
+  // items == nullptr: the order is kept, ranges split at the middle.
   static uint32_t split(BuildItem* items, uint32_t first, uint32_t last);
   uint32_t build(Subtree at, BuildItem* items);
+  // The structure over n triangles (nodes_, splits reordering `items` if given); returns the
+  // independently built subtrees and the inner nodes above them (parents before children).
+  void build_structure(uint32_t n, ThreadPool* pool, BuildItem* items, std::vector<Subtree>& frontier,
+                       std::vector<Subtree>& top);
+  // Boxes bottom up, parent_ and leaf_of_, once the corners are in place.
+  void finish(uint32_t n, ThreadPool* pool, const std::vector<Subtree>& frontier, const std::vector<Subtree>& top);
   void set_box(uint32_t index);
-  DVec3 corner(uint32_t t, int j) const {
-    const float* c = &corners_[9 * size_t(t) + 3 * size_t(j)];
-    return {c[0], c[1], c[2]};
-  }
   double triangle_d2(DVec3 p, uint32_t t) const;
   bool triangle_within_squared(DVec3 p, uint32_t t, double threshold) const;
-  std::vector<float> corners_;  // 9 per triangle, in tree order
+  std::vector<float> corners_;  // soup: 9 per triangle, in tree order
+  const float* positions_ = nullptr;   // indexed: the caller's positions
+  std::vector<uint32_t> corner_ids_;   // indexed: 3 per triangle
+  uint32_t leaf_size_ = 0;             // triangles per tree leaf (at most)
   std::vector<Node> nodes_;
   std::vector<uint32_t> parent_;   // per node (root: 0)
   std::vector<uint32_t> leaf_of_;  // per triangle: its tree leaf

@@ -42,17 +42,38 @@ inline PreparedTriangle prepare_triangle(DVec3 a, DVec3 b, DVec3 c) {
   return t;
 }
 
+// Where p lies seen along the triangle's normal, the region test of the point-triangle
+// distance: kProjectsInside when p projects into the triangle (its distance is then the
+// plane's, prepared_plane_distance_squared), else the first edge (0: ab, 1: bc, 2: ca) whose
+// side test puts p outside, or kNoNormal for a degenerate triangle; in those two cases the
+// distance is the nearest edge's. Callers walking over a mesh cross the edge returned.
+inline constexpr int kProjectsInside = -1;
+inline constexpr int kNoNormal = 3;
+inline int prepared_triangle_region(DVec3 p, const PreparedTriangle& t) {
+  using namespace surface_distance_detail;
+  // `!(x >= 0)`, not `x < 0`: a NaN fails the test, as it fails `x >= 0`.
+  if (!(t.nn > 0)) return kNoNormal;
+  if (!(dot(cross(t.ab, sub(p, t.a)), t.n) >= 0)) return 0;
+  if (!(dot(cross(t.bc, sub(p, t.b)), t.n) >= 0)) return 1;
+  if (!(dot(cross(t.ca, sub(p, t.c)), t.n) >= 0)) return 2;
+  return kProjectsInside;
+}
+
+// The distance from p to the triangle's plane, squared: its distance when the region is
+// kProjectsInside.
+inline double prepared_plane_distance_squared(DVec3 p, const PreparedTriangle& t) {
+  using namespace surface_distance_detail;
+  const double h = dot(t.n, sub(p, t.a));
+  return h * h / t.nn;
+}
+
 // point_triangle_within_squared on a prepared triangle (the one implementation of both
 // point_triangle_* functions).
 inline bool prepared_triangle_within_squared(DVec3 p, const PreparedTriangle& t, double threshold, double* d2) {
   using namespace surface_distance_detail;
-  if (t.nn > 0) {
-    DVec3 ap = sub(p, t.a), bp = sub(p, t.b), cp = sub(p, t.c);
-    if (dot(cross(t.ab, ap), t.n) >= 0 && dot(cross(t.bc, bp), t.n) >= 0 && dot(cross(t.ca, cp), t.n) >= 0) {
-      double h = dot(t.n, ap);
-      *d2 = h * h / t.nn;
-      return *d2 <= threshold;
-    }
+  if (prepared_triangle_region(p, t) == kProjectsInside) {
+    *d2 = prepared_plane_distance_squared(p, t);
+    return *d2 <= threshold;
   }
   // min of the three segment distances ≤ threshold iff one of them is.
   double d = point_segment_d2(p, t.a, t.ab, t.ab2);
@@ -66,13 +87,7 @@ inline bool prepared_triangle_within_squared(DVec3 p, const PreparedTriangle& t,
 
 inline double prepared_triangle_distance_squared(DVec3 p, const PreparedTriangle& t) {
   using namespace surface_distance_detail;
-  if (t.nn > 0) {
-    DVec3 ap = sub(p, t.a), bp = sub(p, t.b), cp = sub(p, t.c);
-    if (dot(cross(t.ab, ap), t.n) >= 0 && dot(cross(t.bc, bp), t.n) >= 0 && dot(cross(t.ca, cp), t.n) >= 0) {
-      double h = dot(t.n, ap);
-      return h * h / t.nn;
-    }
-  }
+  if (prepared_triangle_region(p, t) == kProjectsInside) return prepared_plane_distance_squared(p, t);
   return std::min({point_segment_d2(p, t.a, t.ab, t.ab2), point_segment_d2(p, t.b, t.bc, t.bc2),
                    point_segment_d2(p, t.c, t.ca, t.ca2)});
 }

@@ -515,7 +515,7 @@ void build_leaves(BuildState& s) {
   const double te = steady_seconds();
   std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
   for (size_t i = 0; i < s.clusters.size(); ++i) leaf_sets[i] = &s.clusters[i].triangles;
-  s.leaf_surface = build_leaf_surface(s.mesh, leaf_sets, s.pool);
+  s.leaf_surface = build_leaf_surface(s.welded, leaf_sets, s.pool);
   s.report.seconds_error += steady_seconds() - te;
 }
 

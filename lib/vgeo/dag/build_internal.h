@@ -206,11 +206,19 @@ inline float round_up_to_float(double d) {
 }
 
 // The original surface, for measuring a simplification's deviation from it (leaf_error.cpp):
-// all leaf triangles in a distance tree.
+// all leaf triangles in a distance tree, and their edge adjacency (by welded id) for walking
+// from triangle to triangle before asking the tree. Triangle ids are the tree's.
 struct LeafSurface {
-  TriangleDistanceTree tree;  // triangle ids: the leaves' triangles in order
+  TriangleDistanceTree tree;
+  // neighbour[3t + j]: a triangle sharing edge j of t (corners j, (j + 1) % 3, welded), kNone
+  // on a border; on an edge of more than two triangles, the first other one in id order.
+  std::vector<uint32_t> neighbour;
+  // vertex_triangle[v] (v: a mesh vertex): the smallest triangle id with a corner welded to v,
+  // or kNone.
+  std::vector<uint32_t> vertex_triangle;
 };
-LeafSurface build_leaf_surface(const Mesh& mesh, const std::vector<const TriangleSet*>& leaves, ThreadPool& pool);
+LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves,
+                               ThreadPool& pool);
 // max(floor, the distance lib/vgeo/verify measures from `simplified` to the leaves), rounded
 // up to float: the lattice of surface_distance.h, exact nearest leaf triangle, the same
 // points. `floor` = the largest stored error of the group's members (`input`); the search

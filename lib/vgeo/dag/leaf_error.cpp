@@ -8,17 +8,23 @@
 // Based on: Cignoni, Rocchini, Scopigno, "Metro: Measuring Error on Simplified Surfaces",
 // Computer Graphics Forum 17(2), 1998 (one-sided distance of sample points to the original
 // surface); Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"Error metric" (a mesh
-// distance instead of the quadrics' estimate).
+// distance instead of the quadrics' estimate); the walk: Devillers, Pion, Teillaud, "Walking
+// in a Triangulation", IJFCS 13(2), 2002 (the visibility walk, never stepping straight back).
 //
 // Only the maximum is wanted, and only above a floor (the children's stored error, which the
 // parent's stored error takes the max with anyway): a point with *some* leaf triangle within
-// the running threshold cannot raise the maximum and needs no nearest search. Candidates are
-// tried first (the last leaf triangle found), then the tree's any-within query; only a point
-// farther than the threshold from every leaf gets the exact nearest search.
+// the running threshold cannot raise the maximum and needs no nearest search. That triangle
+// is looked for by walking over the leaf surface (edge adjacency by welded position) from
+// the last one found to the triangle the point projects into, tested with the tree's own
+// triangle test; only when the walk fails does the tree's any-within query decide, and only
+// a point farther than the threshold from every leaf gets the exact nearest search. The walk
+// proves "within" only, so the result is the tree's, bit for bit (docs/acceptance/
+// issue23_errspeed.md: 99.5% of the points are decided by a walk of ~2.4 steps).
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
+#include "vgeo/core/thread_pool.h"
 #include "vgeo/dag/build_internal.h"
 
 namespace vgeo::build_detail {
@@ -27,19 +33,87 @@ namespace {
 
 // Empty slot of the edge set (no edge has both ends ~0u: vertex ids are < 2^32 - 1).
 constexpr uint64_t kNoEdge = ~uint64_t(0);
+// Triangles per chunk of the parallel adjacency pass (a few ns per triangle: large chunks).
+constexpr size_t kAdjacencyChunk = size_t(1) << 16;
+// Triangles a walk visits before the tree takes over. A walk's length is the point's
+// distance from its start in leaf triangles, which grows with the level; on the 1M sphere a
+// limit of 8 stopped 4.4% of the walks (each then a tree search, over 10× a walk), 64 stopped
+// 0.05%; 32 keeps the cost of a hopeless walk (a fold, a hole) within a few tree searches.
+constexpr int kMaxWalkSteps = 32;
+
+// The walk's adjacency (LeafSurface::neighbour, vertex_triangle) from the leaf triangles'
+// corners (`ids`, 3 per triangle id), by welded id: triangles by welded vertex (counting
+// sort, each list in ascending id order), then for each edge the first other triangle of its
+// first vertex's list that has its second vertex.
+void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector<uint32_t>& ids, ThreadPool& pool) {
+  const size_t n = ids.size() / 3, vertices = welded.weld.size();
+  const std::vector<uint32_t>& weld = welded.weld;
+  std::vector<uint32_t> first(vertices + 1, 0);  // then: first[w] = end of w's list while filling
+  for (uint32_t v : ids) ++first[weld[v] + 1];
+  for (size_t w = 0; w < vertices; ++w) first[w + 1] += first[w];
+  std::vector<uint32_t> triangles(ids.size());
+  for (size_t k = 0; k < ids.size(); ++k) triangles[first[weld[ids[k]]]++] = uint32_t(k / 3);
+  for (size_t w = vertices; w-- > 0;) first[w + 1] = first[w];  // back to starts, shifted
+  first[0] = 0;
+  auto has_corner = [&](uint32_t t, uint32_t w) {
+    return weld[ids[3 * size_t(t)]] == w || weld[ids[3 * size_t(t) + 1]] == w || weld[ids[3 * size_t(t) + 2]] == w;
+  };
+  s.neighbour.resize(ids.size());
+  for_chunks(&pool, n, kAdjacencyChunk, [&](size_t begin, size_t end) {
+    for (size_t t = begin; t < end; ++t)
+      for (int j = 0; j < 3; ++j) {
+        const uint32_t u = weld[ids[3 * t + j]], w = weld[ids[3 * t + (j + 1) % 3]];
+        uint32_t found = kNone;
+        for (uint32_t k = first[u]; k < first[u + 1] && found == kNone; ++k)
+          if (triangles[k] != t && has_corner(triangles[k], w)) found = triangles[k];
+        s.neighbour[3 * t + j] = found;
+      }
+  });
+  s.vertex_triangle.resize(welded.weld.size());
+  for_chunks(&pool, vertices, kAdjacencyChunk, [&](size_t begin, size_t end) {
+    for (size_t v = begin; v < end; ++v) {
+      const uint32_t w = weld[v];
+      s.vertex_triangle[v] = first[w] < first[w + 1] ? triangles[first[w]] : kNone;
+    }
+  });
+}
+
+// Looks for a leaf triangle within sqrt(threshold) of p: walks over the leaf surface from
+// triangle *at to the one p projects into (a visibility walk: cross the first edge p lies
+// outside of, never straight back), and decides there with the tree's own triangle test
+// (surface_distance_impl.h), so a "within" here is one the tree would find. *at gets the
+// triangle where the walk stopped: found, or nearby (the tree's starting hint). A walk only
+// ever proves "within"; a miss is decided by the tree.
+bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at) {
+  uint32_t t = *at, previous = kNone;
+  for (int step = 1;; ++step) {
+    const PreparedTriangle tri = prepare_triangle(s.tree.corner(t, 0), s.tree.corner(t, 1), s.tree.corner(t, 2));
+    const int region = prepared_triangle_region(p, tri);
+    if (region == kProjectsInside) return *at = t, prepared_plane_distance_squared(p, tri) <= threshold;
+    const uint32_t next = region == kNoNormal ? kNone : s.neighbour[3 * size_t(t) + size_t(region)];
+    if (next == kNone || next == previous || step == kMaxWalkSteps) {
+      double d2;  // p lies off t's edges (or t has no normal): the nearest edge decides
+      return *at = t, prepared_triangle_within_squared(p, tri, threshold, &d2);
+    }
+    previous = t;
+    t = next;
+  }
+}
 
 }  // namespace
 
-LeafSurface build_leaf_surface(const Mesh& mesh, const std::vector<const TriangleSet*>& leaves, ThreadPool& pool) {
-  std::vector<size_t> offset(leaves.size() + 1, 0);  // per leaf: its first corner float
-  for (size_t i = 0; i < leaves.size(); ++i) offset[i + 1] = offset[i] + 3 * leaves[i]->corners.size();
-  std::vector<float> corners(offset.back());
+LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves, ThreadPool& pool) {
+  std::vector<size_t> first_triangle(leaves.size() + 1, 0);  // per leaf set: its first triangle
+  for (size_t i = 0; i < leaves.size(); ++i) first_triangle[i + 1] = first_triangle[i] + leaves[i]->triangle_count();
+  std::vector<uint32_t> ids(3 * first_triangle.back());
   pool.parallel_for(leaves.size(), [&](size_t i) {
-    float* out = &corners[offset[i]];
-    for (uint32_t v : leaves[i]->corners) out = std::copy_n(&mesh.positions[3 * size_t(v)], 3, out);
+    std::copy(leaves[i]->corners.begin(), leaves[i]->corners.end(), &ids[3 * first_triangle[i]]);
   });
   LeafSurface s;
-  s.tree = TriangleDistanceTree(std::move(corners), &pool);
+  build_adjacency(s, welded, ids, pool);
+  // Leaves in cluster order: clusters of spatial chunks in Morton order, each cluster a
+  // connected patch, which is the spatial coherence the order-keeping tree needs.
+  s.tree = TriangleDistanceTree(welded.mesh->positions.data(), std::move(ids), &pool);
   return s;
 }
 
@@ -72,11 +146,15 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
       for (int j = 0; j < 3; ++j) insert_edge(input.corners[3 * t + j], input.corners[3 * t + (j + 1) % 3]);
 
   double best2 = 0.0;
-  uint32_t hint = ~0u;  // the last leaf triangle found: the points of a triangle come together
+  // A point's search starts from `at`: a leaf triangle at its simplified triangle's first
+  // corner (every corner is a leaf vertex), then the triangle where the previous point's
+  // search ended (the points of a triangle are visited in a tour around it).
+  uint32_t at = kNone;
   auto visit = [&](DVec3 p) {
     const double threshold = std::max(best2, floor_d2);
-    if (leaves.tree.any_within_squared(p, threshold, &hint)) return;
-    best2 = std::max(best2, leaves.tree.nearest_distance_squared(p, &hint));
+    if (at != kNone && walk_within(leaves, p, threshold, &at)) return;
+    if (leaves.tree.any_within_squared(p, threshold, &at)) return;
+    best2 = std::max(best2, leaves.tree.nearest_distance_squared(p, &at));
   };
   auto vertex = [&](uint32_t v) {
     return DVec3{mesh.positions[3 * size_t(v)], mesh.positions[3 * size_t(v) + 1], mesh.positions[3 * size_t(v) + 2]};
@@ -84,14 +162,19 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
   // The points of for_each_lattice_point (lib/vgeo/core/surface_distance.h, which
   // lib/vgeo/verify samples), same formulas, triangle by triangle. Corners are skipped: a
   // simplified corner is an input vertex (both backends only remove vertices), a corner of a
-  // leaf triangle, at distance exactly 0.
+  // leaf triangle, at distance exactly 0. Which points are visited decides the result, not
+  // the order: edge points go from corner j to corner j + 1 (an edge's point i/s is still
+  // computed from its smaller vertex id), so consecutive points are a short walk apart.
   const uint32_t s = kErrorLatticeSubdivisions ? kErrorLatticeSubdivisions : 1;
   for (size_t t = 0; t < simplified.triangle_count(); ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
+    at = leaves.vertex_triangle[tri[0]];
     for (int j = 0; j < 3; ++j) {
       if (!insert_edge(tri[j], tri[(j + 1) % 3])) continue;
-      const DVec3 e0 = vertex(std::min(tri[j], tri[(j + 1) % 3])), e1 = vertex(std::max(tri[j], tri[(j + 1) % 3]));
-      for (uint32_t i = 1; i < s; ++i) {
+      const bool forward = tri[j] < tri[(j + 1) % 3];
+      const DVec3 e0 = vertex(forward ? tri[j] : tri[(j + 1) % 3]), e1 = vertex(forward ? tri[(j + 1) % 3] : tri[j]);
+      for (uint32_t k = 1; k < s; ++k) {
+        const uint32_t i = forward ? k : s - k;
         const double f = double(i) / s;
         visit(DVec3{e0.x + (e1.x - e0.x) * f, e0.y + (e1.y - e0.y) * f, e0.z + (e1.z - e0.z) * f});
       }

@@ -94,21 +94,32 @@ void upload_raster_inputs(GpuRenderer& r, const std::vector<Mat4>& object_to_cli
 static_assert(kGpuShadowPageTexels == kShadowPageTexels);
 constexpr size_t kShadowPageTexelCount = size_t(kShadowPageTexels) * kShadowPageTexels;
 
-// The shadow raster's inputs (GpuRenderer's shadow_* buffers) from a draw list; returns the
-// element count.
-uint32_t upload_shadow_elements(GpuRenderer& r, const RenderScene& scene, const ShadowDrawList& list) {
+// The shadow raster's inputs (GpuRenderer's shadow_* buffers) from a draw list, and what the
+// hardware path's draws need on the host.
+struct ShadowElements {
+  uint32_t count = 0;
+  std::vector<GpuShadowPage> pages;
+  std::vector<GpuShadowHwDraw> hw_draws;  // one per element, page by page
+};
+ShadowElements upload_shadow_elements(GpuRenderer& r, const RenderScene& scene, const ShadowFrame& frame,
+                                      const ShadowDrawList& list) {
   GpuContext& gpu = *r.gpu;
   // One GpuInstance per (view, instance) some element draws (not views × instances: most
   // instances overlap few views), numbered in order of first use.
   const uint64_t instance_count = scene.instances.size();
   std::unordered_map<uint64_t, uint32_t> view_instance;
   std::vector<GpuInstance> instances;
-  std::vector<GpuShadowPage> pages(list.pages.size());
+  ShadowElements out;
+  std::vector<GpuShadowPage>& pages = out.pages;
+  pages.resize(list.pages.size());
   std::vector<GpuVisibleCluster> elements;
   std::vector<uint32_t> element_page;
   for (size_t d = 0; d < list.pages.size(); ++d) {
     const ShadowPageDraw& p = list.pages[d];
-    pages[d] = {p.raster.virtual_width, p.raster.window_x, p.raster.window_y, p.slot, p.raster.z_near, {0, 0, 0}};
+    const uint32_t table_offset = uint32_t(shadow_page_entry(frame, ShadowTexel{p.map, p.mip, 0, 0, 0}));
+    pages[d] = {p.raster.virtual_width, p.raster.window_x,  p.raster.window_y,
+                p.slot,                 p.raster.z_near,    table_offset,
+                frame.options.pages_per_side >> p.mip, 0};
     for (const VisibleCluster& c : list.clusters[d]) {
       auto [it, added] = view_instance.try_emplace(p.view * instance_count + c.instance, uint32_t(instances.size()));
       if (added) {
@@ -116,6 +127,9 @@ uint32_t upload_shadow_elements(GpuRenderer& r, const RenderScene& scene, const 
         std::memcpy(g.object_to_clip, list.object_to_clip[p.view][c.instance].m, sizeof(g.object_to_clip));
         g.mesh = scene.instances[c.instance].mesh;
       }
+      out.hw_draws.push_back({uint32_t(elements.size()),
+                              scene.meshes[scene.instances[c.instance].mesh].clusters[c.cluster].triangle_count,
+                              uint32_t(d)});
       elements.push_back({it->second, c.cluster});
       element_page.push_back(uint32_t(d));
     }
@@ -136,11 +150,16 @@ uint32_t upload_shadow_elements(GpuRenderer& r, const RenderScene& scene, const 
   put(r.shadow_pages, pages);
   put(r.shadow_elements, elements);
   put(r.shadow_element_page, element_page);
-  return uint32_t(elements.size());
+  put(r.shadow_table, frame.page_table);
+  out.count = uint32_t(elements.size());
+  return out;
 }
 
-// Draws the listed pages into r.shadow_pool (already holding the pool, drawn slots cleared).
-void raster_shadow_pages(GpuRenderer& r, uint32_t element_count) {
+// Draws the listed pages into r.shadow_pool (already holding the pool, drawn slots cleared):
+// the compute rasterizer (bit-identical to the CPU), or with `hardware` the hardware raster
+// through the page table (spec/shadow.md §8).
+void raster_shadow_pages(GpuRenderer& r, const ShadowElements& elements, bool hardware) {
+  const uint32_t element_count = elements.count;
   GpuRecorder& rec = *r.recorder;
   const GpuGeometryBuffers g{&r.pages, &r.locations, &r.meshes, &r.shadow_instances, &r.shadow_elements, &r.vis};
   const GpuShadowRasterBuffers buffers{{g, &r.counters}, &r.shadow_pages, &r.shadow_element_page, &r.shadow_pool};
@@ -150,6 +169,11 @@ void raster_shadow_pages(GpuRenderer& r, uint32_t element_count) {
   ensure_size(*r.gpu, r.raster->paths, sizeof(uint32_t));
   begin_commands(rec);
   cmd_fill(rec, r.counters, 0);
+  if (hardware) {
+    record_gpu_shadow_hw_raster(rec, *r.raster, buffers, r.shadow_table, elements.pages, elements.hw_draws);
+    submit_and_wait(rec);
+    return;
+  }
   record_gpu_shadow_raster(rec, *r.raster, buffers, element_count);
   continue_commands(rec);  // the host cuts the deferred big triangles into tiles (spec/raster.md §13.5)
   RasterSplitStats tiled;
@@ -366,20 +390,24 @@ void check_clusters_in_pool(const GpuRenderer& r, const RenderScene& scene, cons
 
 }  // namespace
 
+bool shadow_pages_use_hardware_raster(GpuRasterMode mode) { return mode == GpuRasterMode::kHw; }
+
 void draw_shadow_pages_vulkan(GpuRenderer& r, const RenderScene& scene, ThreadPool& pool, ShadowFrame* frame,
-                              ShadowCache* cache, FrameStreaming* streaming) {
+                              ShadowCache* cache, GpuRasterMode mode, FrameStreaming* streaming) {
   ShadowCache local;
   ShadowCache* c = cache ? cache : &local;
-  // Streaming (spec/shadow.md §8), as frame.cpp's shadow_draw: the views draw the resident cut of
+  // Streaming (spec/shadow.md §9), as frame.cpp's shadow_draw: the views draw the resident cut of
   // what stream_end left resident (a subset of the pages sync_page_pool placed at stream_begin,
   // since reads complete only at a frame's start), and their requests go to the next stream_end.
   if (streaming) refresh_usable_groups(scene, streaming);
-  ShadowDrawList list = begin_shadow_draw(scene.meshes, scene.instances, scene.lights, pool, frame, c,
-                                          streaming ? &streaming->usable : nullptr);
+  ShadowDrawList built = begin_shadow_draw(scene.meshes, scene.instances, scene.lights, pool, frame, c,
+                                           streaming ? &streaming->usable : nullptr);
   if (streaming) {
-    check_clusters_in_pool(r, scene, *streaming, shadow_draw_clusters(list));
-    streaming->shadow_requests = std::move(list.requests);
+    check_clusters_in_pool(r, scene, *streaming, shadow_draw_clusters(built));
+    streaming->shadow_requests = std::move(built.requests);
   }
+  auto drawn = std::make_shared<const ShadowDrawList>(std::move(built));
+  const ShadowDrawList& list = *drawn;
   GpuContext& gpu = *r.gpu;
   const uint64_t pool_bytes = c->texels.size() * sizeof(float);
   check_buffer_range(gpu, pool_bytes, "the shadow page pool");
@@ -388,11 +416,13 @@ void draw_shadow_pages_vulkan(GpuRenderer& r, const RenderScene& scene, ThreadPo
   float* device_pool = r.shadow_pool.data<float>();
   for (const ShadowPageDraw& p : list.pages)
     std::memset(device_pool + p.slot * kShadowPageTexelCount, 0, kShadowPageTexelCount * sizeof(float));
-  if (!list.pages.empty()) raster_shadow_pages(r, upload_shadow_elements(r, scene, list));
+  if (!list.pages.empty())
+    raster_shadow_pages(r, upload_shadow_elements(r, scene, *frame, list), shadow_pages_use_hardware_raster(mode));
   for (const ShadowPageDraw& p : list.pages)
     std::memcpy(c->texels.data() + p.slot * kShadowPageTexelCount, device_pool + p.slot * kShadowPageTexelCount,
                 kShadowPageTexelCount * sizeof(float));
   end_shadow_draw(scene.instances, scene.lights, frame, c, cache != nullptr);
+  frame->drawn = std::move(drawn);
 }
 
 namespace {
@@ -547,7 +577,8 @@ class VulkanFrameExecutor final : public FrameExecutor {
         break;
       case FrameStep::kShadowDraw:
         draw_shadow_pages_vulkan(r_, in_.scene, in_.pool, &out_->shadow,
-                                 in_.history ? &in_.history->shadow_cache : nullptr, in_.streaming);
+                                 in_.history ? &in_.history->shadow_cache : nullptr, r_.options.raster,
+                                 in_.streaming);
         r.shadow = shadow_frame_stats(out_->shadow);
         break;
     }

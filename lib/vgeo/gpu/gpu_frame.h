@@ -87,10 +87,17 @@ const GpuPoolStats& gpu_pool_stats(const GpuRenderer& renderer);
 // device's pool, bit-identical to draw_shadow_pages. The pool is uploaded from cache->texels
 // first (the history is the truth, as for the HZB) and the drawn slots are read back into it,
 // so frame->pool_texels reads what the device holds. `cache` null: nothing is kept (as the CPU).
-// `streaming` (a streamed frame, after stream_end): the views draw the resident cut and leave
-// their requests in streaming->shadow_requests, as the CPU executor (spec/shadow.md §8).
+// `mode`: with shadow_pages_use_hardware_raster(mode) the pages are drawn by the hardware raster
+// instead (through the page table, spec/shadow.md §8: equal to the CPU's within the shadow-page
+// hardware rule, shadow_hw_rule.h, not bitwise). `streaming` (a streamed frame, after
+// stream_end): the views draw the resident cut and leave their requests in
+// streaming->shadow_requests, as the CPU executor (spec/shadow.md §9).
 void draw_shadow_pages_vulkan(GpuRenderer& renderer, const RenderScene& scene, ThreadPool& pool, ShadowFrame* frame,
-                              ShadowCache* cache, FrameStreaming* streaming = nullptr);
+                              ShadowCache* cache, GpuRasterMode mode = GpuRasterMode::kSw,
+                              FrameStreaming* streaming = nullptr);
+// Which path draws the shadow pages under a frame's raster mode (spec/shadow.md §8): the
+// hardware raster under `hw`; the compute raster under `sw` and `auto`.
+bool shadow_pages_use_hardware_raster(GpuRasterMode mode);
 
 // Renders one frame of in.scene, a scene the renderer was made for (as render_frame:
 // plan_frame, then the Vulkan executor); FrameStats::raster_split counts the frame's clusters

@@ -48,24 +48,27 @@ VkShaderModule make_module(GpuContext& c, const ShaderBinary& shader) {
   return module;
 }
 
-// The hardware raster pipeline: no vertex input (the vertex shader fetches), triangle lists,
-// no attachments (dynamic rendering with zero formats), viewport/scissor/cull mode dynamic.
-void create_hw_pipeline(GpuContext& c, GpuRasterPasses& p) {
-  std::vector<VkDescriptorSetLayoutBinding> bindings(kHwBindings);
-  for (uint32_t i = 0; i < kHwBindings; ++i) bindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, kHwStages, nullptr};
+// A hardware raster pipeline: no vertex input (the vertex shader fetches), triangle lists,
+// no attachments (dynamic rendering with zero formats), viewport/scissor/cull mode dynamic;
+// `binding_count` storage buffers visible to both stages.
+void create_hw_pipeline(GpuContext& c, uint32_t binding_count, const ShaderBinary& vert_shader,
+                        const ShaderBinary& frag_shader, VkDescriptorSetLayout* set_layout, VkPipelineLayout* layout,
+                        VkPipeline* pipeline) {
+  std::vector<VkDescriptorSetLayoutBinding> bindings(binding_count);
+  for (uint32_t i = 0; i < binding_count; ++i) bindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, kHwStages, nullptr};
   VkDescriptorSetLayoutCreateInfo set_info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-  set_info.bindingCount = kHwBindings;
+  set_info.bindingCount = binding_count;
   set_info.pBindings = bindings.data();
-  check_vk(vkCreateDescriptorSetLayout(c.device, &set_info, nullptr, &p.hw_set_layout), "vkCreateDescriptorSetLayout");
+  check_vk(vkCreateDescriptorSetLayout(c.device, &set_info, nullptr, set_layout), "vkCreateDescriptorSetLayout");
   VkPushConstantRange range{kHwStages, 0, sizeof(GpuRasterParams)};
   VkPipelineLayoutCreateInfo layout_info{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
   layout_info.setLayoutCount = 1;
-  layout_info.pSetLayouts = &p.hw_set_layout;
+  layout_info.pSetLayouts = set_layout;
   layout_info.pushConstantRangeCount = 1;
   layout_info.pPushConstantRanges = &range;
-  check_vk(vkCreatePipelineLayout(c.device, &layout_info, nullptr, &p.hw_layout), "vkCreatePipelineLayout");
+  check_vk(vkCreatePipelineLayout(c.device, &layout_info, nullptr, layout), "vkCreatePipelineLayout");
 
-  VkShaderModule vert = make_module(c, kShaderHwRasterVert), frag = make_module(c, kShaderHwRasterFrag);
+  VkShaderModule vert = make_module(c, vert_shader), frag = make_module(c, frag_shader);
   VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
                                                {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
@@ -105,11 +108,11 @@ void create_hw_pipeline(GpuContext& c, GpuRasterPasses& p) {
   info.pRasterizationState = &raster;
   info.pMultisampleState = &multisample;
   info.pDynamicState = &dynamic;
-  info.layout = p.hw_layout;
-  VkResult r = vkCreateGraphicsPipelines(c.device, VK_NULL_HANDLE, 1, &info, nullptr, &p.hw);
+  info.layout = *layout;
+  VkResult r = vkCreateGraphicsPipelines(c.device, VK_NULL_HANDLE, 1, &info, nullptr, pipeline);
   vkDestroyShaderModule(c.device, vert, nullptr);
   vkDestroyShaderModule(c.device, frag, nullptr);
-  check_vk(r, "hw_raster pipeline");
+  check_vk(r, vert_shader.name);
 }
 
 // Shader writes of `src` stages become visible to the `dst` stages' `access`.
@@ -248,9 +251,12 @@ std::vector<GpuBinding> geometry_bindings(const GpuGeometryBuffers& g) {
 GpuRasterPasses::~GpuRasterPasses() {
   if (!context) return;
   VkDevice d = context->device;
-  if (hw) vkDestroyPipeline(d, hw, nullptr);
-  if (hw_layout) vkDestroyPipelineLayout(d, hw_layout, nullptr);
-  if (hw_set_layout) vkDestroyDescriptorSetLayout(d, hw_set_layout, nullptr);
+  for (VkPipeline pipeline : {hw, hw_shadow})
+    if (pipeline) vkDestroyPipeline(d, pipeline, nullptr);
+  for (VkPipelineLayout layout : {hw_layout, hw_shadow_layout})
+    if (layout) vkDestroyPipelineLayout(d, layout, nullptr);
+  for (VkDescriptorSetLayout layout : {hw_set_layout, hw_shadow_set_layout})
+    if (layout) vkDestroyDescriptorSetLayout(d, layout, nullptr);
 }
 
 std::unique_ptr<GpuRasterPasses> create_gpu_raster_passes(GpuContext& gpu,
@@ -263,7 +269,9 @@ std::unique_ptr<GpuRasterPasses> create_gpu_raster_passes(GpuContext& gpu,
   p->shadow = create_compute_pipeline(gpu, kShaderRasterShadow, kRasterShadowBindingCount, sizeof(GpuRasterParams));
   p->shadow_tiles =
       create_compute_pipeline(gpu, kShaderRasterShadowTiles, kRasterShadowBindingCount, sizeof(GpuRasterParams));
-  create_hw_pipeline(gpu, *p);
+  create_hw_pipeline(gpu, kHwBindings, kShaderHwRasterVert, kShaderHwRasterFrag, &p->hw_set_layout, &p->hw_layout, &p->hw);
+  create_hw_pipeline(gpu, kHwShadowBindingCount, kShaderHwShadowVert, kShaderHwShadowFrag, &p->hw_shadow_set_layout,
+                     &p->hw_shadow_layout, &p->hw_shadow);
   p->cluster_info = create_gpu_buffer(gpu, cluster_info.size() * sizeof(GpuClusterRasterInfo));
   if (!cluster_info.empty())
     std::memcpy(p->cluster_info.mapped, cluster_info.data(), cluster_info.size() * sizeof(GpuClusterRasterInfo));
@@ -343,6 +351,52 @@ void record_gpu_shadow_raster(GpuRecorder& rec, GpuRasterPasses& p, const GpuSha
 void record_gpu_shadow_raster_tiles(GpuRecorder& rec, GpuRasterPasses& p, const GpuShadowRasterBuffers& b,
                                     uint32_t element_count, RasterSplitStats* split) {
   record_tiles(rec, p, *b.raster.counters, p.shadow_tiles, shadow_buffers(p, b), shadow_params(element_count), split);
+}
+
+void record_gpu_shadow_hw_raster(GpuRecorder& rec, GpuRasterPasses& p, const GpuShadowRasterBuffers& b,
+                                 const GpuBuffer& page_table, const std::vector<GpuShadowPage>& pages,
+                                 const std::vector<GpuShadowHwDraw>& draws) {
+  if (draws.empty()) return;
+  std::vector<GpuBinding> bindings = geometry_bindings(b.raster.geometry);
+  bindings.insert(bindings.end(), {{kRasterBindCounters, b.raster.counters},
+                                   {kRasterBindPaths, &p.paths},
+                                   {kRasterBindBig, &p.big_triangles},
+                                   {kRasterBindTiles, &p.tiles},
+                                   {kRasterBindShadowPages, b.pages},
+                                   {kRasterBindShadowElementPage, b.element_page},
+                                   {kRasterBindShadowPool, b.pool},
+                                   {kHwShadowBindPageTable, &page_table}});
+  VkDescriptorSet set = storage_buffer_set(rec, p.hw_shadow_set_layout, gpu_bindings(kHwShadowBindingCount, bindings));
+  // The framebuffer is the largest mip drawn (no attachments: only its size matters); each
+  // page's draws use its mip's viewport and the page's scissor.
+  uint32_t side = 1;
+  for (const GpuShadowPage& page : pages) side = std::max(side, page.viewport);
+  VkRenderingInfo rendering{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  rendering.renderArea = {{0, 0}, {side, side}};
+  rendering.layerCount = 1;
+  vkCmdBeginRendering(rec.commands, &rendering);
+  vkCmdBindPipeline(rec.commands, VK_PIPELINE_BIND_POINT_GRAPHICS, p.hw_shadow);
+  vkCmdBindDescriptorSets(rec.commands, VK_PIPELINE_BIND_POINT_GRAPHICS, p.hw_shadow_layout, 0, 1, &set, 0, nullptr);
+  const GpuRasterParams params = shadow_params(uint32_t(draws.size()));
+  vkCmdPushConstants(rec.commands, p.hw_shadow_layout, kHwStages, 0, sizeof params, &params);
+  vkCmdSetCullMode(rec.commands, VK_CULL_MODE_NONE);  // back faces are drawn (spec/shadow.md §5)
+  uint32_t current = ~0u;
+  for (const GpuShadowHwDraw& d : draws) {
+    if (d.page != current) {
+      current = d.page;
+      const GpuShadowPage& page = pages[d.page];
+      const VkViewport viewport{0.0f, 0.0f, float(page.viewport), float(page.viewport), 0.0f, 1.0f};
+      const VkRect2D scissor{{int32_t(page.window_x), int32_t(page.window_y)}, {kGpuShadowPageTexels, kGpuShadowPageTexels}};
+      vkCmdSetViewport(rec.commands, 0, 1, &viewport);
+      vkCmdSetScissor(rec.commands, 0, 1, &scissor);
+    }
+    vkCmdDraw(rec.commands, 3 * d.triangles, 1, 0, d.element);
+  }
+  vkCmdEndRendering(rec.commands);
+  // The fragment stage's pool writes, before the host reads the drawn slots back.
+  barrier(rec, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+          VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT | VK_PIPELINE_STAGE_2_HOST_BIT,
+          VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_HOST_READ_BIT);
 }
 
 RasterSplitStats read_gpu_raster_split(const GpuRasterPasses& p) {

@@ -18,6 +18,7 @@
 #include "vgeo/gpu/context.h"
 #include "vgeo/gpu/hw_raster_records.h"
 #include "vgeo/gpu/shader_bindings.h"
+#include "vgeo/gpu/shader_records.h"  // GpuShadowPage
 #include "vgeo/render/frame_plan.h"  // RasterSplitStats
 
 namespace vgeo {
@@ -47,6 +48,10 @@ struct GpuRasterPasses {
   VkDescriptorSetLayout hw_set_layout = VK_NULL_HANDLE;
   VkPipelineLayout hw_layout = VK_NULL_HANDLE;
   VkPipeline hw = VK_NULL_HANDLE;
+  // The shadow pages' hardware raster (hw_shadow.vert/.frag, kHwShadowBindingCount bindings).
+  VkDescriptorSetLayout hw_shadow_set_layout = VK_NULL_HANDLE;
+  VkPipelineLayout hw_shadow_layout = VK_NULL_HANDLE;
+  VkPipeline hw_shadow = VK_NULL_HANDLE;
   GpuBuffer cluster_info;      // GpuClusterRasterInfo per (mesh, cluster), GpuClusterLocation order
   GpuBuffer raster_instances;  // GpuRasterInstance per instance (per frame)
   GpuBuffer paths;             // kGpuRasterPath* per visible cluster (per frame)
@@ -120,6 +125,18 @@ void record_gpu_shadow_raster(GpuRecorder& rec, GpuRasterPasses& passes, const G
                               uint32_t element_count);
 void record_gpu_shadow_raster_tiles(GpuRecorder& rec, GpuRasterPasses& passes, const GpuShadowRasterBuffers& buffers,
                                     uint32_t element_count, RasterSplitStats* split);
+
+// The virtual shadow pages by the hardware raster (spec/shadow.md §8): one draw per element
+// (3 · its triangles, firstInstance = the element), in its page's mip viewport and scissored to
+// the page; the fragment translates its virtual texel through `page_table` (the frame's slot
+// per entry; GpuShadowPage::table_offset/table_side) and atomicMax'es the depth bits into the
+// pool slot. `draws` grouped by page. No continue_commands needed (no deferred triangles).
+struct GpuShadowHwDraw {
+  uint32_t element = 0, triangles = 0, page = 0;
+};
+void record_gpu_shadow_hw_raster(GpuRecorder& rec, GpuRasterPasses& passes, const GpuShadowRasterBuffers& buffers,
+                                 const GpuBuffer& page_table, const std::vector<GpuShadowPage>& pages,
+                                 const std::vector<GpuShadowHwDraw>& draws);
 
 // After submit_and_wait: the split of the last recorded range.
 RasterSplitStats read_gpu_raster_split(const GpuRasterPasses& passes);

@@ -66,6 +66,10 @@ VGEO_CONSTANT uint32_t kRasterShadowBindingCount = 13u;
 // The hardware raster pipeline (hw_raster.vert reads the geometry, hw_raster.frag writes the
 // visibility buffer and the counters): the compute rasterizer's first bindings.
 VGEO_CONSTANT uint32_t kHwRasterBindingCount = 7u;
+// The hardware raster of the shadow pages (hw_shadow.vert/.frag, spec/shadow.md §8): the
+// shadow compute rasterizer's bindings, then the frame's page table (a slot per entry).
+VGEO_CONSTANT uint32_t kHwShadowBindPageTable = 13u;
+VGEO_CONSTANT uint32_t kHwShadowBindingCount = 14u;
 
 // shade.comp: the geometry, then these.
 VGEO_CONSTANT uint32_t kShadeBindInstances = 6u;  // GpuShadeInstance[]
@@ -109,6 +113,7 @@ VGEO_CONSTANT uint32_t kSmokeBindingCount = 2u;
 static_assert(kRasterBindCounters == kGeomBindingCount && kShadeBindInstances == kGeomBindingCount);
 static_assert(kHwRasterBindingCount == kRasterBindCounters + 1);  // through the counters
 static_assert(kRasterBindShadowPages == kRasterBindingCount);
+static_assert(kHwShadowBindPageTable == kRasterShadowBindingCount);
 }  // namespace vgeo
 #endif
 #endif

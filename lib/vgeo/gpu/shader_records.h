@@ -124,7 +124,9 @@ struct GpuShadowPage {
   uint32_t window_y;
   uint32_t slot;       // pool slot: texels [slot · 128², (slot + 1) · 128²) of the pool
   float z_near;        // RasterOptions::z_near
-  uint32_t reserved[3];
+  uint32_t table_offset;  // page-table entry of page (0, 0) of its (map, mip) (hw_shadow.frag)
+  uint32_t table_side;    // pages per side of its mip
+  uint32_t reserved;
 };
 
 // Per instance and frame, for shading (shade.cpp): object→view (column-major Mat4d::m) and

@@ -11,6 +11,7 @@
 
 #include "vgeo/core/file_io.h"
 #include "vgeo/core/hash.h"
+#include "vgeo/shadow/shadow_hw_rule.h"
 
 namespace vgeo {
 
@@ -97,6 +98,42 @@ static void compare_shadow_pages(const Frame& cpu, const Frame& gpu, FrameCompar
     c->shadow_texels_differing += std::bit_cast<uint32_t>(ta[i]) != std::bit_cast<uint32_t>(tb[i]);
 }
 
+// The shadow part under the hardware rule (spec/shadow.md §8): the pages both sides drew
+// this frame, matched by (map, mip, page), classified texel by texel.
+static void compare_shadow_pages_hw(const RenderScene& scene, const Frame& cpu, const Frame& gpu, FrameComparison* c) {
+  const ShadowFrame& a = cpu.shadow;
+  const ShadowFrame& b = gpu.shadow;
+  if (!a.drawn || !b.drawn) return;
+  const ShadowDrawList& la = *a.drawn;
+  const ShadowDrawList& lb = *b.drawn;
+  const std::vector<float>& ta = a.pool_texels ? *a.pool_texels : a.own_texels;
+  const std::vector<float>& tb = b.pool_texels ? *b.pool_texels : b.own_texels;
+  constexpr size_t kPageTexelCount = size_t(kShadowPageTexels) * kShadowPageTexels;
+  std::map<std::tuple<uint32_t, uint32_t, uint32_t, uint32_t>, size_t> drawn_b;
+  for (size_t d = 0; d < lb.pages.size(); ++d)
+    drawn_b[{lb.pages[d].map, lb.pages[d].mip, lb.pages[d].x, lb.pages[d].y}] = d;
+  size_t matched = 0;
+  for (size_t d = 0; d < la.pages.size(); ++d) {
+    const ShadowPageDraw& pa = la.pages[d];
+    auto it = drawn_b.find({pa.map, pa.mip, pa.x, pa.y});
+    if (it == drawn_b.end()) continue;
+    ++matched;
+    const ShadowPageDraw& pb = lb.pages[it->second];
+    ++c->shadow_pages_compared;
+    if (la.clusters[d] != lb.clusters[it->second]) {
+      ++c->shadow_element_lists_differing;
+      continue;
+    }
+    if ((size_t(pa.slot) + 1) * kPageTexelCount > ta.size() || (size_t(pb.slot) + 1) * kPageTexelCount > tb.size()) {
+      ++c->shadow_element_lists_differing;  // a drawn slot outside the pool: never compare past it
+      continue;
+    }
+    classify_shadow_page_hw(scene.meshes, scene.instances, la, d, ta.data() + pa.slot * kPageTexelCount,
+                            tb.data() + pb.slot * kPageTexelCount, &c->shadow_hw);
+  }
+  c->shadow_pages_one_side = (la.pages.size() - matched) + (lb.pages.size() - matched);
+}
+
 FrameComparison compare_frames(const RenderScene& scene, const std::vector<ClusterDag>& geometry, const Camera& camera,
                                const Frame& cpu, const Frame& gpu, bool hw_rule) {
   FrameComparison c;
@@ -110,6 +147,8 @@ FrameComparison compare_frames(const RenderScene& scene, const std::vector<Clust
   if (hw_rule && c.clusters_equal) c.hw = compare_hw_frame(scene, geometry, camera, cpu, gpu);
   c.shadow_compared = !hw_rule && (cpu.stats.has_shadow || gpu.stats.has_shadow);
   if (c.shadow_compared) compare_shadow_pages(cpu, gpu, &c);
+  c.shadow_hw_compared = hw_rule && (cpu.stats.has_shadow || gpu.stats.has_shadow);
+  if (c.shadow_hw_compared) compare_shadow_pages_hw(scene, cpu, gpu, &c);
   // Images are compared where both sides shaded this frame (the kept ones, run_frames).
   c.shaded = !cpu.image.rgb.empty() && cpu.image.rgb.size() == gpu.image.rgb.size();
   if (c.shaded)

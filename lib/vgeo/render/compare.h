@@ -22,16 +22,24 @@ struct FrameComparison {
   uint64_t pixels_over = 0;          // pixels with a channel more than 1/255 apart
   bool hw_rule = false;              // judged by the hardware rule (--raster hw|auto)
   HwRasterAgreement hw;              // per-pixel classes of the hardware rule
-  // The virtual shadow pages (spec/shadow.md §5), compared when either side drew them and the
-  // visibility buffers are held to bit identity (not under the hardware rule: its pixels, and
-  // so the marked pages, may differ): the same page table and counters, and every pool texel
-  // of the slots in use bit-identical.
+  // The virtual shadow pages (spec/shadow.md §5), compared when either side drew them. Bit
+  // identity (not under the hardware rule): the same page table and counters, and every pool
+  // texel of the slots in use bit-identical.
   bool shadow_compared = false;
   bool shadow_tables_equal = true;
   uint64_t shadow_texels_differing = 0;
+  // Under the hardware rule (spec/shadow.md §8; the primary pixels, and so the marked pages,
+  // may differ): every page both sides drew this frame (same map, mip, page), its element
+  // lists equal and its texels classified by the shadow-page hardware rule (shadow_hw_rule.h).
+  bool shadow_hw_compared = false;
+  uint64_t shadow_pages_compared = 0;      // pages drawn on both sides
+  uint64_t shadow_pages_one_side = 0;      // pages drawn by one side only (not compared)
+  uint64_t shadow_element_lists_differing = 0;  // compared pages whose element lists differ: fails
+  HwRasterAgreement shadow_hw;             // texel classes over the compared pages
   bool holds() const {
     return clusters_equal && (hw_rule ? hw.failures() == 0 : vis_pixels_differing == 0) && max_channel_diff <= 1 &&
-           shadow_tables_equal && shadow_texels_differing == 0;
+           shadow_tables_equal && shadow_texels_differing == 0 && shadow_element_lists_differing == 0 &&
+           shadow_hw.failures() == 0;
   }
 };
 

@@ -302,7 +302,7 @@ class CpuFrameExecutor final : public FrameExecutor {
     return post;
   }
 
-  // spec/shadow.md §5, §8: the shadow views' cull (from the metadata; when streaming, the
+  // spec/shadow.md §5, §9: the shadow views' cull (from the metadata; when streaming, the
   // resident cut of what stream_end left resident), the drawn clusters' geometry bound from
   // resident pages, the requests kept for the next stream_end, then the raster.
   void shadow_draw(ShadowCache* cache) {
@@ -316,8 +316,10 @@ class CpuFrameExecutor final : public FrameExecutor {
       bind_streamed_geometry(s, in_.scene, shadow_draw_clusters(list), 0, in_.pool);
       s->shadow_requests = std::move(list.requests);
     }
-    raster_shadow_pages_cpu(geometry_, in_.scene.instances, list, in_.pool, c);
+    auto drawn = std::make_shared<const ShadowDrawList>(std::move(list));
+    raster_shadow_pages_cpu(geometry_, in_.scene.instances, *drawn, in_.pool, c);
     end_shadow_draw(in_.scene.instances, in_.scene.lights, &out_->shadow, c, cache != nullptr);
+    out_->shadow.drawn = std::move(drawn);
   }
 
   const FrameInputs& in_;

@@ -375,6 +375,32 @@ std::string RenderReport::table() const {
                     (unsigned long long)shadow_texels);
       out += line;
     }
+    // Under the hardware rule: the pages both sides drew, texel classes (spec/shadow.md §8).
+    HwRasterAgreement shadow_hw;
+    uint64_t shadow_hw_frames = 0, pages_compared = 0, pages_one_side = 0, lists_differ = 0;
+    for (const FrameComparison& c : comparisons)
+      if (c.shadow_hw_compared) {
+        ++shadow_hw_frames;
+        pages_compared += c.shadow_pages_compared;
+        pages_one_side += c.shadow_pages_one_side;
+        lists_differ += c.shadow_element_lists_differing;
+        shadow_hw.add(c.shadow_hw);
+      }
+    if (shadow_hw_frames) {
+      std::snprintf(line, sizeof line,
+                    "compare cpu, shadow pages (hardware rule): %llu frame(s); pages compared %llu, drawn by one side "
+                    "only %llu, element lists differing %llu; texels: ",
+                    (unsigned long long)shadow_hw_frames, (unsigned long long)pages_compared,
+                    (unsigned long long)pages_one_side, (unsigned long long)lists_differ);
+      out += line;
+      for (int k = 0; k < kHwPixelKinds; ++k) {
+        std::snprintf(line, sizeof line, "%s%s %llu", k ? ", " : "", hw_pixel_name(HwPixel(k)),
+                      (unsigned long long)shadow_hw.pixels[k]);
+        out += line;
+      }
+      std::snprintf(line, sizeof line, "; max depth error %.3g tol\n", shadow_hw.max_depth_error_ratio);
+      out += line;
+    }
     HwRasterAgreement hw;
     bool any_hw = false;
     for (const FrameComparison& c : comparisons)
@@ -444,6 +470,15 @@ std::string RenderReport::json() const {
       if (fc.shadow_compared) {
         e["shadow_tables_equal"] = fc.shadow_tables_equal;
         e["shadow_texels_differing"] = fc.shadow_texels_differing;
+      }
+      if (fc.shadow_hw_compared) {
+        nlohmann::ordered_json h;
+        h["pages_compared"] = fc.shadow_pages_compared;
+        h["pages_one_side"] = fc.shadow_pages_one_side;
+        h["element_lists_differing"] = fc.shadow_element_lists_differing;
+        for (int k = 0; k < kHwPixelKinds; ++k) h[hw_pixel_name(HwPixel(k))] = fc.shadow_hw.pixels[k];
+        h["max_depth_error_ratio"] = fc.shadow_hw.max_depth_error_ratio;
+        e["shadow_hw_rule"] = h;
       }
       if (fc.shaded) {
         e["max_channel_diff"] = fc.max_channel_diff;

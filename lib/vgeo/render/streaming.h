@@ -36,7 +36,7 @@ struct FrameStreaming {
   std::vector<GroupRequest> requests;        // this frame, scene mesh ids mapped to the streamer's
   // The shadow views' requests of the previous frame's shadow_draw (scene mesh ids, priorities
   // from secondary_view_priority: below every primary request), handed to this frame's
-  // stream_end with its primary requests (spec/shadow.md §8: shadow_draw runs after stream_end).
+  // stream_end with its primary requests (spec/shadow.md §9: shadow_draw runs after stream_end).
   std::vector<GroupRequest> shadow_requests;
   StreamFrameStats stats;                    // this frame
 };

@@ -484,7 +484,7 @@ std::vector<ShadowPageView> make_page_views(const std::vector<ClusterDag>& meshe
 // texel rectangle against the view's pages to draw) and emits one (page, cluster) element per
 // overlapped page (seed: "emit cluster per overlapped page"). Parallel over instances; the
 // per-page lists come out in (instance, cluster) order for any thread count.
-// Streaming (`usable` non-null, spec/shadow.md §8): the drawn cut is the resident rule of
+// Streaming (`usable` non-null, spec/shadow.md §9): the drawn cut is the resident rule of
 // spec/stream.md §Cut with τ_s; a page that an ideal-cut cluster not drawn overlaps is
 // provisional; each ideal-cut cluster overlapping a page to draw requests its group at the
 // lower priority of secondary_view_priority.
@@ -786,9 +786,10 @@ void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<
                        const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame, ShadowCache* cache) {
   ShadowCache local;
   ShadowCache* c = cache ? cache : &local;
-  const ShadowDrawList list = begin_shadow_draw(meshes, instances, lights, pool, frame, c);
-  raster_shadow_pages_cpu(meshes, instances, list, pool, c);
+  auto list = std::make_shared<const ShadowDrawList>(begin_shadow_draw(meshes, instances, lights, pool, frame, c));
+  raster_shadow_pages_cpu(meshes, instances, *list, pool, c);
   end_shadow_draw(instances, lights, frame, c, cache != nullptr);
+  frame->drawn = std::move(list);
 }
 
 ShadowScreen make_shadow_screen(const VisBuffer& vis, const ViewParams& view) {

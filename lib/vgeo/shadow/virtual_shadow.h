@@ -9,6 +9,7 @@
 // §"Multi-view rendering", §"Culling and addressing to pages", §"Nanite shadow LOD"; the seed
 // notes' §"Virtual shadow buffer".
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "vgeo/core/thread_pool.h"
@@ -92,6 +93,8 @@ struct ShadowTexel {
 inline constexpr uint32_t kNoShadowSlot = 0xFFFFFFFFu;
 
 // The frame's maps, page table and needed set (spec/shadow.md §3–§5).
+struct ShadowDrawList;  // below
+
 struct ShadowFrame {
   ShadowOptions options;
   ShadowSceneBounds bounds;
@@ -106,6 +109,9 @@ struct ShadowFrame {
   std::vector<float> own_texels;                    // the pool when no cache is kept
   uint64_t lights = 0;                              // shadowing lights
   uint64_t pages_marked = 0, pages_cached = 0, pages_drawn = 0, pages_dropped = 0, clusters_drawn = 0;
+  // What shadow_draw drew this frame (its pages, their elements and matrices), kept for the
+  // comparison of another backend's pages under the hardware rule (shadow_hw_rule.h).
+  std::shared_ptr<const ShadowDrawList> drawn;
 };
 
 // What survives between frames (spec/shadow.md §5): the pool and the pages it holds.
@@ -166,7 +172,7 @@ void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<
 // its slot of cache->texels (every texel: 0 where nothing was drawn); end_shadow_draw records
 // what the pages were drawn with and points the frame at the pool (`kept` false: the cache is
 // the frame's own, its texels move into ShadowFrame::own_texels).
-// Streaming (spec/shadow.md §8): `usable` holds per scene mesh its usable groups (empty: every
+// Streaming (spec/shadow.md §9): `usable` holds per scene mesh its usable groups (empty: every
 // group; null: not streamed); the views then draw the resident cut of spec/stream.md §Cut with
 // τ_s (its clusters' geometry must be bound before the raster: shadow_draw_clusters), a page an
 // undrawn ideal-cut cluster overlaps is provisional (drawn, not kept in the cache), and the
