@@ -123,6 +123,15 @@ TEST(GpuCli, StreamedLitSceneComparesShadowPagesOnEveryFrame) {
   EXPECT_GT(coarser, 0u);      // some frame drew a coarser cut than ideal (the budget binds)
   EXPECT_GT(drawn_later, 0u);  // later frames drew shadow pages too (not only the first)
   EXPECT_EQ(j.at("validation_messages").get<int>(), 0);
+  // The hardware page raster on the same streamed frames, held to the shadow-page hardware rule
+  // (its models read the reference's streamed geometry: the scene's meshes are metadata only;
+  // reading them crashed the comparison before).
+  test::CliResult hw = test::run_cli("render '" + scene + "' --stream-budget " + std::to_string(budget) +
+                                     " --backend vulkan --compare cpu --raster hw --threads 2");
+  ASSERT_EQ(hw.exit_code, 0) << hw.output;
+  EXPECT_NE(hw.output.find("compare cpu, shadow pages (hardware rule): 9 frame(s)"), std::string::npos) << hw.output;
+  EXPECT_NE(hw.output.find("depth_beyond_tolerance 0, violation 0"), std::string::npos) << hw.output;
+  EXPECT_NE(hw.output.find("rule holds"), std::string::npos) << hw.output;
 }
 
 // The compute rasterizer's loop budget (spec/raster.md §13.5): the fly-through's last camera
