@@ -158,7 +158,7 @@ double shadow_term(uint32_t light, ShadowReceiver r) {
   precise double texel = m.ortho != 0u ? m.side / r_m : 2.0 * m.tan_half * t.dist / r_m;
   const double slope = clamped_slope(r.cos_nl);
   precise double sampling_bias = texel * (1.0 + slope);
-  precise double mismatch = (lit.tau * r.footprint + lit.tau_s * texel) * (1.0 + slope);
+  precise double mismatch = (lit.tau * r.footprint + lit.tau_s * texel) * min(1.0 + slope, lit.max_mismatch_secant);
   precise double zone = sampling_bias + mismatch;
   const float stored = shadow_stored_depth(t);
   const float d_lit = receiver_depth(t.map, t.dist, sampling_bias);

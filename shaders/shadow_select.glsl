@@ -61,8 +61,10 @@ ShadowTexel texel_of(uint32_t map, uint32_t mip, dvec2 n, double dist, uint32_t 
 }
 
 // select_shadow_texel: false when the light needs nothing at p.
-bool select_shadow_texel(uint32_t light, dvec3 p, double footprint, out ShadowTexel t) {
+bool select_shadow_texel(uint32_t light, dvec3 p, double pixel_footprint, out ShadowTexel t) {
   t = ShadowTexel(0u, 0u, 0u, 0u, 0.0);
+  // The largest texel the pixel may take: its footprint scaled by the density 2^-b (exact).
+  const double footprint = ldexp(pixel_footprint, -lit.texels_per_pixel_log2);
   const GpuShadeLight l = lights[light];
   if (l.shadows == 0u) return false;
   const uint32_t first = l.first_map;

@@ -28,8 +28,9 @@ struct Golden {
   uint32_t width = 0, height = 0;  // 0: the scene's resolution
   uint32_t frames = 0;             // 0: the scene's camera path, else 1
   bool streamed = false;           // scene = the stream fixture's fly-through at kStreamBudgetShare
-  // A scene with a shadowing light (spec/shadow.md): every frame is shaded (so shadow_draw runs
-  // and the cache carries over), and every frame's shadow pages are compared bit for bit.
+  // A scene with a shadowing light (spec/shadow.md): every frame is shaded and saved (shadow_draw
+  // runs on every frame of a sequence and the cache carries over), and every frame's shadow
+  // pages are compared bit for bit.
   bool shadows = false;
   bool shadow_cache_used = false;  // some frame after the first reuses cached pages (a moving camera)
   // The scene's moves (spec/scene.md §Moves) at this frame (> 1; 0: none): the frame before it
@@ -108,7 +109,7 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
   cpu.threads = 2;
   const bool update = std::getenv("VGEO_UPDATE_GOLDENS") && std::string(std::getenv("VGEO_UPDATE_GOLDENS")) == "1";
   cpu.output_png = ((update ? expected_dir : out_dir) / (std::string(g.name) + ".png")).string();
-  if (g.shadows) {  // shade every frame: the shadow steps run only for shaded frames
+  if (g.shadows) {  // save every frame's image (each frame's shadow term, not only the last one's)
     cpu.out_dir = (out_dir / "cpu_frames").string();
     fs::create_directories(cpu.out_dir);
     cpu.save_every = 1;

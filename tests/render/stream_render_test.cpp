@@ -8,6 +8,7 @@
 #include <chrono>
 
 #include <cstring>
+#include <map>
 #include <random>
 
 #include "render/stream_fixture.h"
@@ -189,6 +190,85 @@ TEST(StreamRender, ConvergedFrameEqualsTheUnstreamedFrame) {
   EXPECT_EQ(p.vis_hash, u.vis_hash);
   EXPECT_EQ(p.stream.bytes_read, u.stream.bytes_read);
   EXPECT_GE(paced_wall, std::chrono::milliseconds(10));  // 5 paced intervals of 2 ms (not after the last frame)
+}
+
+// spec/shadow.md §9: a lit scene renders with streaming: every frame runs the shadow steps (the
+// shadow views draw the resident cut, request theirs at lower priority), every frame's cut stays
+// valid within the budget, and once converged (the primary cut ideal, no provisional shadow page
+// left) the image equals the unstreamed one. A spot light: its map does not move with the
+// camera, so a page's depths do not depend on the frame that drew it.
+TEST(StreamRender, LitSceneRendersWithShadowsAndConvergesToTheUnstreamedImage) {
+  const test::StreamFixture& f = stream_fixture();
+  std::string json = test::stream_scene_json(f.path, 3, 20, 8, false);
+  json.insert(json.rfind('}'), ",\"lights\":[{\"type\":\"spot\",\"position\":[3,6,2],\"direction\":[-0.4,-1,-0.5],"
+                               "\"cone_degrees\":100}]");
+  SceneFile streamed = load(json, f.total - 1);
+  SceneFile plain = load(json, std::nullopt);
+  ASSERT_TRUE(streamed.streaming);
+  ASSERT_EQ(streamed.scene.lights.size(), 1u);
+  FrameChecker check;
+  check.file = &streamed;
+  check.budget = f.total - 1;
+  RenderRequest req;
+  req.threads = 2;
+  req.frames = 30;
+  RenderReport a = render_scene(streamed, req, std::ref(check));
+  EXPECT_EQ(check.frames_checked, 30u);
+  for (const FrameStats& s : a.frames) {
+    EXPECT_TRUE(s.has_shadow);
+    EXPECT_GT(s.shadow.pages_marked, 0u);
+  }
+  ASSERT_TRUE(a.frames.back().stream.cut_is_ideal);
+  EXPECT_EQ(a.frames.back().shadow.pages_drawn, 0u);  // converged: every page cached (none provisional)
+  RenderReport b = render_scene(plain, req);
+  EXPECT_EQ(a.vis_hash, b.vis_hash);
+  EXPECT_EQ(a.image_hash, b.image_hash);
+}
+
+// A static camera: the first frames find only the pinned pages resident, so their shadow pages
+// are drawn from a coarser cut (provisional) and must not stay cached: later frames redraw them
+// as the data arrives, and the converged image equals the unstreamed one.
+TEST(StreamRender, ProvisionalShadowPagesAreRedrawnWhenTheirDataArrives) {
+  const test::StreamFixture& f = stream_fixture();
+  std::string json = test::stream_scene_json(f.path, 3, 2.2, 2.2, false);
+  const size_t path = json.find(",\"camera_path\""), settings = json.find(",\"settings\"");
+  ASSERT_NE(path, std::string::npos);
+  json.erase(path, settings - path);  // the scene camera, held for every frame
+  const size_t res = json.find("[96,72]");
+  ASSERT_NE(res, std::string::npos);
+  json.replace(res, 7, "[320,240]");  // fine enough that the shadow views want more than the pinned pages
+  json.insert(json.rfind('}'), ",\"lights\":[{\"type\":\"spot\",\"position\":[3,6,2],\"direction\":[-0.4,-1,-0.5],"
+                               "\"cone_degrees\":100}]");
+  SceneFile streamed = load(json, f.total - 1);
+  SceneFile plain = load(json, std::nullopt);
+  ASSERT_TRUE(streamed.streaming);
+  RenderRequest req;
+  req.threads = 2;
+  req.frames = 30;
+  // The last frame's shadow pages (page-table entry → texels), to compare with the unstreamed run.
+  auto last_pages = [&](std::map<size_t, std::vector<float>>* out) {
+    return [out, frames = req.frames](uint32_t k, const Frame& frame, const FrameStreaming*) {
+      if (k + 1 != frames) return;
+      const size_t n = size_t(kShadowPageTexels) * kShadowPageTexels;
+      const std::vector<float>& texels = frame.shadow.pool_texels ? *frame.shadow.pool_texels : frame.shadow.own_texels;
+      for (size_t e = 0; e < frame.shadow.needed.size(); ++e)
+        if (frame.shadow.needed[e] && frame.shadow.page_table[e] != kNoShadowSlot) {
+          const float* t = texels.data() + size_t(frame.shadow.page_table[e]) * n;
+          (*out)[e] = std::vector<float>(t, t + n);
+        }
+    };
+  };
+  std::map<size_t, std::vector<float>> streamed_pages, plain_pages;
+  RenderReport a = render_scene(streamed, req, last_pages(&streamed_pages));
+  uint64_t redrawn = 0;  // pages drawn after the first frame: only provisional ones (camera and light hold)
+  for (size_t k = 1; k < a.frames.size(); ++k) redrawn += a.frames[k].shadow.pages_drawn;
+  EXPECT_GT(redrawn, 0u);
+  ASSERT_TRUE(a.frames.back().stream.cut_is_ideal);
+  EXPECT_EQ(a.frames.back().shadow.pages_drawn, 0u);
+  RenderReport b = render_scene(plain, req, last_pages(&plain_pages));
+  EXPECT_EQ(a.image_hash, b.image_hash);
+  EXPECT_FALSE(plain_pages.empty());
+  EXPECT_TRUE(streamed_pages == plain_pages);  // the same pages, texel for texel
 }
 
 // No budget, or data within it: the stream pass is absent and output is bit-identical.

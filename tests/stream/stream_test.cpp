@@ -295,6 +295,113 @@ TEST(StreamEviction, VictimKeyOrder) {
   EXPECT_EQ(choose_eviction_victim(v), 3u);  // ties: the higher page index
 }
 
+// The requests of `mesh`'s ideal cut seen from `eye` (what a view's traversal emits), each with
+// its projected parent error, or that mapped by secondary_view_priority (a shadow view).
+std::vector<GroupRequest> ideal_requests(uint32_t mesh, Vec3 eye, bool shadow_view, float tau) {
+  const Fixture& f = fixture();
+  const ClusterDag& dag = f.container.meshes[mesh].dag;
+  const StreamView v = views_at(eye)[mesh];
+  std::vector<GroupRequest> out;
+  for (uint32_t c : select_resident_cut(dag, {}, v.view, tau)) {
+    const float p = projected_error(dag.clusters[c].parent_bounds, dag.clusters[c].parent_error, v.view);
+    out.push_back({mesh, dag.clusters[c].group, shadow_view ? secondary_view_priority(p, tau) : p});
+  }
+  return out;
+}
+
+// Per page: the mesh whose groups it holds (the fixture's pages hold one mesh each).
+std::vector<uint32_t> page_meshes() {
+  const Fixture& f = fixture();
+  std::vector<uint32_t> out(f.container.pages.size(), kNone);
+  for (uint32_t m = 0; m < f.container.meshes.size(); ++m) {
+    const MeshMetadata& mm = f.container.meshes[m];
+    for (uint32_t g = 0; g < mm.group_first_page.size(); ++g)
+      for (uint32_t p = mm.group_first_page[g]; mm.group_first_page[g] != kNone && p < mm.group_first_page[g] + mm.group_page_count[g]; ++p) {
+        EXPECT_TRUE(out[p] == kNone || out[p] == m);
+        out[p] = m;
+      }
+  }
+  return out;
+}
+
+// spec/stream.md §Requests: a lower-priority view's requests (shadow views) are served only
+// after the primary view's. The primary view wants the sphere (mesh 0), a shadow view the grid
+// (mesh 1) from nearer, so its own projected errors exceed the primary's. With the budget
+// between what the primary view needs and everything: no grid page is issued while a page the
+// primary view needs is missing, the primary view's pages all become resident, and grid pages
+// take only the rest. With the shadow view's raw errors as priorities (no mapping) the grid's
+// pages would go first: the same check fails there.
+TEST(Stream, PrimaryRequestsAreServedBeforeShadowRequests) {
+  const Fixture& f = fixture();
+  const float tau = 1.0f;
+  const std::vector<uint32_t> mesh_of = page_meshes();
+  const std::vector<GroupRequest> primary = ideal_requests(0, {0, 0, 4.0f}, false, tau);
+  // secondary_view_priority inverted: the shadow view's own projected error.
+  auto raw = [&](float mapped) {
+    const double q = double(mapped) / tau;
+    return float(q / (1 - q));
+  };
+  // What the primary view alone loads (its needs and their parents), and its bytes.
+  StreamOptions o;
+  o.budget_bytes = f.total - 1;
+  o.loader.asynchronous = false;
+  o.max_issues_per_frame = 2;
+  std::vector<uint8_t> primary_pages(mesh_of.size(), 0);
+  uint64_t primary_bytes = 0;
+  {
+    Streamer s(f.path, o);
+    for (uint32_t frame = 0; frame < 2 * f.container.pages.size(); ++frame) {
+      StreamFrameStats st = s.begin_frame();
+      s.end_frame(primary, &st);
+    }
+    for (uint32_t p = 0; p < mesh_of.size(); ++p)
+      if (s.page_state(p) == PageState::kResident && !s.page_pinned(p)) {
+        primary_pages[p] = 1;
+        primary_bytes += f.container.pages[p].memory_size;
+      }
+  }
+  ASSERT_GT(primary_bytes, 0u);
+  const std::vector<GroupRequest> shadow = ideal_requests(1, {1.0f, 0.4f, 0.15f}, true, tau);
+  float primary_max = 0, shadow_raw_max = 0;
+  for (const GroupRequest& r : primary) primary_max = std::max(primary_max, r.priority);
+  for (const GroupRequest& r : shadow) shadow_raw_max = std::max(shadow_raw_max, raw(r.priority));
+  ASSERT_GT(shadow_raw_max, primary_max);  // unmapped, the shadow view would outrank the primary one
+  const uint64_t budget = f.pinned + primary_bytes + (f.total - f.pinned - primary_bytes) / 4;
+  for (bool mapped : {true, false}) {
+    StreamOptions ob = o;
+    ob.budget_bytes = budget;
+    Streamer s(f.path, ob);
+    std::vector<GroupRequest> requests = primary;
+    for (GroupRequest r : shadow) {
+      if (!mapped) r.priority = raw(r.priority);
+      requests.push_back(r);
+    }
+    uint32_t grid_before_primary = 0, grid_loaded = 0;
+    for (uint32_t frame = 0; frame < 2 * f.container.pages.size(); ++frame) {
+      StreamFrameStats st = s.begin_frame();
+      s.end_frame(requests, &st);
+      bool grid_in_flight = false, primary_missing = false;
+      for (uint32_t p = 0; p < mesh_of.size(); ++p) {
+        grid_in_flight |= mesh_of[p] == 1 && s.page_state(p) == PageState::kInFlight;
+        primary_missing |= primary_pages[p] && s.page_state(p) == PageState::kAbsent;
+      }
+      grid_before_primary += grid_in_flight && primary_missing;
+    }
+    bool primary_resident = true;
+    for (uint32_t p = 0; p < mesh_of.size(); ++p) {
+      primary_resident &= !primary_pages[p] || s.page_state(p) == PageState::kResident;
+      grid_loaded += mesh_of[p] == 1 && !s.page_pinned(p) && s.page_state(p) == PageState::kResident;
+    }
+    if (mapped) {
+      EXPECT_EQ(grid_before_primary, 0u);
+      EXPECT_TRUE(primary_resident);
+      EXPECT_GT(grid_loaded, 0u);  // the rest of the budget serves the shadow view
+    } else {
+      EXPECT_GT(grid_before_primary, 0u);
+    }
+  }
+}
+
 TEST(Stream, InactiveWhenEverythingFits) {
   const Fixture& f = fixture();
   StreamOptions o;

@@ -208,6 +208,8 @@ void upload_lit_frame(GpuRenderer& r, const RenderScene& scene, const RenderSett
   frame.tau = double(options.threshold_px);  // shadow_term's τ, τ_s
   frame.tau_s = double(kShadowLodBias) * frame.tau;
   frame.max_slope = kMaxShadowSlope;
+  frame.max_mismatch_secant = kMaxMismatchSecant;
+  frame.texels_per_pixel_log2 = options.texels_per_pixel_log2;
   frame.pages_per_side = options.pages_per_side;
   uint32_t mips = 1;
   while (mips < kShadowMips && (options.pages_per_side >> mips) > 0) ++mips;  // virtual_shadow.cpp mip_count
@@ -371,15 +373,40 @@ void shade_pass(GpuRenderer& r, const RenderScene& scene, const RenderSettings& 
     for (int k = 0; k < 3; ++k) out->image.rgb[3 * p + k] = uint8_t(rgba[p] >> (8 * k));
 }
 
+// Every listed cluster of a streamed mesh has its page in the GPU pool (the raster reads
+// installed pages only; meshes not streamed have all their pages placed after the pool).
+void check_clusters_in_pool(const GpuRenderer& r, const RenderScene& scene, const FrameStreaming& s,
+                            const std::vector<VisibleCluster>& clusters) {
+  const FormatContainer& c = s.streamer->container();
+  for (const VisibleCluster& v : clusters) {
+    const uint32_t m = scene.instances[v.instance].mesh;
+    if (s.stream_mesh[m] == kNone) continue;
+    const uint32_t page = c.meshes[s.stream_mesh[m]].cluster_page[v.cluster];
+    if (r.slot_of_page[page] == kNone)
+      fail("GPU_ERROR", "vulkan", "drawn cluster " + std::to_string(v.cluster) + " of a page not in the GPU pool",
+           kExitInternal);
+  }
+}
+
 }  // namespace
 
 bool shadow_pages_use_hardware_raster(GpuRasterMode mode) { return mode == GpuRasterMode::kHw; }
 
 void draw_shadow_pages_vulkan(GpuRenderer& r, const RenderScene& scene, ThreadPool& pool, ShadowFrame* frame,
-                              ShadowCache* cache, GpuRasterMode mode) {
+                              ShadowCache* cache, GpuRasterMode mode, FrameStreaming* streaming) {
   ShadowCache local;
   ShadowCache* c = cache ? cache : &local;
-  auto drawn = std::make_shared<const ShadowDrawList>(begin_shadow_draw(scene.meshes, scene.instances, scene.lights, pool, frame, c));
+  // Streaming (spec/shadow.md §9), as frame.cpp's shadow_draw: the views draw the resident cut of
+  // what stream_end left resident (a subset of the pages sync_page_pool placed at stream_begin,
+  // since reads complete only at a frame's start), and their requests go to the next stream_end.
+  if (streaming) refresh_usable_groups(scene, streaming);
+  ShadowDrawList built = begin_shadow_draw(scene.meshes, scene.instances, scene.lights, pool, frame, c,
+                                           streaming ? &streaming->usable : nullptr);
+  if (streaming) {
+    check_clusters_in_pool(r, scene, *streaming, shadow_draw_clusters(built));
+    streaming->shadow_requests = std::move(built.requests);
+  }
+  auto drawn = std::make_shared<const ShadowDrawList>(std::move(built));
   const ShadowDrawList& list = *drawn;
   GpuContext& gpu = *r.gpu;
   const uint64_t pool_bytes = c->texels.size() * sizeof(float);
@@ -550,7 +577,8 @@ class VulkanFrameExecutor final : public FrameExecutor {
         break;
       case FrameStep::kShadowDraw:
         draw_shadow_pages_vulkan(r_, in_.scene, in_.pool, &out_->shadow,
-                                 in_.history ? &in_.history->shadow_cache : nullptr, r_.options.raster);
+                                 in_.history ? &in_.history->shadow_cache : nullptr, r_.options.raster,
+                                 in_.streaming);
         r.shadow = shadow_frame_stats(out_->shadow);
         break;
     }
@@ -566,15 +594,8 @@ class VulkanFrameExecutor final : public FrameExecutor {
   // group is usable), so the raster and shade passes read installed pages only. (Meshes not
   // streamed have all their pages placed after the pool.)
   void check_bound(uint32_t first) const {
-    const FormatContainer& c = in_.streaming->streamer->container();
-    for (size_t i = first; i < out_->visible.size(); ++i) {
-      const uint32_t m = in_.scene.instances[out_->visible[i].instance].mesh;
-      if (in_.streaming->stream_mesh[m] == kNone) continue;
-      const uint32_t page = c.meshes[in_.streaming->stream_mesh[m]].cluster_page[out_->visible[i].cluster];
-      if (r_.slot_of_page[page] == kNone)
-        fail("GPU_ERROR", "vulkan", "visible cluster " + std::to_string(out_->visible[i].cluster) +
-                                        " of a page not in the GPU pool", kExitInternal);
-    }
+    check_clusters_in_pool(r_, in_.scene, *in_.streaming,
+                           std::vector<VisibleCluster>(out_->visible.begin() + first, out_->visible.end()));
   }
   const ViewParams& history_view() const {
     static const ViewParams none;

@@ -89,9 +89,12 @@ const GpuPoolStats& gpu_pool_stats(const GpuRenderer& renderer);
 // so frame->pool_texels reads what the device holds. `cache` null: nothing is kept (as the CPU).
 // `mode`: with shadow_pages_use_hardware_raster(mode) the pages are drawn by the hardware raster
 // instead (through the page table, spec/shadow.md §8: equal to the CPU's within the shadow-page
-// hardware rule, shadow_hw_rule.h, not bitwise).
+// hardware rule, shadow_hw_rule.h, not bitwise). `streaming` (a streamed frame, after
+// stream_end): the views draw the resident cut and leave their requests in
+// streaming->shadow_requests, as the CPU executor (spec/shadow.md §9).
 void draw_shadow_pages_vulkan(GpuRenderer& renderer, const RenderScene& scene, ThreadPool& pool, ShadowFrame* frame,
-                              ShadowCache* cache, GpuRasterMode mode = GpuRasterMode::kSw);
+                              ShadowCache* cache, GpuRasterMode mode = GpuRasterMode::kSw,
+                              FrameStreaming* streaming = nullptr);
 // Which path draws the shadow pages under a frame's raster mode (spec/shadow.md §8): the
 // hardware raster under `hw`; the compute raster under `sw` and `auto`.
 bool shadow_pages_use_hardware_raster(GpuRasterMode mode);

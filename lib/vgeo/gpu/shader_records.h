@@ -207,12 +207,13 @@ struct GpuLitFrame {
   double tau;             // ShadowOptions::threshold_px (τ)
   double tau_s;           // kShadowLodBias · τ
   double max_slope;       // kMaxShadowSlope
+  double max_mismatch_secant;  // kMaxMismatchSecant
   uint32_t light_count;   // 0: the fixed light of GpuShadeParams::light
   uint32_t pages_per_side;  // ShadowOptions::pages_per_side
   uint32_t mips;          // mips per map
   uint32_t directional_levels;  // kDirectionalLevels
   uint32_t trace_max_steps;     // kShadowTraceMaxSteps
-  uint32_t reserved;
+  int32_t texels_per_pixel_log2;  // ShadowOptions::texels_per_pixel_log2 (b of spec/shadow.md §4 step 2)
 };
 
 // Workgroup size of the raster shader: one invocation per triangle of a cluster.
@@ -233,7 +234,7 @@ static_assert(sizeof(GpuShadeCluster) == 16);
 static_assert(sizeof(GpuShadowPage) == 32 && offsetof(GpuShadowPage, z_near) == 16);
 static_assert(sizeof(GpuShadeLight) == 96 && offsetof(GpuShadeLight, color) == 56 && offsetof(GpuShadeLight, type) == 72);
 static_assert(sizeof(GpuShadowMap) == 296 && offsetof(GpuShadowMap, type) == 280);
-static_assert(sizeof(GpuLitFrame) == 248 && offsetof(GpuLitFrame, light_count) == 224);
+static_assert(sizeof(GpuLitFrame) == 256 && offsetof(GpuLitFrame, light_count) == 232);
 static_assert(sizeof(GpuMaterial) == 16);
 static_assert(sizeof(GpuShadeParams) == 72 && offsetof(GpuShadeParams, width) == 40 && offsetof(GpuShadeParams, ambient) == 56);
 }  // namespace vgeo

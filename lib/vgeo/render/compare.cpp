@@ -100,7 +100,10 @@ static void compare_shadow_pages(const Frame& cpu, const Frame& gpu, FrameCompar
 
 // The shadow part under the hardware rule (spec/shadow.md §8): the pages both sides drew
 // this frame, matched by (map, mip, page), classified texel by texel.
-static void compare_shadow_pages_hw(const RenderScene& scene, const Frame& cpu, const Frame& gpu, FrameComparison* c) {
+// `geometry`: the reference's vertex data (a streamed frame's bound geometry holds the shadow
+// views' clusters too: frame.cpp's shadow_draw binds them; the scene's meshes are metadata only).
+static void compare_shadow_pages_hw(const RenderScene& scene, const std::vector<ClusterDag>& geometry, const Frame& cpu,
+                                    const Frame& gpu, FrameComparison* c) {
   const ShadowFrame& a = cpu.shadow;
   const ShadowFrame& b = gpu.shadow;
   if (!a.drawn || !b.drawn) return;
@@ -128,7 +131,7 @@ static void compare_shadow_pages_hw(const RenderScene& scene, const Frame& cpu, 
       ++c->shadow_element_lists_differing;  // a drawn slot outside the pool: never compare past it
       continue;
     }
-    classify_shadow_page_hw(scene.meshes, scene.instances, la, d, ta.data() + pa.slot * kPageTexelCount,
+    classify_shadow_page_hw(geometry, scene.instances, la, d, ta.data() + pa.slot * kPageTexelCount,
                             tb.data() + pb.slot * kPageTexelCount, &c->shadow_hw);
   }
   c->shadow_pages_one_side = (la.pages.size() - matched) + (lb.pages.size() - matched);
@@ -148,7 +151,7 @@ FrameComparison compare_frames(const RenderScene& scene, const std::vector<Clust
   c.shadow_compared = !hw_rule && (cpu.stats.has_shadow || gpu.stats.has_shadow);
   if (c.shadow_compared) compare_shadow_pages(cpu, gpu, &c);
   c.shadow_hw_compared = hw_rule && (cpu.stats.has_shadow || gpu.stats.has_shadow);
-  if (c.shadow_hw_compared) compare_shadow_pages_hw(scene, cpu, gpu, &c);
+  if (c.shadow_hw_compared) compare_shadow_pages_hw(scene, geometry, cpu, gpu, &c);
   // Images are compared where both sides shaded this frame (the kept ones, run_frames).
   c.shaded = !cpu.image.rgb.empty() && cpu.image.rgb.size() == gpu.image.rgb.size();
   if (c.shaded)

@@ -262,8 +262,7 @@ class CpuFrameExecutor final : public FrameExecutor {
         shadows_drawn_ = true;
         break;
       case FrameStep::kShadowDraw:
-        draw_shadow_pages(in_.scene.meshes, in_.scene.instances, in_.scene.lights, in_.pool, &out_->shadow,
-                          in_.history ? &in_.history->shadow_cache : nullptr);
+        shadow_draw(in_.history ? &in_.history->shadow_cache : nullptr);
         r.shadow = shadow_frame_stats(out_->shadow);
         break;
       case FrameStep::kOverdraw:
@@ -301,6 +300,26 @@ class CpuFrameExecutor final : public FrameExecutor {
     post.occlusion.instances = &out_->instance_views;
     post.occlusion.policy = in_.settings.hzb_policy;
     return post;
+  }
+
+  // spec/shadow.md §5, §9: the shadow views' cull (from the metadata; when streaming, the
+  // resident cut of what stream_end left resident), the drawn clusters' geometry bound from
+  // resident pages, the requests kept for the next stream_end, then the raster.
+  void shadow_draw(ShadowCache* cache) {
+    FrameStreaming* s = in_.streaming;
+    if (s) refresh_usable_groups(in_.scene, s);
+    ShadowCache local;
+    ShadowCache* c = cache ? cache : &local;
+    ShadowDrawList list = begin_shadow_draw(in_.scene.meshes, in_.scene.instances, in_.scene.lights, in_.pool,
+                                            &out_->shadow, c, s ? &s->usable : nullptr);
+    if (s) {
+      bind_streamed_geometry(s, in_.scene, shadow_draw_clusters(list), 0, in_.pool);
+      s->shadow_requests = std::move(list.requests);
+    }
+    auto drawn = std::make_shared<const ShadowDrawList>(std::move(list));
+    raster_shadow_pages_cpu(geometry_, in_.scene.instances, *drawn, in_.pool, c);
+    end_shadow_draw(in_.scene.instances, in_.scene.lights, &out_->shadow, c, cache != nullptr);
+    out_->shadow.drawn = std::move(drawn);
   }
 
   const FrameInputs& in_;

@@ -28,12 +28,14 @@ constexpr std::array<FramePass, kFrameStepCount> kStepPass = {
 StepPlan run() { return {StepCondition::kRun, ""}; }
 StepPlan skip(const std::string& reason) { return {StepCondition::kSkip, reason}; }
 
-// spec/shadow.md §1: the shadow steps run only for a shadowing light whose shadows are shown.
+// spec/shadow.md §1: the shadow steps run only for a shadowing light whose shadows are shown,
+// on a shaded frame (its shadow term) or on any frame whose shadow pages outlive it (a history
+// keeps the page cache, a streamer takes the shadow views' requests), so that a shaded frame
+// of a sequence is the same whichever frames before it were shaded.
 StepPlan shadow_steps(const RenderScene& scene, const RenderSettings& settings, const FrameContext& context) {
   if (!has_shadowing_light(scene.lights)) return skip("no shadowing light");
-  if (!settings.shade) return skip(kNoShading);
+  if (!settings.shade && !context.keep_history && !context.streamed) return skip(kNoShading);
   if (settings.view != ShadeView::kLit) return skip("shadows not shown by this view");
-  if (context.streamed) return skip("shadows with streaming not supported yet");
   return run();
 }
 

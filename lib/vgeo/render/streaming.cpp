@@ -60,13 +60,18 @@ void init_frame_streaming(RenderScene* scene, Streamer* streamer, const std::vec
   }
 }
 
+void refresh_usable_groups(const RenderScene& scene, FrameStreaming* s) {
+  for (size_t m = 0; m < scene.meshes.size(); ++m)
+    if (s->stream_mesh[m] != kNone) s->usable[m] = s->streamer->usable(s->stream_mesh[m]);
+}
+
 void begin_streamed_frame(const RenderScene& scene, FrameStreaming* s) {
   ++s->frame;
   s->stats = s->streamer->begin_frame();
+  refresh_usable_groups(scene, s);
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     ClusterDag& g = s->geometry[m];
     if (s->stream_mesh[m] == kNone) continue;
-    s->usable[m] = s->streamer->usable(s->stream_mesh[m]);
     g.positions.clear();
     g.normals.clear();
     g.indices.clear();
@@ -136,8 +141,11 @@ void bind_streamed_geometry(FrameStreaming* s, const RenderScene& scene, const s
 void end_streamed_frame(FrameStreaming* s, const std::vector<GroupRequest>& requests, uint64_t clusters_coarser,
                         uint64_t clusters_drawn) {
   s->requests.clear();
-  for (const GroupRequest& r : requests)
-    if (s->stream_mesh[r.mesh] != kNone) s->requests.push_back({s->stream_mesh[r.mesh], r.group, r.priority});
+  const std::vector<GroupRequest>* lists[2] = {&requests, &s->shadow_requests};
+  for (const std::vector<GroupRequest>* list : lists)
+    for (const GroupRequest& r : *list)
+      if (s->stream_mesh[r.mesh] != kNone) s->requests.push_back({s->stream_mesh[r.mesh], r.group, r.priority});
+  s->shadow_requests.clear();
   s->stats.clusters_drawn = uint32_t(clusters_drawn);
   s->stats.clusters_coarser = uint32_t(clusters_coarser);
   s->stats.cut_is_ideal = clusters_coarser == 0;

@@ -34,6 +34,10 @@ struct FrameStreaming {
   uint64_t frame = 0;
   std::vector<std::vector<uint8_t>> usable;  // this frame, per scene mesh (empty = all usable)
   std::vector<GroupRequest> requests;        // this frame, scene mesh ids mapped to the streamer's
+  // The shadow views' requests of the previous frame's shadow_draw (scene mesh ids, priorities
+  // from secondary_view_priority: below every primary request), handed to this frame's
+  // stream_end with its primary requests (spec/shadow.md §9: shadow_draw runs after stream_end).
+  std::vector<GroupRequest> shadow_requests;
   StreamFrameStats stats;                    // this frame
 };
 
@@ -44,6 +48,9 @@ void init_frame_streaming(RenderScene* scene, Streamer* streamer, const std::vec
 
 // Frame start: installs completed reads and computes the usable masks.
 void begin_streamed_frame(const RenderScene& scene, FrameStreaming* s);
+// Recomputes the usable masks from the residency now (after stream_end evicted: what the
+// shadow views may draw).
+void refresh_usable_groups(const RenderScene& scene, FrameStreaming* s);
 // Decodes the geometry of visible[first..] clusters of streamed meshes that are not bound yet
 // this frame (each from its resident page) into s->geometry. Throws FORMAT_INCONSISTENT if a
 // page's cluster disagrees with the metadata.

@@ -242,15 +242,22 @@ ShadowLod shadow_lod(const ShadowFrame& frame, const ShadowMapView& m, uint32_t 
   lod.tau_s = kShadowLodBias * frame.options.threshold_px;
   return lod;
 }
+// A cluster's projected parent and lod errors in the view's texels.
+struct ShadowLodPx {
+  float parent = 0, lod = 0;
+};
+ShadowLodPx shadow_lod_px(const ShadowLod& lod, const DagCluster& cl, const Mat4d& object_to_light, double scale) {
+  if (lod.ortho)
+    return {float(double(error_to_view(cl.parent_error, scale)) / lod.texel),
+            float(double(error_to_view(cl.lod_error, scale)) / lod.texel)};
+  return {projected_error(sphere_to_view(object_to_light, scale, cl.parent_bounds), error_to_view(cl.parent_error, scale),
+                          lod.view),
+          projected_error(sphere_to_view(object_to_light, scale, cl.lod_bounds), error_to_view(cl.lod_error, scale),
+                          lod.view)};
+}
 bool shadow_lod_selects(const ShadowLod& lod, const DagCluster& cl, const Mat4d& object_to_light, double scale) {
-  if (lod.ortho) {
-    float parent_px = float(double(error_to_view(cl.parent_error, scale)) / lod.texel);
-    float lod_px = float(double(error_to_view(cl.lod_error, scale)) / lod.texel);
-    return cut_selects(parent_px, lod_px, lod.tau_s);
-  }
-  return lod_selects(sphere_to_view(object_to_light, scale, cl.lod_bounds), error_to_view(cl.lod_error, scale),
-                     sphere_to_view(object_to_light, scale, cl.parent_bounds), error_to_view(cl.parent_error, scale),
-                     lod.view, lod.tau_s);
+  const ShadowLodPx px = shadow_lod_px(lod, cl, object_to_light, scale);
+  return cut_selects(px.parent, px.lod, lod.tau_s);
 }
 
 // The whole cut of one view (the brute-force reference draws it all), in (instance, cluster) order.
@@ -477,40 +484,60 @@ std::vector<ShadowPageView> make_page_views(const std::vector<ClusterDag>& meshe
 // texel rectangle against the view's pages to draw) and emits one (page, cluster) element per
 // overlapped page (seed: "emit cluster per overlapped page"). Parallel over instances; the
 // per-page lists come out in (instance, cluster) order for any thread count.
-std::vector<std::vector<VisibleCluster>> cull_page_views(const std::vector<ClusterDag>& meshes,
-                                                         const std::vector<CullInstance>& instances,
-                                                         const ShadowFrame& frame,
-                                                         const std::vector<ShadowPageView>& views, size_t draw_count,
-                                                         ThreadPool& pool) {
+// Streaming (`usable` non-null, spec/shadow.md §9): the drawn cut is the resident rule of
+// spec/stream.md §Cut with τ_s; a page that an ideal-cut cluster not drawn overlaps is
+// provisional; each ideal-cut cluster overlapping a page to draw requests its group at the
+// lower priority of secondary_view_priority.
+void cull_page_views(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                     const ShadowFrame& frame, const std::vector<ShadowPageView>& views, size_t draw_count,
+                     const std::vector<std::vector<uint8_t>>* usable, ThreadPool& pool, ShadowDrawList* out) {
   struct Element {
     uint32_t draw, cluster;
   };
-  std::vector<std::vector<Element>> per_instance(instances.size());
+  struct InstanceOut {
+    std::vector<Element> elements;
+    std::vector<uint32_t> provisional;  // draws
+    std::vector<GroupRequest> requests;
+  };
+  std::vector<InstanceOut> per_instance(instances.size());
   const uint32_t size = virtual_size(frame);
+  const float tau = frame.options.threshold_px;
   pool.parallel_for(instances.size(), [&](size_t i) {
     const CullInstance& inst = instances[i];
     const ClusterDag& dag = meshes[inst.mesh];
+    const std::vector<uint8_t>* resident = usable && !(*usable)[inst.mesh].empty() ? &(*usable)[inst.mesh] : nullptr;
     const double scale = max_axis_scale(inst.object_to_world);
+    InstanceOut& io = per_instance[i];
     for (const ShadowPageView& v : views) {
       if (!v.instance_kept[i]) continue;
       const ShadowMapView& m = frame.maps[v.map];
       const Mat4d o2l = object_to_light(m, inst);
       for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
         const DagCluster& cl = dag.clusters[c];
-        if (!shadow_lod_selects(v.lod, cl, o2l, scale)) continue;
+        const ShadowLodPx px = shadow_lod_px(v.lod, cl, o2l, scale);
+        const bool ideal = cut_selects(px.parent, px.lod, v.lod.tau_s);
+        const bool drawn = resident ? resident_lod_test(cl, *resident, px.parent, px.lod, v.lod.tau_s).drawn : ideal;
+        if (!ideal && !drawn) continue;
         Sphere b = inflate_for_subtree_test(sphere_to_view(o2l, scale, cl.bounds));
         TexelRect rect = sphere_texel_rect(m, v.mip, size, {b.center.x, b.center.y, b.center.z}, b.radius);
+        bool overlaps = false;
         for_pages_to_draw(v, rect, [&](uint32_t d) {
-          per_instance[i].push_back({d, c});
+          overlaps = true;
+          if (drawn) io.elements.push_back({d, c});
+          else io.provisional.push_back(d);
           return true;
         });
+        if (usable && ideal && overlaps) io.requests.push_back({inst.mesh, cl.group, secondary_view_priority(px.parent, tau)});
       }
     }
   });
-  std::vector<std::vector<VisibleCluster>> page_clusters(draw_count);
-  for (uint32_t i = 0; i < instances.size(); ++i)
-    for (const Element& e : per_instance[i]) page_clusters[e.draw].push_back({i, e.cluster});
-  return page_clusters;
+  out->clusters.assign(draw_count, {});
+  out->provisional.assign(draw_count, 0);
+  for (uint32_t i = 0; i < instances.size(); ++i) {
+    for (const Element& e : per_instance[i].elements) out->clusters[e.draw].push_back({i, e.cluster});
+    for (uint32_t d : per_instance[i].provisional) out->provisional[d] = 1;
+    out->requests.insert(out->requests.end(), per_instance[i].requests.begin(), per_instance[i].requests.end());
+  }
 }
 
 // The raster of every page in one parallel pass: each page's clusters into a 128² target
@@ -621,8 +648,11 @@ Vec3d shadow_sample_point(const ViewParams& view, const Mat4d& view_to_world, ui
 
 // ---- texel selection (spec/shadow.md §4) ----
 
-bool select_shadow_texel(const ShadowFrame& frame, uint32_t light, const Vec3d& p, double footprint, ShadowTexel* out) {
+bool select_shadow_texel(const ShadowFrame& frame, uint32_t light, const Vec3d& p, double pixel_footprint,
+                         ShadowTexel* out) {
   if (light >= frame.light_first_map.size() || frame.light_first_map[light] == kNoShadowSlot) return false;
+  // The largest texel the pixel may take: its footprint scaled by the density 2^−b (exact).
+  const double footprint = std::ldexp(pixel_footprint, -frame.options.texels_per_pixel_log2);
   const uint32_t first = frame.light_first_map[light];
   const ShadowMapView& m0 = frame.maps[first];
   const uint32_t size = virtual_size(frame);
@@ -696,7 +726,7 @@ void mark_shadow_pages(const VisBuffer& vis, const ViewParams& view, const std::
 
 ShadowDrawList begin_shadow_draw(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
                                  const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame,
-                                 ShadowCache* cache) {
+                                 ShadowCache* cache, const std::vector<std::vector<uint8_t>>* usable) {
   invalidate_cache(meshes, instances, lights, *frame, cache);
   const std::vector<PageDraw> draws = allocate_shadow_pages(frame, cache);
   const size_t needed_texels = cache->slots.size() * size_t(kPageTexelCount);
@@ -704,7 +734,7 @@ ShadowDrawList begin_shadow_draw(const std::vector<ClusterDag>& meshes, const st
   frame->pages_drawn = draws.size();
   std::vector<ShadowPageView> views = make_page_views(meshes, instances, *frame, draws);
   ShadowDrawList list;
-  list.clusters = cull_page_views(meshes, instances, *frame, views, draws.size(), pool);
+  cull_page_views(meshes, instances, *frame, views, draws.size(), usable, pool, &list);
   for (const auto& clusters : list.clusters) frame->clusters_drawn += clusters.size();
   list.pages.resize(draws.size());
   for (uint32_t k = 0, d = 0; k < views.size(); ++k)
@@ -715,9 +745,26 @@ ShadowDrawList begin_shadow_draw(const std::vector<ClusterDag>& meshes, const st
       p.raster.window_x = p.x * kShadowPageTexels;
       p.raster.window_y = p.y * kShadowPageTexels;
     }
+  // A provisional page (drawn coarser than its ideal cut while streaming) serves this frame
+  // only: its slot is not kept for the next frame's cache (it is drawn into all the same).
+  for (size_t d = 0; d < draws.size(); ++d)
+    if (list.provisional[d]) cache->slots[draws[d].slot].used = false;
   list.object_to_clip.reserve(views.size());
   for (ShadowPageView& v : views) list.object_to_clip.push_back(std::move(v.object_to_clip));
   return list;
+}
+
+std::vector<VisibleCluster> shadow_draw_clusters(const ShadowDrawList& list) {
+  std::vector<VisibleCluster> out;
+  for (const auto& clusters : list.clusters) out.insert(out.end(), clusters.begin(), clusters.end());
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+void raster_shadow_pages_cpu(const std::vector<ClusterDag>& raster_meshes, const std::vector<CullInstance>& instances,
+                             const ShadowDrawList& list, ThreadPool& pool, ShadowCache* cache) {
+  raster_page_views(raster_meshes, instances, list, pool, &cache->texels);
 }
 
 void end_shadow_draw(const std::vector<CullInstance>& instances, const std::vector<Light>& lights, ShadowFrame* frame,
@@ -740,7 +787,7 @@ void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<
   ShadowCache local;
   ShadowCache* c = cache ? cache : &local;
   auto list = std::make_shared<const ShadowDrawList>(begin_shadow_draw(meshes, instances, lights, pool, frame, c));
-  raster_page_views(meshes, instances, *list, pool, &c->texels);
+  raster_shadow_pages_cpu(meshes, instances, *list, pool, c);
   end_shadow_draw(instances, lights, frame, c, cache != nullptr);
   frame->drawn = std::move(list);
 }
@@ -824,7 +871,7 @@ ShadowTestDetail shadow_test(const ShadowFrame& frame, uint32_t light, const Sha
   // centre). M: the largest distance between the primary cut (τ pixels of f) and the shadow cut
   // (τ_s texels) along the light: each cut's deviation times 1 + s ≥ 1/c, the secant.
   const double sampling_bias = texel * (1 + slope);
-  const double mismatch = (tau * r.footprint + tau_s * texel) * (1 + slope);
+  const double mismatch = (tau * r.footprint + tau_s * texel) * std::min(1 + slope, kMaxMismatchSecant);
   out.zone = sampling_bias + mismatch;
   out.stored = shadow_stored_depth(frame, out.texel);
   out.d_lit = receiver_depth(m, out.texel.dist, sampling_bias);

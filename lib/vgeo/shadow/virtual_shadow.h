@@ -18,6 +18,7 @@
 #include "vgeo/raster/raster.h"
 #include "vgeo/raster/visbuffer.h"
 #include "vgeo/shadow/light.h"
+#include "vgeo/stream/stream.h"
 
 namespace vgeo {
 
@@ -35,6 +36,11 @@ inline constexpr float kShadowLodBias = 2.0f;
 // Slope part of the bias is clamped here (tan of ~86.4°): beyond it Lambert is < 0.063 and the
 // bias would grow without bound at grazing angles. The trace's view slope uses the same clamp.
 inline constexpr double kMaxShadowSlope = 16.0;
+// The LOD-mismatch zone's secant factor min(1 + s, 8) (spec/shadow.md §6): the zone covers the
+// mismatch along the light for c ≥ 1/8; at more grazing light (Lambert < 1/8) it stops growing,
+// so the trace stays short (a few pixels, as the seeds' "short screen space trace") and a far
+// caster stays a far caster: a zone of 17·(f + 2T) reached past a closed mesh around a point light.
+inline constexpr double kMaxMismatchSecant = 8.0;
 // Screen-space trace (spec/shadow.md §6): at most this many depth-buffer samples per light per
 // pixel. Steps are one pixel footprint long (≤ 1 screen pixel each) until the LOD-mismatch zone
 // is longer than 16 footprints (only at slopes s > ~3 with τ = 1); then the zone is split into 16
@@ -47,6 +53,10 @@ struct ShadowOptions {
   uint32_t pages_per_side = kShadowPagesPerSide;
   uint32_t pool_pages = kShadowPoolPages;
   float threshold_px = 1.0f;  // τ of the primary view (τ_s = kShadowLodBias · τ)
+  // Texel density (spec/shadow.md §4, step 2): a texel's side is at most 2^−b screen pixels
+  // (b = texels_per_pixel_log2). Frames use 0 (the seeds' one texel ≈ one pixel); `vgeo bench
+  // shadows` varies it to measure shadow error against texel density and time.
+  int texels_per_pixel_log2 = 0;
 };
 
 struct ShadowSceneBounds {
@@ -155,13 +165,18 @@ void draw_shadow_pages(const std::vector<ClusterDag>& meshes, const std::vector<
                        const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame, ShadowCache* cache);
 
 // Step shadow_draw in three phases, so that every executor shares the cache, allocation and
-// multi-view cull and only the raster differs (the CPU's raster_page_views, Vulkan's compute
+// multi-view cull and only the raster differs (the CPU's raster_shadow_pages_cpu, Vulkan's compute
 // raster; spec/shadow.md §5). begin_shadow_draw invalidates the cache, allocates slots in
 // page-table order (filling the frame's page table and counters), grows cache->texels to the
 // slots in use and culls every view; the caller then writes each listed page's 128² texels into
 // its slot of cache->texels (every texel: 0 where nothing was drawn); end_shadow_draw records
 // what the pages were drawn with and points the frame at the pool (`kept` false: the cache is
 // the frame's own, its texels move into ShadowFrame::own_texels).
+// Streaming (spec/shadow.md §9): `usable` holds per scene mesh its usable groups (empty: every
+// group; null: not streamed); the views then draw the resident cut of spec/stream.md §Cut with
+// τ_s (its clusters' geometry must be bound before the raster: shadow_draw_clusters), a page an
+// undrawn ideal-cut cluster overlaps is provisional (drawn, not kept in the cache), and the
+// ideal cut's groups are requested at the lower priority of secondary_view_priority.
 struct ShadowPageDraw {
   uint32_t map = 0, mip = 0, x = 0, y = 0;  // page (x, y) (local) of mip `mip` of maps[map]
   uint32_t slot = 0;                        // the pool slot it is drawn into
@@ -172,10 +187,20 @@ struct ShadowDrawList {
   std::vector<ShadowPageDraw> pages;                  // page-table order
   std::vector<std::vector<VisibleCluster>> clusters;  // per page: its clusters, (instance, cluster) order
   std::vector<std::vector<Mat4>> object_to_clip;      // per view (map, mip): float object→clip per instance
+  std::vector<uint8_t> provisional;    // per page: drawn coarser than its ideal cut (streaming): not cached
+  std::vector<GroupRequest> requests;  // streaming: the shadow views' ideal-cut groups (scene mesh ids)
 };
 ShadowDrawList begin_shadow_draw(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
                                  const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame,
-                                 ShadowCache* cache);
+                                 ShadowCache* cache, const std::vector<std::vector<uint8_t>>* usable = nullptr);
+// The distinct (instance, cluster) pairs the draw list rasterizes, ascending (what a streamed
+// frame binds before the raster).
+std::vector<VisibleCluster> shadow_draw_clusters(const ShadowDrawList& list);
+// The CPU reference's raster phase: every listed page from `raster_meshes` (which need the vertex
+// data of the listed clusters: the scene's meshes, or a streamed frame's bound geometry) into
+// its slot of cache->texels.
+void raster_shadow_pages_cpu(const std::vector<ClusterDag>& raster_meshes, const std::vector<CullInstance>& instances,
+                             const ShadowDrawList& list, ThreadPool& pool, ShadowCache* cache);
 void end_shadow_draw(const std::vector<CullInstance>& instances, const std::vector<Light>& lights, ShadowFrame* frame,
                      ShadowCache* cache, bool kept);
 

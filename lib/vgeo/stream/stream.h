@@ -19,6 +19,7 @@
 //      crack-free every frame, coarser where data is missing.
 // Streaming is only active when the file's pages exceed the budget; otherwise every page
 // is loaded at start and update() does no work (the pass is absent).
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -107,6 +108,21 @@ struct GroupRequest {
   uint32_t mesh = 0, group = 0;
   float priority = 0;
 };
+
+// spec/stream.md §Requests, lower-priority views (seeds: shadow views "are considered lower
+// priority" than the primary view): the priority of a request from such a view, whose own
+// projected parent error is `projected_px` (its own pixels, e.g. shadow texels), given the
+// primary view's threshold τ. A primary request's priority is its cluster's projected parent
+// error, which exceeds τ (the cluster is in the ideal cut); this maps [0, +inf] monotonically into
+// [0, τ] (τ·p/(p + 1), in double, then float), so every primary request outranks every
+// lower-priority one, and lower-priority requests keep their order among themselves. Requests
+// and their page priorities are otherwise unchanged: the max over requests, parents inheriting.
+inline float secondary_view_priority(float projected_px, float primary_threshold_px) {
+  if (!(projected_px > 0)) return 0.0f;
+  const double p = projected_px;
+  const double q = p < HUGE_VAL ? p / (p + 1.0) : 1.0;
+  return float(double(primary_threshold_px) * q);
+}
 
 enum class PageState : uint8_t { kAbsent = 0, kInFlight = 1, kResident = 2, kBad = 3 };
 
