@@ -18,8 +18,8 @@
 // the last one found to the triangle the point projects into, tested with the tree's own
 // triangle test; only when the walk fails does the tree's any-within query decide, and only
 // a point farther than the threshold from every leaf gets the exact nearest search. The walk
-// proves "within" only, so the result is the tree's, bit for bit (docs/acceptance/
-// issue23_errspeed.md: 99.5% of the points are decided by a walk of ~2.4 steps).
+// proves "within" only, so the result is the tree's, bit for bit
+// (docs/acceptance/issue23_errspeed.md: 99.5% of the points are decided by a walk of ~2.4 steps).
 #include <algorithm>
 #include <cmath>
 #include <limits>
