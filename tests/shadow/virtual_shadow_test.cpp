@@ -331,21 +331,33 @@ const RenderScene& property_scene() {
   return scene;
 }
 
-// Random lights (each type, directions including axis-aligned and grazing ones, positions inside
-// and around the casters), cameras and τ on a shrunk page table: every sampled texel is marked,
-// has a slot, is of the right mip and equals the brute-force map of the same cut.
-RC_GTEST_PROP(VirtualShadow, RandomLightsPagesEqualBruteForce, ()) {
-  RenderScene scene = property_scene();
+// A random light of each type (directions including axis-aligned and grazing ones, positions
+// inside and around the casters) and camera over property_scene(), for the property tests.
+struct RandomLightCase {
+  RenderScene scene;
+  Camera camera;
+};
+
+RandomLightCase random_light_case() {
+  RandomLightCase c{property_scene(), {}};
   const int type = *rc::gen::inRange(0, 3);
   auto coord = [](int lo, int hi) { return *rc::gen::inRange(lo, hi) * 0.5; };
   Vec3d d{coord(-4, 5), coord(-4, 1), coord(-4, 5)};
   if (d.x == 0 && d.y == 0 && d.z == 0) d.y = -1;
   Vec3d p{coord(-8, 9), coord(1, 12), coord(-12, 5)};
-  if (type == 0) scene.lights = {directional(d)};
-  else if (type == 1) scene.lights = {spot(p, d, *rc::gen::element(20.0, 60.0, 120.0, 170.0))};
-  else scene.lights = {point(p)};
-  const Camera camera = test::look_camera({coord(-16, 17), coord(1, 16), coord(-10, 20)}, {coord(-4, 5), 1.0, coord(-10, 2)},
-                                          *rc::gen::element(64u, 160u), *rc::gen::element(48u, 120u));
+  if (type == 0) c.scene.lights = {directional(d)};
+  else if (type == 1) c.scene.lights = {spot(p, d, *rc::gen::element(20.0, 60.0, 120.0, 170.0))};
+  else c.scene.lights = {point(p)};
+  c.camera = test::look_camera({coord(-16, 17), coord(1, 16), coord(-10, 20)}, {coord(-4, 5), 1.0, coord(-10, 2)},
+                               *rc::gen::element(64u, 160u), *rc::gen::element(48u, 120u));
+  return c;
+}
+
+// Random lights (each type, directions including axis-aligned and grazing ones, positions inside
+// and around the casters), cameras and τ on a shrunk page table: every sampled texel is marked,
+// has a slot, is of the right mip and equals the brute-force map of the same cut.
+RC_GTEST_PROP(VirtualShadow, RandomLightsPagesEqualBruteForce, ()) {
+  const auto [scene, camera] = random_light_case();
   const PageCheck c = check_pages(scene, camera, *rc::gen::element(4u, 8u), *rc::gen::element(0.5f, 1.0f, 4.0f));
   RC_CLASSIFY(c.checked == 0, "no texel sampled");
   RC_ASSERT(c.ok());
@@ -496,17 +508,7 @@ TEST(ShadowTrace, RemovesAcneWhereTheLightsCoarserCutPokesThroughThePrimarySurfa
 // shadowed without a trace; a pixel is lit only when the map shows nothing beyond the sampling
 // bias or the trace found nothing in the zone; the trace reads at most kShadowTraceMaxSteps texels.
 RC_GTEST_PROP(ShadowTrace, NeverLightsAPixelTheBruteForceMapSaysAFarCasterShadows, ()) {
-  RenderScene scene = property_scene();
-  const int type = *rc::gen::inRange(0, 3);
-  auto coord = [](int lo, int hi) { return *rc::gen::inRange(lo, hi) * 0.5; };
-  Vec3d d{coord(-4, 5), coord(-4, 1), coord(-4, 5)};
-  if (d.x == 0 && d.y == 0 && d.z == 0) d.y = -1;
-  Vec3d lp{coord(-8, 9), coord(1, 12), coord(-12, 5)};
-  if (type == 0) scene.lights = {directional(d)};
-  else if (type == 1) scene.lights = {spot(lp, d, *rc::gen::element(20.0, 60.0, 120.0, 170.0))};
-  else scene.lights = {point(lp)};
-  const Camera camera = test::look_camera({coord(-16, 17), coord(1, 16), coord(-10, 20)}, {coord(-4, 5), 1.0, coord(-10, 2)},
-                                          *rc::gen::element(64u, 160u), *rc::gen::element(48u, 120u));
+  const auto [scene, camera] = random_light_case();
   ThreadPool pool(2);
   const Frame primary = primary_frame(scene, camera, pool);
   ShadowOptions options;
