@@ -43,8 +43,10 @@ double infinity_d() { return uint64BitsToDouble(0x7FF0000000000000ul); }  // std
 
 // std::clamp(v, lo, hi) as written: (v < lo) ? lo : (hi < v) ? hi : v.
 double clamp_d(double v, double lo, double hi) { return (v < lo) ? lo : ((hi < v) ? hi : v); }
-// int64 division by the page size as C++ does it (towards zero; −1 / 128 = 0).
-int page_of(int t) { return t >= 0 ? t / int(kGpuShadowPageTexels) : -((-t) / int(kGpuShadowPageTexels)); }
+// The page of a texel of a non-empty rectangle (texels ≥ 0 there).
+int page_of(int t) { return t / int(kGpuShadowPageTexels); }
+// for_pages_to_draw's empty rectangle: a sphere wholly outside the mip overlaps no page.
+bool empty_rect(ivec4 r) { return r.z < r.x || r.w < r.y; }
 
 // virtual_shadow.cpp sphere_texel_rect: the inclusive texel rectangle (x0, y0, x1, y1) of a
 // light-view sphere on a mip of R_m texels, one texel of margin, clamped; the whole mip when the
@@ -94,6 +96,7 @@ void cull_instance(uint32_t pair) {
   const GpuShadowCullInstance inst = instances[i];
   const dvec3 c = rows_times_point(shadow_maps[view.map].world_to_light, dvec3(inst.center[0], inst.center[1], inst.center[2]));
   const ivec4 rect = sphere_texel_rect(view.map, view.r_m, c, inst.radius);
+  if (empty_rect(rect)) return;
   bool kept = false;
   for (int py = page_of(rect.y); py <= page_of(rect.w) && !kept; ++py)
     for (int px = page_of(rect.x); px <= page_of(rect.z) && !kept; ++px)
@@ -147,6 +150,7 @@ void cull_cluster(uint32_t pair, uint32_t ci) {
   const Sphere b = culling_sphere(iv, cl.bounds);  // inflate_for_subtree_test(sphere_to_view(...))
   const ivec4 rect = sphere_texel_rect(view.map, view.r_m, dvec3(double(b.x), double(b.y), double(b.z)), double(b.radius));
   bool overlaps = false;
+  if (empty_rect(rect)) return;
   for (int py = page_of(rect.y); py <= page_of(rect.w); ++py)
     for (int px = page_of(rect.x); px <= page_of(rect.z); ++px) {
       const int32_t d = draw_of_page[view.page_offset + uint32_t(py) * view.side + uint32_t(px)];

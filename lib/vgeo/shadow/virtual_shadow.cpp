@@ -423,11 +423,13 @@ std::vector<PageDraw> allocate_shadow_pages(ShadowFrame* frame, ShadowCache* cac
   return missing;
 }
 
-// Pages to draw whose pages a texel rectangle overlaps, reported to `emit(draw)`. (A rectangle
-// wholly left of or above the mip, x1 or y1 = −1, still visits column or row 0: −1 / 128 is 0;
-// conservative, and the GPU cull reproduces it.)
+// Pages to draw whose pages a texel rectangle overlaps, reported to `emit(draw)`. An empty
+// rectangle (a sphere wholly outside the mip: x1 < x0 or y1 < y0) overlaps none (without the
+// test, one wholly left of or above the mip, x1 or y1 = −1, would visit column or row 0, since
+// −1 / 128 is 0 in integer division).
 template <typename Emit>
 void for_pages_to_draw(const ShadowView& v, const TexelRect& rect, Emit&& emit) {
+  if (rect.x1 < rect.x0 || rect.y1 < rect.y0) return;
   const int64_t t = kShadowPageTexels;
   for (int64_t py = rect.y0 / t; py <= rect.y1 / t; ++py)
     for (int64_t px = rect.x0 / t; px <= rect.x1 / t; ++px) {
