@@ -512,15 +512,18 @@ void add_vulkan_tables(const BenchConfig& cfg, const RenderScene& cpu_scene, uin
       range(hw_over_cpu, "x") + ". lavapipe runs the device's work on this machine's same " +
       std::to_string(std::thread::hardware_concurrency()) +
       " cores (shared with the CPU rows and other processes), so these rows measure the port's overheads "
-      "(host-side cull and element upload in begin_shadow_draw, pool upload and readback, submit and wait, "
-      "shaders run by llvmpipe), not a GPU's speed.");
+      "(host-side cache and allocation in plan_shadow_draw, the device cull's record upload and element readback, "
+      "pool upload and readback, submit and wait, shaders run by llvmpipe), not a GPU's speed. The last two "
+      "columns time the multi-view cull alone on the same plan: the reference's cull_shadow_views (wall) against "
+      "shadow_cull.comp (device time of its three dispatches; its elements equal the reference's, "
+      "spec/shadow.md §8).");
   out.notes.push_back(
       "Multi-view on Vulkan: one pass per view costs " + range(per_view_over_multi, "x") +
       " the one multi-view pass (median wall ratios per row; pages identical in " +
       (mv_rows_differing == 0 ? std::string("every row") : "all but " + std::to_string(mv_rows_differing) + " rows") +
       "). Each per-view pass is draw_shadow_pages_vulkan on a one-view marked frame: it repeats the host-side "
-      "instance setup, the pool upload and readback and one submit and wait, while the cull of each view's clusters "
-      "runs on the host in both variants. On lavapipe those per-pass costs are lost in the rasterization's time (the "
+      "instance setup, the pool upload and readback and submits and waits, while the cull of each view's clusters "
+      "runs on the device in both variants. On lavapipe those per-pass costs are lost in the rasterization's time (the "
       "shaders run on the same CPU cores; there is no wide device for small per-view dispatches to leave idle), so "
       "the seeds' 'up to 100x' does not appear here; it would need a discrete GPU to measure.");
   out.notes.push_back(
