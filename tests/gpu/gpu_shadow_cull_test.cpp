@@ -15,6 +15,7 @@
 #include "gpu/gpu_testing.h"
 #include "support/paths.h"
 #include "vgeo/gpu/gpu_frame.h"
+#include "vgeo/gpu/gpu_renderer.h"
 #include "vgeo/render/frame.h"
 #include "vgeo/render/scene_file.h"
 
@@ -120,6 +121,10 @@ TEST(GpuShadowCull, ElementsPerPageEqualTheCpuCullOnTheExampleScenes) {
     const CullCounts all = expect_same_cull(*renderer, scene, frame, plan, nullptr, pool, std::string(name) + " uncached");
     EXPECT_GT(all.elements, plan.pages.size()) << name;
     EXPECT_EQ(all.provisional + all.requests, 0u) << name;  // not streamed
+    // Element buffers too small for the frame: the cull counts, grows them and runs again.
+    renderer->shadow_element_capacity = 16;
+    expect_same_cull(*renderer, scene, frame, plan, nullptr, pool, std::string(name) + " uncached, buffers grown");
+    EXPECT_GE(renderer->shadow_element_capacity, all.elements) << name;
     // Streamed: the resident cut, provisional pages and requests.
     const std::vector<std::vector<uint8_t>> usable = partial_residency(scene);
     const CullCounts streamed = expect_same_cull(*renderer, scene, frame, plan, &usable, pool, std::string(name) + " streamed");
