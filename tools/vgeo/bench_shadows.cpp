@@ -323,7 +323,8 @@ void add_vulkan_tables(const BenchConfig& cfg, const RenderScene& cpu_scene, uin
 
   Table pass{"Shadow pass on Vulkan (" + gpu->device_name + ") against the CPU reference (same marked pages, nothing cached)",
              {"lights", "resolution", "pages", "cluster-page draws", "CPU reference", "Vulkan compute", "Vulkan hardware",
-              "compute / CPU", "hardware / CPU", "compute texels vs CPU", "hardware texels vs CPU"},
+              "compute / CPU", "hardware / CPU", "compute texels vs CPU", "hardware texels vs CPU", "cull: CPU reference",
+              "cull: Vulkan (device time)"},
              {}};
   Table multi{"One multi-view pass against one pass per view on Vulkan (compute raster, same pages)",
               {"lights", "resolution", "views", "pages", "multi-view", "one pass per view", "per-view / multi-view (wall)",
@@ -369,11 +370,26 @@ void add_vulkan_tables(const BenchConfig& cfg, const RenderScene& cpu_scene, uin
       hw_failures += rule.failures();
       hw_depth_only += rule.count(HwPixel::kDepthOnly);
       hw_differing += hw_differ;
+      // The multi-view cull alone (inside each pass above): the reference's cull_shadow_views
+      // (wall) against the device's shadow_cull.comp (its dispatches' device time), same plan.
+      ShadowFrame cull_frame = marked;
+      ShadowCache cull_cache;
+      const ShadowDrawPlan plan = plan_shadow_draw(scene.meshes, scene.instances, scene.lights, &cull_frame, &cull_cache);
+      std::vector<double> cull_cpu, cull_device;
+      for (int k = 0; k < reps; ++k) {
+        const double t0 = now_seconds();
+        ShadowDrawList cull_list;
+        cull_shadow_views(scene.meshes, scene.instances, cull_frame, plan, nullptr, pool, &cull_list);
+        cull_cpu.push_back(now_seconds() - t0);
+        cull_device.push_back(cull_shadow_views_vulkan(*renderer, scene, cull_frame, plan, nullptr).ms / 1000.0);
+      }
+      const Stats cull_cpu_stats = summarize(cull_cpu), cull_device_stats = summarize(cull_device);
       pass.rows.push_back({kLightSetNames[ls], resolution, std::to_string(f[0].pages_drawn),
                            std::to_string(f[0].clusters_drawn), fmt_stats_time(w0), fmt_stats_time(w1), fmt_stats_time(w2),
                            fmt_ratio(r1), fmt_ratio(r2),
                            sw_differ == 0 ? "bit-identical" : std::to_string(sw_differ) + " differ",
-                           fmt(hw_pct) + " % differ bitwise, " + std::to_string(rule.failures()) + " beyond the rule"});
+                           fmt(hw_pct) + " % differ bitwise, " + std::to_string(rule.failures()) + " beyond the rule",
+                           fmt_stats_time(cull_cpu_stats), fmt_stats_time(cull_device_stats)});
       pass_rows.push_back({{"lights", kLightSetNames[ls]},
                            {"resolution", resolution},
                            {"pages", f[0].pages_drawn},
@@ -390,7 +406,9 @@ void add_vulkan_tables(const BenchConfig& cfg, const RenderScene& cpu_scene, uin
                            {"hardware_texels_differing", hw_differ},
                            {"hardware_rule_failures", rule.failures()},
                            {"hardware_rule_in_mask", rule.in_mask()},
-                           {"page_texels", page_texels}});
+                           {"page_texels", page_texels},
+                           {"cull_cpu_wall_seconds", to_json(cull_cpu_stats)},
+                           {"cull_vulkan_device_seconds", to_json(cull_device_stats)}});
 
       // (2) one multi-view pass against one pass per view, both on the device's compute raster.
       ShadowFrame one;
@@ -494,15 +512,18 @@ void add_vulkan_tables(const BenchConfig& cfg, const RenderScene& cpu_scene, uin
       range(hw_over_cpu, "x") + ". lavapipe runs the device's work on this machine's same " +
       std::to_string(std::thread::hardware_concurrency()) +
       " cores (shared with the CPU rows and other processes), so these rows measure the port's overheads "
-      "(host-side cull and element upload in begin_shadow_draw, pool upload and readback, submit and wait, "
-      "shaders run by llvmpipe), not a GPU's speed.");
+      "(host-side cache and allocation in plan_shadow_draw, the device cull's record upload and element readback, "
+      "pool upload and readback, submit and wait, shaders run by llvmpipe), not a GPU's speed. The last two "
+      "columns time the multi-view cull alone on the same plan: the reference's cull_shadow_views (wall) against "
+      "shadow_cull.comp (device time of its three dispatches; its elements equal the reference's, "
+      "spec/shadow.md §8).");
   out.notes.push_back(
       "Multi-view on Vulkan: one pass per view costs " + range(per_view_over_multi, "x") +
       " the one multi-view pass (median wall ratios per row; pages identical in " +
       (mv_rows_differing == 0 ? std::string("every row") : "all but " + std::to_string(mv_rows_differing) + " rows") +
       "). Each per-view pass is draw_shadow_pages_vulkan on a one-view marked frame: it repeats the host-side "
-      "instance setup, the pool upload and readback and one submit and wait, while the cull of each view's clusters "
-      "runs on the host in both variants. On lavapipe those per-pass costs are lost in the rasterization's time (the "
+      "instance setup, the pool upload and readback and submits and waits, while the cull of each view's clusters "
+      "runs on the device in both variants. On lavapipe those per-pass costs are lost in the rasterization's time (the "
       "shaders run on the same CPU cores; there is no wide device for small per-view dispatches to leave idle), so "
       "the seeds' 'up to 100x' does not appear here; it would need a discrete GPU to measure.");
   out.notes.push_back(

@@ -94,64 +94,58 @@ void upload_raster_inputs(GpuRenderer& r, const std::vector<Mat4>& object_to_cli
 static_assert(kGpuShadowPageTexels == kShadowPageTexels);
 constexpr size_t kShadowPageTexelCount = size_t(kShadowPageTexels) * kShadowPageTexels;
 
-// The shadow raster's inputs (GpuRenderer's shadow_* buffers) from a draw list, and what the
-// hardware path's draws need on the host.
+// The shadow raster's inputs besides the elements, which the device's cull left in
+// r.shadow_elements and r.shadow_element_page (instance field: the (view, instance) pair): a
+// GpuInstance per pair (the view's float object→clip), the pages drawn, the page table, and
+// what the hardware path's draws need on the host.
 struct ShadowElements {
   uint32_t count = 0;
   std::vector<GpuShadowPage> pages;
   std::vector<GpuShadowHwDraw> hw_draws;  // one per element, page by page
 };
-ShadowElements upload_shadow_elements(GpuRenderer& r, const RenderScene& scene, const ShadowFrame& frame,
-                                      const ShadowDrawList& list) {
+ShadowElements upload_shadow_raster_inputs(GpuRenderer& r, const RenderScene& scene, const ShadowFrame& frame,
+                                           const ShadowDrawList& list, const GpuShadowCull& cull) {
   GpuContext& gpu = *r.gpu;
-  // One GpuInstance per (view, instance) some element draws (not views × instances: most
-  // instances overlap few views), numbered in order of first use.
-  const uint64_t instance_count = scene.instances.size();
-  std::unordered_map<uint64_t, uint32_t> view_instance;
-  std::vector<GpuInstance> instances;
   ShadowElements out;
-  std::vector<GpuShadowPage>& pages = out.pages;
-  pages.resize(list.pages.size());
-  std::vector<GpuVisibleCluster> elements;
-  std::vector<uint32_t> element_page;
+  out.pages.resize(list.pages.size());
   for (size_t d = 0; d < list.pages.size(); ++d) {
     const ShadowPageDraw& p = list.pages[d];
     const uint32_t table_offset = uint32_t(shadow_page_entry(frame, ShadowTexel{p.map, p.mip, 0, 0, 0}));
-    pages[d] = {p.raster.virtual_width, p.raster.window_x,  p.raster.window_y,
-                p.slot,                 p.raster.z_near,    table_offset,
-                frame.options.pages_per_side >> p.mip, 0};
-    for (const VisibleCluster& c : list.clusters[d]) {
-      auto [it, added] = view_instance.try_emplace(p.view * instance_count + c.instance, uint32_t(instances.size()));
-      if (added) {
-        GpuInstance& g = instances.emplace_back();
-        std::memcpy(g.object_to_clip, list.object_to_clip[p.view][c.instance].m, sizeof(g.object_to_clip));
-        g.mesh = scene.instances[c.instance].mesh;
-      }
-      out.hw_draws.push_back({uint32_t(elements.size()),
-                              scene.meshes[scene.instances[c.instance].mesh].clusters[c.cluster].triangle_count,
-                              uint32_t(d)});
-      elements.push_back({it->second, c.cluster});
-      element_page.push_back(uint32_t(d));
-    }
+    out.pages[d] = {p.raster.virtual_width, p.raster.window_x,  p.raster.window_y,
+                    p.slot,                 p.raster.z_near,    table_offset,
+                    frame.options.pages_per_side >> p.mip, 0};
   }
+  const size_t n = scene.instances.size();
+  std::vector<GpuInstance> instances(list.object_to_clip.size() * n);
+  for (size_t v = 0; v < list.object_to_clip.size(); ++v)
+    for (size_t i = 0; i < n; ++i) {
+      GpuInstance& g = instances[v * n + i];
+      std::memcpy(g.object_to_clip, list.object_to_clip[v][i].m, sizeof(g.object_to_clip));
+      g.mesh = scene.instances[i].mesh;
+    }
+  out.count = uint32_t(cull.elements.size());
   // An element's index is the key's visible-cluster field (raster.glsl's big-triangle ids).
-  if (elements.size() > kMaxVisibleClusters)
+  if (cull.elements.size() > kMaxVisibleClusters)
     fail("GPU_SCENE_TOO_LARGE", gpu.device_name,
-         std::to_string(elements.size()) + " cluster-page draws of the shadow pages, more than one raster pass "
+         std::to_string(cull.elements.size()) + " cluster-page draws of the shadow pages, more than one raster pass "
              "addresses (" + std::to_string(kMaxVisibleClusters) + ")",
          kExitUsage);
+  for (uint32_t e = 0; e < out.count; ++e) {
+    const GpuVisibleCluster& c = cull.elements[e];
+    out.hw_draws.push_back({e, scene.meshes[scene.instances[c.instance % n].mesh].clusters[c.cluster].triangle_count,
+                            cull.element_page[e]});
+  }
+  std::stable_sort(out.hw_draws.begin(), out.hw_draws.end(),
+                   [](const GpuShadowHwDraw& a, const GpuShadowHwDraw& b) { return a.page < b.page; });
   auto put = [&](GpuBuffer& b, const auto& data) {
     const uint64_t bytes = data.size() * sizeof(data[0]);
     check_buffer_range(gpu, bytes, "the shadow raster's inputs");
-    ensure_size(gpu, b, bytes);
+    ensure_size(gpu, b, std::max<uint64_t>(bytes, 4));
     if (bytes) std::memcpy(b.mapped, data.data(), bytes);
   };
   put(r.shadow_instances, instances);
-  put(r.shadow_pages, pages);
-  put(r.shadow_elements, elements);
-  put(r.shadow_element_page, element_page);
+  put(r.shadow_pages, out.pages);
   put(r.shadow_table, frame.page_table);
-  out.count = uint32_t(elements.size());
   return out;
 }
 
@@ -185,12 +179,6 @@ void raster_shadow_pages(GpuRenderer& r, const ShadowElements& elements, bool ha
          std::to_string(overflow) + " shadow-page triangle(s) needed more pixel-loop iterations than the compute "
              "rasterizer's loop budget (spec/raster.md §13.5)",
          kExitUsage);
-}
-
-// Row-major rows 0..2 of a Mat4d (GpuShadowMap, GpuLitFrame).
-void put_rows(const Mat4d& m, double* out, int rows) {
-  for (int row = 0; row < rows; ++row)
-    for (int col = 0; col < 4; ++col) out[4 * row + col] = m.at(row, col);
 }
 
 // The lit view's lights and shadow maps (spec/shadow.md §2, §6) for shade.comp: `shadows` the
@@ -232,22 +220,6 @@ void upload_lit_frame(GpuRenderer& r, const RenderScene& scene, const RenderSett
     g.first_map = has_maps ? shadows->light_first_map[i] : 0u;
     g.map_count = has_maps ? shadows->light_map_count[i] : 0u;
   }
-  std::vector<GpuShadowMap> maps(shadows ? std::max<size_t>(shadows->maps.size(), 1) : 1);
-  for (size_t k = 0; shadows && k < shadows->maps.size(); ++k) {
-    const ShadowMapView& m = shadows->maps[k];
-    GpuShadowMap& g = maps[k];
-    g = {};
-    put_rows(m.world_to_light, g.world_to_light, 3);
-    put_rows(m.light_to_clip, g.light_to_clip, 4);
-    g.eye[0] = m.eye.x, g.eye[1] = m.eye.y, g.eye[2] = m.eye.z;
-    g.tan_half = m.tan_half;
-    g.z_near = m.z_near;
-    g.side = m.side;
-    g.depth_range = m.depth_range;
-    g.type = uint32_t(m.type);
-    g.ortho = m.ortho ? 1u : 0u;
-    g.table_offset = m.table_offset;
-  }
   const std::vector<uint32_t> no_table{kNoShadowSlot};
   const std::vector<uint32_t>& table = shadows && !shadows->page_table.empty() ? shadows->page_table : no_table;
   auto put = [&](GpuBuffer& b, const void* data, uint64_t bytes) {
@@ -257,7 +229,7 @@ void upload_lit_frame(GpuRenderer& r, const RenderScene& scene, const RenderSett
   };
   put(r.lit_frame, &frame, sizeof frame);
   put(r.shade_lights, lights.data(), lights.size() * sizeof(GpuShadeLight));
-  put(r.shadow_maps, maps.data(), maps.size() * sizeof(GpuShadowMap));
+  upload_shadow_maps(r, shadows);
   put(r.shadow_table, table.data(), table.size() * sizeof(uint32_t));
   if (!shadows) ensure_size(gpu, r.shadow_pool, sizeof(float));  // bound, never read
 }
@@ -392,7 +364,7 @@ void check_clusters_in_pool(const GpuRenderer& r, const RenderScene& scene, cons
 
 bool shadow_pages_use_hardware_raster(GpuRasterMode mode) { return mode == GpuRasterMode::kHw; }
 
-void draw_shadow_pages_vulkan(GpuRenderer& r, const RenderScene& scene, ThreadPool& pool, ShadowFrame* frame,
+void draw_shadow_pages_vulkan(GpuRenderer& r, const RenderScene& scene, ThreadPool& /*pool*/, ShadowFrame* frame,
                               ShadowCache* cache, GpuRasterMode mode, FrameStreaming* streaming) {
   ShadowCache local;
   ShadowCache* c = cache ? cache : &local;
@@ -400,8 +372,12 @@ void draw_shadow_pages_vulkan(GpuRenderer& r, const RenderScene& scene, ThreadPo
   // what stream_end left resident (a subset of the pages sync_page_pool placed at stream_begin,
   // since reads complete only at a frame's start), and their requests go to the next stream_end.
   if (streaming) refresh_usable_groups(scene, streaming);
-  ShadowDrawList built = begin_shadow_draw(scene.meshes, scene.instances, scene.lights, pool, frame, c,
-                                           streaming ? &streaming->usable : nullptr);
+  // Cache and allocation on the host (the reference's code: per page, a few thousand at most),
+  // the multi-view cull on the device (spec/shadow.md §8).
+  ShadowDrawPlan plan = plan_shadow_draw(scene.meshes, scene.instances, scene.lights, frame, c);
+  GpuShadowCull cull = cull_shadow_views_vulkan(r, scene, *frame, plan, streaming ? &streaming->usable : nullptr);
+  ShadowDrawList built = std::move(cull.list);
+  finish_shadow_cull(scene.instances, std::move(plan), frame, c, &built);
   if (streaming) {
     check_clusters_in_pool(r, scene, *streaming, shadow_draw_clusters(built));
     streaming->shadow_requests = std::move(built.requests);
@@ -417,7 +393,7 @@ void draw_shadow_pages_vulkan(GpuRenderer& r, const RenderScene& scene, ThreadPo
   for (const ShadowPageDraw& p : list.pages)
     std::memset(device_pool + p.slot * kShadowPageTexelCount, 0, kShadowPageTexelCount * sizeof(float));
   if (!list.pages.empty())
-    raster_shadow_pages(r, upload_shadow_elements(r, scene, *frame, list), shadow_pages_use_hardware_raster(mode));
+    raster_shadow_pages(r, upload_shadow_raster_inputs(r, scene, *frame, list, cull), shadow_pages_use_hardware_raster(mode));
   for (const ShadowPageDraw& p : list.pages)
     std::memcpy(c->texels.data() + p.slot * kShadowPageTexelCount, device_pool + p.slot * kShadowPageTexelCount,
                 kShadowPageTexelCount * sizeof(float));

@@ -81,8 +81,9 @@ GpuRendererPtr create_gpu_renderer_streamed(GpuContext& gpu, const RenderScene& 
                                             const GpuRendererOptions& options = {});
 const GpuPoolStats& gpu_pool_stats(const GpuRenderer& renderer);
 
-// Step shadow_draw on the device (spec/shadow.md §5): the CPU reference's cache, allocation and
-// multi-view cull (begin_shadow_draw), then every page to draw rasterized by the compute
+// Step shadow_draw on the device (spec/shadow.md §5): the CPU reference's cache invalidation and
+// allocation (plan_shadow_draw), the multi-view cull on the device (cull_shadow_views_vulkan),
+// then every page to draw rasterized by the compute
 // rasterizer scissored to the page (one element per cluster and overlapped page) into the
 // device's pool, bit-identical to draw_shadow_pages. The pool is uploaded from cache->texels
 // first (the history is the truth, as for the HZB) and the drawn slots are read back into it,
@@ -95,6 +96,24 @@ const GpuPoolStats& gpu_pool_stats(const GpuRenderer& renderer);
 void draw_shadow_pages_vulkan(GpuRenderer& renderer, const RenderScene& scene, ThreadPool& pool, ShadowFrame* frame,
                               ShadowCache* cache, GpuRasterMode mode = GpuRasterMode::kSw,
                               FrameStreaming* streaming = nullptr);
+// The shadow views' multi-view cull on the device (shaders/shadow_cull.comp, spec/shadow.md §8):
+// the instance cull, then per kept (view, instance) every cluster's LOD test from the view's own
+// projection and texel rectangle against the view's pages to draw, in the reference's
+// arithmetic. Its elements stay on the device as the shadow raster's inputs
+// (GpuRenderer::shadow_elements, shadow_element_page; element order is the device's) and are
+// read back into `list`: per page its clusters in (instance, cluster) order, the provisional
+// pages, and the requests as one per (mesh, group) with the highest priority, ascending (the
+// Streamer's reduction of cull_shadow_views' list). `usable` non-null: a streamed frame (the
+// resident cut; spec/shadow.md §9), as cull_shadow_views.
+struct GpuShadowCull {
+  ShadowDrawList list;                  // clusters, provisional, requests (pages and matrices: finish_shadow_cull)
+  std::vector<GpuVisibleCluster> elements;  // as the device wrote them (instance: the pair view · n + instance)
+  std::vector<uint32_t> element_page;       // each element's page (index into the plan's pages)
+  uint64_t pairs_kept = 0;              // (view, instance) pairs the instance cull kept
+  double ms = 0;                        // device time of the cull's dispatches
+};
+GpuShadowCull cull_shadow_views_vulkan(GpuRenderer& renderer, const RenderScene& scene, const ShadowFrame& frame,
+                                       const ShadowDrawPlan& plan, const std::vector<std::vector<uint8_t>>* usable);
 // Which path draws the shadow pages under a frame's raster mode (spec/shadow.md §8): the
 // hardware raster under `hw`; the compute raster under `sw` and `auto`.
 bool shadow_pages_use_hardware_raster(GpuRasterMode mode);

@@ -39,6 +39,7 @@ GpuRendererPtr create_renderer_common(GpuContext& gpu, const RenderScene& scene,
   r->raster = create_gpu_raster_passes(gpu, cluster_raster_infos(scene));
   r->shade = create_compute_pipeline(gpu, kShaderShade, kShadeBindingCount, sizeof(GpuShadeParams));
   r->shadow_mark = create_compute_pipeline(gpu, kShaderShadowMark, kMarkBindingCount, sizeof(GpuShadeParams));
+  r->shadow_cull = create_compute_pipeline(gpu, kShaderShadowCull, kShadowCullBindingCount, sizeof(GpuShadowCullPush));
   r->counters = create_gpu_buffer(gpu, 64);
   std::vector<GpuMaterial> materials(scene.materials.size());
   for (size_t i = 0; i < materials.size(); ++i)

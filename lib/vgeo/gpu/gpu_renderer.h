@@ -18,7 +18,7 @@ struct GpuRenderer {
   std::unique_ptr<GpuRecorder> recorder;
   std::unique_ptr<GpuRasterPasses> raster;
   GpuRendererOptions options;
-  ComputePipeline shade, shadow_mark;  // shade.comp, shadow_mark.comp
+  ComputePipeline shade, shadow_mark, shadow_cull;  // shade.comp, shadow_mark.comp, shadow_cull.comp
   GpuBuffer pages, locations, meshes, materials;
   // Per frame, grown on demand.
   GpuBuffer instances, visible, vis, counters, shade_instances, shade_clusters, overdraw, image;
@@ -30,6 +30,12 @@ struct GpuRenderer {
   // the frame's page table).
   GpuBuffer lit_frame, shade_lights, shadow_maps, shadow_table;
   GpuBuffer shadow_needed;  // shadow_mark.comp's marks: uint per page-table entry
+  // The shadow views' multi-view cull (shadow_cull.comp, record per GpuShadowCull* record): its
+  // views, instances' world spheres, (view, instance) pairs, pages-to-draw tables, work list,
+  // provisional flags and request words; the element capacity it last needed.
+  GpuBuffer shadow_cull_views, shadow_cull_instances, shadow_cull_pairs, shadow_draw_of_page, shadow_cull_work,
+      shadow_provisional, shadow_requests;
+  uint32_t shadow_element_capacity = 0;
   // The cull passes (gpu_cull.h): DAG records once, a working set per view size.
   GpuTraversal traversal = kDefaultGpuTraversal;
   GpuCullPipelines cull;
@@ -81,6 +87,13 @@ std::vector<GpuMesh> mesh_records(const RenderScene& scene, uint64_t* location_c
 // after the Streamer installed this frame's reads (residency only grows until stream_end).
 // (page_pool.cpp)
 void sync_page_pool(GpuRenderer& r, const FrameStreaming& s);
+
+// Row-major rows 0..rows−1 of a Mat4d (GpuShadowMap, GpuLitFrame). (gpu_shadow_cull.cpp)
+void put_rows(const Mat4d& m, double* out, int rows);
+// The frame's shadow maps (GpuShadowMap per ShadowMapView) into r.shadow_maps (one zero record
+// when `shadows` is null or has no map), for shade.comp, shadow_mark.comp and shadow_cull.comp.
+// (gpu_shadow_cull.cpp)
+void upload_shadow_maps(GpuRenderer& r, const ShadowFrame* shadows);
 
 }  // namespace gpu_detail
 

@@ -177,7 +177,9 @@ std::vector<const GpuBuffer*> sw_buffers(const GpuRasterPasses& p, const GpuRast
 }
 
 // raster.glsl's bindings with VGEO_RASTER_SHADOW_PASS.
-std::vector<const GpuBuffer*> shadow_buffers(const GpuRasterPasses& p, const GpuShadowRasterBuffers& b) {
+// The shadow compute raster's bindings (raster_shadow*.comp), which the hardware page raster
+// (hw_shadow.vert/.frag) extends with the page table: one list for both.
+std::vector<GpuBinding> shadow_binding_list(const GpuRasterPasses& p, const GpuShadowRasterBuffers& b) {
   std::vector<GpuBinding> bindings = geometry_bindings(b.raster.geometry);
   bindings.insert(bindings.end(), {{kRasterBindCounters, b.raster.counters},
                                    {kRasterBindPaths, &p.paths},
@@ -186,7 +188,10 @@ std::vector<const GpuBuffer*> shadow_buffers(const GpuRasterPasses& p, const Gpu
                                    {kRasterBindShadowPages, b.pages},
                                    {kRasterBindShadowElementPage, b.element_page},
                                    {kRasterBindShadowPool, b.pool}});
-  return gpu_bindings(kRasterShadowBindingCount, bindings);
+  return bindings;
+}
+std::vector<const GpuBuffer*> shadow_buffers(const GpuRasterPasses& p, const GpuShadowRasterBuffers& b) {
+  return gpu_bindings(kRasterShadowBindingCount, shadow_binding_list(p, b));
 }
 
 // The tile pass of a cluster pass's deferred big triangles (spec/raster.md §13.5): each box in
@@ -357,15 +362,8 @@ void record_gpu_shadow_hw_raster(GpuRecorder& rec, GpuRasterPasses& p, const Gpu
                                  const GpuBuffer& page_table, const std::vector<GpuShadowPage>& pages,
                                  const std::vector<GpuShadowHwDraw>& draws) {
   if (draws.empty()) return;
-  std::vector<GpuBinding> bindings = geometry_bindings(b.raster.geometry);
-  bindings.insert(bindings.end(), {{kRasterBindCounters, b.raster.counters},
-                                   {kRasterBindPaths, &p.paths},
-                                   {kRasterBindBig, &p.big_triangles},
-                                   {kRasterBindTiles, &p.tiles},
-                                   {kRasterBindShadowPages, b.pages},
-                                   {kRasterBindShadowElementPage, b.element_page},
-                                   {kRasterBindShadowPool, b.pool},
-                                   {kHwShadowBindPageTable, &page_table}});
+  std::vector<GpuBinding> bindings = shadow_binding_list(p, b);
+  bindings.push_back({kHwShadowBindPageTable, &page_table});
   VkDescriptorSet set = storage_buffer_set(rec, p.hw_shadow_set_layout, gpu_bindings(kHwShadowBindingCount, bindings));
   // The framebuffer is the largest mip drawn (no attachments: only its size matters); each
   // page's draws use its mip's viewport and the page's scissor.

@@ -92,6 +92,24 @@ VGEO_CONSTANT uint32_t kMarkBindShadowMaps = 3u;  // GpuShadowMap per shadow map
 VGEO_CONSTANT uint32_t kMarkBindNeeded = 4u;      // uint per page-table entry (1: needed)
 VGEO_CONSTANT uint32_t kMarkBindingCount = 5u;
 
+// shadow_cull.comp (spec/shadow.md §5, §8: the shadow views' multi-view cull): the scene's
+// cull records (GpuCullMeshes), the frame's maps, views and instances, then its outputs, which
+// are the shadow raster's inputs (the elements and their pages).
+VGEO_CONSTANT uint32_t kShadowCullBindMeshes = 0u;         // GpuCullMesh[]
+VGEO_CONSTANT uint32_t kShadowCullBindClusters = 1u;       // GpuCluster[]
+VGEO_CONSTANT uint32_t kShadowCullBindStream = 2u;         // streaming words (GpuCullMesh::stream_base)
+VGEO_CONSTANT uint32_t kShadowCullBindMaps = 3u;           // GpuShadowMap per shadow map
+VGEO_CONSTANT uint32_t kShadowCullBindViews = 4u;          // GpuShadowCullView per view (map, mip)
+VGEO_CONSTANT uint32_t kShadowCullBindInstances = 5u;      // GpuShadowCullInstance per instance
+VGEO_CONSTANT uint32_t kShadowCullBindViewInstances = 6u;  // GpuCullInstance per (view, instance): object→light
+VGEO_CONSTANT uint32_t kShadowCullBindDrawOfPage = 7u;     // int per page of each view's mip: draw or −1
+VGEO_CONSTANT uint32_t kShadowCullBindWork = 8u;           // GpuShadowCullHeader, then (pair, block) items
+VGEO_CONSTANT uint32_t kShadowCullBindElements = 9u;       // GpuVisibleCluster per element (written)
+VGEO_CONSTANT uint32_t kShadowCullBindElementPage = 10u;   // draw per element (written)
+VGEO_CONSTANT uint32_t kShadowCullBindProvisional = 11u;   // uint per draw: 1 = provisional (written)
+VGEO_CONSTANT uint32_t kShadowCullBindRequests = 12u;      // uint per group (meshes concatenated): priority bits + 1
+VGEO_CONSTANT uint32_t kShadowCullBindingCount = 13u;
+
 // raster_split.comp.
 VGEO_CONSTANT uint32_t kSplitBindMeshes = 0u;           // GpuMesh[]
 VGEO_CONSTANT uint32_t kSplitBindInstances = 1u;        // GpuInstance[]

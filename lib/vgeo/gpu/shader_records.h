@@ -129,6 +129,53 @@ struct GpuShadowPage {
   uint32_t reserved;
 };
 
+// The shadow views' multi-view cull (shaders/shadow_cull.comp; virtual_shadow.cpp
+// cull_shadow_views, spec/shadow.md §5, §8). A view is a (map, mip) with pages to draw; a pair
+// is (view, instance), numbered view · instance_count + instance: its GpuCullInstance holds the
+// double object→light matrix (object_to_view) and max_axis_scale, and its GpuInstance (the
+// raster's) the float object→clip, so an element's instance field is its pair.
+struct GpuShadowCullView {
+  double texel;                // ortho: the mip's texel size S_k / R_m (ShadowView::texel)
+  uint32_t map;                // GpuShadowMap index
+  uint32_t r_m;                // the mip's side in texels (R_m)
+  uint32_t side;               // the mip's pages per side
+  uint32_t page_offset;        // first word of the view's draw-of-page table (side² words)
+  float pixels_per_unit_at_1;  // perspective: the view's LodView
+  float lod_z_near;
+  float tau_s;                 // τ_s
+  uint32_t reserved;
+};
+// An instance's world sphere (virtual_shadow.cpp shadow_instance_sphere, in double).
+struct GpuShadowCullInstance {
+  double center[3];
+  double radius;
+};
+// Workgroup size of both passes; a work item is one pair's clusters [block · 64, block · 64 + 64).
+#define VGEO_SHADOW_CULL_GROUP_SIZE 64
+VGEO_CONSTANT uint32_t kGpuShadowCullGroupSize = VGEO_SHADOW_CULL_GROUP_SIZE;
+VGEO_CONSTANT uint32_t kShadowCullInstances = 0u;  // mode: one invocation per pair (instance cull)
+VGEO_CONSTANT uint32_t kShadowCullArgs = 1u;       // mode: the cluster pass's dispatch arguments
+VGEO_CONSTANT uint32_t kShadowCullClusters = 2u;   // mode: one workgroup per work item (cluster cull)
+struct GpuShadowCullPush {
+  uint32_t mode;
+  uint32_t pair_count;        // views × instances
+  uint32_t instance_count;
+  uint32_t streamed;          // 1: a streamed frame (resident cut, provisional pages, requests)
+  float tau;                  // τ of the primary view (secondary_view_priority)
+  uint32_t element_capacity;  // elements the element buffers hold (more are counted, not written)
+  uint32_t work_capacity;     // work items the work buffer holds
+  uint32_t reserved;
+};
+// The work buffer's header: the instance pass appends kept pairs' work items (work_count),
+// the args pass writes the cluster pass's indirect dispatch (item = y · x-count + x), the
+// cluster pass counts its elements.
+struct GpuShadowCullHeader {
+  uint32_t work_count;
+  uint32_t dispatch_x, dispatch_y, dispatch_z;
+  uint32_t element_count;
+  uint32_t reserved[3];
+};
+
 // Per instance and frame, for shading (shade.cpp): object→view (column-major Mat4d::m) and
 // the normal matrix (cofactor matrix of the 3x3 part, sign-corrected; row-major 3x3).
 struct GpuShadeInstance {
@@ -229,6 +276,8 @@ static_assert(sizeof(GpuVisibleCluster) == 8);
 static_assert(sizeof(GpuRasterParams) == 48 && offsetof(GpuRasterParams, z_near) == 24 &&
               offsetof(GpuRasterParams, tile_count) == 32);
 static_assert(sizeof(GpuBigTriangle) == 32 && sizeof(GpuRasterTile) == 16);
+static_assert(sizeof(GpuShadowCullView) == 40 && offsetof(GpuShadowCullView, pixels_per_unit_at_1) == 24);
+static_assert(sizeof(GpuShadowCullInstance) == 32 && sizeof(GpuShadowCullPush) == 32 && sizeof(GpuShadowCullHeader) == 32);
 static_assert(sizeof(GpuShadeInstance) == 208 && offsetof(GpuShadeInstance, normal_matrix) == 128);
 static_assert(sizeof(GpuShadeCluster) == 16);
 static_assert(sizeof(GpuShadowPage) == 32 && offsetof(GpuShadowPage, z_near) == 16);

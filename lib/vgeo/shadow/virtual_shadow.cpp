@@ -423,18 +423,13 @@ std::vector<PageDraw> allocate_shadow_pages(ShadowFrame* frame, ShadowCache* cac
   return missing;
 }
 
-// One view of the multi-view pass: a (map, mip) with pages to draw.
-struct ShadowPageView {
-  uint32_t map = 0, mip = 0, r_m = 0, side = 0;  // side: pages per side at this mip
-  ShadowLod lod;
-  std::vector<int32_t> draw_of_page;  // per page of the mip: index into the frame's draws, or −1
-  std::vector<uint8_t> instance_kept; // instance overlaps a page to draw
-  std::vector<Mat4> object_to_clip;   // per instance (float, from the double product)
-};
-
-// Pages to draw whose pages a texel rectangle overlaps, reported to `emit(draw)`.
+// Pages to draw whose pages a texel rectangle overlaps, reported to `emit(draw)`. An empty
+// rectangle (a sphere wholly outside the mip: x1 < x0 or y1 < y0) overlaps none (without the
+// test, one wholly left of or above the mip, x1 or y1 = −1, would visit column or row 0, since
+// −1 / 128 is 0 in integer division).
 template <typename Emit>
-void for_pages_to_draw(const ShadowPageView& v, const TexelRect& rect, Emit&& emit) {
+void for_pages_to_draw(const ShadowView& v, const TexelRect& rect, Emit&& emit) {
+  if (rect.x1 < rect.x0 || rect.y1 < rect.y0) return;
   const int64_t t = kShadowPageTexels;
   for (int64_t py = rect.y0 / t; py <= rect.y1 / t; ++py)
     for (int64_t px = rect.x0 / t; px <= rect.x1 / t; ++px) {
@@ -443,40 +438,57 @@ void for_pages_to_draw(const ShadowPageView& v, const TexelRect& rect, Emit&& em
     }
 }
 
-// The views of this frame's draws (draws are in page-table order: grouped by map, then mip), with
-// instance culling next to the page test (seed: "Cull if doesn't overlap needed pages"): an
-// instance whose root sphere overlaps no page to draw of a view is not traversed for it.
-std::vector<ShadowPageView> make_page_views(const std::vector<ClusterDag>& meshes,
-                                            const std::vector<CullInstance>& instances, const ShadowFrame& frame,
-                                            const std::vector<PageDraw>& draws) {
-  std::vector<ShadowPageView> views;
+// The views of this frame's draws (draws are in page-table order: grouped by map, then mip).
+std::vector<ShadowView> make_page_views(const ShadowFrame& frame, const std::vector<PageDraw>& draws) {
+  std::vector<ShadowView> views;
   const uint32_t size = virtual_size(frame);
   for (uint32_t d = 0; d < draws.size(); ++d) {
     if (views.empty() || views.back().map != draws[d].map || views.back().mip != draws[d].mip) {
-      ShadowPageView v;
+      ShadowView v;
       v.map = draws[d].map;
       v.mip = draws[d].mip;
       v.r_m = size >> v.mip;
       v.side = frame.options.pages_per_side >> v.mip;
-      v.lod = shadow_lod(frame, frame.maps[v.map], v.mip);
+      const ShadowLod lod = shadow_lod(frame, frame.maps[v.map], v.mip);
+      v.ortho = lod.ortho;
+      v.texel = lod.texel;
+      v.pixels_per_unit_at_1 = lod.view.pixels_per_unit_at_1;
+      v.lod_z_near = lod.view.z_near;
+      v.tau_s = lod.tau_s;
       v.draw_of_page.assign(size_t(v.side) * v.side, -1);
       views.push_back(std::move(v));
     }
     views.back().draw_of_page[size_t(draws[d].y) * views.back().side + draws[d].x] = int32_t(d);
   }
-  for (ShadowPageView& v : views) {
-    const ShadowMapView& m = frame.maps[v.map];
-    v.object_to_clip = shadow_clip_matrices(instances, m);
-    v.instance_kept.assign(instances.size(), 0);
-    for (uint32_t i = 0; i < instances.size(); ++i) {
-      Vec3d c;
-      double r;
-      instance_world_sphere(meshes, instances[i], instances[i].object_to_world, &c, &r);
-      TexelRect rect = sphere_texel_rect(m, v.mip, size, transform_point(m.world_to_light, c), r);
-      for_pages_to_draw(v, rect, [&](uint32_t) { return !(v.instance_kept[i] = 1); });
-    }
-  }
   return views;
+}
+
+// The view's LOD test (the fields make_page_views copied from shadow_lod).
+ShadowLod view_lod(const ShadowView& v) {
+  ShadowLod lod;
+  lod.ortho = v.ortho;
+  lod.view.eye = {0, 0, 0};
+  lod.view.pixels_per_unit_at_1 = v.pixels_per_unit_at_1;
+  lod.view.z_near = v.lod_z_near;
+  lod.texel = v.texel;
+  lod.tau_s = v.tau_s;
+  return lod;
+}
+
+// Instance culling next to the page test (seed: "Cull if doesn't overlap needed pages"): an
+// instance whose root sphere overlaps no page to draw of a view is not traversed for it.
+std::vector<uint8_t> instances_kept(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                                    const ShadowFrame& frame, const ShadowView& v) {
+  const ShadowMapView& m = frame.maps[v.map];
+  std::vector<uint8_t> kept(instances.size(), 0);
+  for (uint32_t i = 0; i < instances.size(); ++i) {
+    Vec3d c;
+    double r;
+    shadow_instance_sphere(meshes, instances[i], &c, &r);
+    TexelRect rect = sphere_texel_rect(m, v.mip, virtual_size(frame), transform_point(m.world_to_light, c), r);
+    for_pages_to_draw(v, rect, [&](uint32_t) { return !(kept[i] = 1); });
+  }
+  return kept;
 }
 
 // The multi-view cull (seed: "Multi-view rendering"): one traversal of every instance's clusters
@@ -489,7 +501,7 @@ std::vector<ShadowPageView> make_page_views(const std::vector<ClusterDag>& meshe
 // provisional; each ideal-cut cluster overlapping a page to draw requests its group at the
 // lower priority of secondary_view_priority.
 void cull_page_views(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
-                     const ShadowFrame& frame, const std::vector<ShadowPageView>& views, size_t draw_count,
+                     const ShadowFrame& frame, const std::vector<ShadowView>& views, size_t draw_count,
                      const std::vector<std::vector<uint8_t>>* usable, ThreadPool& pool, ShadowDrawList* out) {
   struct Element {
     uint32_t draw, cluster;
@@ -500,6 +512,12 @@ void cull_page_views(const std::vector<ClusterDag>& meshes, const std::vector<Cu
     std::vector<GroupRequest> requests;
   };
   std::vector<InstanceOut> per_instance(instances.size());
+  std::vector<std::vector<uint8_t>> kept(views.size());
+  std::vector<ShadowLod> lods(views.size());
+  pool.parallel_for(views.size(), [&](size_t k) {
+    kept[k] = instances_kept(meshes, instances, frame, views[k]);
+    lods[k] = view_lod(views[k]);
+  });
   const uint32_t size = virtual_size(frame);
   const float tau = frame.options.threshold_px;
   pool.parallel_for(instances.size(), [&](size_t i) {
@@ -508,15 +526,17 @@ void cull_page_views(const std::vector<ClusterDag>& meshes, const std::vector<Cu
     const std::vector<uint8_t>* resident = usable && !(*usable)[inst.mesh].empty() ? &(*usable)[inst.mesh] : nullptr;
     const double scale = max_axis_scale(inst.object_to_world);
     InstanceOut& io = per_instance[i];
-    for (const ShadowPageView& v : views) {
-      if (!v.instance_kept[i]) continue;
+    for (size_t k = 0; k < views.size(); ++k) {
+      const ShadowView& v = views[k];
+      if (!kept[k][i]) continue;
+      const ShadowLod& lod = lods[k];
       const ShadowMapView& m = frame.maps[v.map];
       const Mat4d o2l = object_to_light(m, inst);
       for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
         const DagCluster& cl = dag.clusters[c];
-        const ShadowLodPx px = shadow_lod_px(v.lod, cl, o2l, scale);
-        const bool ideal = cut_selects(px.parent, px.lod, v.lod.tau_s);
-        const bool drawn = resident ? resident_lod_test(cl, *resident, px.parent, px.lod, v.lod.tau_s).drawn : ideal;
+        const ShadowLodPx px = shadow_lod_px(lod, cl, o2l, scale);
+        const bool ideal = cut_selects(px.parent, px.lod, lod.tau_s);
+        const bool drawn = resident ? resident_lod_test(cl, *resident, px.parent, px.lod, lod.tau_s).drawn : ideal;
         if (!ideal && !drawn) continue;
         Sphere b = inflate_for_subtree_test(sphere_to_view(o2l, scale, cl.bounds));
         TexelRect rect = sphere_texel_rect(m, v.mip, size, {b.center.x, b.center.y, b.center.z}, b.radius);
@@ -724,34 +744,67 @@ void mark_shadow_pages(const VisBuffer& vis, const ViewParams& view, const std::
   for (uint8_t n : frame->needed) frame->pages_marked += n;
 }
 
-ShadowDrawList begin_shadow_draw(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
-                                 const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame,
-                                 ShadowCache* cache, const std::vector<std::vector<uint8_t>>* usable) {
+ShadowDrawPlan plan_shadow_draw(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                               const std::vector<Light>& lights, ShadowFrame* frame, ShadowCache* cache) {
   invalidate_cache(meshes, instances, lights, *frame, cache);
   const std::vector<PageDraw> draws = allocate_shadow_pages(frame, cache);
   const size_t needed_texels = cache->slots.size() * size_t(kPageTexelCount);
   if (cache->texels.size() < needed_texels) cache->texels.resize(needed_texels, 0.0f);
   frame->pages_drawn = draws.size();
-  std::vector<ShadowPageView> views = make_page_views(meshes, instances, *frame, draws);
-  ShadowDrawList list;
-  cull_page_views(meshes, instances, *frame, views, draws.size(), usable, pool, &list);
-  for (const auto& clusters : list.clusters) frame->clusters_drawn += clusters.size();
-  list.pages.resize(draws.size());
-  for (uint32_t k = 0, d = 0; k < views.size(); ++k)
-    for (; d < draws.size() && draws[d].map == views[k].map && draws[d].mip == views[k].mip; ++d) {
-      ShadowPageDraw& p = list.pages[d];
+  ShadowDrawPlan plan;
+  plan.views = make_page_views(*frame, draws);
+  plan.pages.resize(draws.size());
+  for (uint32_t k = 0, d = 0; k < plan.views.size(); ++k)
+    for (; d < draws.size() && draws[d].map == plan.views[k].map && draws[d].mip == plan.views[k].mip; ++d) {
+      ShadowPageDraw& p = plan.pages[d];
       p = {draws[d].map, draws[d].mip, draws[d].x, draws[d].y, draws[d].slot, k, {}};
-      p.raster = shadow_raster_options(frame->maps[p.map], views[k].r_m);
+      p.raster = shadow_raster_options(frame->maps[p.map], plan.views[k].r_m);
       p.raster.window_x = p.x * kShadowPageTexels;
       p.raster.window_y = p.y * kShadowPageTexels;
     }
+  return plan;
+}
+
+void cull_shadow_views(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                       const ShadowFrame& frame, const ShadowDrawPlan& plan,
+                       const std::vector<std::vector<uint8_t>>* usable, ThreadPool& pool, ShadowDrawList* out) {
+  cull_page_views(meshes, instances, frame, plan.views, plan.pages.size(), usable, pool, out);
+}
+
+void finish_shadow_cull(const std::vector<CullInstance>& instances, ShadowDrawPlan plan, ShadowFrame* frame,
+                        ShadowCache* cache, ShadowDrawList* list) {
+  for (const auto& clusters : list->clusters) frame->clusters_drawn += clusters.size();
   // A provisional page (drawn coarser than its ideal cut while streaming) serves this frame
   // only: its slot is not kept for the next frame's cache (it is drawn into all the same).
-  for (size_t d = 0; d < draws.size(); ++d)
-    if (list.provisional[d]) cache->slots[draws[d].slot].used = false;
-  list.object_to_clip.reserve(views.size());
-  for (ShadowPageView& v : views) list.object_to_clip.push_back(std::move(v.object_to_clip));
+  for (size_t d = 0; d < plan.pages.size(); ++d)
+    if (list->provisional[d]) cache->slots[plan.pages[d].slot].used = false;
+  list->object_to_clip.clear();
+  list->object_to_clip.reserve(plan.views.size());
+  for (const ShadowView& v : plan.views) list->object_to_clip.push_back(shadow_clip_matrices(instances, frame->maps[v.map]));
+  list->pages = std::move(plan.pages);
+}
+
+ShadowDrawList begin_shadow_draw(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                                 const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame,
+                                 ShadowCache* cache, const std::vector<std::vector<uint8_t>>* usable) {
+  ShadowDrawPlan plan = plan_shadow_draw(meshes, instances, lights, frame, cache);
+  ShadowDrawList list;
+  cull_shadow_views(meshes, instances, *frame, plan, usable, pool, &list);
+  finish_shadow_cull(instances, std::move(plan), frame, cache, &list);
   return list;
+}
+
+void shadow_instance_sphere(const std::vector<ClusterDag>& meshes, const CullInstance& inst, Vec3d* center,
+                            double* radius) {
+  instance_world_sphere(meshes, inst, inst.object_to_world, center, radius);
+}
+
+Mat4d shadow_object_to_light(const ShadowFrame& frame, uint32_t map, const CullInstance& inst) {
+  return object_to_light(frame.maps[map], inst);
+}
+
+std::vector<Mat4> shadow_object_to_clip(const ShadowFrame& frame, uint32_t map, const std::vector<CullInstance>& instances) {
+  return shadow_clip_matrices(instances, frame.maps[map]);
 }
 
 std::vector<VisibleCluster> shadow_draw_clusters(const ShadowDrawList& list) {

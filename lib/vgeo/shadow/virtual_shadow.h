@@ -190,6 +190,44 @@ struct ShadowDrawList {
   std::vector<uint8_t> provisional;    // per page: drawn coarser than its ideal cut (streaming): not cached
   std::vector<GroupRequest> requests;  // streaming: the shadow views' ideal-cut groups (scene mesh ids)
 };
+// begin_shadow_draw's phases, so that a backend may run the multi-view cull elsewhere (the
+// Vulkan executor: shaders/shadow_cull.comp) and share the rest (spec/shadow.md §8):
+// plan_shadow_draw invalidates the cache and allocates slots (the page table, the counters but
+// clusters_drawn, cache->texels grown) and lists the pages to draw and their views;
+// cull_shadow_views is the reference's multi-view cull (the list's clusters, provisional pages
+// and requests); finish_shadow_cull counts the elements, drops provisional pages' slots from the
+// cache and adds the pages and their views' float object→clip matrices to the list.
+// One view of the multi-view pass (spec/shadow.md §5): a (map, mip) with pages to draw.
+struct ShadowView {
+  uint32_t map = 0, mip = 0;
+  uint32_t r_m = 0;   // the mip's side in texels
+  uint32_t side = 0;  // the mip's pages per side
+  // Its LOD test (spec/shadow.md §5): orthographic (texel size `texel`) or from the light's
+  // projection (LodView with the eye at the light-view origin).
+  bool ortho = false;
+  double texel = 0;
+  float pixels_per_unit_at_1 = 0, lod_z_near = 0;
+  float tau_s = 0;
+  std::vector<int32_t> draw_of_page;  // per page of the mip: its index in ShadowDrawPlan::pages, or −1
+};
+struct ShadowDrawPlan {
+  std::vector<ShadowPageDraw> pages;  // page-table order (ShadowPageDraw::view: index into views)
+  std::vector<ShadowView> views;
+};
+ShadowDrawPlan plan_shadow_draw(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                               const std::vector<Light>& lights, ShadowFrame* frame, ShadowCache* cache);
+void cull_shadow_views(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
+                       const ShadowFrame& frame, const ShadowDrawPlan& plan,
+                       const std::vector<std::vector<uint8_t>>* usable, ThreadPool& pool, ShadowDrawList* out);
+void finish_shadow_cull(const std::vector<CullInstance>& instances, ShadowDrawPlan plan, ShadowFrame* frame,
+                        ShadowCache* cache, ShadowDrawList* list);
+// What the multi-view cull reads per instance and view: the instance's world sphere (its mesh's
+// root sphere placed, in double; radius 0 for an empty mesh), its double object→light matrix for
+// map `map`, and per instance the float object→clip of map `map` (the raster's).
+void shadow_instance_sphere(const std::vector<ClusterDag>& meshes, const CullInstance& inst, Vec3d* center,
+                            double* radius);
+Mat4d shadow_object_to_light(const ShadowFrame& frame, uint32_t map, const CullInstance& inst);
+std::vector<Mat4> shadow_object_to_clip(const ShadowFrame& frame, uint32_t map, const std::vector<CullInstance>& instances);
 ShadowDrawList begin_shadow_draw(const std::vector<ClusterDag>& meshes, const std::vector<CullInstance>& instances,
                                  const std::vector<Light>& lights, ThreadPool& pool, ShadowFrame* frame,
                                  ShadowCache* cache, const std::vector<std::vector<uint8_t>>* usable = nullptr);
