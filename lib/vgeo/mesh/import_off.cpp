@@ -109,6 +109,9 @@ void import_off(const uint8_t* data, size_t size, const std::string& where, Impo
     if (kw.uvs)
       for (size_t k = tok.size() - 2; k < tok.size(); ++k) mesh.uvs.push_back(number(tok[k], where, line, "uv"));
   }
+  // Room for one triangle per face (the common case; the header bound above caps it at 1.5× the
+  // file's size): growing by doubling touched twice the final array and copied it on the way.
+  mesh.indices.reserve(3 * size_t(nf));
   PolygonSink sink(mesh);
   std::vector<uint32_t> ring;
   for (int64_t f = 0; f < nf; ++f) {
