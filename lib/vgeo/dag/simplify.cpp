@@ -561,15 +561,12 @@ BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& bef
                                 const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
   // Locked welded vertices of `after` in one open addressing set (load ≤ 1/2), keyed
   // (v << 32 | v); the shared edges of both sides as sorted key lists with multiplicity.
-  // Only locked ones are looked at, and they lie on the group border (a minority).
+  // Only locked ones are looked at, and they lie on the group border (a minority). `after`'s
+  // edges matter only where they are shared edges of `before`, so they are looked up in that
+  // short list rather than in the block's `shared_edges`.
   std::vector<uint64_t> vertex_keys, after_shared, before_shared;
-  auto is_shared = [&](uint32_t a, uint32_t b) {
-    return a != b && locked[b] && std::binary_search(shared_edges.begin(), shared_edges.end(), edge_key(a, b));
-  };
-  for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
-    if (!locked[a]) return;
-    vertex_keys.push_back((uint64_t(a) << 32) | a);
-    if (is_shared(a, b)) after_shared.push_back(edge_key(a, b));
+  for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t) {
+    if (locked[a]) vertex_keys.push_back((uint64_t(a) << 32) | a);
   });
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
@@ -587,12 +584,18 @@ BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& bef
     if (!preserved || !locked[a]) return;
     // Every locked vertex of `before` is used by `after`.
     if (table[slot((uint64_t(a) << 32) | a)] == kEmpty) preserved = false;
-    if (is_shared(a, b)) before_shared.push_back(edge_key(a, b));
+    if (a != b && locked[b] && std::binary_search(shared_edges.begin(), shared_edges.end(), edge_key(a, b)))
+      before_shared.push_back(edge_key(a, b));
   });
   if (!preserved) return BorderState::kBroken;
+  std::sort(before_shared.begin(), before_shared.end());
+  if (!before_shared.empty())
+    for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
+      if (a != b && locked[a] && locked[b] && std::binary_search(before_shared.begin(), before_shared.end(), edge_key(a, b)))
+        after_shared.push_back(edge_key(a, b));
+    });
   // Every shared edge of `before` is an edge of `after`; one used once (a manifold border)
   // should stay used once: more uses are a fold over the border (spec/dag.md §2.3).
-  std::sort(before_shared.begin(), before_shared.end());
   std::sort(after_shared.begin(), after_shared.end());
   BorderState state = BorderState::kKept;
   for (size_t i = 0; i < before_shared.size();) {

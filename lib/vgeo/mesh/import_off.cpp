@@ -19,21 +19,39 @@ struct OffKeyword {
   bool uvs = false, colors = false, normals = false;
 };
 
+inline bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
+
 // Reads the next non-empty line with comments removed into `tokens`; false at the end.
+// One pass over the line's bytes (tokens end at a blank, the line's end or a '#', which
+// starts a comment to the end of the line): the separate line, comment and token scans cost
+// a tenth of a 1M-triangle build.
 bool next_record(TextCursor& in, std::vector<std::string_view>& tokens, uint64_t& line) {
-  while (!in.at_end()) {
+  const char* p = in.p;
+  const char* const end = in.end;
+  while (p < end) {
     line = in.line;
-    std::string_view rest = in.rest_of_line();
-    const size_t hash = rest.find('#');
-    if (hash != std::string_view::npos) rest = rest.substr(0, hash);
     tokens.clear();
-    TextCursor lc(reinterpret_cast<const uint8_t*>(rest.data()), rest.size());
-    for (std::string_view t = lc.token_on_line(); !t.empty(); t = lc.token_on_line()) {
-      if (tokens.size() == kMaxLineTokens) break;
-      tokens.push_back(t);
+    for (;;) {
+      while (p < end && is_blank(*p)) ++p;
+      if (p >= end || *p == '\n') break;
+      if (*p == '#') {
+        while (p < end && *p != '\n') ++p;
+        break;
+      }
+      const char* b = p;
+      while (p < end && !is_blank(*p) && *p != '\n' && *p != '#') ++p;
+      if (tokens.size() < kMaxLineTokens) tokens.push_back({b, size_t(p - b)});
     }
-    if (!tokens.empty()) return true;
+    if (p < end) {  // past the line break
+      ++p;
+      ++in.line;
+    }
+    if (!tokens.empty()) {
+      in.p = p;
+      return true;
+    }
   }
+  in.p = p;
   return false;
 }
 
