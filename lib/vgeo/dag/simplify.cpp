@@ -481,14 +481,38 @@ void drop_reversed_pairs(const WeldedMesh& welded, TriangleSet& triangles) {
     if (odd) std::swap(key[1], key[2]);
     faces.push_back({key, odd, uint32_t(t)});
   }
+  // A reversed pair needs two faces on one key, which simplified groups almost never have: an
+  // open addressing set of the keys (load ≤ 1/2) says whether any key repeats before anything
+  // is sorted (the sort was most of this function's cost).
+  auto same_key = [](const Face& x, const Face& y) {
+    return x.key[0] == y.key[0] && x.key[1] == y.key[1] && x.key[2] == y.key[2];
+  };
+  {
+    size_t slots = 16;
+    while (slots < 2 * faces.size()) slots <<= 1;
+    std::vector<uint32_t> table(slots, kNone);  // face index
+    bool repeated = false;
+    for (size_t i = 0; i < faces.size() && !repeated; ++i) {
+      const std::array<uint32_t, 3>& k = faces[i].key;
+      uint64_t h = (uint64_t(k[0]) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(k[1]) * 0xC2B2AE3D27D4EB4Full) ^
+                   (uint64_t(k[2]) * 0x165667B19E3779F9ull);
+      size_t slot = size_t(h ^ (h >> 29)) & (slots - 1);
+      while (table[slot] != kNone && !same_key(faces[table[slot]], faces[i])) slot = (slot + 1) & (slots - 1);
+      if (table[slot] != kNone) repeated = true;
+      table[slot] = uint32_t(i);
+    }
+    if (!repeated) return;
+  }
   std::sort(faces.begin(), faces.end(), [](const Face& x, const Face& y) {
-    return x.key != y.key ? x.key < y.key : (x.odd != y.odd ? x.odd < y.odd : x.t < y.t);
+    for (int k = 0; k < 3; ++k)
+      if (x.key[k] != y.key[k]) return x.key[k] < y.key[k];
+    return x.odd != y.odd ? x.odd < y.odd : x.t < y.t;
   });
   std::vector<uint8_t> drop(n, 0);
   bool any = false;
   for (size_t i = 0; i < faces.size();) {
     size_t j = i;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
+    while (j < faces.size() && same_key(faces[j], faces[i])) ++j;
     size_t even_end = i;
     while (even_end < j && !faces[even_end].odd) ++even_end;
     // The first k of each orientation pair up (sorted by triangle: deterministic).
