@@ -358,7 +358,6 @@ struct Block {
   std::vector<uint32_t> items;                // indices into `active`, ascending
   std::vector<std::vector<uint32_t>> groups;  // members as cluster indices
   std::vector<uint64_t> shared_edges;         // sorted welded edge keys
-  EdgeKeySet shared_set{{}};                  // the same keys, for the border checks
   std::vector<GroupResult> results;
   double seconds_group = 0, seconds_locks = 0;
 };
@@ -627,7 +626,6 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
         std::binary_search(L.cross_edges.begin(), L.cross_edges.end(), e))
       blk.shared_edges.push_back(e);
   });
-  blk.shared_set = EdgeKeySet(blk.shared_edges);
   blk.results.resize(blk.groups.size());
   blk.seconds_locks = steady_seconds() - tl;
 }
@@ -670,7 +668,7 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
       simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target, s.fins);
     }
     if (!reduces_enough(merged, simplified.triangles)) break;
-    const BorderState border = locked_border_state(s.welded, merged, simplified.triangles, s.locks.locked, blk.shared_set);
+    const BorderState border = locked_border_state(s.welded, merged, simplified.triangles, s.locks.locked, blk.shared_edges);
     if (border == BorderState::kBroken || simplification_folds(s.welded, merged, simplified.triangles)) continue;
     sealed = border == BorderState::kKept;
     if (!sealed && !have_folded) folded_over_border = simplified, have_folded = true;

@@ -245,30 +245,13 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
 bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after);
 
 // The border check of spec/dag.md §2.3. kBroken: some locked welded vertex of `before` is
-// not used by `after`, or some welded edge of `before` in `shared_edges` (edge
+// not used by `after`, or some welded edge of `before` listed in `shared_edges` (sorted edge
 // keys of edges also used outside the group) is not an edge of `after`. kFoldedOver: not
 // broken, but a shared edge `before` uses once is used more often by `after` (folded over
 // the border; parity is the fold check's business). kKept: neither.
 enum class BorderState : uint8_t { kBroken, kFoldedOver, kKept };
-// Welded edge keys (edge_key) in an open addressing set (load ≤ 1/2): the border check asks
-// for every locked edge of a group whether it is shared, and a binary search of a block's
-// sorted list (tens of thousands of keys) cost a cache miss per step.
-struct EdgeKeySet {
-  std::vector<uint64_t> slots;  // a key, or kEmptyKey
-  int shift = 60;               // hash = top log2(slots.size()) bits of a multiplicative hash
-  static constexpr uint64_t kEmptyKey = ~uint64_t(0);  // no edge key (a < b) equals it
-  explicit EdgeKeySet(const std::vector<uint64_t>& keys);
-  bool contains(uint64_t key) const {
-    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
-    while (slots[h] != kEmptyKey) {
-      if (slots[h] == key) return true;
-      h = (h + 1) & (slots.size() - 1);
-    }
-    return false;
-  }
-};
 BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                                const std::vector<uint8_t>& locked, const EdgeKeySet& shared_edges);
+                                const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges);
 
 // Spheres, computed in double and rounded outward so containment survives float rounding
 // (bounding_spheres.cpp).

@@ -581,19 +581,8 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
   return false;
 }
 
-EdgeKeySet::EdgeKeySet(const std::vector<uint64_t>& keys) {
-  size_t n = 16;
-  while (n < 2 * keys.size()) n <<= 1, --shift;
-  slots.assign(n, kEmptyKey);
-  for (uint64_t key : keys) {
-    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
-    while (slots[h] != kEmptyKey && slots[h] != key) h = (h + 1) & (n - 1);
-    slots[h] = key;
-  }
-}
-
 BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                                const std::vector<uint8_t>& locked, const EdgeKeySet& shared_edges) {
+                                const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
   // Locked welded vertices of `after` in one open addressing set (load ≤ 1/2), keyed
   // (v << 32 | v); the shared edges of both sides as sorted key lists with multiplicity.
   // Only locked ones are looked at, and they lie on the group border (a minority). `after`'s
@@ -619,7 +608,7 @@ BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& bef
     if (!preserved || !locked[a]) return;
     // Every locked vertex of `before` is used by `after`.
     if (table[slot((uint64_t(a) << 32) | a)] == kEmpty) preserved = false;
-    if (a != b && locked[b] && shared_edges.contains(edge_key(a, b)))
+    if (a != b && locked[b] && std::binary_search(shared_edges.begin(), shared_edges.end(), edge_key(a, b)))
       before_shared.push_back(edge_key(a, b));
   });
   if (!preserved) return BorderState::kBroken;
