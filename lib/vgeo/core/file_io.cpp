@@ -47,19 +47,21 @@ int open_regular_file(const std::string& path, uint64_t* size) {
   return fd;
 }
 
-template <class Bytes>
-Bytes read_whole(const std::string& path, uint64_t max_bytes) {
+// Reads the whole file into the buffer `allocate(size)` returns (the size as the file system
+// reports it, capped above before anything is allocated).
+template <class Allocate>
+void read_whole(const std::string& path, uint64_t max_bytes, Allocate&& allocate) {
   ReadOnlyFile file(path);
   if (file.size() > max_bytes)
     fail(kErrFileTooLarge, path,
          "file of " + std::to_string(file.size()) + " bytes exceeds the limit of " + std::to_string(max_bytes), kExitBadInput);
-  Bytes bytes(size_t(file.size()), 0);  // the size as the file system reports it, capped above
-  const int64_t got = read_at(file.fd(), bytes.data(), bytes.size(), 0);
+  const size_t size = size_t(file.size());
+  uint8_t* dst = allocate(size);
+  const int64_t got = read_at(file.fd(), dst, size, 0);
   if (got < 0) read_fail(path, "read failed", errno);
   uint8_t extra;
-  if (uint64_t(got) != bytes.size() || read_at(file.fd(), &extra, 1, bytes.size()) != 0)
+  if (uint64_t(got) != size || read_at(file.fd(), &extra, 1, size) != 0)
     read_fail(path, "the file changed size while being read", 0);
-  return bytes;
 }
 
 // Temporary file next to `path`: written through a buffer, then committed (fsync, rename,
@@ -166,10 +168,32 @@ int64_t read_at(int fd, void* dst, size_t size, uint64_t offset) {
 }
 
 std::vector<uint8_t> read_file(const std::string& path, uint64_t max_bytes) {
-  return read_whole<std::vector<uint8_t>>(path, max_bytes);
+  std::vector<uint8_t> bytes;
+  read_whole(path, max_bytes, [&](size_t size) {
+    bytes.resize(size);
+    return bytes.data();
+  });
+  return bytes;
 }
 
-std::string read_text_file(const std::string& path, uint64_t max_bytes) { return read_whole<std::string>(path, max_bytes); }
+FileBytes read_file_bytes(const std::string& path, uint64_t max_bytes) {
+  FileBytes bytes;
+  read_whole(path, max_bytes, [&](size_t size) {
+    bytes.data.reset(new uint8_t[size]);  // default-initialised: the read fills it
+    bytes.size = size;
+    return bytes.data.get();
+  });
+  return bytes;
+}
+
+std::string read_text_file(const std::string& path, uint64_t max_bytes) {
+  std::string text;
+  read_whole(path, max_bytes, [&](size_t size) {
+    text.resize(size);
+    return reinterpret_cast<uint8_t*>(text.data());
+  });
+  return text;
+}
 
 ReadOnlyFile::ReadOnlyFile(const std::string& path) : path_(path) { fd_ = open_regular_file(path, &size_); }
 

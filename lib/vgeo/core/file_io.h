@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -37,6 +38,13 @@ inline constexpr uint64_t kAnyFileSize = UINT64_MAX;
 // is allocated (FILE_TOO_LARGE); FILE_NOT_FOUND when the path does not exist; FILE_READ_ERROR
 // when it is not a regular file, cannot be opened or read, or changed size while being read.
 std::vector<uint8_t> read_file(const std::string& path, uint64_t max_bytes = kMaxReadBytes);
+// The same in a buffer that is not zero-filled before the read (mesh inputs of tens of MB, where
+// the fill cost as much as the read itself).
+struct FileBytes {
+  std::unique_ptr<uint8_t[]> data;
+  size_t size = 0;
+};
+FileBytes read_file_bytes(const std::string& path, uint64_t max_bytes = kMaxReadBytes);
 // The same, as text (no transcoding).
 std::string read_text_file(const std::string& path, uint64_t max_bytes = kMaxReadBytes);
 

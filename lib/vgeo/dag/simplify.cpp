@@ -481,14 +481,38 @@ void drop_reversed_pairs(const WeldedMesh& welded, TriangleSet& triangles) {
     if (odd) std::swap(key[1], key[2]);
     faces.push_back({key, odd, uint32_t(t)});
   }
+  // A reversed pair needs two faces on one key, which simplified groups almost never have: an
+  // open addressing set of the keys (load ≤ 1/2) says whether any key repeats before anything
+  // is sorted (the sort was most of this function's cost).
+  auto same_key = [](const Face& x, const Face& y) {
+    return x.key[0] == y.key[0] && x.key[1] == y.key[1] && x.key[2] == y.key[2];
+  };
+  {
+    size_t slots = 16;
+    while (slots < 2 * faces.size()) slots <<= 1;
+    std::vector<uint32_t> table(slots, kNone);  // face index
+    bool repeated = false;
+    for (size_t i = 0; i < faces.size() && !repeated; ++i) {
+      const std::array<uint32_t, 3>& k = faces[i].key;
+      uint64_t h = (uint64_t(k[0]) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(k[1]) * 0xC2B2AE3D27D4EB4Full) ^
+                   (uint64_t(k[2]) * 0x165667B19E3779F9ull);
+      size_t slot = size_t(h ^ (h >> 29)) & (slots - 1);
+      while (table[slot] != kNone && !same_key(faces[table[slot]], faces[i])) slot = (slot + 1) & (slots - 1);
+      if (table[slot] != kNone) repeated = true;
+      table[slot] = uint32_t(i);
+    }
+    if (!repeated) return;
+  }
   std::sort(faces.begin(), faces.end(), [](const Face& x, const Face& y) {
-    return x.key != y.key ? x.key < y.key : (x.odd != y.odd ? x.odd < y.odd : x.t < y.t);
+    for (int k = 0; k < 3; ++k)
+      if (x.key[k] != y.key[k]) return x.key[k] < y.key[k];
+    return x.odd != y.odd ? x.odd < y.odd : x.t < y.t;
   });
   std::vector<uint8_t> drop(n, 0);
   bool any = false;
   for (size_t i = 0; i < faces.size();) {
     size_t j = i;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
+    while (j < faces.size() && same_key(faces[j], faces[i])) ++j;
     size_t even_end = i;
     while (even_end < j && !faces[even_end].odd) ++even_end;
     // The first k of each orientation pair up (sorted by triangle: deterministic).
@@ -561,15 +585,12 @@ BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& bef
                                 const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
   // Locked welded vertices of `after` in one open addressing set (load ≤ 1/2), keyed
   // (v << 32 | v); the shared edges of both sides as sorted key lists with multiplicity.
-  // Only locked ones are looked at, and they lie on the group border (a minority).
+  // Only locked ones are looked at, and they lie on the group border (a minority). `after`'s
+  // edges matter only where they are shared edges of `before`, so they are looked up in that
+  // short list rather than in the block's `shared_edges`.
   std::vector<uint64_t> vertex_keys, after_shared, before_shared;
-  auto is_shared = [&](uint32_t a, uint32_t b) {
-    return a != b && locked[b] && std::binary_search(shared_edges.begin(), shared_edges.end(), edge_key(a, b));
-  };
-  for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
-    if (!locked[a]) return;
-    vertex_keys.push_back((uint64_t(a) << 32) | a);
-    if (is_shared(a, b)) after_shared.push_back(edge_key(a, b));
+  for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t) {
+    if (locked[a]) vertex_keys.push_back((uint64_t(a) << 32) | a);
   });
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
@@ -587,12 +608,18 @@ BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& bef
     if (!preserved || !locked[a]) return;
     // Every locked vertex of `before` is used by `after`.
     if (table[slot((uint64_t(a) << 32) | a)] == kEmpty) preserved = false;
-    if (is_shared(a, b)) before_shared.push_back(edge_key(a, b));
+    if (a != b && locked[b] && std::binary_search(shared_edges.begin(), shared_edges.end(), edge_key(a, b)))
+      before_shared.push_back(edge_key(a, b));
   });
   if (!preserved) return BorderState::kBroken;
+  std::sort(before_shared.begin(), before_shared.end());
+  if (!before_shared.empty())
+    for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
+      if (a != b && locked[a] && locked[b] && std::binary_search(before_shared.begin(), before_shared.end(), edge_key(a, b)))
+        after_shared.push_back(edge_key(a, b));
+    });
   // Every shared edge of `before` is an edge of `after`; one used once (a manifold border)
   // should stay used once: more uses are a fold over the border (spec/dag.md §2.3).
-  std::sort(before_shared.begin(), before_shared.end());
   std::sort(after_shared.begin(), after_shared.end());
   BorderState state = BorderState::kKept;
   for (size_t i = 0; i < before_shared.size();) {

@@ -61,29 +61,43 @@ WeldedMesh weld_positions(const Mesh& mesh) {
 void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
                          uint64_t* all_edges, std::vector<uint64_t>* open_keys) {
   // Uses per distinct welded edge in an open addressing table (load ≤ 1/2) instead of a
-  // sort of all keys: only the open keys (a minority) are sorted.
+  // sort of all keys: only the open keys (a minority) are sorted. The table and the list of
+  // filled slots live on the stack up to kStackSlots (every cluster: 6 × 128 triangles fit),
+  // so the per-cluster pass allocates nothing and visits only the filled slots.
+  constexpr size_t kStackSlots = 1024;
   const size_t n = cluster.triangle_count();
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
   while (slots < 6 * n) slots <<= 1, --shift;
   constexpr uint64_t kEmpty = ~uint64_t(0);  // no edge key (a < b) equals it
-  std::vector<uint64_t> table(slots, kEmpty);
-  std::vector<uint32_t> uses(slots, 0);
-  uint64_t all = 0;
+  uint64_t stack_table[kStackSlots];
+  uint32_t stack_uses[kStackSlots], stack_filled[kStackSlots];
+  std::vector<uint64_t> heap_table;
+  std::vector<uint32_t> heap_uses, heap_filled;
+  uint64_t* table = stack_table;
+  uint32_t *uses = stack_uses, *filled = stack_filled;
+  if (slots > kStackSlots) {
+    heap_table.resize(slots);
+    heap_uses.resize(slots);
+    heap_filled.resize(slots);
+    table = heap_table.data(), uses = heap_uses.data(), filled = heap_filled.data();
+  }
+  std::fill(table, table + slots, kEmpty);
+  size_t all = 0;
   for_each_welded_edge(welded, cluster.corners, [&](uint32_t a, uint32_t b) {
     if (a == b) return;
     const uint64_t key = edge_key(a, b);
     size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
     while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
-    if (table[h] == kEmpty) table[h] = key, ++all;
+    if (table[h] == kEmpty) table[h] = key, uses[h] = 0, filled[all++] = uint32_t(h);
     ++uses[h];
   });
   uint64_t open = 0;
   const size_t first_open = open_keys ? open_keys->size() : 0;
-  for (size_t h = 0; h < slots; ++h)
-    if (uses[h] == 1) {
+  for (size_t i = 0; i < all; ++i)
+    if (uses[filled[i]] == 1) {
       ++open;
-      if (open_keys) open_keys->push_back(table[h]);
+      if (open_keys) open_keys->push_back(table[filled[i]]);
     }
   if (open_keys) std::sort(open_keys->begin() + ptrdiff_t(first_open), open_keys->end());
   *open_edges = open;

@@ -82,8 +82,8 @@ ImportResult import_scene(const std::string& path, const ImportOptions& options)
     std::string base_dir = std::filesystem::path(path).parent_path().string();
     detail::import_gltf(bytes.data(), bytes.size(), &bytes, ext == "glb", path, base_dir, true, r);
   } else if (is_mesh_file_format(ext)) {
-    const std::vector<uint8_t> bytes = read_file(path);
-    import_mesh_file(bytes.data(), bytes.size(), ext, path, r);
+    const FileBytes bytes = read_file_bytes(path);
+    import_mesh_file(bytes.data.get(), bytes.size, ext, path, r);
   } else {
     fail("MESH_FORMAT_UNSUPPORTED", path, "unknown extension '." + ext + "' (expected .gltf .glb .obj .ply .off .stl)");
   }
