@@ -49,6 +49,9 @@ struct CanonicalCluster {
 
 // Quantizes cluster `c` of `dag` and puts it in canonical order (material-sorted
 // generalized strips, vertices by first use). Throws FORMAT_ENCODE on unrepresentable input.
+// Writes every field up to the cluster's counts (vertex, triangle, reference and run counts;
+// all kMaxChannels channels' values, min and bits); entries past the counts are left as they
+// were (no reader reads them).
 void canonicalize_cluster(const ClusterDag& dag, uint32_t c, const MeshQuantization& q,
                           CanonicalCluster* out);
 // Fills min/bits from values (the encoder side; the disk parser checks them instead).
