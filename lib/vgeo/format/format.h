@@ -83,7 +83,7 @@ inline constexpr int kMinZstdLevel = 1, kMaxZstdLevel = 22;
 // stops (docs/acceptance/issue23_encspeed.md). Measured on the 1M sphere, bunny00 and armadillo:
 // the hull saves 0.9-22 MB per CPU-second up to level 6 (files 1.06-1.07x the smallest, 6-170 ms
 // of compression), then 0.20-0.35 MB/s to level 13 (optimal parsing: 1.01x for 60 ms-1.64 s, the
-// sphere's 1.64 s being half the peer builder's whole build), and under 0.07 MB/s beyond; any
+// sphere's 1.64 s being over half the peer builder's whole build), and under 0.07 MB/s beyond; any
 // threshold from 0.35 to 0.9 MB/s picks 6 on all three. `--zstd-level 13` (or 19) buys the
 // 5% smaller file where build CPU matters less.
 inline constexpr int kDefaultZstdLevel = 6;
