@@ -79,13 +79,13 @@ enum class Compression : uint32_t { kNone = 0, kZstd = 1, kLz4 = 2 };
 inline constexpr int kMinZstdLevel = 1, kMaxZstdLevel = 22;
 // Default page and metadata level, from `vgeo bench compression` by this rule: walk the lower
 // convex hull of (compression CPU, file bytes) over the levels from the cheapest, and stop before
-// the first step that saves under 0.5 MB per CPU-second; the default is where every curve mesh
-// stops (docs/acceptance/issue23_encspeed.md). Measured on the 1M sphere, bunny00 and armadillo:
-// the hull saves 0.9-22 MB per CPU-second up to level 6 (files 1.06-1.07x the smallest, 6-170 ms
-// of compression), then 0.20-0.35 MB/s to level 13 (optimal parsing: 1.01x for 60 ms-1.64 s, the
-// sphere's 1.64 s being over half the peer builder's whole build), and under 0.07 MB/s beyond; any
-// threshold from 0.35 to 0.9 MB/s picks 6 on all three. `--zstd-level 13` (or 19) buys the
-// 5% smaller file where build CPU matters less.
+// the first step that saves under 0.5 MB per CPU-second; the default is the lowest of the curve
+// meshes' stops (docs/acceptance/issue23_encspeed.md). Three runs on the 1M sphere, bunny00 and
+// armadillo: the hull saves >= 0.85 MB per CPU-second up to level 6 (files 1.06-1.07x the
+// smallest, 6-170 ms of compression), then 0.20-0.35 MB/s to level 13 on the sphere and bunny00
+// (optimal parsing: 1.01x for 1.2-1.6 s on the sphere, over a third of the peer builder's whole
+// build), and under 0.17 MB/s beyond. `--zstd-level 13` (or 19) buys the ~5% smaller file where
+// build CPU matters less.
 inline constexpr int kDefaultZstdLevel = 6;
 
 struct FormatOptions {
