@@ -83,12 +83,15 @@ namespace format_detail {
 void encode_fail(const std::string& what) { fail(kErrEncode, "<encoder>", what); }
 
 // ---- compression (declared in page_codec.h: the encoder, the decoder and format_edit.h) ----
-std::vector<uint8_t> compress(const std::vector<uint8_t>& raw, Compression c, int level) {
+namespace {
+// zstd with `ctx` (a reused context) or, when null, a fresh one (ZSTD_compress): same bytes.
+std::vector<uint8_t> compress_with(ZSTD_CCtx* ctx, const std::vector<uint8_t>& raw, Compression c, int level) {
   std::vector<uint8_t> out;
   if (c == Compression::kNone) return raw;
   if (c == Compression::kZstd) {
     out.resize(ZSTD_compressBound(raw.size()));
-    const size_t n = ZSTD_compress(out.data(), out.size(), raw.data(), raw.size(), level);
+    const size_t n = ctx ? ZSTD_compressCCtx(ctx, out.data(), out.size(), raw.data(), raw.size(), level)
+                         : ZSTD_compress(out.data(), out.size(), raw.data(), raw.size(), level);
     if (ZSTD_isError(n)) encode_fail(std::string("zstd: ") + ZSTD_getErrorName(n));
     out.resize(n);
   } else {
@@ -99,6 +102,38 @@ std::vector<uint8_t> compress(const std::vector<uint8_t>& raw, Compression c, in
     out.resize(size_t(n));
   }
   return out;
+}
+}  // namespace
+
+std::vector<uint8_t> compress(const std::vector<uint8_t>& raw, Compression c, int level) {
+  return compress_with(nullptr, raw, c, level);
+}
+
+CompressContexts::~CompressContexts() {
+  for (ZSTD_CCtx* ctx : idle_) ZSTD_freeCCtx(ctx);
+}
+
+std::vector<uint8_t> CompressContexts::compress(const std::vector<uint8_t>& raw, Compression c, int level) {
+  if (c != Compression::kZstd) return compress_with(nullptr, raw, c, level);
+  ZSTD_CCtx* ctx = nullptr;
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (!idle_.empty()) {
+      ctx = idle_.back();
+      idle_.pop_back();
+    }
+  }
+  if (!ctx && !(ctx = ZSTD_createCCtx())) encode_fail("zstd: cannot allocate a compression context");
+  // Back to the idle list whether or not compression throws.
+  struct Return {
+    CompressContexts* self;
+    ZSTD_CCtx* ctx;
+    ~Return() {
+      const std::lock_guard<std::mutex> lock(self->mutex_);
+      self->idle_.push_back(ctx);
+    }
+  } give_back{this, ctx};
+  return compress_with(ctx, raw, c, level);
 }
 
 void decompress(const uint8_t* src, size_t src_size, Compression c, uint8_t* dst, size_t raw_size,
@@ -279,15 +314,20 @@ std::vector<uint32_t> place_clusters(const ClusterDag& dag) {
 
 // Clusters are canonicalized in page order, a batch at a time, and each page is encoded as soon
 // as it is complete, so only the canonical clusters of the open pages are held (not the whole
-// mesh's: 139 MB on a 1M-triangle sphere). 4096 clusters ≈ 80 pages of work per batch for the
-// pool, about 10 MB of canonical clusters.
-constexpr size_t kCanonicalBatchClusters = 4096;
+// mesh's: 139 MB on a 1M-triangle sphere). A batch is this many clusters per thread of the pool:
+// a full 128 KiB page holds ~200 clusters of a 1M-triangle sphere, so 512 per thread is ~2.5
+// pages of work per thread, and the window (a CanonicalCluster is ~8.8 KB) stays ~4.5 MB per
+// thread. It was 4096 clusters whatever the thread count: 36 MB faulted in at one thread,
+// ~17,700 page faults, ~0.1 CPU-s on that sphere (docs/acceptance/issue23_encspeed.md). The
+// batch size never changes the bytes (page breaking runs over the clusters in page order).
+constexpr size_t kCanonicalBatchClustersPerThread = 512;
 constexpr uint64_t kPageHeadMem = 4, kPageHeadRaw = 12;  // cluster count; magic, count, ref total
 
 // One page: disk form, memory form (its size goes to the page table), compression, CRC.
 // `clusters` are the page's canonical clusters in page order.
 PageOut encode_page(const std::vector<const CanonicalCluster*>& clusters, const PageRange& range,
-                    const MeshQuantization& q, uint32_t mesh, const FormatOptions& o, bool want_report) {
+                    const MeshQuantization& q, uint32_t mesh, const FormatOptions& o, bool want_report,
+                    CompressContexts& compressor) {
   PageOut p;
   p.mesh = mesh;
   p.clusters = uint32_t(range.count);
@@ -298,7 +338,7 @@ PageOut encode_page(const std::vector<const CanonicalCluster*>& clusters, const 
          mem.size() * 4 == range.memory_bytes);
   p.raw = uint32_t(raw.size());
   p.memory = uint32_t(mem.size() * 4);
-  p.stored = compress(raw, o.compression, o.zstd_level);
+  p.stored = compressor.compress(raw, o.compression, o.zstd_level);
   p.crc = crc32c(p.stored.data(), p.stored.size());
   if (want_report) {
     p.disk_raw.cluster_headers = double(streams.headers.size());
@@ -332,10 +372,11 @@ struct PageStream {
   uint32_t mesh = 0;
   bool want_report = false;
   ThreadPool& pool;
+  CompressContexts& compressor;
 
   PageStream(const ClusterDag& d, const std::vector<uint32_t>& s, const MeshQuantization& mq, const FormatOptions& fo,
-             uint32_t m, bool report, ThreadPool& tp)
-      : dag(d), slots(s), q(mq), o(fo), mesh(m), want_report(report), pool(tp) {}
+             uint32_t m, bool report, ThreadPool& tp, CompressContexts& cc)
+      : dag(d), slots(s), q(mq), o(fo), mesh(m), want_report(report), pool(tp), compressor(cc) {}
 
   // Canonical clusters of page-order positions [window_first, window_first + window_count).
   // The storage only grows and is reused batch after batch (canonicalize_cluster overwrites
@@ -387,7 +428,7 @@ struct PageStream {
       std::vector<const CanonicalCluster*> clusters;
       clusters.reserve(range.count);
       for (size_t k = 0; k < range.count; ++k) clusters.push_back(&at(range.first + k));
-      pages[base + i] = encode_page(clusters, range, q, mesh, o, want_report);
+      pages[base + i] = encode_page(clusters, range, q, mesh, o, want_report, compressor);
     });
     complete.clear();
   }
@@ -402,8 +443,13 @@ struct PageStream {
   }
 
   void run() {
-    for (size_t first = 0; first < slots.size(); first += kCanonicalBatchClusters) {
-      const size_t count = std::min(kCanonicalBatchClusters, slots.size() - first);
+    const size_t batch = kCanonicalBatchClustersPerThread * pool.size();
+    // Room for a batch plus the open page's clusters carried over (fewer than a batch unless a
+    // page holds more clusters than a batch): the window then grows without reallocating, which
+    // copied every canonical cluster held (~55 ms of memcpy and its page faults on the sphere).
+    window.reserve(2 * batch);
+    for (size_t first = 0; first < slots.size(); first += batch) {
+      const size_t count = std::min(batch, slots.size() - first);
       canonicalize_batch(first, count);
       break_batch(first, count);
       encode_complete();
@@ -457,6 +503,7 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
   meta.u32(uint32_t(scene.meshes.size()));
 
   ThreadPool pool(o.threads);
+  CompressContexts compressor;
   std::vector<PageOut> pages;
   FormatReport rep;
   for (uint32_t mi = 0; mi < scene.meshes.size(); ++mi) {
@@ -484,7 +531,7 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
       if (id >= nc) encode_fail("generated cluster id outside the DAG");
 
     const std::vector<uint32_t> slots = place_clusters(dag);
-    PageStream stream(dag, slots, q, o, mi, report != nullptr, pool);
+    PageStream stream(dag, slots, q, o, mi, report != nullptr, pool, compressor);
     stream.run();
     std::vector<PageOut>& mesh_pages = stream.pages;
     if (report) {
@@ -552,7 +599,7 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
   Compression meta_comp = Compression::kNone;
   std::vector<uint8_t> meta_stored;
   if (o.version >= 2 && o.compression != Compression::kNone) {
-    meta_stored = compress(meta.bytes, o.compression, o.zstd_level);
+    meta_stored = compressor.compress(meta.bytes, o.compression, o.zstd_level);
     if (meta_stored.size() < meta.bytes.size() && meta_stored.size() * uint64_t(kMaxMetadataRatio) >= meta.bytes.size())
       meta_comp = o.compression;
   }

@@ -77,12 +77,16 @@ enum class Compression : uint32_t { kNone = 0, kZstd = 1, kLz4 = 2 };
 // zstd levels the encoder accepts: zstd's own range of regular levels (ZSTD_maxCLevel() is 22;
 // its negative "fast" levels are not offered).
 inline constexpr int kMinZstdLevel = 1, kMaxZstdLevel = 22;
-// Default page and metadata level, from `vgeo bench compression` (docs/acceptance/issue23_asset.md):
-// on bunny00 / armadillo, levels 1-12 give files 1.09-1.05x level 19's at no measurable CPU,
-// level 13 steps to 1.01x for ~45 ms of compression per 150k stored triangles, and 15-22 gain
-// under 1% more for 2.5-6x that CPU (level 19: ~210 ms, 1.00x). 13 is the knee: within 1% of
-// the smallest file for about a quarter of level 19's compression time.
-inline constexpr int kDefaultZstdLevel = 13;
+// Default page and metadata level, from `vgeo bench compression` by this rule: walk the lower
+// convex hull of (compression CPU, file bytes) over the levels from the cheapest, and stop before
+// the first step that saves under 0.5 MB per CPU-second; the default is the lowest of the curve
+// meshes' stops (docs/acceptance/issue23_encspeed.md). Three runs on the 1M sphere, bunny00 and
+// armadillo: the hull saves >= 0.85 MB per CPU-second up to level 6 (files 1.06-1.07x the
+// smallest, 6-170 ms of compression), then 0.20-0.35 MB/s to level 13 on the sphere and bunny00
+// (optimal parsing: 1.01x for 1.2-1.6 s on the sphere, over a third of the peer builder's whole
+// build), and under 0.17 MB/s beyond. `--zstd-level 13` (or 19) buys the ~5% smaller file where
+// build CPU matters less.
+inline constexpr int kDefaultZstdLevel = 6;
 
 struct FormatOptions {
   uint32_t page_size = kDefaultPageSize;  // power of two in [kMinPageSize, kMaxPageSize]
