@@ -169,6 +169,31 @@ TEST(Build, SphereReducesAndStoresAtMostTwiceInput) {
   EXPECT_LE(double(d.triangle_count()), 2.2 * double(m.triangle_count())) << "DAG stores <= 2.2x input";
 }
 
+// Only group borders are locked: the mesh's own outline and holes simplify with meshopt too
+// (open-border caps, spec/dag.md §3). With them locked (the 0.18 LockBorder behaviour) a grid
+// with a hole keeps every outline vertex to its roots.
+TEST(Build, MeshoptSimplifiesTheMeshsOwnOpenBorders) {
+  const Mesh m = make_grid(64, 1.0f, true);
+  build_detail::InternalBuildOptions open, locked;
+  locked.simplify_open_borders = false;
+  BuildOptions o;
+  o.threads = 2;
+  BuildReport ro, rl;
+  const ClusterDag d_open = build_detail::build_dag_internal(m, o, open, &ro);
+  const ClusterDag d_locked = build_detail::build_dag_internal(m, o, locked, &rl);
+  expect_dag_properties(d_open, m.triangle_count());
+  expect_borders_preserved(d_open, true);
+  EXPECT_LT(ro.root_triangles, rl.root_triangles);
+  EXPECT_LE(ro.root_clusters, rl.root_clusters);
+  EXPECT_EQ(ro.root_clusters, 1u);
+  // Closed meshes build no caps: the option changes nothing there.
+  const Mesh sphere = make_sphere(48, 64);
+  BuiltScene a, b;
+  a.meshes.push_back(build_detail::build_dag_internal(sphere, o, open, nullptr));
+  b.meshes.push_back(build_detail::build_dag_internal(sphere, o, locked, nullptr));
+  EXPECT_EQ(encode_dag_file(a), encode_dag_file(b));
+}
+
 TEST(Build, IdenticalBytesForAnyThreadCount) {
   for (Simplifier s : {Simplifier::kMeshopt, Simplifier::kOpenMesh}) {
     Mesh m = make_sphere(48, 64);

@@ -324,6 +324,7 @@ struct LockState {
   std::vector<uint32_t> owner;          // block (cross-block pass) or block<<16|group tag
   std::vector<uint8_t> locked;
   std::vector<uint8_t> pinned;  // welded vertex locked at every level (seams, pin_seam_vertices)
+  std::vector<uint8_t> mesh_border;  // welded vertex on the mesh's own open edges (pin_seam_vertices)
 };
 
 struct BuildState {
@@ -378,13 +379,24 @@ struct LevelState {
 // A seam edge is a mesh-border edge whose two ends each lie within kSeamExtentFraction of the
 // ends of another mesh-border edge (one end may be the same vertex): the page format's grid can
 // weld the two into one interior edge, so simplifying one side only would open a crack there.
-// Its ends are locked at every level. Only the OpenMesh backend simplifies mesh borders
-// (meshopt's LockBorder keeps them), so the pass runs for it alone. Pinning more than needed
+// Its ends are locked at every level. The pass runs where mesh borders simplify: the OpenMesh
+// backend, and meshopt with open-border caps (border_caps.cpp; without them meshopt's
+// LockBorder keeps mesh borders). Pinning more than needed
 // is safe (it only simplifies less), so a crowded search cell pins all of its vertices.
 void pin_seam_vertices(BuildState& s) {
   std::vector<uint8_t>& pinned = s.locks.pinned;
   pinned.assign(s.mesh.vertex_count(), 0);
-  if (s.options.simplifier != Simplifier::kOpenMesh || s.mesh_box.empty()) return;
+  const bool borders_simplify = s.options.simplifier == Simplifier::kOpenMesh || s.internal.simplify_open_borders;
+  if (!borders_simplify || s.mesh_box.empty()) return;
+  // A border edge is used once, an odd count: if a hash of every welded edge's key XORs to
+  // zero, every edge is used an even number of times (up to a 2^-64 collision, which only
+  // keeps the borders locked) and the mesh has no border: closed meshes, most of the large
+  // ones, skip the sort below (0.2 CPU-s on the 1M sphere).
+  uint64_t parity = 0;
+  for_each_welded_edge(s.welded, s.mesh.indices, [&](uint32_t a, uint32_t b) {
+    if (a != b) parity ^= (edge_key(a, b) + 1) * 0x9E3779B97F4A7C15ull ^ (edge_key(a, b) >> 29);
+  });
+  if (parity == 0) return;
   std::vector<uint64_t> edges;
   edges.reserve(s.mesh.indices.size());
   for_each_welded_edge(s.welded, s.mesh.indices, [&](uint32_t a, uint32_t b) {
@@ -403,6 +415,10 @@ void pin_seam_vertices(BuildState& s) {
   for (uint64_t e : border_edges) border.insert(border.end(), {uint32_t(e >> 32), uint32_t(e)});
   std::sort(border.begin(), border.end());
   border.erase(std::unique(border.begin(), border.end()), border.end());
+  if (!border.empty()) {
+    s.locks.mesh_border.assign(s.mesh.vertex_count(), 0);
+    for (uint32_t w : border) s.locks.mesh_border[w] = 1;
+  }
   const Vec3 lo = s.mesh_box.min, hi = s.mesh_box.max;
   const double extent = std::max({double(hi.x) - lo.x, double(hi.y) - lo.y, double(hi.z) - lo.z});
   const double max_abs = std::max({std::fabs(lo.x), std::fabs(lo.y), std::fabs(lo.z), std::fabs(hi.x),
@@ -637,23 +653,11 @@ bool reduces_enough(const TriangleSet& before, const TriangleSet& after) {
          double(after.triangle_count()) <= double(before.triangle_count()) * (1.0 - kMinReduction);
 }
 
-void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
-  const Block& blk = L.blocks[b];
-  GroupResult& r = L.blocks[b].results[g];
-  const double ts = steady_seconds();
-  TriangleSet merged;
-  for (uint32_t m : blk.groups[g]) {
-    const TriangleSet& t = s.clusters[m].triangles;
-    merged.corners.insert(merged.corners.end(), t.corners.begin(), t.corners.end());
-    merged.materials.insert(merged.materials.end(), t.materials.begin(), t.materials.end());
-  }
-  float max_member_error = 0.0f;
-  for (uint32_t m : blk.groups[g]) max_member_error = std::max(max_member_error, s.clusters[m].lod_error);
-  SimplifyTarget target;
-  target.ratio = s.internal.simplify_target_ratio;
-  if (s.internal.simplify_error_budget > 0 && max_member_error > 0)
-    target.max_error = s.internal.simplify_error_budget * max_member_error;
-  SimplifyResult simplified, folded_over_border;
+// A group's simplification whose locked border is kept (or, as the last resort, only folded
+// over): false when no attempt reduced enough with the border intact.
+bool simplify_sealed(BuildState& s, const Block& blk, const TriangleSet& merged, SimplifyTarget target,
+                     SimplifyResult& simplified) {
+  SimplifyResult folded_over_border;
   bool sealed = false, have_folded = false;
   // A result that breaks the border or folds over it is retried with fewer collapses (a fold
   // comes from a late collapse next to the locked border); one whose error budget stopped it
@@ -674,6 +678,55 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     if (!sealed && !have_folded) folded_over_border = simplified, have_folded = true;
   }
   if (!sealed && have_folded) simplified = std::move(folded_over_border), sealed = true;
+  return sealed;
+}
+
+void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
+  const Block& blk = L.blocks[b];
+  GroupResult& r = L.blocks[b].results[g];
+  const double ts = steady_seconds();
+  TriangleSet merged;
+  for (uint32_t m : blk.groups[g]) {
+    const TriangleSet& t = s.clusters[m].triangles;
+    merged.corners.insert(merged.corners.end(), t.corners.begin(), t.corners.end());
+    merged.materials.insert(merged.materials.end(), t.materials.begin(), t.materials.end());
+  }
+  float max_member_error = 0.0f;
+  for (uint32_t m : blk.groups[g]) max_member_error = std::max(max_member_error, s.clusters[m].lod_error);
+  SimplifyTarget target;
+  target.ratio = s.internal.simplify_target_ratio;
+  target.open_borders = s.internal.simplify_open_borders;
+  if (!s.locks.mesh_border.empty()) target.mesh_border = &s.locks.mesh_border;
+  if (s.internal.simplify_error_budget > 0 && max_member_error > 0)
+    target.max_error = s.internal.simplify_error_budget * max_member_error;
+  SimplifyResult simplified;
+  bool sealed = simplify_sealed(s, blk, merged, target, simplified);
+  if (!sealed && target.mesh_border && target.open_borders && s.options.simplifier == Simplifier::kMeshopt) {
+    target.open_borders = false;  // stuck with moving own borders: as before, with them locked
+    sealed = simplify_sealed(s, blk, merged, target, simplified);
+  }
+  float error = 0.0f;
+  const double tv0 = steady_seconds();
+  // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the distance from the
+  // simplified surface to the leaves, measured as verify measures it; the members' stored
+  // error is a floor (the parent's error takes the max with it anyway).
+  if (sealed) error = leaf_deviation(s.leaf_surface, s.mesh, merged, simplified.triangles, max_member_error);
+  if (sealed && simplified.capped) {
+    // The group's own open borders moved (border_caps.cpp). A border collapse can cost more
+    // measured error than it saves triangles (a chord across a curved hole): the group is
+    // simplified with those borders locked too, and the result with the smaller product of
+    // measured error and triangles is kept (on a surface the error falls about as 1/triangles,
+    // so the product compares the two at equal error).
+    target.open_borders = false;
+    SimplifyResult locked_borders;
+    if (simplify_sealed(s, blk, merged, target, locked_borders)) {
+      const float locked_error = leaf_deviation(s.leaf_surface, s.mesh, merged, locked_borders.triangles, max_member_error);
+      if (double(locked_error) * double(locked_borders.triangles.triangle_count()) <
+          double(error) * double(simplified.triangles.triangle_count()))
+        simplified = std::move(locked_borders), error = locked_error;
+    }
+  }
+  const double seconds_error = steady_seconds() - tv0;
   const double tm = steady_seconds();
   r.seconds_simplify = tm - ts;
   if (!sealed) return;
@@ -682,12 +735,8 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   s.scratch.give(std::move(scratch));
   r.seconds_split = steady_seconds() - tm;
   r.terminal = false;
-  const double tv = steady_seconds();
-  // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the distance from the
-  // simplified surface to the leaves, measured as verify measures it; the members' stored
-  // error is a floor (the parent's error takes the max with it anyway).
-  r.error = leaf_deviation(s.leaf_surface, s.mesh, merged, simplified.triangles, max_member_error);
-  r.seconds_error = steady_seconds() - tv;
+  r.error = error;
+  r.seconds_error = seconds_error;
 }
 
 // ---- 3e. the level scheduler: one pipelined parallel region per level ----

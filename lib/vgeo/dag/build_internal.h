@@ -183,6 +183,7 @@ struct InternalBuildOptions {
   // > 0: a group's simplification stops where meshopt's error estimate passes this × the
   // largest stored error of its members (0: no bound, the ratio alone decides).
   float simplify_error_budget = kSimplifyErrorBudget;
+  bool simplify_open_borders = true;  // SimplifyTarget::open_borders
 };
 ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, const InternalBuildOptions& internal,
                               BuildReport* report);
@@ -194,9 +195,33 @@ ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, con
 // triangles of each pair are dropped (every edge's parity is kept).
 void drop_reversed_pairs(const WeldedMesh& welded, TriangleSet& triangles);
 
+// Open-border caps (border_caps.cpp): temporary triangles that close each chain of the
+// group's own open edges (an open edge with an unlocked end) to one apex vertex, so meshopt
+// 0.18's LockBorder locks only the group border and the apexes, and the mesh's own borders
+// simplify. add_open_border_caps appends apexes to `positions` (xyz per sub-mesh vertex) and
+// cap triangles to `indices`; welded_of_sub[v] is sub-mesh vertex v's welded id.
+struct BorderCaps {
+  size_t first_apex = 0;        // sub-mesh vertices from here on are apexes and copies
+  std::vector<uint32_t> origin;  // per appended vertex: the real sub-mesh vertex it copies, or ~0 (apex)
+  size_t apex_count = 0;        // 0: nothing was added
+  size_t cap_triangles = 0;
+  size_t real_index_count = 0;  // indices before the caps
+};
+BorderCaps add_open_border_caps(const std::vector<uint32_t>& welded_of_sub, const std::vector<uint8_t>& locked,
+                                std::vector<unsigned int>& indices, std::vector<float>& positions);
+// Removes the cap triangles from a simplification `out` (out_count indices) of `input` (the
+// indices add_open_border_caps returned). False when the result is not a simplification of
+// the real surface alone (an apex lost, a real vertex moved onto an apex, a cap base not a
+// single border edge of the real output, or a new open edge that is no cap base): then the
+// caller simplifies without caps.
+bool remove_open_border_caps(const BorderCaps& caps, const std::vector<uint32_t>& welded_of_sub,
+                             const std::vector<uint8_t>& mesh_border, const std::vector<unsigned int>& input,
+                             std::vector<unsigned int>& out, size_t& out_count);
+
 // Simplification of one group's triangles with locked vertices (by welded id).
 struct SimplifyResult {
   TriangleSet triangles;  // references original vertex ids only (no new positions)
+  bool capped = false;    // the group's own open borders were simplified (border_caps.cpp)
 };
 // The smallest float ≥ d: stored errors are rounded up, never below the measured double.
 inline float round_up_to_float(double d) {
@@ -232,6 +257,12 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
 struct SimplifyTarget {
   double ratio = kSimplifyTargetRatio;
   float max_error = std::numeric_limits<float>::infinity();
+  // meshopt: the group's own open borders simplify (add_open_border_caps); false: LockBorder
+  // keeps them as it keeps the group border.
+  bool open_borders = true;
+  // Welded ids on the mesh's own open edges (1), the only ends a new open edge may have;
+  // null: no caps (open_borders is then ignored).
+  const std::vector<uint8_t>* mesh_border = nullptr;
 };
 // Triangles of `fins` (find_fins) are left out of the simplifier's input like those with a
 // repeated welded position (spec/dag.md §2.3).

@@ -122,6 +122,33 @@ std::vector<uint32_t> locked_vertices_off_the_border(const WeldedMesh& welded, c
   return out;
 }
 
+// meshopt_simplify with LockBorder of a sub-mesh whose own open borders are capped
+// (add_open_border_caps), so only the group border stays locked. The cap triangles count
+// towards meshopt's target: they are asked to shrink by the same ratio as the surface.
+// Returns the index count of the real output in `out`, or 0 when there was nothing to cap or
+// the capped result was refused (remove_open_border_caps): then the caller simplifies
+// without caps.
+size_t simplify_with_open_border_caps(const std::vector<unsigned int>& sub_indices, const std::vector<float>& sub_positions,
+                                      const std::vector<uint32_t>& welded_of_sub, const std::vector<uint8_t>& locked,
+                                      size_t target_real_triangles, const SimplifyTarget& target,
+                                      std::vector<unsigned int>& out) {
+  std::vector<unsigned int> indices = sub_indices;
+  std::vector<float> positions = sub_positions;
+  const BorderCaps caps = add_open_border_caps(welded_of_sub, locked, indices, positions);
+  if (caps.apex_count == 0) return 0;
+  const size_t vertices = positions.size() / 3;
+  // meshopt's error bound is relative to the extent of every vertex it is given (apexes too).
+  const float scale = meshopt_simplifyScale(positions.data(), vertices, sizeof(float) * 3);
+  const float target_error = std::isfinite(target.max_error) && scale > 0 ? target.max_error / scale : kMeshoptTargetError;
+  const size_t target_caps = size_t(double(caps.cap_triangles) * target.ratio);
+  out.resize(indices.size());
+  size_t count = meshopt_simplify(out.data(), indices.data(), indices.size(), positions.data(), vertices,
+                                  sizeof(float) * 3, 3 * (target_real_triangles + target_caps), target_error,
+                                  meshopt_SimplifyLockBorder, nullptr);
+  if (!remove_open_border_caps(caps, welded_of_sub, *target.mesh_border, indices, out, count) || count == 0) return 0;
+  return count;
+}
+
 SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked,
                                 const SimplifyTarget& target) {
   const Mesh& mesh = *welded.mesh;
@@ -246,9 +273,21 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
     const std::vector<unsigned int>& sub_indices = split.empty() ? indices : attempt_indices;
     const std::vector<float>& sub_positions = split.empty() ? positions : attempt_positions;
     const size_t sub_vertices = unique_keys.size() + copy_keys.size();
-    out_count = meshopt_simplify(out.data(), sub_indices.data(), sub_indices.size(), sub_positions.data(),
-                                 sub_vertices, sizeof(float) * 3, 3 * target_triangles(n, target.ratio), target_error,
-                                 meshopt_SimplifyLockBorder, nullptr);
+    out_count = 0;
+    r.capped = false;
+    if (target.open_borders && target.mesh_border) {
+      std::vector<uint32_t> welded_of_sub(sub_vertices);
+      for (size_t v = 0; v < sub_vertices; ++v) welded_of_sub[v] = welded.weld[uint32_t(key_of(unsigned(v)) >> 32)];
+      out_count = simplify_with_open_border_caps(sub_indices, sub_positions, welded_of_sub, locked,
+                                                 target_triangles(n, target.ratio), target, out);
+      r.capped = out_count > 0;
+    }
+    if (out_count == 0) {
+      out.resize(sub_indices.size());
+      out_count = meshopt_simplify(out.data(), sub_indices.data(), sub_indices.size(), sub_positions.data(),
+                                   sub_vertices, sizeof(float) * 3, 3 * target_triangles(n, target.ratio), target_error,
+                                   meshopt_SimplifyLockBorder, nullptr);
+    }
     r.triangles.corners.resize(out_count);
     r.triangles.materials.resize(out_count / 3);
     for (size_t i = 0; i < out_count; ++i) r.triangles.corners[i] = uint32_t(key_of(out[i]) >> 32);
