@@ -358,7 +358,9 @@ struct GroupResult {
 struct Block {
   std::vector<uint32_t> items;                // indices into `active`, ascending
   std::vector<std::vector<uint32_t>> groups;  // members as cluster indices
-  std::vector<uint64_t> shared_edges;         // sorted welded edge keys
+  // Per group: its welded edges also used outside it (shared edges), one entry per use by
+  // the group's triangles, sorted: the border check's input (locked_border_state).
+  std::vector<std::vector<uint64_t>> group_shared_edges;
   std::vector<GroupResult> results;
   double seconds_group = 0, seconds_locks = 0;
 };
@@ -628,7 +630,9 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
   }
   // Shared edges: welded edges with both ends locked used by two groups of this level, by
   // two blocks, or by a retired cluster (only those must survive; few: they lie on group
-  // borders).
+  // borders). Listed per group with one entry per use (a candidate is one use of an edge by a
+  // triangle of the group), so the border check needs no search of the block's edges; the
+  // locks of this block's vertices are final here (other blocks lock only their own).
   std::vector<std::pair<uint64_t, uint32_t>> candidates;
   for (size_t g = 0; g < blk.groups.size(); ++g)
     for (uint32_t m : blk.groups[g])
@@ -637,10 +641,14 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
       });
   std::sort(candidates.begin(), candidates.end());
   const std::vector<uint64_t>& retired_edges = s.locks.retired_edges;
+  blk.group_shared_edges.resize(blk.groups.size());
+  const std::pair<uint64_t, uint32_t>* next_use = candidates.data();
   for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
+    const std::pair<uint64_t, uint32_t>* first_use = next_use;
+    while (next_use != candidates.data() + candidates.size() && next_use->first == e) ++next_use;
     if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), e) ||
         std::binary_search(L.cross_edges.begin(), L.cross_edges.end(), e))
-      blk.shared_edges.push_back(e);
+      for (const auto* use = first_use; use != next_use; ++use) blk.group_shared_edges[use->second].push_back(e);
   });
   blk.results.resize(blk.groups.size());
   blk.seconds_locks = steady_seconds() - tl;
@@ -655,8 +663,8 @@ bool reduces_enough(const TriangleSet& before, const TriangleSet& after) {
 
 // A group's simplification whose locked border is kept (or, as the last resort, only folded
 // over): false when no attempt reduced enough with the border intact.
-bool simplify_sealed(BuildState& s, const Block& blk, const TriangleSet& merged, SimplifyTarget target,
-                     SimplifyResult& simplified) {
+bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, const TriangleSet& merged,
+                     SimplifyTarget target, SimplifyResult& simplified) {
   SimplifyResult folded_over_border;
   bool sealed = false, have_folded = false;
   // A result that breaks the border or folds over it is retried with fewer collapses (a fold
@@ -672,7 +680,7 @@ bool simplify_sealed(BuildState& s, const Block& blk, const TriangleSet& merged,
       simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target, s.fins);
     }
     if (!reduces_enough(merged, simplified.triangles)) break;
-    const BorderState border = locked_border_state(s.welded, merged, simplified.triangles, s.locks.locked, blk.shared_edges);
+    const BorderState border = locked_border_state(s.welded, merged, simplified.triangles, s.locks.locked, shared_edges);
     if (border == BorderState::kBroken || simplification_folds(s.welded, merged, simplified.triangles)) continue;
     sealed = border == BorderState::kKept;
     if (!sealed && !have_folded) folded_over_border = simplified, have_folded = true;
@@ -700,10 +708,10 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   if (s.internal.simplify_error_budget > 0 && max_member_error > 0)
     target.max_error = s.internal.simplify_error_budget * max_member_error;
   SimplifyResult simplified;
-  bool sealed = simplify_sealed(s, blk, merged, target, simplified);
+  bool sealed = simplify_sealed(s, blk.group_shared_edges[g], merged, target, simplified);
   if (!sealed && target.mesh_border && target.open_borders && s.options.simplifier == Simplifier::kMeshopt) {
     target.open_borders = false;  // stuck with moving own borders: as before, with them locked
-    sealed = simplify_sealed(s, blk, merged, target, simplified);
+    sealed = simplify_sealed(s, blk.group_shared_edges[g], merged, target, simplified);
   }
   float error = 0.0f;
   const double tv0 = steady_seconds();
@@ -719,7 +727,7 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     // so the product compares the two at equal error).
     target.open_borders = false;
     SimplifyResult locked_borders;
-    if (simplify_sealed(s, blk, merged, target, locked_borders)) {
+    if (simplify_sealed(s, blk.group_shared_edges[g], merged, target, locked_borders)) {
       const float locked_error = leaf_deviation(s.leaf_surface, s.mesh, merged, locked_borders.triangles, max_member_error);
       if (double(locked_error) * double(locked_borders.triangles.triangle_count()) <
           double(error) * double(simplified.triangles.triangle_count()))
@@ -765,6 +773,7 @@ void run_level(BuildState& s, LevelState& L) {
           std::lock_guard<std::mutex> guard(queue_mutex);
           if (!first_error) first_error = std::current_exception();
           L.blocks[b].results.assign(L.blocks[b].groups.size(), GroupResult());
+          L.blocks[b].group_shared_edges.assign(L.blocks[b].groups.size(), {});
         }
         lock.lock();
         --blocks_running;

@@ -275,9 +275,10 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
 // that edge's parity, a crack to `vgeo verify` (spec/dag.md §2.3).
 bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after);
 
-// The border check of spec/dag.md §2.3. kBroken: some locked welded vertex of `before` is
-// not used by `after`, or some welded edge of `before` listed in `shared_edges` (sorted edge
-// keys of edges also used outside the group) is not an edge of `after`. kFoldedOver: not
+// The border check of spec/dag.md §2.3. `shared_edges`: the welded edges of `before` that are
+// also used outside the group (both ends locked), one edge key per use by `before`, sorted.
+// kBroken: some locked welded vertex of `before` is not used by `after`, or some shared edge
+// is not an edge of `after`. kFoldedOver: not
 // broken, but a shared edge `before` uses once is used more often by `after` (folded over
 // the border; parity is the fold check's business). kKept: neither.
 enum class BorderState : uint8_t { kBroken, kFoldedOver, kKept };

@@ -621,13 +621,11 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
 }
 
 BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                                const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
+                                const std::vector<uint8_t>& locked, const std::vector<uint64_t>& before_shared) {
   // Locked welded vertices of `after` in one open addressing set (load ≤ 1/2), keyed
-  // (v << 32 | v); the shared edges of both sides as sorted key lists with multiplicity.
-  // Only locked ones are looked at, and they lie on the group border (a minority). `after`'s
-  // edges matter only where they are shared edges of `before`, so they are looked up in that
-  // short list rather than in the block's `shared_edges`.
-  std::vector<uint64_t> vertex_keys, after_shared, before_shared;
+  // (v << 32 | v); `after`'s uses of the shared edges as a sorted key list with multiplicity.
+  // Only locked ones are looked at, and they lie on the group border (a minority).
+  std::vector<uint64_t> vertex_keys, after_shared;
   for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t) {
     if (locked[a]) vertex_keys.push_back((uint64_t(a) << 32) | a);
   });
@@ -642,16 +640,11 @@ BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& bef
     return h;
   };
   for (uint64_t key : vertex_keys) table[slot(key)] = key;
-  bool preserved = true;
-  for_each_welded_edge(welded, before.corners, [&](uint32_t a, uint32_t b) {
-    if (!preserved || !locked[a]) return;
-    // Every locked vertex of `before` is used by `after`.
-    if (table[slot((uint64_t(a) << 32) | a)] == kEmpty) preserved = false;
-    if (a != b && locked[b] && std::binary_search(shared_edges.begin(), shared_edges.end(), edge_key(a, b)))
-      before_shared.push_back(edge_key(a, b));
-  });
-  if (!preserved) return BorderState::kBroken;
-  std::sort(before_shared.begin(), before_shared.end());
+  // Every locked vertex of `before` is used by `after`.
+  for (uint32_t v : before.corners) {
+    const uint32_t a = welded.weld[v];
+    if (locked[a] && table[slot((uint64_t(a) << 32) | a)] == kEmpty) return BorderState::kBroken;
+  }
   if (!before_shared.empty())
     for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
       if (a != b && locked[a] && locked[b] && std::binary_search(before_shared.begin(), before_shared.end(), edge_key(a, b)))
