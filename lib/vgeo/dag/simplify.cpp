@@ -75,17 +75,43 @@ void perturbed_copy(const float* p, uint32_t k, float* out) {
   }
 }
 
+// Locked welded ids of a corner list, as an open addressing set (load ≤ 1/2): the border
+// checks ask of every locked corner of a group whether its simplification still uses it.
+// Locked vertices lie on the group border (a minority), so the set is small; a sorted list
+// cost a sort and a binary search per corner.
+class LockedIdSet {
+ public:
+  LockedIdSet(const WeldedMesh& welded, const std::vector<uint32_t>& corners, const std::vector<uint8_t>& locked) {
+    std::vector<uint32_t> ids;
+    for (uint32_t v : corners)
+      if (locked[welded.weld[v]]) ids.push_back(welded.weld[v]);
+    size_t slots = 16;
+    while (slots < 2 * ids.size()) slots <<= 1, --shift_;
+    table_.assign(slots, kEmpty);
+    for (uint32_t w : ids) table_[slot(w)] = w;
+  }
+  bool contains(uint32_t w) const { return table_[slot(w)] == w; }
+
+ private:
+  static constexpr uint32_t kEmpty = ~uint32_t(0);  // welded ids < 2^32 - 1, so never an id
+  size_t slot(uint32_t w) const {
+    size_t h = size_t((uint64_t(w) * 0x9E3779B97F4A7C15ull) >> shift_);
+    while (table_[h] != kEmpty && table_[h] != w) h = (h + 1) & (table_.size() - 1);
+    return h;
+  }
+  std::vector<uint32_t> table_;
+  int shift_ = 60;  // hash = top log2(slots) bits of a multiplicative hash
+};
+
 // Locked welded ids used by `before` but not by `after` (sorted).
 std::vector<uint32_t> lost_locked_vertices(const WeldedMesh& welded, const TriangleSet& before,
                                            const std::vector<uint32_t>& after_corners,
                                            const std::vector<uint8_t>& locked) {
-  std::vector<uint32_t> kept, lost;
-  for (uint32_t v : after_corners)
-    if (locked[welded.weld[v]]) kept.push_back(welded.weld[v]);
-  std::sort(kept.begin(), kept.end());
+  const LockedIdSet kept(welded, after_corners, locked);
+  std::vector<uint32_t> lost;
   for (uint32_t v : before.corners) {
     const uint32_t w = welded.weld[v];
-    if (locked[w] && !std::binary_search(kept.begin(), kept.end(), w)) lost.push_back(w);
+    if (locked[w] && !kept.contains(w)) lost.push_back(w);
   }
   std::sort(lost.begin(), lost.end());
   lost.erase(std::unique(lost.begin(), lost.end()), lost.end());
@@ -622,29 +648,14 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
 
 BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
                                 const std::vector<uint8_t>& locked, const std::vector<uint64_t>& before_shared) {
-  // Locked welded vertices of `after` in one open addressing set (load ≤ 1/2), keyed
-  // (v << 32 | v); `after`'s uses of the shared edges as a sorted key list with multiplicity.
-  // Only locked ones are looked at, and they lie on the group border (a minority).
-  std::vector<uint64_t> vertex_keys, after_shared;
-  for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t) {
-    if (locked[a]) vertex_keys.push_back((uint64_t(a) << 32) | a);
-  });
-  size_t slots = 16;
-  int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
-  while (slots < 2 * vertex_keys.size()) slots <<= 1, --shift;
-  constexpr uint64_t kEmpty = ~uint64_t(0);
-  std::vector<uint64_t> table(slots, kEmpty);
-  auto slot = [&](uint64_t key) {
-    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
-    while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
-    return h;
-  };
-  for (uint64_t key : vertex_keys) table[slot(key)] = key;
   // Every locked vertex of `before` is used by `after`.
+  const LockedIdSet kept(welded, after.corners, locked);
   for (uint32_t v : before.corners) {
     const uint32_t a = welded.weld[v];
-    if (locked[a] && table[slot((uint64_t(a) << 32) | a)] == kEmpty) return BorderState::kBroken;
+    if (locked[a] && !kept.contains(a)) return BorderState::kBroken;
   }
+  // `after`'s uses of the shared edges, as a sorted key list with multiplicity.
+  std::vector<uint64_t> after_shared;
   if (!before_shared.empty())
     for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
       if (a != b && locked[a] && locked[b] && std::binary_search(before_shared.begin(), before_shared.end(), edge_key(a, b)))
