@@ -359,7 +359,7 @@ struct Block {
   std::vector<uint32_t> items;                // indices into `active`, ascending
   std::vector<std::vector<uint32_t>> groups;  // members as cluster indices
   // Per group: its welded edges also used outside it (shared edges), one entry per use by
-  // the group's triangles, sorted: the border check's input (locked_border_state).
+  // the group's triangles, sorted: the border check's input (check_simplification).
   std::vector<std::vector<uint64_t>> group_shared_edges;
   std::vector<GroupResult> results;
   double seconds_group = 0, seconds_locks = 0;
@@ -680,8 +680,9 @@ bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, c
       simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target, s.fins);
     }
     if (!reduces_enough(merged, simplified.triangles)) break;
-    const BorderState border = locked_border_state(s.welded, merged, simplified.triangles, s.locks.locked, shared_edges);
-    if (border == BorderState::kBroken || simplification_folds(s.welded, merged, simplified.triangles)) continue;
+    const SimplificationCheck check = check_simplification(s.welded, merged, simplified.triangles, s.locks.locked, shared_edges);
+    const BorderState border = check.border;
+    if (border == BorderState::kBroken || check.folds) continue;
     sealed = border == BorderState::kKept;
     if (!sealed && !have_folded) folded_over_border = simplified, have_folded = true;
   }

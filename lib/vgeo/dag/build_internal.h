@@ -278,12 +278,18 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
 // The border check of spec/dag.md §2.3. `shared_edges`: the welded edges of `before` that are
 // also used outside the group (both ends locked), one edge key per use by `before`, sorted.
 // kBroken: some locked welded vertex of `before` is not used by `after`, or some shared edge
-// is not an edge of `after`. kFoldedOver: not
-// broken, but a shared edge `before` uses once is used more often by `after` (folded over
-// the border; parity is the fold check's business). kKept: neither.
+// is not an edge of `after`. kFoldedOver: not broken, but a shared edge `before` uses once is
+// used more often by `after` (folded over the border; parity is the fold check's business).
+// kKept: neither.
 enum class BorderState : uint8_t { kBroken, kFoldedOver, kKept };
-BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                                const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges);
+// A simplification's border check and fold check (simplification_folds), from one count of
+// `after`'s welded edges.
+struct SimplificationCheck {
+  BorderState border;
+  bool folds;
+};
+SimplificationCheck check_simplification(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
+                                         const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges);
 
 // Spheres, computed in double and rounded outward so containment survives float rounding
 // (bounding_spheres.cpp).

@@ -626,15 +626,20 @@ struct EdgeUses {
   }
 };
 
-}  // namespace
-
-bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after) {
+// `after`'s welded edge uses, and in `folded` the keys of the edges it uses more than a
+// 2-manifold allows (once each).
+EdgeUses count_edge_uses(const WeldedMesh& welded, const TriangleSet& after, std::vector<uint64_t>& folded) {
   constexpr uint32_t kManifoldUses = 2;  // an edge of a 2-manifold is used by at most 2 triangles
   EdgeUses out(after.corners.size());
-  std::vector<uint64_t> folded;
   for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
     if (a != b && out.add(edge_key(a, b)) == kManifoldUses + 1) folded.push_back(edge_key(a, b));
   });
+  return out;
+}
+
+// The fold check (simplification_folds) given `after`'s edge uses.
+bool folds_parity(const WeldedMesh& welded, const TriangleSet& before, const EdgeUses& out,
+                  const std::vector<uint64_t>& folded) {
   if (folded.empty()) return false;
   EdgeUses in(before.corners.size());
   for_each_welded_edge(welded, before.corners, [&](uint32_t a, uint32_t b) {
@@ -646,34 +651,44 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
   return false;
 }
 
-BorderState locked_border_state(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                                const std::vector<uint8_t>& locked, const std::vector<uint64_t>& before_shared) {
+// The border check (check_simplification) given `after`'s edge uses.
+BorderState border_state(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
+                         const EdgeUses& out, const std::vector<uint8_t>& locked,
+                         const std::vector<uint64_t>& before_shared) {
   // Every locked vertex of `before` is used by `after`.
   const LockedIdSet kept(welded, after.corners, locked);
   for (uint32_t v : before.corners) {
     const uint32_t a = welded.weld[v];
     if (locked[a] && !kept.contains(a)) return BorderState::kBroken;
   }
-  // `after`'s uses of the shared edges, as a sorted key list with multiplicity.
-  std::vector<uint64_t> after_shared;
-  if (!before_shared.empty())
-    for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
-      if (a != b && locked[a] && locked[b] && std::binary_search(before_shared.begin(), before_shared.end(), edge_key(a, b)))
-        after_shared.push_back(edge_key(a, b));
-    });
   // Every shared edge of `before` is an edge of `after`; one used once (a manifold border)
   // should stay used once: more uses are a fold over the border (spec/dag.md §2.3).
-  std::sort(after_shared.begin(), after_shared.end());
   BorderState state = BorderState::kKept;
   for (size_t i = 0; i < before_shared.size();) {
     size_t j = i;
     while (j < before_shared.size() && before_shared[j] == before_shared[i]) ++j;
-    auto [lo, hi] = std::equal_range(after_shared.begin(), after_shared.end(), before_shared[i]);
-    if (lo == hi) return BorderState::kBroken;
-    if (j - i == 1 && hi - lo != 1) state = BorderState::kFoldedOver;
+    const uint32_t after_uses = out.count(before_shared[i]);
+    if (after_uses == 0) return BorderState::kBroken;
+    if (j - i == 1 && after_uses != 1) state = BorderState::kFoldedOver;
     i = j;
   }
   return state;
+}
+
+}  // namespace
+
+bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after) {
+  std::vector<uint64_t> folded;
+  const EdgeUses out = count_edge_uses(welded, after, folded);
+  return folds_parity(welded, before, out, folded);
+}
+
+SimplificationCheck check_simplification(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
+                                         const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
+  // One count of `after`'s edges serves both checks.
+  std::vector<uint64_t> folded;
+  const EdgeUses out = count_edge_uses(welded, after, folded);
+  return {border_state(welded, before, after, out, locked, shared_edges), folds_parity(welded, before, out, folded)};
 }
 
 }  // namespace vgeo::build_detail
