@@ -24,6 +24,26 @@ double brute_nearest(const std::vector<float>& c, DVec3 p) {
   return best;
 }
 
+// 20 random query points against both trees: the nearest distance equals brute force, and the
+// within-threshold decision at the distance itself and one ulp either side (from the last hint
+// and from a fresh one).
+void expect_queries_equal_brute_force(const TriangleDistanceTree& serial, const TriangleDistanceTree& parallel,
+                                      const std::vector<float>& corners) {
+  uint32_t hint_serial = ~0u, hint_parallel = ~0u, hint_any = ~0u;
+  for (int k = 0; k < 20; ++k) {
+    const DVec3 p{double(*rc::gen::inRange(-80, 81)) / 32, double(*rc::gen::inRange(-80, 81)) / 32,
+                  double(*rc::gen::inRange(-80, 81)) / 32};
+    const double expected = brute_nearest(corners, p);
+    RC_ASSERT(serial.nearest_distance_squared(p, &hint_serial) == expected);
+    RC_ASSERT(parallel.nearest_distance_squared(p, &hint_parallel) == expected);
+    for (double threshold : {expected, std::nextafter(expected, 0.0), std::nextafter(expected, 1e300)}) {
+      RC_ASSERT(parallel.any_within_squared(p, threshold, &hint_any) == (expected <= threshold));
+      uint32_t fresh = ~0u;
+      RC_ASSERT(serial.any_within_squared(p, threshold, &fresh) == (expected <= threshold));
+    }
+  }
+}
+
 // Corners on a coarse grid (coincident, collinear and degenerate triangles common), enough
 // triangles that a pool of 3 splits the top of the tree in parallel (8 subtrees per thread).
 RC_GTEST_PROP(TriangleDistanceTree, QueriesEqualBruteForceForAnyPool, ()) {
@@ -32,20 +52,7 @@ RC_GTEST_PROP(TriangleDistanceTree, QueriesEqualBruteForceForAnyPool, ()) {
   for (uint32_t i = 0; i < 9 * triangles; ++i) corners.push_back(float(*rc::gen::inRange(-8, 9)) * 0.25f);
   ThreadPool pool(3);
   const TriangleDistanceTree serial(corners), parallel(corners, &pool);
-  uint32_t hint_serial = ~0u, hint_parallel = ~0u, hint_any = ~0u;
-  for (int k = 0; k < 20; ++k) {
-    const DVec3 p{double(*rc::gen::inRange(-80, 81)) / 32, double(*rc::gen::inRange(-80, 81)) / 32,
-                  double(*rc::gen::inRange(-80, 81)) / 32};
-    const double expected = brute_nearest(corners, p);
-    RC_ASSERT(serial.nearest_distance_squared(p, &hint_serial) == expected);
-    RC_ASSERT(parallel.nearest_distance_squared(p, &hint_parallel) == expected);
-    // The decision at the distance itself and one ulp either side, from the last hint.
-    for (double threshold : {expected, std::nextafter(expected, 0.0), std::nextafter(expected, 1e300)}) {
-      RC_ASSERT(parallel.any_within_squared(p, threshold, &hint_any) == (expected <= threshold));
-      uint32_t fresh = ~0u;
-      RC_ASSERT(serial.any_within_squared(p, threshold, &fresh) == (expected <= threshold));
-    }
-  }
+  expect_queries_equal_brute_force(serial, parallel, corners);
 }
 
 // Indexed triangles over a few grid vertices (shared, repeated and collinear corners), in
@@ -67,19 +74,7 @@ RC_GTEST_PROP(TriangleDistanceTree, IndexedTreeQueriesEqualBruteForceForAnyPool,
       const DVec3 c = parallel.corner(t, j);
       RC_ASSERT(c.x == corners[9 * t + 3 * j] && c.y == corners[9 * t + 3 * j + 1] && c.z == corners[9 * t + 3 * j + 2]);
     }
-  uint32_t hint_serial = ~0u, hint_parallel = ~0u, hint_any = ~0u;
-  for (int k = 0; k < 20; ++k) {
-    const DVec3 p{double(*rc::gen::inRange(-80, 81)) / 32, double(*rc::gen::inRange(-80, 81)) / 32,
-                  double(*rc::gen::inRange(-80, 81)) / 32};
-    const double expected = brute_nearest(corners, p);
-    RC_ASSERT(serial.nearest_distance_squared(p, &hint_serial) == expected);
-    RC_ASSERT(parallel.nearest_distance_squared(p, &hint_parallel) == expected);
-    for (double threshold : {expected, std::nextafter(expected, 0.0), std::nextafter(expected, 1e300)}) {
-      RC_ASSERT(parallel.any_within_squared(p, threshold, &hint_any) == (expected <= threshold));
-      uint32_t fresh = ~0u;
-      RC_ASSERT(serial.any_within_squared(p, threshold, &fresh) == (expected <= threshold));
-    }
-  }
+  expect_queries_equal_brute_force(serial, parallel, corners);
 }
 
 TEST(TriangleDistanceTree, EmptyTree) {
