@@ -43,7 +43,7 @@ VKAPI_ATTR VkBool32 VKAPI_CALL on_debug_message(VkDebugUtilsMessageSeverityFlagB
 }
 
 VkDebugUtilsMessengerCreateInfoEXT messenger_info(GpuContext* context) {
-  VkDebugUtilsMessengerCreateInfoEXT info{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+  auto info = vk_struct<VkDebugUtilsMessengerCreateInfoEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT);
   // Warnings and errors of every type: "any validation message fails" (spec/gpu.md).
   info.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
   info.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
@@ -64,11 +64,11 @@ bool layer_available(const char* name) {
 }
 
 VkInstance create_instance(bool validate, GpuContext* context) {
-  VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+  auto app = vk_struct<VkApplicationInfo>(VK_STRUCTURE_TYPE_APPLICATION_INFO);
   app.pApplicationName = "vgeo";
   app.pEngineName = "vgeo";
   app.apiVersion = VK_API_VERSION_1_3;
-  VkInstanceCreateInfo info{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+  auto info = vk_struct<VkInstanceCreateInfo>(VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO);
   info.pApplicationInfo = &app;
   std::vector<const char*> layers, extensions;
   VkDebugUtilsMessengerCreateInfoEXT debug = messenger_info(context);
@@ -130,10 +130,10 @@ void require_features(VkPhysicalDevice d) {
   vkGetPhysicalDeviceProperties(d, &props);
   std::string missing;
   if (props.apiVersion < VK_API_VERSION_1_3) missing += " Vulkan-1.3";
-  VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
-  VkPhysicalDeviceVulkan12Features f12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+  auto f13 = vk_struct<VkPhysicalDeviceVulkan13Features>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES);
+  auto f12 = vk_struct<VkPhysicalDeviceVulkan12Features>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES);
   f12.pNext = &f13;
-  VkPhysicalDeviceFeatures2 f{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  auto f = vk_struct<VkPhysicalDeviceFeatures2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
   f.pNext = &f12;
   vkGetPhysicalDeviceFeatures2(d, &f);
   if (!f.features.shaderInt64) missing += " shaderInt64";
@@ -215,26 +215,26 @@ std::unique_ptr<GpuContext> create_gpu_context(const GpuOptions& options) {
   if (!found) fail("GPU_FEATURE_MISSING", c.device_name, "no compute queue", kExitUsage);
 
   float priority = 1.0f;
-  VkDeviceQueueCreateInfo queue{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+  auto queue = vk_struct<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
   queue.queueFamilyIndex = c.queue_family;
   queue.queueCount = 1;
   queue.pQueuePriorities = &priority;
-  VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
+  auto f13 = vk_struct<VkPhysicalDeviceVulkan13Features>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES);
   f13.synchronization2 = VK_TRUE;
   f13.maintenance4 = VK_TRUE;  // glslc --target-env=vulkan1.3 declares workgroup sizes with LocalSizeId
   f13.dynamicRendering = VK_TRUE;  // hw_raster.h: a render pass with no attachments
-  VkPhysicalDeviceVulkan12Features f12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+  auto f12 = vk_struct<VkPhysicalDeviceVulkan12Features>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES);
   f12.pNext = &f13;
   f12.shaderBufferInt64Atomics = VK_TRUE;
   f12.drawIndirectCount = VK_TRUE;
-  VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  auto features = vk_struct<VkPhysicalDeviceFeatures2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
   features.pNext = &f12;
   features.features.shaderInt64 = VK_TRUE;
   features.features.shaderFloat64 = VK_TRUE;
   features.features.fragmentStoresAndAtomics = VK_TRUE;
   features.features.multiDrawIndirect = VK_TRUE;
   features.features.drawIndirectFirstInstance = VK_TRUE;
-  VkDeviceCreateInfo info{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+  auto info = vk_struct<VkDeviceCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO);
   info.pNext = &features;
   info.queueCreateInfoCount = 1;
   info.pQueueCreateInfos = &queue;
@@ -292,7 +292,7 @@ GpuBuffer create_gpu_buffer(GpuContext& c, VkDeviceSize size) {
   GpuBuffer b;
   b.context = &c;
   b.size = size;
-  VkBufferCreateInfo info{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+  auto info = vk_struct<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
   info.size = size;
   info.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT;
@@ -302,7 +302,7 @@ GpuBuffer create_gpu_buffer(GpuContext& c, VkDeviceSize size) {
   vkGetBufferMemoryRequirements(c.device, b.buffer, &req);
   if (!(req.memoryTypeBits & (1u << c.host_memory_type)))
     fail("GPU_FEATURE_MISSING", c.device_name, "storage buffers cannot live in host-visible memory", kExitUsage);
-  VkMemoryAllocateInfo alloc{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  auto alloc = vk_struct<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
   alloc.allocationSize = req.size;
   alloc.memoryTypeIndex = c.host_memory_type;
   VkResult r = vkAllocateMemory(c.device, &alloc, nullptr, &b.memory);
@@ -358,24 +358,24 @@ ComputePipeline create_compute_pipeline(GpuContext& c, const ShaderBinary& shade
   std::vector<VkDescriptorSetLayoutBinding> bindings(storage_buffers);
   for (uint32_t i = 0; i < storage_buffers; ++i)
     bindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
-  VkDescriptorSetLayoutCreateInfo set_info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  auto set_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
   set_info.bindingCount = storage_buffers;
   set_info.pBindings = bindings.data();
   check_vk(vkCreateDescriptorSetLayout(c.device, &set_info, nullptr, &p.set_layout), "vkCreateDescriptorSetLayout");
   VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, push_constant_bytes};
-  VkPipelineLayoutCreateInfo layout_info{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  auto layout_info = vk_struct<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
   layout_info.setLayoutCount = 1;
   layout_info.pSetLayouts = &p.set_layout;
   layout_info.pushConstantRangeCount = push_constant_bytes ? 1 : 0;
   layout_info.pPushConstantRanges = &range;
   check_vk(vkCreatePipelineLayout(c.device, &layout_info, nullptr, &p.layout), "vkCreatePipelineLayout");
-  VkShaderModuleCreateInfo module_info{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  auto module_info = vk_struct<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
   module_info.codeSize = shader.word_count * 4;
   module_info.pCode = shader.words;
   VkShaderModule module = VK_NULL_HANDLE;
   check_vk(vkCreateShaderModule(c.device, &module_info, nullptr, &module), "vkCreateShaderModule");
-  VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-  info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+  auto info = vk_struct<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
+  info.stage = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
   info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
   info.stage.module = module;
   info.stage.pName = "main";
@@ -391,24 +391,24 @@ ComputePipeline create_compute_pipeline(GpuContext& c, const ShaderBinary& shade
 std::unique_ptr<GpuRecorder> create_gpu_recorder(GpuContext& c) {
   auto rec = std::make_unique<GpuRecorder>();
   rec->context = &c;
-  VkCommandPoolCreateInfo pool{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  auto pool = vk_struct<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
   pool.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
   pool.queueFamilyIndex = c.queue_family;
   check_vk(vkCreateCommandPool(c.device, &pool, nullptr, &rec->pool), "vkCreateCommandPool");
-  VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  auto alloc = vk_struct<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
   alloc.commandPool = rec->pool;
   alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
   alloc.commandBufferCount = 1;
   check_vk(vkAllocateCommandBuffers(c.device, &alloc, &rec->commands), "vkAllocateCommandBuffers");
   VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kMaxDispatchesPerSubmit * kMaxBuffersPerDispatch};
-  VkDescriptorPoolCreateInfo dp{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  auto dp = vk_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
   dp.maxSets = kMaxDispatchesPerSubmit;
   dp.poolSizeCount = 1;
   dp.pPoolSizes = &size;
   check_vk(vkCreateDescriptorPool(c.device, &dp, nullptr, &rec->descriptors), "vkCreateDescriptorPool");
-  VkFenceCreateInfo fence{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  auto fence = vk_struct<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
   check_vk(vkCreateFence(c.device, &fence, nullptr, &rec->fence), "vkCreateFence");
-  VkQueryPoolCreateInfo q{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+  auto q = vk_struct<VkQueryPoolCreateInfo>(VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO);
   q.queryType = VK_QUERY_TYPE_TIMESTAMP;
   q.queryCount = kMaxTimestamps;
   check_vk(vkCreateQueryPool(c.device, &q, nullptr, &rec->timestamps), "vkCreateQueryPool");
@@ -428,7 +428,7 @@ void begin_commands(GpuRecorder& rec) {
   assert(!rec.recording);
   check_vk(vkResetDescriptorPool(rec.context->device, rec.descriptors, 0), "vkResetDescriptorPool");
   check_vk(vkResetCommandBuffer(rec.commands, 0), "vkResetCommandBuffer");
-  VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  auto begin = vk_struct<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
   begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   check_vk(vkBeginCommandBuffer(rec.commands, &begin), "vkBeginCommandBuffer");
   vkCmdResetQueryPool(rec.commands, rec.timestamps, 0, kMaxTimestamps);
@@ -439,7 +439,7 @@ void begin_commands(GpuRecorder& rec) {
 namespace {
 // Everything written before is visible to everything after (compute, transfer, host).
 void full_barrier(VkCommandBuffer cmd) {
-  VkMemoryBarrier2 barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+  auto barrier = vk_struct<VkMemoryBarrier2>(VK_STRUCTURE_TYPE_MEMORY_BARRIER_2);
   barrier.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT;
   barrier.srcAccessMask = VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT;
   barrier.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT |
@@ -447,7 +447,7 @@ void full_barrier(VkCommandBuffer cmd) {
   barrier.dstAccessMask = VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT |
                           VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT |
                           VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_HOST_READ_BIT;
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  auto dep = vk_struct<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
   dep.memoryBarrierCount = 1;
   dep.pMemoryBarriers = &barrier;
   vkCmdPipelineBarrier2(cmd, &dep);
@@ -477,7 +477,7 @@ std::vector<const GpuBuffer*> gpu_bindings(uint32_t count, const std::vector<Gpu
 VkDescriptorSet storage_buffer_set(GpuRecorder& rec, VkDescriptorSetLayout layout,
                                    const std::vector<const GpuBuffer*>& buffers) {
   VkDevice d = rec.context->device;
-  VkDescriptorSetAllocateInfo alloc{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+  auto alloc = vk_struct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
   alloc.descriptorPool = rec.descriptors;
   alloc.descriptorSetCount = 1;
   alloc.pSetLayouts = &layout;
@@ -487,7 +487,7 @@ VkDescriptorSet storage_buffer_set(GpuRecorder& rec, VkDescriptorSetLayout layou
   std::vector<VkWriteDescriptorSet> writes(buffers.size());
   for (size_t i = 0; i < buffers.size(); ++i) {
     infos[i] = {buffers[i]->buffer, 0, VK_WHOLE_SIZE};
-    writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
     writes[i].dstSet = set;
     writes[i].dstBinding = uint32_t(i);
     writes[i].descriptorCount = 1;
@@ -538,7 +538,7 @@ void submit_and_wait(GpuRecorder& rec) {
   assert(rec.recording);
   rec.recording = false;
   check_vk(vkEndCommandBuffer(rec.commands), "vkEndCommandBuffer");
-  VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+  auto submit = vk_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
   submit.commandBufferCount = 1;
   submit.pCommandBuffers = &rec.commands;
   VkDevice d = rec.context->device;
@@ -552,7 +552,7 @@ void continue_commands(GpuRecorder& rec) {
   submit_and_wait(rec);
   check_vk(vkResetDescriptorPool(rec.context->device, rec.descriptors, 0), "vkResetDescriptorPool");
   check_vk(vkResetCommandBuffer(rec.commands, 0), "vkResetCommandBuffer");
-  VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  auto begin = vk_struct<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
   begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   check_vk(vkBeginCommandBuffer(rec.commands, &begin), "vkBeginCommandBuffer");
   rec.timestamps_used = timestamps_used;  // the query pool is not reset: earlier slots stay valid

@@ -20,6 +20,15 @@ namespace vgeo {
 
 // Device chosen when neither GpuOptions::device nor VGEO_VK_DEVICE names one: the
 // project's reference GPU is Mesa's CPU driver (lavapipe reports "llvmpipe ...").
+// A Vulkan structure with its sType set and every other member zero (what `VkX x{sType}`
+// means, without GCC's -Wmissing-field-initializers for each member it leaves out).
+template <class VkStruct>
+VkStruct vk_struct(VkStructureType type) {
+  VkStruct s{};
+  s.sType = type;
+  return s;
+}
+
 inline constexpr const char* kDefaultGpuDevice = "llvmpipe";
 
 struct GpuOptions {

@@ -467,14 +467,14 @@ std::vector<uint32_t> read_instance_list(const GpuBuffer& list) {
 std::vector<VisibleCluster> read_visible_list(const GpuBuffer& list) {
   const uint32_t* w = list.data<uint32_t>();
   std::vector<VisibleCluster> out(w[0]);
-  std::memcpy(out.data(), w + kListHeaderWords, out.size() * sizeof(VisibleCluster));
+  std::memcpy(static_cast<void*>(out.data()), w + kListHeaderWords, out.size() * sizeof(VisibleCluster));  // plain words, as the shader wrote them
   return out;
 }
 
 std::vector<CullItem> read_item_list(const GpuBuffer& list) {
   const uint32_t* w = list.data<uint32_t>();
   std::vector<CullItem> out(w[0]);
-  std::memcpy(out.data(), w + kListHeaderWords, out.size() * sizeof(CullItem));
+  std::memcpy(static_cast<void*>(out.data()), w + kListHeaderWords, out.size() * sizeof(CullItem));  // plain words, as the shader wrote them
   return out;
 }
 

@@ -40,7 +40,7 @@ constexpr uint32_t kHwBindings = kHwRasterBindingCount;
 constexpr VkShaderStageFlags kHwStages = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
 
 VkShaderModule make_module(GpuContext& c, const ShaderBinary& shader) {
-  VkShaderModuleCreateInfo info{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  auto info = vk_struct<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
   info.codeSize = shader.word_count * 4;
   info.pCode = shader.words;
   VkShaderModule module = VK_NULL_HANDLE;
@@ -56,12 +56,12 @@ void create_hw_pipeline(GpuContext& c, uint32_t binding_count, const ShaderBinar
                         VkPipeline* pipeline) {
   std::vector<VkDescriptorSetLayoutBinding> bindings(binding_count);
   for (uint32_t i = 0; i < binding_count; ++i) bindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, kHwStages, nullptr};
-  VkDescriptorSetLayoutCreateInfo set_info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  auto set_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
   set_info.bindingCount = binding_count;
   set_info.pBindings = bindings.data();
   check_vk(vkCreateDescriptorSetLayout(c.device, &set_info, nullptr, set_layout), "vkCreateDescriptorSetLayout");
   VkPushConstantRange range{kHwStages, 0, sizeof(GpuRasterParams)};
-  VkPipelineLayoutCreateInfo layout_info{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  auto layout_info = vk_struct<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
   layout_info.setLayoutCount = 1;
   layout_info.pSetLayouts = set_layout;
   layout_info.pushConstantRangeCount = 1;
@@ -69,21 +69,21 @@ void create_hw_pipeline(GpuContext& c, uint32_t binding_count, const ShaderBinar
   check_vk(vkCreatePipelineLayout(c.device, &layout_info, nullptr, layout), "vkCreatePipelineLayout");
 
   VkShaderModule vert = make_module(c, vert_shader), frag = make_module(c, frag_shader);
-  VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
-                                               {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
+  VkPipelineShaderStageCreateInfo stages[2] = {vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO),
+                                               vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO)};
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
   stages[0].module = vert;
   stages[0].pName = "main";
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
   stages[1].module = frag;
   stages[1].pName = "main";
-  VkPipelineVertexInputStateCreateInfo vertex_input{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
-  VkPipelineInputAssemblyStateCreateInfo assembly{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  auto vertex_input = vk_struct<VkPipelineVertexInputStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO);
+  auto assembly = vk_struct<VkPipelineInputAssemblyStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO);
   assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-  VkPipelineViewportStateCreateInfo viewport{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  auto viewport = vk_struct<VkPipelineViewportStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO);
   viewport.viewportCount = 1;
   viewport.scissorCount = 1;
-  VkPipelineRasterizationStateCreateInfo raster{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  auto raster = vk_struct<VkPipelineRasterizationStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO);
   raster.polygonMode = VK_POLYGON_MODE_FILL;
   // Vulkan's area sign is computed in y-down framebuffer coordinates with a leading minus
   // (a = −½ Σ x_i y_{i+1} − x_{i+1} y_i), so a > 0 ("counter-clockwise") is exactly
@@ -91,14 +91,14 @@ void create_hw_pipeline(GpuContext& c, uint32_t binding_count, const ShaderBinar
   raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
   raster.cullMode = VK_CULL_MODE_BACK_BIT;  // dynamic (vkCmdSetCullMode)
   raster.lineWidth = 1.0f;
-  VkPipelineMultisampleStateCreateInfo multisample{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  auto multisample = vk_struct<VkPipelineMultisampleStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO);
   multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
   const VkDynamicState dynamic_states[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR, VK_DYNAMIC_STATE_CULL_MODE};
-  VkPipelineDynamicStateCreateInfo dynamic{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+  auto dynamic = vk_struct<VkPipelineDynamicStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO);
   dynamic.dynamicStateCount = 3;
   dynamic.pDynamicStates = dynamic_states;
-  VkPipelineRenderingCreateInfo rendering{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};  // no attachments
-  VkGraphicsPipelineCreateInfo info{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+  auto rendering = vk_struct<VkPipelineRenderingCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO);  // no attachments
+  auto info = vk_struct<VkGraphicsPipelineCreateInfo>(VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO);
   info.pNext = &rendering;
   info.stageCount = 2;
   info.pStages = stages;
@@ -117,12 +117,12 @@ void create_hw_pipeline(GpuContext& c, uint32_t binding_count, const ShaderBinar
 
 // Shader writes of `src` stages become visible to the `dst` stages' `access`.
 void barrier(GpuRecorder& rec, VkPipelineStageFlags2 src, VkPipelineStageFlags2 dst, VkAccessFlags2 access) {
-  VkMemoryBarrier2 b{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+  auto b = vk_struct<VkMemoryBarrier2>(VK_STRUCTURE_TYPE_MEMORY_BARRIER_2);
   b.srcStageMask = src;
   b.srcAccessMask = VK_ACCESS_2_SHADER_WRITE_BIT;
   b.dstStageMask = dst;
   b.dstAccessMask = access;
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  auto dep = vk_struct<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
   dep.memoryBarrierCount = 1;
   dep.pMemoryBarriers = &b;
   vkCmdPipelineBarrier2(rec.commands, &dep);
@@ -135,7 +135,7 @@ void record_hw_draw(GpuRecorder& rec, GpuRasterPasses& p, const GpuRasterBuffers
   bindings.push_back({kRasterBindCounters, b.counters});
   VkDescriptorSet set = storage_buffer_set(rec, p.hw_set_layout, gpu_bindings(kHwBindings, bindings));
 
-  VkRenderingInfo rendering{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  auto rendering = vk_struct<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
   rendering.renderArea = {{0, 0}, {params.width, params.height}};
   rendering.layerCount = 1;
   vkCmdBeginRendering(rec.commands, &rendering);
@@ -369,7 +369,7 @@ void record_gpu_shadow_hw_raster(GpuRecorder& rec, GpuRasterPasses& p, const Gpu
   // page's draws use its mip's viewport and the page's scissor.
   uint32_t side = 1;
   for (const GpuShadowPage& page : pages) side = std::max(side, page.viewport);
-  VkRenderingInfo rendering{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  auto rendering = vk_struct<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
   rendering.renderArea = {{0, 0}, {side, side}};
   rendering.layerCount = 1;
   vkCmdBeginRendering(rec.commands, &rendering);
