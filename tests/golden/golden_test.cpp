@@ -143,7 +143,9 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
     }
     uint64_t cached = 0;
     for (size_t f = 1; f < ref.frames.size(); ++f) cached += ref.frames[f].shadow.pages_cached;
-    if (g.shadow_cache_used) EXPECT_GT(cached, 0u) << g.name << ": no frame reuses a cached page";
+    if (g.shadow_cache_used) {
+      EXPECT_GT(cached, 0u) << g.name << ": no frame reuses a cached page";
+    }
     if (g.moved_at) {
       ASSERT_LT(g.moved_at, ref.frames.size());
       const ShadowFrameStats& before = ref.frames[g.moved_at - 1].shadow;
@@ -229,7 +231,9 @@ TEST_P(GoldenTest, CpuMatchesCommittedAndVulkanKeepsTheRule) {
       const RasterSplitStats& split = r.frames[f].raster_split;
       EXPECT_EQ(split.sw_clusters + split.hw_clusters, r.frames[f].clusters_drawn) << g.name << " frame " << f;
       EXPECT_EQ(split.sw_triangles + split.hw_triangles, r.frames[f].triangles_drawn) << g.name << " frame " << f;
-      if (mode == GpuRasterMode::kHw) EXPECT_EQ(split.sw_clusters, 0u) << g.name << " frame " << f;
+      if (mode == GpuRasterMode::kHw) {
+        EXPECT_EQ(split.sw_clusters, 0u) << g.name << " frame " << f;
+      }
       total.add(r.comparisons[f].hw);
       // The shadow pages both sides drew, under the shadow-page hardware rule (spec/shadow.md §8).
       if (g.shadows) {

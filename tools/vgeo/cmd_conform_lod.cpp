@@ -250,7 +250,7 @@ int run_conform_lod(const ConformLodArgs& a) {
     std::string text = "# vgeo-lod-selections 1 (vgeo's reference selections of " + dir + ")\n";
     for (const LodVector& v : vectors) {
       text += v.name + ":";
-      for (uint32_t c : v.expected) text += " " + std::to_string(c);
+      for (uint32_t c : v.expected) text.append(" ").append(std::to_string(c));  // (GCC 12's -Wrestrict misfires on " " + string)
       text += "\n";
     }
     write_file_atomic(a.reference, text);
