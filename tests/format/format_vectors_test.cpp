@@ -80,10 +80,9 @@ void add_rule_vectors(std::vector<Vector>& v, const std::vector<uint8_t>& sphere
   FormatOptions none;
   none.compression = Compression::kNone;
   none.page_size = kMinPageSize;
-  FormatOptions zstd = none, lz4 = none;
+  FormatOptions zstd = none;
   zstd.compression = Compression::kZstd;
   zstd.zstd_level = 9;
-  lz4.compression = Compression::kLz4;
   auto valid = [&](const std::string& name, std::vector<uint8_t> bytes) {
     v.push_back({name, std::move(bytes), "OK", {}, ""});
     return v.back().bytes;
@@ -483,10 +482,10 @@ std::vector<Vector> make_vectors(uint32_t version) {
 
   const BuiltScene sphere = test::scene_of({test::make_leaf_dag(test::make_sphere(6, 12))});
   const std::vector<uint8_t> sphere_zstd = encode_format(sphere, zstd);
-  v.push_back({prefix + "valid_sphere_zstd.vgp", sphere_zstd, "OK"});
-  v.push_back({prefix + "valid_grid_uv_lz4.vgp", encode_format(test::scene_of({test::make_leaf_dag(test::make_grid(10, 1.0f, true))}), lz4), "OK"});
+  v.push_back({prefix + "valid_sphere_zstd.vgp", sphere_zstd, "OK", {}, ""});
+  v.push_back({prefix + "valid_grid_uv_lz4.vgp", encode_format(test::scene_of({test::make_leaf_dag(test::make_grid(10, 1.0f, true))}), lz4), "OK", {}, ""});
   v.push_back({prefix + "valid_two_level_none.vgp",
-               encode_format(test::scene_of({test::make_two_level_dag(test::make_grid(24, 2.0f), test::make_grid(8, 2.0f))}), none), "OK"});
+               encode_format(test::scene_of({test::make_two_level_dag(test::make_grid(24, 2.0f), test::make_grid(8, 2.0f))}), none), "OK", {}, ""});
   {
     // A cluster whose triangles span more than 32 indices (wide index offsets) and a mesh with
     // several materials per cluster, two meshes.
@@ -495,7 +494,7 @@ std::vector<Vector> make_vectors(uint32_t version) {
     for (uint32_t t = 0; t + 1 < c.triangle_count; t += 2)
       std::swap(d.indices[3 * (c.triangle_offset + t)], d.indices[3 * (c.triangle_offset + c.triangle_count - 1 - t / 2) + 1]);
     v.push_back({prefix + "valid_wide_index_two_meshes_zstd.vgp",
-                 encode_format(test::scene_of({d, test::make_leaf_dag(test::make_grid(3))}), zstd), "OK"});
+                 encode_format(test::scene_of({d, test::make_leaf_dag(test::make_grid(3))}), zstd), "OK", {}, ""});
   }
   auto derived = [&](const std::string& name, const std::vector<uint8_t>& base, const std::string& code, auto edit, bool crc) {
     std::vector<uint8_t> f = base;
@@ -528,7 +527,7 @@ std::vector<Vector> make_vectors(uint32_t version) {
     derived("metadata_raw_size_mismatch.vgp", sphere_zstd, kErrDecompress, [](auto& f) { test::file_put32(&f[44], test::file_le32(&f[44]) + 1); }, true);
     // A page of several clusters with vertex copies (spec §5.2 version 2).
     const std::vector<uint8_t> multi = encode_format(test::scene_of({test::make_leaf_dag(test::make_grid(24, 1.0f, true))}), none);
-    v.push_back({"valid_copies_none.vgp", multi, "OK"});
+    v.push_back({"valid_copies_none.vgp", multi, "OK", {}, ""});
     const FormatContainer mc = parse_container(multi.data(), multi.size(), "gen");
     const size_t mp = mc.pages[0].file_offset;
     uint64_t verts = 0;
@@ -544,7 +543,7 @@ std::vector<Vector> make_vectors(uint32_t version) {
   const FormatContainer gc = parse_container(grid_none.data(), grid_none.size(), "gen");
   const size_t p = gc.pages[0].file_offset;
   const uint32_t n = gc.pages[0].cluster_count, C = gc.meshes[0].quantization.channel_count();
-  v.push_back({prefix + "valid_grid_none.vgp", grid_none, "OK"});
+  v.push_back({prefix + "valid_grid_none.vgp", grid_none, "OK", {}, ""});
   derived("page_cluster_count_mismatch.vgp", grid_none, kErrInconsistent, [&](auto& f) { test::file_put32(&f[p + 4], n + 1); }, true);
   derived("page_bad_magic.vgp", grid_none, kErrBadMagic, [&](auto& f) { f[p] ^= 1; }, true);
   const size_t ctl = p + 8 + size_t(n) * (3 + 5 * C);
@@ -625,7 +624,9 @@ TEST(FormatVectors, ManifestMatches) {
     ASSERT_TRUE(listed.count(v.name)) << v.name << " not in the manifest";
     // The stored file decodes as the manifest says, and its twin is a listed valid file.
     EXPECT_EQ(listed[v.name], manifest_line(v, outcome(read_file(vector_dir() / v.name)))) << v.name;
-    if (!v.twin.empty()) EXPECT_NE(listed[v.twin].find(" OK "), std::string::npos) << v.name;
+    if (!v.twin.empty()) {
+      EXPECT_NE(listed[v.twin].find(" OK "), std::string::npos) << v.name;
+    }
   }
 }
 

@@ -181,7 +181,9 @@ TEST(Stream, RootsOnlyCutIsTheUsableCoarsestLevel) {
     EXPECT_TRUE(check_cut(dag, f.contexts[m], drawn[m]).ok()) << "mesh " << m;
     // The sphere's ideal cut is finer than its roots here (the flat grid simplifies without
     // error, so its ideal cut is its roots already).
-    if (m == 0) EXPECT_NE(drawn[m], ideal[m]);
+    if (m == 0) {
+      EXPECT_NE(drawn[m], ideal[m]);
+    }
     ASSERT_FALSE(drawn[m].empty());
     for (uint32_t c : drawn[m]) EXPECT_TRUE(usable[m][dag.clusters[c].group]) << "cluster " << c;
     EXPECT_EQ(drawn[m], select_resident_cut(f.container.meshes[m].dag, usable[m],
