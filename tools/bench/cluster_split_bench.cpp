@@ -1,5 +1,6 @@
 // Leaf clustering: meshopt_buildMeshlets vs METIS recursive bisection vs the grower
-// (method = SplitMethod: 0 meshopt, 1 METIS, 2 grow), on CGAL meshes
+// (method = SplitMethod: 0 meshopt, 1 METIS, 2 grow), and grouping those clusters
+// (group_clusters), on CGAL meshes
 // (run tools/fetch-data first; VGEO_DATA_DIR overrides ./data). Counters: average fill
 // (triangles per cluster / 128) and boundary-edge fraction (cluster-border edge slots /
 // all edge slots, as BuildLevelReport::boundary_edge_fraction).
@@ -66,5 +67,41 @@ BENCHMARK(BM_LeafClusters)->ArgNames({"mesh", "method"})
     ->ArgsProduct({{0, 1, 2, 3, 4, 5, 6, 7, 8},
                    {int(SplitMethod::kMeshopt), int(SplitMethod::kMetis), int(SplitMethod::kGrow)}})
     ->Unit(benchmark::kMillisecond)->Iterations(1);
+
+// Grouping one level: group_clusters (the METIS graph of shared welded edges and weak spatial
+// edges, then METIS) on a mesh's leaf clusters (the grower's), whole mesh as one block as the
+// builder does for up to kGroupBlockClusters clusters; "sphere" is the one-chunk UV sphere
+// (1,023 clusters). Counters: clusters, groups.
+void BM_GroupClusters(benchmark::State& state) {
+  const char* dir = std::getenv("VGEO_DATA_DIR");
+  std::string path = std::string(dir ? dir : "data") + "/cgal/meshes/" + kSplitBenchMeshes[state.range(0)] + ".off";
+  if (std::string(kSplitBenchMeshes[state.range(0)]) != "sphere" && !std::filesystem::exists(path)) {
+    state.SkipWithError(("missing " + path + " (run tools/fetch-data)").c_str());
+    return;
+  }
+  const Mesh mesh = bench_mesh(kSplitBenchMeshes[state.range(0)], path);
+  WeldedMesh welded = weld_positions(mesh);
+  TriangleSet all;
+  all.corners = mesh.indices;
+  all.materials.assign(mesh.triangle_count(), 0);
+  std::vector<uint32_t> scratch(mesh.vertex_count(), kNone);
+  const std::vector<TriangleSet> clusters = split_into_clusters(welded, all, scratch, SplitMethod::kGrow);
+  std::vector<const TriangleSet*> sets;
+  std::vector<std::vector<uint64_t>> open_keys(clusters.size());
+  std::vector<Sphere> bounds;
+  for (size_t i = 0; i < clusters.size(); ++i) {
+    uint64_t open = 0, edges = 0;
+    count_cluster_edges(welded, clusters[i], &open, &edges, &open_keys[i]);
+    sets.push_back(&clusters[i]);
+    bounds.push_back(sphere_of_points(mesh, clusters[i].corners.data(), clusters[i].corners.size()));
+  }
+  std::vector<std::vector<uint32_t>> groups;
+  for (auto _ : state) groups = group_clusters(sets, open_keys, bounds, kGroupTargetClusters);
+  state.SetLabel(kSplitBenchMeshes[state.range(0)]);
+  state.counters["clusters"] = double(clusters.size());
+  state.counters["groups"] = double(groups.size());
+}
+
+BENCHMARK(BM_GroupClusters)->ArgNames({"mesh"})->DenseRange(0, 8)->Unit(benchmark::kMillisecond);
 
 }  // namespace

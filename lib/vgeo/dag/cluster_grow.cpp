@@ -43,8 +43,8 @@ inline uint32_t spread_bits(uint32_t x) {
   return x;
 }
 
-// Triangle centroids in a bounding-box tree whose nodes count their unclustered triangles, so
-// the nearest search skips clustered regions. Built on first use (connected meshes rarely need
+// Triangle centroids in a bounding-box tree whose nodes keep their smallest unclustered
+// triangle (none: the region is clustered, and the nearest search skips it). Built on first use (connected meshes rarely need
 // it) in linear time: the centroids sorted along a Morton curve (radix sort), cut into leaves
 // of kKdLeafSize, and a complete binary tree over the leaves (node i has children 2i+1 and
 // 2i+2) whose boxes are merged bottom-up. The search is exact (nearest, ties by smaller id)
@@ -54,8 +54,8 @@ inline uint32_t spread_bits(uint32_t x) {
 struct CentroidTree {
   struct Node {
     float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
-    uint32_t remaining = 0;
-    uint32_t min_id = kNone;  // smallest unclustered triangle below (the tie order)
+    // Smallest unclustered triangle below (the tie order); kNone when none is left below.
+    uint32_t min_id = kNone;
   };
   std::vector<Node> nodes;
   std::vector<uint32_t> order;  // triangle ids along the curve; leaf j holds [16j, 16j + 16)
@@ -83,13 +83,11 @@ struct CentroidTree {
         leaf_of[order[i]] = leaf_base + j;
         leaf.min_id = std::min(leaf.min_id, order[i]);
       }
-      leaf.remaining = end - j * kKdLeafSize;
     }
     for (uint32_t i = leaf_base; i-- > 0;) {
       const Node &l = nodes[2 * i + 1], &r = nodes[2 * i + 2];
       Node& node = nodes[i];
       for (int k = 0; k < 3; ++k) node.lo[k] = std::min(l.lo[k], r.lo[k]), node.hi[k] = std::max(l.hi[k], r.hi[k]);
-      node.remaining = l.remaining + r.remaining;
       node.min_id = std::min(l.min_id, r.min_id);
     }
   }
@@ -128,23 +126,24 @@ struct CentroidTree {
     order.resize(keys.size());
     for (size_t i = 0; i < keys.size(); ++i) order[i] = uint32_t(keys[i]);
   }
-  // Triangle t (now clustered) leaves the counts and the smallest ids on its path.
+  // Triangle t (now clustered) leaves the smallest ids on its path. Only when t was its
+  // leaf's smallest does anything change, and only up to the first ancestor whose smallest id
+  // stays (its ancestors' stay too): most removals touch one node, not the path to the root.
   void remove(uint32_t t, const std::vector<uint8_t>& clustered) {
     if (!built()) return;
     const uint32_t leaf = leaf_of[t];
     Node& l = nodes[leaf];
-    if (l.min_id == t) {
-      l.min_id = kNone;
-      const uint32_t begin = (leaf - leaf_base) * kKdLeafSize;
-      const uint32_t end = std::min(uint32_t(order.size()), begin + kKdLeafSize);
-      for (uint32_t i = begin; i < end; ++i)
-        if (!clustered[order[i]]) l.min_id = std::min(l.min_id, order[i]);
-    }
-    --l.remaining;
+    if (l.min_id != t) return;
+    l.min_id = kNone;
+    const uint32_t begin = (leaf - leaf_base) * kKdLeafSize;
+    const uint32_t end = std::min(uint32_t(order.size()), begin + kKdLeafSize);
+    for (uint32_t i = begin; i < end; ++i)
+      if (!clustered[order[i]]) l.min_id = std::min(l.min_id, order[i]);
     for (uint32_t n = leaf; n != 0;) {
       n = (n - 1) / 2;
-      --nodes[n].remaining;
-      nodes[n].min_id = std::min(nodes[2 * n + 1].min_id, nodes[2 * n + 2].min_id);
+      const uint32_t min_id = std::min(nodes[2 * n + 1].min_id, nodes[2 * n + 2].min_id);
+      if (nodes[n].min_id == min_id) break;
+      nodes[n].min_id = min_id;
     }
   }
   float box_d2(uint32_t id, const float* p) const {
@@ -160,7 +159,7 @@ struct CentroidTree {
   uint32_t nearest(const float* p, const std::vector<uint8_t>& clustered) const {
     uint32_t best = kNone;
     float best_d2 = FLT_MAX;
-    if (!nodes.empty() && nodes[0].remaining > 0) search(0, box_d2(0, p), p, clustered, best, best_d2);
+    if (!nodes.empty() && nodes[0].min_id != kNone) search(0, box_d2(0, p), p, clustered, best, best_d2);
     return best;
   }
   void search(uint32_t id, float node_d2, const float* p, const std::vector<uint8_t>& clustered, uint32_t& best,
@@ -168,7 +167,7 @@ struct CentroidTree {
     // A box at the best distance can only hold a winner with a smaller id: without this, a
     // mesh whose distances all round to one value (squares underflowing at 1e-37 scale) made
     // every search visit the whole tree.
-    if (nodes[id].remaining == 0 || node_d2 > best_d2 || (node_d2 == best_d2 && nodes[id].min_id > best)) return;
+    if (nodes[id].min_id == kNone || node_d2 > best_d2 || (node_d2 == best_d2 && nodes[id].min_id > best)) return;
     if (id >= leaf_base) {
       const uint32_t begin = (id - leaf_base) * kKdLeafSize;
       const uint32_t end = std::min(uint32_t(order.size()), begin + kKdLeafSize);

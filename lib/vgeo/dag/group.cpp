@@ -7,6 +7,7 @@
 #include <metis.h>
 
 #include <algorithm>
+#include <bit>
 #include <cassert>
 #include <cmath>
 #include <mutex>
@@ -23,6 +24,181 @@ struct WeightedEdge {
   int weight;
   bool operator<(const WeightedEdge& o) const { return a != o.a ? a < o.a : b < o.b; }
 };
+
+// Bits per pass of the open edges' radix sort: 2,048 counters (8 KiB) stay in L1.
+constexpr uint32_t kEdgeRadixBits = 11;
+
+// An open edge of a cluster: its welded edge key (compressed, below) and the cluster.
+struct OpenEdge {
+  uint64_t key;
+  uint32_t cluster;
+};
+
+// Every cluster's open edges sorted by key, then cluster. The edges are listed in cluster
+// order, so a stable sort by key alone gives that order: an LSD radix sort of the keys
+// compressed to (high << bits of the largest low) | low, which keeps their order and
+// equality, over as many passes as the compressed keys have bits (40 on a 2^20-vertex mesh:
+// 4 passes instead of a comparison sort of the pairs).
+std::vector<OpenEdge> sorted_open_edges(const std::vector<std::vector<uint64_t>>& cluster_open_edges) {
+  size_t total = 0;
+  uint64_t max_high = 0, max_low = 0;
+  for (const auto& keys : cluster_open_edges) {
+    total += keys.size();
+    for (uint64_t k : keys) max_high = std::max(max_high, k >> 32), max_low = std::max(max_low, k & 0xFFFFFFFFu);
+  }
+  const uint32_t low_bits = uint32_t(std::bit_width(max_low)), key_bits = low_bits + uint32_t(std::bit_width(max_high));
+  std::vector<OpenEdge> edges, sorted;
+  edges.reserve(total);
+  for (size_t c = 0; c < cluster_open_edges.size(); ++c)
+    for (uint64_t k : cluster_open_edges[c]) edges.push_back({((k >> 32) << low_bits) | (k & 0xFFFFFFFFu), uint32_t(c)});
+  sorted.resize(edges.size());
+  constexpr uint32_t kBuckets = 1u << kEdgeRadixBits;
+  for (uint32_t shift = 0; shift < key_bits; shift += kEdgeRadixBits) {
+    uint32_t start[kBuckets + 1] = {};
+    for (const OpenEdge& e : edges) ++start[((e.key >> shift) & (kBuckets - 1)) + 1];
+    for (uint32_t b = 0; b < kBuckets; ++b) start[b + 1] += start[b];
+    for (const OpenEdge& e : edges) sorted[start[(e.key >> shift) & (kBuckets - 1)]++] = e;
+    edges.swap(sorted);
+  }
+  return edges;
+}
+
+// The cluster graph in METIS's CSR form: each node's neighbours ascending, weight = shared
+// welded edges, plus the weak spatial edges.
+struct ClusterGraph {
+  std::vector<idx_t> xadj, adjncy, adjwgt;
+};
+
+// Rows of (neighbour, weight) pairs: row a = [first[a], first[a + 1]).
+struct WeightedRows {
+  std::vector<size_t> first;
+  std::vector<uint32_t> to;
+  std::vector<int> weight;
+};
+
+// Per cluster, the clusters it shares welded edges with and how many, neighbours ascending
+// (the same graph as a sort of every (a, b) use and a sum of equal pairs, built by rows).
+WeightedRows shared_edge_rows(const std::vector<std::vector<uint64_t>>& cluster_open_edges) {
+  const size_t n = cluster_open_edges.size();
+  const std::vector<OpenEdge> open_edges = sorted_open_edges(cluster_open_edges);
+  // Pairs (a, b), one per use: a welded edge is shared by 2 clusters on a manifold;
+  // non-manifold fans link all pairs up to a small bound, then consecutive ones (keeps the
+  // graph linear in size).
+  auto for_each_pair = [&](auto&& fn) {
+    for (size_t i = 0; i < open_edges.size();) {
+      size_t j = i;
+      while (j < open_edges.size() && open_edges[j].key == open_edges[i].key) ++j;
+      const bool fan = j - i > 4;
+      for (size_t x = i; x < j; ++x)
+        for (size_t y = x + 1; y < (fan ? std::min(j, x + 2) : j); ++y) {
+          const uint32_t a = open_edges[x].cluster, b = open_edges[y].cluster;
+          if (a == b) continue;
+          fn(a, b);
+          fn(b, a);
+        }
+      i = j;
+    }
+  };
+  std::vector<size_t> fill(n + 1, 0);
+  for_each_pair([&](uint32_t a, uint32_t) { ++fill[a + 1]; });
+  for (size_t i = 0; i < n; ++i) fill[i + 1] += fill[i];
+  std::vector<uint32_t> uses(fill[n]);
+  std::vector<size_t> first = fill;
+  for_each_pair([&](uint32_t a, uint32_t b) { uses[fill[a]++] = b; });
+  WeightedRows rows;
+  rows.first.assign(n + 1, 0);
+  rows.to.reserve(uses.size() / 2);
+  rows.weight.reserve(uses.size() / 2);
+  for (size_t a = 0; a < n; ++a) {
+    std::sort(uses.begin() + first[a], uses.begin() + first[a + 1]);
+    for (size_t i = first[a]; i < first[a + 1];) {
+      size_t j = i;
+      while (j < first[a + 1] && uses[j] == uses[i]) ++j;
+      rows.to.push_back(uses[i]);
+      rows.weight.push_back(int(j - i));
+      i = j;
+    }
+    rows.first[a + 1] = rows.to.size();
+  }
+  return rows;
+}
+
+// Weak spatial edges between clusters near in Morton order that share no edge (both
+// directions, deduplicated, sorted by (a, b)).
+std::vector<WeightedEdge> spatial_edges(const WeightedRows& shared, const std::vector<Sphere>& bounds) {
+  const size_t n = bounds.size();
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+  for (const Sphere& s : bounds)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], double(s.center[k]));
+      hi[k] = std::max(hi[k], double(s.center[k]));
+    }
+  double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-30});
+  std::vector<std::pair<uint32_t, uint32_t>> order(n);
+  for (size_t c = 0; c < n; ++c) {
+    uint32_t q[3];
+    for (int k = 0; k < 3; ++k)
+      q[k] = uint32_t(std::clamp((double(bounds[c].center[k]) - lo[k]) / extent * 1023.0, 0.0, 1023.0));
+    order[c] = {morton_code(q[0], q[1], q[2]), uint32_t(c)};
+  }
+  std::sort(order.begin(), order.end());
+  auto adjacent = [&](uint32_t a, uint32_t b) {
+    return std::binary_search(shared.to.begin() + shared.first[a], shared.to.begin() + shared.first[a + 1], b);
+  };
+  std::vector<WeightedEdge> spatial;
+  std::vector<std::pair<double, uint32_t>> cand;
+  for (size_t i = 0; i < n; ++i) {
+    uint32_t c = order[i].second;
+    cand.clear();
+    size_t from = i >= kSpatialWindow ? i - kSpatialWindow : 0, to = std::min(n, i + kSpatialWindow + 1);
+    for (size_t j = from; j < to; ++j) {
+      uint32_t d = order[j].second;
+      if (d == c || adjacent(c, d)) continue;
+      cand.push_back({distance_d(bounds[c].center, bounds[d].center), d});
+    }
+    std::sort(cand.begin(), cand.end());
+    for (size_t k = 0; k < cand.size() && k < kSpatialNeighbors; ++k) {
+      spatial.push_back({c, cand[k].second, kSpatialEdgeWeight});
+      spatial.push_back({cand[k].second, c, kSpatialEdgeWeight});
+    }
+  }
+  // Both ends may pick each other.
+  std::sort(spatial.begin(), spatial.end());
+  spatial.erase(std::unique(spatial.begin(), spatial.end(),
+                            [](const WeightedEdge& x, const WeightedEdge& y) { return x.a == y.a && x.b == y.b; }),
+                spatial.end());
+  return spatial;
+}
+
+// The shared-edge rows and the spatial edges merged row by row (weights of equal pairs
+// summed; none are equal, spatial edges join only non-adjacent clusters).
+ClusterGraph cluster_graph(const std::vector<std::vector<uint64_t>>& cluster_open_edges,
+                           const std::vector<Sphere>& bounds) {
+  const size_t n = cluster_open_edges.size();
+  const WeightedRows shared = shared_edge_rows(cluster_open_edges);
+  const std::vector<WeightedEdge> spatial = spatial_edges(shared, bounds);
+  ClusterGraph g;
+  g.xadj.assign(n + 1, 0);
+  g.adjncy.reserve(shared.to.size() + spatial.size());
+  g.adjwgt.reserve(shared.to.size() + spatial.size());
+  size_t s = 0;
+  for (size_t a = 0; a < n; ++a) {
+    size_t i = shared.first[a];
+    const size_t end = shared.first[a + 1];
+    while (i < end || (s < spatial.size() && spatial[s].a == a)) {
+      const bool take_spatial = s < spatial.size() && spatial[s].a == a && (i == end || spatial[s].b <= shared.to[i]);
+      const bool take_shared = i < end && (!take_spatial || shared.to[i] == spatial[s].b);
+      const uint32_t b = take_shared ? shared.to[i] : spatial[s].b;
+      int w = 0;
+      if (take_shared) w += shared.weight[i++];
+      if (take_spatial) w += spatial[s++].weight;
+      g.adjncy.push_back(idx_t(b));
+      g.adjwgt.push_back(idx_t(w));
+    }
+    g.xadj[a + 1] = idx_t(g.adjncy.size());
+  }
+  return g;
+}
 
 }  // namespace
 
@@ -78,107 +254,9 @@ std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const Triang
     return groups;
   }
 
-  // Shared welded edges: (edge key, cluster) for edges open inside their cluster.
-  std::vector<std::pair<uint64_t, uint32_t>> open_edges;
-  {
-    size_t total = 0;
-    for (const auto& e : cluster_open_edges) total += e.size();
-    open_edges.reserve(total);
-  }
-  for (size_t c = 0; c < n; ++c)
-    for (uint64_t k : cluster_open_edges[c]) open_edges.push_back({k, uint32_t(c)});
-  std::sort(open_edges.begin(), open_edges.end());
-  std::vector<WeightedEdge> edges;
-  for (size_t i = 0; i < open_edges.size();) {
-    size_t j = i;
-    while (j < open_edges.size() && open_edges[j].first == open_edges[i].first) ++j;
-    // A welded edge is shared by 2 clusters on a manifold; non-manifold fans link all
-    // pairs up to a small bound, then consecutive ones (keeps the graph linear in size).
-    bool fan = j - i > 4;
-    for (size_t x = i; x < j; ++x)
-      for (size_t y = x + 1; y < (fan ? std::min(j, x + 2) : j); ++y) {
-        uint32_t a = open_edges[x].second, b = open_edges[y].second;
-        if (a == b) continue;
-        edges.push_back({a, b, 1});
-        edges.push_back({b, a, 1});
-      }
-    i = j;
-  }
-  std::vector<std::pair<uint64_t, uint32_t>>().swap(open_edges);
-  auto merge_edges = [](std::vector<WeightedEdge>& e) {
-    std::sort(e.begin(), e.end());
-    size_t out = 0;
-    for (size_t i = 0; i < e.size();) {
-      size_t j = i;
-      int w = 0;
-      while (j < e.size() && e[j].a == e[i].a && e[j].b == e[i].b) w += e[j++].weight;
-      e[out++] = {e[i].a, e[i].b, w};
-      i = j;
-    }
-    e.resize(out);
-  };
-  merge_edges(edges);
-
-  // Weak spatial edges between clusters near in Morton order that share no edge.
-  {
-    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-    for (const Sphere& s : bounds)
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min(lo[k], double(s.center[k]));
-        hi[k] = std::max(hi[k], double(s.center[k]));
-      }
-    double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-30});
-    std::vector<std::pair<uint32_t, uint32_t>> order(n);
-    for (size_t c = 0; c < n; ++c) {
-      uint32_t q[3];
-      for (int k = 0; k < 3; ++k)
-        q[k] = uint32_t(std::clamp((double(bounds[c].center[k]) - lo[k]) / extent * 1023.0, 0.0, 1023.0));
-      order[c] = {morton_code(q[0], q[1], q[2]), uint32_t(c)};
-    }
-    std::sort(order.begin(), order.end());
-    // Adjacency lookup: edges are sorted by (a, b).
-    std::vector<size_t> first(n + 1, 0);
-    for (const WeightedEdge& e : edges) ++first[e.a + 1];
-    for (size_t i = 0; i < n; ++i) first[i + 1] += first[i];
-    auto adjacent = [&](uint32_t a, uint32_t b) {
-      auto lo_it = edges.begin() + first[a], hi_it = edges.begin() + first[a + 1];
-      return std::binary_search(lo_it, hi_it, WeightedEdge{a, b, 0});
-    };
-    std::vector<WeightedEdge> spatial;
-    for (size_t i = 0; i < n; ++i) {
-      uint32_t c = order[i].second;
-      std::vector<std::pair<double, uint32_t>> cand;
-      size_t from = i >= kSpatialWindow ? i - kSpatialWindow : 0, to = std::min(n, i + kSpatialWindow + 1);
-      for (size_t j = from; j < to; ++j) {
-        uint32_t d = order[j].second;
-        if (d == c || adjacent(c, d)) continue;
-        cand.push_back({distance_d(bounds[c].center, bounds[d].center), d});
-      }
-      std::sort(cand.begin(), cand.end());
-      for (size_t k = 0; k < cand.size() && k < kSpatialNeighbors; ++k) {
-        spatial.push_back({c, cand[k].second, kSpatialEdgeWeight});
-        spatial.push_back({cand[k].second, c, kSpatialEdgeWeight});
-      }
-    }
-    // Deduplicate spatial edges (both ends may pick each other) before adding them.
-    std::sort(spatial.begin(), spatial.end());
-    spatial.erase(std::unique(spatial.begin(), spatial.end(),
-                              [](const WeightedEdge& x, const WeightedEdge& y) { return x.a == y.a && x.b == y.b; }),
-                  spatial.end());
-    edges.insert(edges.end(), spatial.begin(), spatial.end());
-    merge_edges(edges);
-  }
-
-  std::vector<idx_t> xadj(n + 1, 0), adjncy(edges.size()), adjwgt(edges.size()), vwgt(n);
-  for (size_t i = 0; i < edges.size(); ++i) {
-    ++xadj[edges[i].a + 1];
-    adjncy[i] = idx_t(edges[i].b);
-    adjwgt[i] = idx_t(edges[i].weight);
-  }
-  for (size_t i = 0; i < n; ++i) {
-    xadj[i + 1] += xadj[i];
-    vwgt[i] = idx_t(std::max<size_t>(1, clusters[i]->triangle_count()));
-  }
+  ClusterGraph graph = cluster_graph(cluster_open_edges, bounds);
+  std::vector<idx_t> vwgt(n);
+  for (size_t i = 0; i < n; ++i) vwgt[i] = idx_t(std::max<size_t>(1, clusters[i]->triangle_count()));
   std::vector<idx_t> part(n, 0);
   idx_t nvtxs = idx_t(n), ncon = 1, np = idx_t(nparts), objval = 0;
   idx_t options[METIS_NOPTIONS];
@@ -186,7 +264,8 @@ std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const Triang
   int rc;
   {
     std::lock_guard<std::mutex> lock(metis_mutex());
-    rc = METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, adjwgt.data(), &np,
+    rc = METIS_PartGraphKway(&nvtxs, &ncon, graph.xadj.data(), graph.adjncy.data(), vwgt.data(), nullptr,
+                             graph.adjwgt.data(), &np,
                              nullptr, nullptr, options, &objval, part.data());
   }
   groups.assign(nparts, {});
