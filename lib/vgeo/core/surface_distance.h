@@ -16,7 +16,7 @@ namespace vgeo {
 
 // Depth cap of the certified error bound's subdivision (spec/invariants.md §5, ERROR_CERTIFIED):
 // a triangle is split into 4 by its edge midpoints at most this many times. The builder
-// (lib/vgeo/dag/leaf_error.cpp) stores a bound certified within this depth and lib/vgeo/verify
+// (lib/vgeo/dag/leaf_certify.cpp, --error-bound certified) stores a bound certified within this depth and lib/vgeo/verify
 // certifies it with the same cap, so the check never needs to go deeper than the builder did.
 // 4 left bumps steeper than the cluster triangle (the generated spheres, armadillo's detail) to
 // the Lipschitz bound of a 1/16-size sub-triangle, up to 10% above the continuous maximum; 6

@@ -313,7 +313,7 @@ struct Certifier {
   const LeafSurface& leaves;
   const LeafTwins& twins;
   double floor;
-  double measured;  // largest exact distance found (lattice points, sub-triangle corners)
+  double measured;  // largest exact distance found (the measured error above the floor, sub-triangle corners)
   uint32_t hint = kNone;
   OverlayScratch scratch;
   std::vector<uint32_t> candidates;  // the one-triangle bound's
@@ -338,7 +338,7 @@ constexpr int kMaxPlaneWalkSteps = 128;
 
 // The leaf triangle whose projection onto the frame's plane contains (pu, pv): a visibility
 // walk in the frame from `from`, crossing the first edge whose line has the point outside,
-// never straight back; kNone after kMaxWalkSteps or at a border, fold or edge-on triangle.
+// never straight back; kNone after kMaxPlaneWalkSteps or at a border, fold or edge-on triangle.
 uint32_t walk_to_projection(const LeafSurface& leaves, const OverlayFrame& f, uint32_t from, double pu, double pv) {
   uint32_t t = from, previous = kNone;
   for (int step = 0; step < kMaxPlaneWalkSteps && t != kNone; ++step) {
