@@ -39,7 +39,7 @@ std::string check_of_code(const VerifyReport& report, const std::string& code) {
     if (v.code == code) return v.check;
   static const std::pair<const char*, const char*> kPrefixes[] = {
       {"STRUCT_", "structure"}, {"MONO_", "monotonic"}, {"CUT_", "cut"},
-      {"CRACK_", "crack"},      {"ERROR_CERTIFIED", "certified_bound"}, {"ERROR_", "error_bound"}};
+      {"CRACK_", "crack"}, {"ERROR_CERTIFIED", "certified_bound"}, {"ERROR_", "error_bound"}};
   for (const auto& [prefix, check] : kPrefixes)
     if (code.rfind(prefix, 0) == 0) return check;
   return "structure";

@@ -271,11 +271,11 @@ std::string verify_report_summary(const VerifyReport& r) {
                 (unsigned long long)r.clusters, (unsigned long long)r.leaf_clusters, (unsigned long long)r.groups,
                 (unsigned long long)r.levels, (unsigned long long)r.triangles);
   out += line;
-  std::snprintf(line, sizeof line, "  %-12s %-8s %12s %11s %9s\n", "check", "result", "items", "violations", "seconds");
+  std::snprintf(line, sizeof line, "  %-15s %-8s %9s %11s %9s\n", "check", "result", "items", "violations", "seconds");
   out += line;
   for (const auto& c : r.checks) {
     const char* verdict = !c.ran ? "SKIPPED" : c.violations ? "FAIL" : "ok";
-    std::snprintf(line, sizeof line, "  %-12s %-8s %12llu %11llu %9.3f\n", c.check.c_str(), verdict,
+    std::snprintf(line, sizeof line, "  %-15s %-8s %9llu %11llu %9.3f\n", c.check.c_str(), verdict,
                   (unsigned long long)c.items, (unsigned long long)c.violations, c.seconds);
     out += line;
     if (!c.skipped_reason.empty()) out += "    " + c.skipped_reason + "\n";
