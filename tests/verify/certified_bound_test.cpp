@@ -2,7 +2,8 @@
 // spec/invariants.md §5 "Certified bound") on the hand-built DAG, independently of the builder:
 // its raised fans deviate at most their apex height, below their stored error, so every cluster
 // is proven; a stored error below the apex height is a point beyond it. The check is parsed by
-// name and is not part of "all" (the default build does not promise it).
+// name and is not part of "all" (the default build does not promise it). A tent under a flat
+// square deviates most between the lattice's samples: stored below that, only this check fires.
 #include <gtest/gtest.h>
 
 #include "verify/hand_dag.h"
@@ -50,6 +51,43 @@ TEST(CertifiedBound, FiresBelowTheApexHeight) {
     EXPECT_EQ(v.check, "certified_bound");
     EXPECT_EQ(dag.clusters[v.index].generating_group, 0u);
   }
+}
+
+// A tent (four leaf triangles, apex raised by kTentHeight over the unit square's centre) and its
+// flat two-triangle simplification: the deviation peaks at the square's centre (≈ the apex
+// height), between the 3-step lattice's points (≈ 2/3 of it), and every corner of the flat
+// triangles is a leaf vertex (distance 0). Stored kUnderstated: the samples pass, the check must
+// not; stored the apex height: proven.
+constexpr float kTentHeight = 0.1f;
+constexpr float kUnderstated = 0.08f;  // above the lattice's ≈ 0.065, below the centre's ≈ 0.098
+
+ClusterDag tent_dag(float stored) {
+  using namespace test::hand_dag_detail;
+  ClusterDag dag;
+  dag.groups.resize(2);
+  const Vec3 a{0, 0, 0}, b{1, 0, 0}, c{1, 1, 0}, d{0, 1, 0}, apex{0.5f, 0.5f, kTentHeight};
+  dag.groups[0].first_cluster = 0;
+  dag.groups[0].cluster_count = 1;
+  add_cluster(dag, {{{a, b, apex}}, {{b, c, apex}}, {{c, d, apex}}, {{d, a, apex}}}, 0, kNone, 0);
+  dag.groups[0].first_generated = 0;
+  dag.groups[0].generated_count = 1;
+  dag.groups[1].first_cluster = 1;
+  dag.groups[1].cluster_count = 1;
+  dag.groups[1].level = 1;
+  dag.groups[1].flags = kGroupTerminal;
+  dag.generated_clusters.push_back(add_cluster(dag, {{{a, b, c}}, {{a, c, d}}}, 1, 0, 1));
+  dag.level_count = 2;
+  finish(dag, {stored, kTerminalError});
+  return dag;
+}
+
+TEST(CertifiedBound, FiresBetweenTheSamples) {
+  VerifyOptions o = certify_only();
+  o.checks |= kCheckErrorBound;
+  const VerifyReport under = verify_dag(tent_dag(kUnderstated), o);
+  EXPECT_EQ(under.count("ERROR_BOUND"), 0u);  // the samples do not see it
+  EXPECT_EQ(under.count("ERROR_CERTIFIED"), 1u);
+  EXPECT_TRUE(verify_dag(tent_dag(kTentHeight), o).ok());
 }
 
 TEST(CertifiedBound, ParsedByNameNotInAll) {
