@@ -26,7 +26,7 @@ namespace {
 using build_detail::TriangleSet;
 
 // A lattice far denser than the builder's and verify's default (3): between those points the
-// continuous deviation is up to 1.3x larger on the CGAL meshes (issue 23 goal 5).
+// continuous deviation is up to 1.3x larger on the CGAL meshes (docs/acceptance/issue23_certfast.md).
 constexpr uint32_t kDenseLattice = 16;
 // The builder's slack (leaf_certify.cpp kCertifySlack) and depth cap: the certified value is
 // at most max(floor, (lattice max + longest edge) × (1 + slack)), the Lipschitz bound of the

@@ -20,7 +20,7 @@ namespace vgeo {
 // certifies it with the same cap, so the check never needs to go deeper than the builder did.
 // 4 left bumps steeper than the cluster triangle (the generated spheres, armadillo's detail) to
 // the Lipschitz bound of a 1/16-size sub-triangle, up to 10% above the continuous maximum; 6
-// (1/64) brings those within 3% at no measurable build cost (issue23_certfast.md).
+// (1/64) brings those within 3% at no measurable build cost (docs/acceptance/issue23_certfast.md).
 inline constexpr uint32_t kCertifyMaxDepth = 6;
 
 // Lattice steps per triangle edge used by the builder to measure a simplification's error
