@@ -1,5 +1,5 @@
 // `vgeo build INPUT -o OUT [--simplifier meshopt|openmesh] [--threads N] [--page-size SIZE]
-// [--zstd-level L] [--report R.json]`: builds the cluster DAG of every mesh of INPUT and writes
+// [--zstd-level L] [--error-bound measured|certified] [--report R.json]`: builds the cluster DAG of every mesh of INPUT and writes
 // the page format (spec/format.md; a page file is named *.vgp), or a VGEODAG1 file (spec/dag.md) when OUT ends in .vgeodag.
 #include <malloc.h>
 
@@ -27,7 +27,7 @@ namespace vgeo::cli {
 namespace {
 
 struct BuildArgs {
-  std::string input, output, report, simplifier = "meshopt", page_size, zstd_level;
+  std::string input, output, report, simplifier = "meshopt", page_size, zstd_level, error_bound = "measured";
   unsigned threads = 0;
 };
 
@@ -179,6 +179,11 @@ void add_build_command(CLI::App& app, Context& ctx) {
                   "zstd level of the page format's pages and metadata: " + std::to_string(kMinZstdLevel) + ".." +
                       std::to_string(kMaxZstdLevel) + " (default " + std::to_string(kDefaultZstdLevel) +
                       "; `vgeo bench compression` measures size against CPU); ignored for .vgeodag");
+  cmd->add_option("--error-bound", args->error_bound,
+                  "what the stored errors promise: measured (default; the verify lattice's maximum, ERROR_BOUND) or "
+                  "certified (an upper bound of the continuous deviation, ERROR_CERTIFIED; the same clusters, more build "
+                  "time)")
+      ->check(CLI::IsMember({"measured", "certified"}));
   cmd->add_option("--report", args->report, "write the build report as JSON");
   cmd->callback([args, &ctx] {
     mallopt(M_MMAP_THRESHOLD, kBuildMmapThresholdBytes);  // before the first large allocation
@@ -197,6 +202,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
     BuildOptions options;
     options.simplifier = args->simplifier == "openmesh" ? Simplifier::kOpenMesh : Simplifier::kMeshopt;
     options.threads = args->threads;
+    if (args->error_bound == "certified") options.error_bound = ErrorBound::kCertified;
     options.progress = progress_wanted();
     std::vector<BuildReport> reports;
     const clock::time_point t_build = clock::now();
@@ -242,6 +248,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
                           {"write", cpu_written - cpu_built}};
       j["output"] = args->output;
       j["simplifier"] = args->simplifier;
+      j["error_bound"] = args->error_bound;
       if (kind == AssetFileKind::kPages) j["format"] = format_report_json(format_report, format_options);
       j["meshes"] = nlohmann::json::array();
       for (size_t i = 0; i < reports.size(); ++i) {

@@ -28,15 +28,18 @@ struct VerifyArgs {
   uint32_t max_stored = VerifyOptions{}.max_stored_per_code;
   bool quiet = false;
   bool strict_border = false;
+  bool certify = false;
 };
 
 // The check a code belongs to: from the stored violations, else by its prefix
-// (spec/invariants.md: STRUCT_ structure, MONO_ monotonic, CUT_ cut, CRACK_ crack, ERROR_ error_bound).
+// (spec/invariants.md: STRUCT_ structure, MONO_ monotonic, CUT_ cut, CRACK_ crack, ERROR_CERTIFIED
+// certified_bound, other ERROR_ error_bound).
 std::string check_of_code(const VerifyReport& report, const std::string& code) {
   for (const Violation& v : report.violations)
     if (v.code == code) return v.check;
   static const std::pair<const char*, const char*> kPrefixes[] = {
-      {"STRUCT_", "structure"}, {"MONO_", "monotonic"}, {"CUT_", "cut"}, {"CRACK_", "crack"}, {"ERROR_", "error_bound"}};
+      {"STRUCT_", "structure"}, {"MONO_", "monotonic"}, {"CUT_", "cut"},
+      {"CRACK_", "crack"}, {"ERROR_CERTIFIED", "certified_bound"}, {"ERROR_", "error_bound"}};
   for (const auto& [prefix, check] : kPrefixes)
     if (code.rfind(prefix, 0) == 0) return check;
   return "structure";
@@ -77,7 +80,9 @@ int run_verify(const VerifyArgs& a) {
   VerifyOptions options;
   if (!parse_verify_checks(a.checks, &options.checks))
     fail("CLI_BAD_CHECKS", "vgeo verify",
-         "--checks takes a comma-separated list of: structure, monotonic, cut, crack, error_bound, all", kExitUsage);
+         "--checks takes a comma-separated list of: structure, monotonic, cut, crack, error_bound, certified_bound, all",
+         kExitUsage);
+  if (a.certify) options.checks |= kCheckCertifiedBound;
   options.views = a.views;
   options.thresholds_per_view = a.thresholds;
   options.seed = a.seed;
@@ -133,7 +138,9 @@ void add_verify_command(CLI::App& app, Context& ctx) {
   cmd->add_option("file", args->input, "asset file written by `vgeo build` (page format VGEOPAGE or DAG file VGEODAG1)")->required();
   cmd->add_option("--json", args->json_path, "write the full report (every stored violation) as JSON");
   cmd->add_option("--junit", args->junit_path, "write a JUnit XML report (one testcase per check and mesh)");
-  cmd->add_option("--checks", args->checks, "comma-separated: structure,monotonic,cut,crack,error_bound (default all)");
+  cmd->add_option("--checks", args->checks,
+                  "comma-separated: structure,monotonic,cut,crack,error_bound,certified_bound (default all = every check "
+                  "but certified_bound)");
   cmd->add_option("--views", args->views, "random viewpoints for the projected-error, cut and crack checks");
   cmd->add_option("--thresholds", args->thresholds, "pixel thresholds (cuts) per viewpoint");
   cmd->add_option("--seed", args->seed, "seed of the views and thresholds");
@@ -143,6 +150,9 @@ void add_verify_command(CLI::App& app, Context& ctx) {
   cmd->add_option("--max-stored", args->max_stored, "violations stored per code (all are counted)");
   cmd->add_flag("--strict-border", args->strict_border,
                  "the mesh's own open border must survive every cut unchanged (CRACK_BORDER_CHANGED)");
+  cmd->add_flag("--certify", args->certify,
+                "also prove every stored error bounds the continuous deviation (certified_bound, ERROR_CERTIFIED; "
+                "holds for `vgeo build --error-bound certified`)");
   cmd->add_flag("--quiet", args->quiet, "print nothing; rely on the exit code and --json");
   cmd->callback([args, &ctx] { ctx.exit_code = run_verify(*args); });
 }

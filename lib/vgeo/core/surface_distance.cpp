@@ -5,6 +5,7 @@
 // §5.1.5; a median-split bounding-volume hierarchy over the triangles.
 #include "vgeo/core/surface_distance.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -337,6 +338,59 @@ bool TriangleDistanceTree::any_within_squared(DVec3 p, double threshold, uint32_
     node = parent;
   }
   return false;
+}
+
+void TriangleDistanceTree::triangles_in_box(DVec3 lo, DVec3 hi, std::vector<uint32_t>* out, DVec3 normal, double offset,
+                                            double width, size_t max_count) const {
+  if (nodes_.empty()) return;
+  const bool slab = normal.x != 0 || normal.y != 0 || normal.z != 0;
+  // Whether [blo, bhi] meets the query box and the slab (the box's extent along the normal
+  // overlaps [offset - width, offset + width]).
+  auto meets = [&](const float* blo, const float* bhi) {
+    if (!(double(blo[0]) <= hi.x && double(bhi[0]) >= lo.x && double(blo[1]) <= hi.y && double(bhi[1]) >= lo.y &&
+          double(blo[2]) <= hi.z && double(bhi[2]) >= lo.z))
+      return false;
+    if (!slab) return true;
+    const double n[3] = {normal.x, normal.y, normal.z};
+    double smin = 0, smax = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double a = n[k] * double(blo[k]), b = n[k] * double(bhi[k]);
+      smin += std::min(a, b), smax += std::max(a, b);
+    }
+    return smin <= offset + width && smax >= offset - width;
+  };
+  uint32_t stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top) {
+    const Node& nd = nodes_[stack[--top]];
+    if (!meets(nd.lo, nd.hi)) continue;
+    if (nd.count) {
+      for (uint32_t t = nd.first; t < nd.first + nd.count; ++t) {
+        const float* c0 = triangle_corner_floats(t, 0);
+        const float* c1 = triangle_corner_floats(t, 1);
+        const float* c2 = triangle_corner_floats(t, 2);
+        const float c[9] = {c0[0], c0[1], c0[2], c1[0], c1[1], c1[2], c2[0], c2[1], c2[2]};
+        float tlo[3], thi[3];
+        for (int k = 0; k < 3; ++k)
+          tlo[k] = std::min({c[k], c[3 + k], c[6 + k]}), thi[k] = std::max({c[k], c[3 + k], c[6 + k]});
+        if (!meets(tlo, thi)) continue;
+        if (slab) {  // the triangle itself, not only its box, against the slab
+          double smin = std::numeric_limits<double>::infinity(), smax = -smin;
+          for (int j = 0; j < 3; ++j) {
+            const double v = normal.x * double(c[3 * j]) + normal.y * double(c[3 * j + 1]) + normal.z * double(c[3 * j + 2]);
+            smin = std::min(smin, v), smax = std::max(smax, v);
+          }
+          if (smin > offset + width || smax < offset - width) continue;
+        }
+        out->push_back(t);
+        if (out->size() > max_count) return;
+      }
+      continue;
+    }
+    stack[top++] = nd.first + 1;  // right pushed first: triangles come out in tree order
+    stack[top++] = nd.first;
+  }
 }
 
 double sampled_one_sided_distance(const float* positions, const uint32_t* from_indices, size_t from_triangles,

@@ -14,6 +14,15 @@
 
 namespace vgeo {
 
+// Depth cap of the certified error bound's subdivision (spec/invariants.md §5, ERROR_CERTIFIED):
+// a triangle is split into 4 by its edge midpoints at most this many times. The builder
+// (lib/vgeo/dag/leaf_certify.cpp, --error-bound certified) stores a bound certified within this depth and lib/vgeo/verify
+// certifies it with the same cap, so the check never needs to go deeper than the builder did.
+// 4 left bumps steeper than the cluster triangle (the generated spheres, armadillo's detail) to
+// the Lipschitz bound of a 1/16-size sub-triangle, up to 10% above the continuous maximum; 6
+// (1/64) brings those within 3% at no measurable build cost (docs/acceptance/issue23_certfast.md).
+inline constexpr uint32_t kCertifyMaxDepth = 6;
+
 // Lattice steps per triangle edge used by the builder to measure a simplification's error
 // and by lib/vgeo/verify's ERROR_BOUND by default: the same lattice, so the stored error covers
 // every point the checker samples at level 1 exactly, and by the triangle inequality
@@ -75,6 +84,22 @@ class TriangleDistanceTree {
   // nearest_distance_squared(p) <= threshold, bit-exactly), stopping at the first one found;
   // `hint` (in/out, as above) is where the search starts and gets the triangle found.
   bool any_within_squared(DVec3 p, double threshold, uint32_t* hint) const;
+  // Appends to `out` every triangle whose box (over its corners) meets the closed box
+  // [lo, hi] and that has a corner on each side of the slab {x : |normal·x - offset| <= width}
+  // or in it (normal: any vector; width 0 and normal 0 accept all), in tree order (the same
+  // list for any tree build). Stops once `out` holds more than `max_count` (the caller then
+  // ignores the list).
+  void triangles_in_box(DVec3 lo, DVec3 hi, std::vector<uint32_t>* out, DVec3 normal = {}, double offset = 0,
+                        double width = 0, size_t max_count = ~size_t(0)) const;
+  // Corner j (0..2) of triangle t (an id from the queries above: tree order).
+  DVec3 triangle_corner(uint32_t t, int j) const { return corner(t, j); }
+  // The caller's vertex id of corner j of triangle t (indexed trees only).
+  uint32_t triangle_corner_id(uint32_t t, int j) const { return corner_ids_[3 * size_t(t) + size_t(j)]; }
+  // The float bits of corner j of triangle t (x, y, z): identical positions, identical keys.
+  const float* triangle_corner_floats(uint32_t t, int j) const {
+    return positions_ ? &positions_[3 * size_t(corner_ids_[3 * size_t(t) + size_t(j)])]
+                      : &corners_[9 * size_t(t) + 3 * size_t(j)];
+  }
 
  private:
   struct Node {

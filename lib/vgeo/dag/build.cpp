@@ -941,6 +941,32 @@ void build_levels(BuildState& s) {
   }
 }
 
+// Certified mode (BuildOptions::error_bound; spec/dag.md §Error "Certified bound"): the levels
+// ran against the measured errors (the simplifier's budget, the border choice), so the clusters
+// are the default build's; each group's parent_error becomes max(members' certified error, its
+// measured error, a certified bound of its simplified triangles; leaf_certify.cpp), level by
+// level (a group's floor is its members'), a level's groups in parallel, each on one thread.
+void certify_stored_errors(BuildState& s) {
+  const double t0 = steady_seconds();
+  const LeafTwins twins = build_leaf_twins(s.leaf_surface, s.welded, s.pool);
+  std::vector<WorkGroup>& groups = s.groups;
+  std::vector<WorkCluster>& clusters = s.clusters;
+  for (size_t first = 0, last = 0; first < groups.size(); first = last) {
+    while (last < groups.size() && groups[last].level == groups[first].level) ++last;
+    s.pool.parallel_for(last - first, [&](size_t i) {
+      WorkGroup& g = groups[first + i];
+      if (g.terminal || g.generated.empty()) return;
+      float floor = 0.0f;
+      for (uint32_t m : g.members) floor = std::max(floor, clusters[m].lod_error);
+      std::vector<const TriangleSet*> simplified;
+      for (uint32_t c : g.generated) simplified.push_back(&clusters[c].triangles);
+      g.parent_error = certified_leaf_deviation(s.leaf_surface, twins, s.mesh, simplified, floor, g.parent_error);
+      for (uint32_t c : g.generated) clusters[c].lod_error = g.parent_error;
+    });
+  }
+  s.report.seconds_error += steady_seconds() - t0;
+}
+
 // What only the levels needed (the leaf surface, welds, locks, scratch arrays) is freed before
 // the layout allocates the DAG's arrays, which then reuse that memory: the build's peak was
 // the layout's, with both alive (1M sphere: 146 MiB).
@@ -1124,6 +1150,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
   prepare(s);
   build_leaves(s);
   build_levels(s);
+  if (options.error_bound == ErrorBound::kCertified) certify_stored_errors(s);
   release_level_state(s);
   ClusterDag dag = lay_out(s);
   build_hierarchy(s, dag);

@@ -12,10 +12,16 @@ namespace vgeo {
 
 enum class Simplifier : uint8_t { kMeshopt = 0, kOpenMesh = 1 };
 
+enum class ErrorBound { kMeasured, kCertified };
+
 struct BuildOptions {
   Simplifier simplifier = Simplifier::kMeshopt;
   unsigned threads = 0;     // 0 = machine's hardware concurrency; output is identical for any value
   bool progress = false;    // progress on stderr (the CLI enables it on a terminal)
+  // What the stored errors promise (spec/dag.md §Error): kMeasured, the maximum over the
+  // verify lattice (ERROR_BOUND); kCertified, an upper bound of the continuous deviation
+  // (ERROR_CERTIFIED), for the same clusters, at some build time.
+  ErrorBound error_bound = ErrorBound::kMeasured;
 };
 
 struct BuildLevelReport {

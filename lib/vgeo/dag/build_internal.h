@@ -252,6 +252,22 @@ LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
                      float floor);
 
+// Certified mode (BuildOptions::error_bound = ErrorBound::kCertified; leaf_certify.cpp,
+// spec/dag.md §Error "Certified bound"). twin[3t + j]: the edge k of g = neighbour[3t + j]
+// that runs back along edge j of t (welded) and whose neighbour is t, on an edge of exactly
+// these two triangles; 3 when there is none (a border, an edge of more than two triangles, or
+// g wound the other way): the only leaf edges the certification's overlay crosses.
+struct LeafTwins {
+  std::vector<uint8_t> twin;
+};
+LeafTwins build_leaf_twins(const LeafSurface& leaves, const WeldedMesh& welded, ThreadPool& pool);
+// max(floor, lower, a certified upper bound of the continuous one-sided deviation of the
+// triangles of `simplified` from the leaves), rounded up to float. `floor`: the members'
+// (certified) stored error; `lower`: an exact distance of some point of these triangles to the
+// leaves (their measured error) or 0, where the search for the maximum starts.
+float certified_leaf_deviation(const LeafSurface& leaves, const LeafTwins& twins, const Mesh& mesh,
+                               const std::vector<const TriangleSet*>& simplified, float floor, double lower);
+
 // How far a group is simplified: to ratio × its triangles, stopping early where the
 // backend's error estimate would pass max_error (object units; meshopt only; +inf: no bound).
 struct SimplifyTarget {

@@ -48,7 +48,8 @@ Distribution make_distribution(std::vector<double> v) {
 using namespace verify_detail;
 
 namespace {
-constexpr VerifyCheck kAllChecks[] = {kCheckStructure, kCheckMonotonic, kCheckCut, kCheckCrack, kCheckErrorBound};
+constexpr VerifyCheck kAllChecks[] = {kCheckStructure, kCheckMonotonic, kCheckCut, kCheckCrack, kCheckErrorBound,
+                                      kCheckCertifiedBound};
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -62,6 +63,7 @@ const char* verify_check_name(VerifyCheck check) {
     case kCheckCut: return "cut";
     case kCheckCrack: return "crack";
     case kCheckErrorBound: return "error_bound";
+    case kCheckCertifiedBound: return "certified_bound";
     default: return "?";
   }
 }
@@ -120,7 +122,7 @@ VerifyReport verify_dag(const ClusterDag& dag, const VerifyOptions& options) {
     report.checks.push_back(st);
     return &report.checks.back();
   };
-  report.checks.reserve(5);
+  report.checks.reserve(6);
 
   // Structure always runs (the other checks index the arrays); it is reported only when asked.
   bool safe = false;
@@ -146,12 +148,13 @@ VerifyReport verify_dag(const ClusterDag& dag, const VerifyOptions& options) {
   CheckStats* cut = stats_for(kCheckCut);
   CheckStats* crack = stats_for(kCheckCrack);
   CheckStats* err = stats_for(kCheckErrorBound);
+  CheckStats* cert = stats_for(kCheckCertifiedBound);
   if (!safe) {
-    for (CheckStats* st : {mono, cut, crack, err})
+    for (CheckStats* st : {mono, cut, crack, err, cert})
       if (st) st->skipped_reason = unsafe_reason;
   } else {
-    Sink mono_sink, cut_sink, crack_sink, err_sink;
-    mono_sink.cap = cut_sink.cap = crack_sink.cap = err_sink.cap = options.max_stored_per_code;
+    Sink mono_sink, cut_sink, crack_sink, err_sink, cert_sink;
+    mono_sink.cap = cut_sink.cap = crack_sink.cap = err_sink.cap = cert_sink.cap = options.max_stored_per_code;
     if (mono) {
       auto t0 = std::chrono::steady_clock::now();
       check_monotonic_static(dag, mono_sink, *mono);
@@ -180,16 +183,25 @@ VerifyReport verify_dag(const ClusterDag& dag, const VerifyOptions& options) {
       report.error_ratio = make_distribution(er.ratios);
       for (auto& lv : er.ratios_per_level) report.error_ratio_per_level.push_back(make_distribution(lv));
     }
-    for (CheckStats* st : {mono, cut, crack, err})
+    if (cert) {
+      auto t0 = std::chrono::steady_clock::now();
+      CertifiedBoundResult cr;
+      check_certified_bound(dag, options, cert_sink, &cr);
+      cert->seconds = seconds_since(t0);
+      cert->items = cr.clusters;
+    }
+    for (CheckStats* st : {mono, cut, crack, err, cert})
       if (st) st->ran = true;
     if (mono) mono->violations = mono_sink.total();
     if (cut) cut->violations = cut_sink.total();
     if (crack) crack->violations = crack_sink.total();
     if (err) err->violations = err_sink.total();
+    if (cert) cert->violations = cert_sink.total();
     all.merge(mono_sink);
     all.merge(cut_sink);
     all.merge(crack_sink);
     all.merge(err_sink);
+    all.merge(cert_sink);
   }
   report.violations = std::move(all.stored);
   report.counts = std::move(all.counts);
@@ -259,11 +271,11 @@ std::string verify_report_summary(const VerifyReport& r) {
                 (unsigned long long)r.clusters, (unsigned long long)r.leaf_clusters, (unsigned long long)r.groups,
                 (unsigned long long)r.levels, (unsigned long long)r.triangles);
   out += line;
-  std::snprintf(line, sizeof line, "  %-12s %-8s %12s %11s %9s\n", "check", "result", "items", "violations", "seconds");
+  std::snprintf(line, sizeof line, "  %-15s %-8s %9s %11s %9s\n", "check", "result", "items", "violations", "seconds");
   out += line;
   for (const auto& c : r.checks) {
     const char* verdict = !c.ran ? "SKIPPED" : c.violations ? "FAIL" : "ok";
-    std::snprintf(line, sizeof line, "  %-12s %-8s %12llu %11llu %9.3f\n", c.check.c_str(), verdict,
+    std::snprintf(line, sizeof line, "  %-15s %-8s %9llu %11llu %9.3f\n", c.check.c_str(), verdict,
                   (unsigned long long)c.items, (unsigned long long)c.violations, c.seconds);
     out += line;
     if (!c.skipped_reason.empty()) out += "    " + c.skipped_reason + "\n";

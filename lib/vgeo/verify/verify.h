@@ -12,6 +12,10 @@
 //   kCheckCrack      CRACK_*   each tested cut has the leaves' open edges (the mesh's own open
 //                              border may be simplified unless strict_border)
 //   kCheckErrorBound ERROR_*   sampled distance from each non-leaf cluster to the leaves ≤ lod_error
+//   kCheckCertifiedBound ERROR_CERTIFIED  every point of each non-leaf cluster within lod_error of
+//                              the leaves, proven (not sampled); opt-in: not in kCheckAll (vgeo's
+//                              default build stores the sampled maximum; `--error-bound certified`
+//                              stores what this proves)
 // The later checks index the DAG's arrays, so they are skipped (and say so) when the
 // structure check finds an index-safety violation.
 #include <cstdint>
@@ -30,9 +34,11 @@ enum VerifyCheck : uint32_t {
   kCheckCrack = 1u << 3,
   kCheckErrorBound = 1u << 4,
   kCheckAll = (1u << 5) - 1,
+  kCheckCertifiedBound = 1u << 5,  // opt-in (above)
 };
 
-// Stable names of the checks ("structure", "monotonic", "cut", "crack", "error_bound").
+// Stable names of the checks ("structure", "monotonic", "cut", "crack", "error_bound",
+// "certified_bound").
 const char* verify_check_name(VerifyCheck check);
 // Parses a comma-separated list of check names (or "all"); returns false on an unknown name.
 bool parse_verify_checks(const std::string& list, uint32_t* checks);

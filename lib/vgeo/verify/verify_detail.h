@@ -154,6 +154,13 @@ struct ErrorBoundResult {
 void check_error_bound(const ClusterDag& dag, const VerifyOptions& options, Sink& sink,
                        ErrorBoundResult* result);
 
+// ERROR_CERTIFIED (verify_certify.cpp): each non-leaf cluster's stored error proven to bound the
+// continuous deviation (spec/invariants.md §5 "Certified bound").
+struct CertifiedBoundResult {
+  uint64_t clusters = 0, subtriangles = 0;  // clusters certified; sub-triangles examined
+};
+void check_certified_bound(const ClusterDag& dag, const VerifyOptions& options, Sink& sink, CertifiedBoundResult* result);
+
 Distribution make_distribution(std::vector<double> values);
 
 // The group order used by the cut DP: groups by decreasing level (ties by index).
