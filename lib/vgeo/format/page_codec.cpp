@@ -70,6 +70,8 @@ struct StripIndex {
   bool across_more[kMaxClusterTriangles][3];
 };
 constexpr uint8_t kNoStripTriangle = 0xFF;
+// No numbered vertex yet (ids are < kMaxClusterVertices = 255).
+constexpr uint8_t kNoOldest = 0xFF;
 
 // Each of the triangles of p's run that hold directed edge from -> to, by ascending position,
 // until `f` returns true.
@@ -137,6 +139,11 @@ struct StripOrder {
   uint32_t seen = 0, emitted = 0;
   bool visited[kMaxClusterTriangles];
   uint8_t fresh[kMaxClusterTriangles];  // distinct unnumbered vertices (current run, unvisited)
+  uint8_t oldest[kMaxClusterTriangles];  // smallest numbered id (kNoOldest: none; current run)
+  // Unvisited triangles of the run by fresh-vertex count f ∈ {1, 2} and oldest numbered id: a
+  // span is seen + f − 1 − oldest for them, so these counts answer the window and give-up
+  // questions without walking any triangle (count_at_window, check_give_up).
+  uint8_t waiting[kMaxFreshBesideNumbered + 1][kMaxClusterVertices];
   // Unvisited triangles of the run with every vertex numbered and a span of exactly the window.
   uint32_t settled_at_window = 0;
   uint32_t r0 = 0, r1 = 0;  // the current material run
@@ -145,6 +152,11 @@ struct StripOrder {
   uint32_t oldest_live = 0;
   uint32_t max_span = 0;    // largest span emitted so far
   uint32_t first_start = UINT32_MAX;  // the first triangle the order emitted
+  // A retry's bound (build_strip_order's give_up_span; UINT32_MAX: none), and whether an
+  // unvisited triangle of the run already spans at least that much if emitted now: a span
+  // never shrinks while a triangle waits (below), so the order is then bound to reach it.
+  uint32_t give_up_span = UINT32_MAX;
+  bool doomed = false;
 };
 
 // Position of the first unvisited triangle across edge k of p, and the corner of that
@@ -201,21 +213,46 @@ struct StripOrder {
 }
 bool in_run(const StripOrder& s, uint32_t p) { return p >= s.r0 && p < s.r1; }
 
+// Early give-up of a retry (same result as running it to the end, sooner). An unvisited
+// triangle's span_now never shrinks: its numbered ids are fixed, and its f fresh vertices get
+// f distinct ids ≥ seen whenever they are numbered, so its span when emitted is ≥ span_now.
+// A triangle with a numbered vertex (oldest id o) and f ∈ {1, 2} fresh ones spans
+// seen + f − 1 − o, which grows by one with each vertex numbered elsewhere and stays put when
+// one of its own is numbered; once f = 0 it is fixed. So a triangle first reaches `give_up_span`
+// just after a vertex is numbered, with o = seen + f − 1 − give_up_span: the waiting counts of
+// those two (f, o) say whether one did. A run's triangles are checked whole when the run
+// begins (their spans grew unseen during the earlier runs).
+void check_give_up(StripOrder* s) {
+  const uint32_t g = s->give_up_span;
+  for (uint32_t f = 1; f <= kMaxFreshBesideNumbered; ++f)
+    if (s->seen + f >= g + 1 && s->waiting[f][s->seen + f - 1 - g] != 0) s->doomed = true;
+}
+
 void begin_run(const StripIndex& x, uint32_t r0, StripOrder* s) {
   s->r0 = r0, s->r1 = x.run_end[r0];
   s->settled_at_window = 0, s->oldest_live = 0;
+  std::memset(s->waiting, 0, sizeof s->waiting);
   for (uint32_t p = s->r0; p < s->r1; ++p) {
     const uint8_t* t = x.tri[p];
-    uint32_t f = s->new_id[t[0]] < 0 ? 1 : 0;
-    if (t[1] != t[0] && s->new_id[t[1]] < 0) ++f;
-    if (t[2] != t[0] && t[2] != t[1] && s->new_id[t[2]] < 0) ++f;
-    s->fresh[p] = uint8_t(f);
+    uint32_t f = 0, old = kNoOldest;
+    for (int k = 0; k < 3; ++k) {
+      const int32_t id = s->new_id[t[k]];
+      if (id >= 0) old = std::min(old, uint32_t(id));
+      else if ((k < 1 || t[k] != t[0]) && (k < 2 || t[k] != t[1])) ++f;  // distinct fresh vertices
+    }
+    s->fresh[p] = uint8_t(f), s->oldest[p] = uint8_t(old);
+    if (f > 0 && old != kNoOldest) ++s->waiting[f][old];
     if (f == 0 && at_window_edge(x, *s, p)) ++s->settled_at_window;
+    if (s->give_up_span != UINT32_MAX && span_now(x, *s, p, nullptr) >= s->give_up_span) s->doomed = true;
   }
 }
 void visit(const StripIndex& x, uint32_t p, StripOrder* s) {
   s->visited[p] = true;
-  if (s->fresh[p] == 0 && at_window_edge(x, *s, p)) --s->settled_at_window;
+  if (s->fresh[p] == 0) {
+    if (at_window_edge(x, *s, p)) --s->settled_at_window;
+  } else if (s->oldest[p] != kNoOldest) {
+    --s->waiting[s->fresh[p]][s->oldest[p]];
+  }
 }
 // Emits corner v of the triangle being written: a new vertex takes the next first-use id,
 // a numbered one becomes an explicit reference (`flag` in ctl).
@@ -231,26 +268,25 @@ uint8_t corner(const StripIndex& x, uint8_t v, uint8_t* ctl, uint8_t flag, Strip
   for (uint32_t u = x.uses_begin[v]; u < x.uses_begin[v + 1]; ++u) {
     const uint32_t q = x.uses[u];
     if (!in_run(*s, q) || s->visited[q]) continue;
-    if (--s->fresh[q] == 0 && at_window_edge(x, *s, q)) ++s->settled_at_window;
+    if (s->oldest[q] != kNoOldest) --s->waiting[s->fresh[q]][s->oldest[q]];
+    else s->oldest[q] = uint8_t(s->new_id[v]);
+    if (--s->fresh[q] == 0) {
+      if (at_window_edge(x, *s, q)) ++s->settled_at_window;
+    } else {
+      ++s->waiting[s->fresh[q]][s->oldest[q]];
+    }
   }
+  if (s->give_up_span != UINT32_MAX) check_give_up(s);
   return uint8_t(s->new_id[v]);
 }
 // Unvisited triangles of the run at the window's edge. Those with every vertex numbered are
 // counted as they settle; one with f ∈ {1, 2} fresh vertices spans seen + f − 1 − oldest,
-// so it is at the edge only if its oldest numbered vertex has id seen − 32 + f.
-uint32_t count_at_window(const StripIndex& x, const StripOrder& s) {
+// so it is at the edge only if its oldest numbered vertex has id seen − 32 + f (the waiting
+// counts).
+uint32_t count_at_window(const StripOrder& s) {
   uint32_t n = s.settled_at_window;
-  for (uint32_t f = 1; f <= kMaxFreshBesideNumbered; ++f) {
-    if (s.seen + f < kIndexSpanWindow + 1) continue;
-    const uint32_t id = s.seen + f - (kIndexSpanWindow + 1);
-    const uint8_t v = s.vertex_of_id[id];
-    for (uint32_t u = x.uses_begin[v]; u < x.uses_begin[v + 1]; ++u) {
-      const uint32_t q = x.uses[u];
-      if (!in_run(s, q) || s.visited[q] || s.fresh[q] == 0) continue;
-      uint32_t old;
-      if (span_now(x, s, q, &old) == kIndexSpanWindow && old == id) ++n;
-    }
-  }
+  for (uint32_t f = 1; f <= kMaxFreshBesideNumbered; ++f)
+    if (s.seen + f >= kIndexSpanWindow + 1) n += s.waiting[f][s.seen + f - (kIndexSpanWindow + 1)];
   return n;
 }
 // Start of a strip (span-aware, spec/format.md §3): a triangle whose span fits the window,
@@ -293,18 +329,21 @@ void note_span(const uint8_t* t, StripOrder* s) {
 
 // Builds one strip order into `out` (strip, ctl, refs, runs) and `s`. `first` forces the
 // first triangle of the cluster (position in the first run; UINT32_MAX = the heuristic's
-// choice). Returns false, with `out` incomplete, as soon as a span reaches `give_up_span`.
+// choice). Returns false, with `out` incomplete, as soon as a span reaches `give_up_span` or an
+// unvisited triangle is bound to (check_give_up).
 bool build_strip_order(const StripIndex& x, const uint32_t* run_material, uint32_t vc, uint32_t first,
                        uint32_t give_up_span, StripOrder* s, CanonicalCluster* out) {
   const uint32_t tc = x.triangle_count;
   std::fill(s->new_id, s->new_id + vc, -1);
   std::fill(s->visited, s->visited + tc, false);
   s->seen = 0, s->emitted = 0, s->max_span = 0, s->first_start = UINT32_MAX;
+  s->give_up_span = give_up_span, s->doomed = false;
   out->ref_count = 0, out->run_count = 0;
   for (uint32_t r0 = 0; r0 < tc; r0 = x.run_end[r0]) {
     out->run_start[out->run_count] = uint8_t(r0);
     out->run_material[out->run_count++] = run_material[r0];
     begin_run(x, r0, s);
+    if (s->doomed) return false;
     for (uint32_t left = s->r1 - r0; left > 0;) {
       uint32_t cur = first < s->r1 - r0 && s->emitted == 0 ? r0 + first : strip_start(x, s);
       if (s->emitted == 0) s->first_start = cur;
@@ -325,7 +364,7 @@ bool build_strip_order(const StripIndex& x, const uint32_t* run_material, uint32
       o[2] = corner(x, t[(rot + 2) % 3], &ctl, kCtlRef0 << 2, s, out);
       out->ctl[s->emitted++] = ctl;
       note_span(o, s);
-      if (s->max_span >= give_up_span) return false;
+      if (s->max_span >= give_up_span || s->doomed) return false;
       while (left > 0) {
         // Candidates across b–c (side 0) and c–a (side 1); corner k of a candidate starts the
         // shared edge, so its strip rotation is k and its third vertex tri[n][k + 2].
@@ -338,7 +377,7 @@ bool build_strip_order(const StripIndex& x, const uint32_t* run_material, uint32
         auto fits = [&](int n, uint32_t k) {
           if (n < 0 || span_now(x, *s, uint32_t(n), nullptr) > kIndexSpanWindow) return false;
           if (s->new_id[x.tri[n][(k + 2) % 3]] >= 0) return true;
-          if (at_window < 0) at_window = int(count_at_window(x, *s));
+          if (at_window < 0) at_window = int(count_at_window(*s));
           return at_window - (at_window_edge(x, *s, uint32_t(n)) ? 1 : 0) <= 0;
         };
         const bool ok1 = fits(n1, k1), ok2 = fits(n2, k2);
@@ -360,7 +399,7 @@ bool build_strip_order(const StripIndex& x, const uint32_t* run_material, uint32
         o[2] = corner(x, x.tri[n][(k + 2) % 3], &ctl, kCtlRef0, s, out);
         out->ctl[s->emitted++] = ctl;
         note_span(o, s);
-        if (s->max_span >= give_up_span) return false;
+        if (s->max_span >= give_up_span || s->doomed) return false;
         cur = n, rot = k;
       }
     }
