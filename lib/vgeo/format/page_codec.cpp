@@ -139,7 +139,8 @@ struct StripOrder {
   uint32_t seen = 0, emitted = 0;
   bool visited[kMaxClusterTriangles];
   uint8_t fresh[kMaxClusterTriangles];  // distinct unnumbered vertices (current run, unvisited)
-  uint8_t oldest[kMaxClusterTriangles];  // smallest numbered id (kNoOldest: none; current run)
+  // Smallest and largest numbered id (kNoOldest: none yet; current run, unvisited).
+  uint8_t oldest[kMaxClusterTriangles], newest[kMaxClusterTriangles];
   // Unvisited triangles of the run by fresh-vertex count f ∈ {1, 2} and oldest numbered id: a
   // span is seen + f − 1 − oldest for them, so these counts answer the window and give-up
   // questions without walking any triangle (count_at_window, check_give_up).
@@ -182,27 +183,18 @@ struct StripOrder {
   for (uint32_t k = 0; k < 3; ++k) n += across(x, s, p, k, &corner) >= 0 ? 1 : 0;
   return n;
 }
-// Span of a triangle if emitted now: its new corners get the next first-use ids. `oldest`:
-// its smallest already-numbered id (UINT32_MAX if none).
-[[gnu::always_inline]] inline uint32_t span_now(const StripIndex& x, const StripOrder& s, uint32_t p, uint32_t* oldest) {
-  const uint8_t* t = x.tri[p];
-  uint32_t next = s.seen, lo = UINT32_MAX, hi = 0, old = UINT32_MAX;
-  for (int k = 0; k < 3; ++k) {
-    uint32_t id;
-    if (s.new_id[t[k]] >= 0) {
-      id = uint32_t(s.new_id[t[k]]);
-      old = std::min(old, id);
-    } else if (k > 0 && t[k] == t[k - 1]) {
-      id = next - 1;  // degenerate corner repeated: one new vertex
-    } else if (k == 2 && t[2] == t[0] && s.new_id[t[0]] < 0) {
-      id = s.seen;
-    } else {
-      id = next++;
-    }
-    lo = std::min(lo, id), hi = std::max(hi, id);
+// Span of a triangle of the current run if emitted now: its f fresh (distinct) vertices get
+// the next f first-use ids seen .. seen + f − 1, above every numbered id. `oldest`: its
+// smallest already-numbered id (UINT32_MAX if none). From the run's per-triangle counts, not
+// from its corners: the fresh count already tells repeated corners apart.
+[[gnu::always_inline]] inline uint32_t span_now(const StripIndex&, const StripOrder& s, uint32_t p, uint32_t* oldest) {
+  const uint32_t f = s.fresh[p], old = s.oldest[p];
+  if (old == kNoOldest) {
+    if (oldest) *oldest = UINT32_MAX;
+    return f - 1;  // every vertex fresh (f ≥ 1)
   }
   if (oldest) *oldest = old;
-  return hi - lo;
+  return (f > 0 ? s.seen + f - 1 : uint32_t(s.newest[p])) - old;
 }
 // A triangle that uses a numbered vertex and spans the whole window: one more fresh vertex
 // would push it out.
@@ -234,13 +226,13 @@ void begin_run(const StripIndex& x, uint32_t r0, StripOrder* s) {
   std::memset(s->waiting, 0, sizeof s->waiting);
   for (uint32_t p = s->r0; p < s->r1; ++p) {
     const uint8_t* t = x.tri[p];
-    uint32_t f = 0, old = kNoOldest;
+    uint32_t f = 0, old = kNoOldest, hi = 0;
     for (int k = 0; k < 3; ++k) {
       const int32_t id = s->new_id[t[k]];
-      if (id >= 0) old = std::min(old, uint32_t(id));
+      if (id >= 0) old = std::min(old, uint32_t(id)), hi = std::max(hi, uint32_t(id));
       else if ((k < 1 || t[k] != t[0]) && (k < 2 || t[k] != t[1])) ++f;  // distinct fresh vertices
     }
-    s->fresh[p] = uint8_t(f), s->oldest[p] = uint8_t(old);
+    s->fresh[p] = uint8_t(f), s->oldest[p] = uint8_t(old), s->newest[p] = uint8_t(hi);
     if (f > 0 && old != kNoOldest) ++s->waiting[f][old];
     if (f == 0 && at_window_edge(x, *s, p)) ++s->settled_at_window;
     if (s->give_up_span != UINT32_MAX && span_now(x, *s, p, nullptr) >= s->give_up_span) s->doomed = true;
@@ -270,6 +262,7 @@ uint8_t corner(const StripIndex& x, uint8_t v, uint8_t* ctl, uint8_t flag, Strip
     if (!in_run(*s, q) || s->visited[q]) continue;
     if (s->oldest[q] != kNoOldest) --s->waiting[s->fresh[q]][s->oldest[q]];
     else s->oldest[q] = uint8_t(s->new_id[v]);
+    s->newest[q] = uint8_t(s->new_id[v]);  // the largest id so far
     if (--s->fresh[q] == 0) {
       if (at_window_edge(x, *s, q)) ++s->settled_at_window;
     } else {
