@@ -70,6 +70,8 @@ struct StripIndex {
   bool across_more[kMaxClusterTriangles][3];
 };
 constexpr uint8_t kNoStripTriangle = 0xFF;
+// index_strips' edge table: no corner holds the edge / two or more do (positions are < 128).
+constexpr uint8_t kNoEdgeOwner = 0xFF, kManyEdgeOwners = 0xFE;
 // No numbered vertex yet (ids are < kMaxClusterVertices = 255).
 constexpr uint8_t kNoOldest = 0xFF;
 
@@ -120,12 +122,34 @@ void index_strips(const uint8_t (*tris)[3], const uint32_t* mat, const uint32_t*
       x->corner_position[c] = uint8_t(p), x->corner_index[c] = uint8_t(k);
       x->corner_next[c] = x->tri[p][(k + 1) % 3];
     }
+  // The triangle holding each directed edge (from, to), by a table over vertex pairs: a
+  // lookup per edge instead of a walk over the corners of its vertex (that walk's
+  // unpredictable compares were ~10% of the write stage on a 1M-triangle sphere). An edge
+  // held by two or more corners (non-manifold, repeated vertices) is marked and found by the
+  // walk, ascending, as before; so are edges whose one holder lies in another run.
+  uint8_t edge_owner[kMaxClusterVertices * kMaxClusterVertices];
+  std::memset(edge_owner, kNoEdgeOwner, size_t(vc) * vc);
+  for (uint32_t p = 0; p < tc; ++p)
+    for (uint32_t k = 0; k < 3; ++k) {
+      uint8_t& e = edge_owner[x->tri[p][k] * vc + x->tri[p][(k + 1) % 3]];
+      e = e == kNoEdgeOwner ? uint8_t(p) : kManyEdgeOwners;
+    }
   for (uint32_t p = 0; p < tc; ++p)
     for (uint32_t k = 0; k < 3; ++k) {
       x->across_first[p][k] = kNoStripTriangle, x->across_corner[p][k] = 0, x->across_more[p][k] = false;
-      for_each_across(*x, p, x->tri[p][(k + 1) % 3], x->tri[p][k], [&](uint32_t q, uint32_t j) {
+      const uint8_t from = x->tri[p][(k + 1) % 3], to = x->tri[p][k];
+      const uint8_t q = edge_owner[from * vc + to];
+      if (q == kNoEdgeOwner) continue;
+      if (q != kManyEdgeOwners) {
+        if (q < x->run_begin[p] || q >= x->run_end[p]) continue;
+        const uint8_t* t = x->tri[q];
+        x->across_first[p][k] = q;
+        x->across_corner[p][k] = uint8_t(t[0] == from && t[1] == to ? 0 : t[1] == from && t[2] == to ? 1 : 2);
+        continue;
+      }
+      for_each_across(*x, p, from, to, [&](uint32_t q2, uint32_t j) {
         if (x->across_first[p][k] != kNoStripTriangle) return x->across_more[p][k] = true;
-        x->across_first[p][k] = uint8_t(q), x->across_corner[p][k] = uint8_t(j);
+        x->across_first[p][k] = uint8_t(q2), x->across_corner[p][k] = uint8_t(j);
         return false;
       });
     }
@@ -484,7 +508,7 @@ void read_cluster_triangles(const ClusterDag& dag, const DagCluster& cl, uint8_t
 // vertex renumbering in *s.
 void choose_strip_order(const uint8_t (*tris)[3], const uint32_t* mat, uint32_t tc, uint32_t vc, StripOrder* s,
                         CanonicalCluster* out) {
-  uint32_t order[kMaxClusterTriangles];
+  uint32_t order[kMaxClusterTriangles] = {};  // (cleared: GCC cannot see the loop below fills what is read)
   for (uint32_t t = 0; t < tc; ++t) order[t] = t;
   std::stable_sort(order, order + tc, [&](uint32_t a, uint32_t b) { return mat[a] < mat[b]; });
   StripIndex index;
