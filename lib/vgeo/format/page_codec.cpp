@@ -169,6 +169,9 @@ struct StripOrder {
   // span is seen + f − 1 − oldest for them, so these counts answer the window and give-up
   // questions without walking any triangle (count_at_window, check_give_up).
   uint8_t waiting[kMaxFreshBesideNumbered + 1][kMaxClusterVertices];
+  // Unvisited triangles of the run with every vertex numbered and a span that fits the window,
+  // by oldest id: with `waiting`, strip_start skips an id no fitting triangle starts at.
+  uint8_t settled_fitting[kMaxClusterVertices];
   // Unvisited triangles of the run with every vertex numbered and a span of exactly the window.
   uint32_t settled_at_window = 0;
   uint32_t r0 = 0, r1 = 0;  // the current material run
@@ -244,10 +247,19 @@ void check_give_up(StripOrder* s) {
     if (s->seen + f >= g + 1 && s->waiting[f][s->seen + f - 1 - g] != 0) s->doomed = true;
 }
 
+// A triangle of the run with every vertex numbered enters (+1) or leaves (−1) the counts of
+// settled triangles at the window's edge and of those that fit (its span is fixed from now on).
+void settle(const StripIndex& x, uint32_t p, int delta, StripOrder* s) {
+  const uint32_t sp = span_now(x, *s, p, nullptr);
+  if (sp == kIndexSpanWindow) s->settled_at_window += uint32_t(delta);
+  if (sp <= kIndexSpanWindow) s->settled_fitting[s->oldest[p]] = uint8_t(s->settled_fitting[s->oldest[p]] + delta);
+}
+
 void begin_run(const StripIndex& x, uint32_t r0, StripOrder* s) {
   s->r0 = r0, s->r1 = x.run_end[r0];
   s->settled_at_window = 0, s->oldest_live = 0;
   std::memset(s->waiting, 0, sizeof s->waiting);
+  std::memset(s->settled_fitting, 0, sizeof s->settled_fitting);
   for (uint32_t p = s->r0; p < s->r1; ++p) {
     const uint8_t* t = x.tri[p];
     uint32_t f = 0, old = kNoOldest, hi = 0;
@@ -258,14 +270,14 @@ void begin_run(const StripIndex& x, uint32_t r0, StripOrder* s) {
     }
     s->fresh[p] = uint8_t(f), s->oldest[p] = uint8_t(old), s->newest[p] = uint8_t(hi);
     if (f > 0 && old != kNoOldest) ++s->waiting[f][old];
-    if (f == 0 && at_window_edge(x, *s, p)) ++s->settled_at_window;
+    if (f == 0) settle(x, p, +1, s);
     if (s->give_up_span != UINT32_MAX && span_now(x, *s, p, nullptr) >= s->give_up_span) s->doomed = true;
   }
 }
 void visit(const StripIndex& x, uint32_t p, StripOrder* s) {
   s->visited[p] = true;
   if (s->fresh[p] == 0) {
-    if (at_window_edge(x, *s, p)) --s->settled_at_window;
+    settle(x, p, -1, s);
   } else if (s->oldest[p] != kNoOldest) {
     --s->waiting[s->fresh[p]][s->oldest[p]];
   }
@@ -288,7 +300,7 @@ uint8_t corner(const StripIndex& x, uint8_t v, uint8_t* ctl, uint8_t flag, Strip
     else s->oldest[q] = uint8_t(s->new_id[v]);
     s->newest[q] = uint8_t(s->new_id[v]);  // the largest id so far
     if (--s->fresh[q] == 0) {
-      if (at_window_edge(x, *s, q)) ++s->settled_at_window;
+      settle(x, q, +1, s);
     } else {
       ++s->waiting[s->fresh[q]][s->oldest[q]];
     }
@@ -316,6 +328,10 @@ uint32_t strip_start(const StripIndex& x, StripOrder* so) {
   const StripOrder& s = *so;
   for (; so->oldest_live < s.seen; ++so->oldest_live) {
     const uint32_t id = s.oldest_live;
+    // No fitting triangle has this oldest id (the counts; spans seen + f − 1 − id for f fresh).
+    if (s.settled_fitting[id] == 0 && (s.waiting[1][id] == 0 || s.seen - id > kIndexSpanWindow) &&
+        (s.waiting[2][id] == 0 || s.seen + 1 - id > kIndexSpanWindow))
+      continue;
     const uint8_t v = s.vertex_of_id[id];
     uint32_t start = UINT32_MAX, best_open = UINT32_MAX;
     for (uint32_t u = x.uses_begin[v]; u < x.uses_begin[v + 1]; ++u) {
