@@ -55,6 +55,7 @@ struct StripIndex {
   uint32_t triangle_count = 0;
   uint8_t tri[kMaxClusterTriangles][3];   // triangle at position p, original winding
   uint8_t run_begin[kMaxClusterTriangles], run_end[kMaxClusterTriangles];  // p's material run
+  uint8_t distinct[kMaxClusterTriangles];  // distinct vertices of p (all fresh before any is numbered)
   // Positions that use each vertex, ascending, each once (CSR over vertices).
   uint16_t uses_begin[kMaxClusterVertices + 1];
   uint8_t uses[3 * kMaxClusterTriangles];
@@ -107,6 +108,10 @@ void index_strips(const uint8_t (*tris)[3], const uint32_t* mat, const uint32_t*
       if (t[2] != t[0] && t[2] != t[1]) f(t[2], p);
     }
   };
+  for (uint32_t p = 0; p < tc; ++p) {
+    const uint8_t* t = x->tri[p];
+    x->distinct[p] = uint8_t(1 + (t[1] != t[0]) + (t[2] != t[0] && t[2] != t[1]));
+  }
   for_each_use([&](uint8_t v, uint32_t) { ++count[v + 1]; });
   for (uint32_t v = 0; v < vc; ++v) count[v + 1] = uint16_t(count[v + 1] + count[v]);
   std::copy(count, count + vc + 1, x->uses_begin);
@@ -260,6 +265,13 @@ void begin_run(const StripIndex& x, uint32_t r0, StripOrder* s) {
   s->settled_at_window = 0, s->oldest_live = 0;
   std::memset(s->waiting, 0, sizeof s->waiting);
   std::memset(s->settled_fitting, 0, sizeof s->settled_fitting);
+  if (s->seen == 0) {
+    // Nothing numbered yet (every order's first run): all fresh, spans ≤ 2, nothing counted.
+    std::memcpy(s->fresh + s->r0, x.distinct + s->r0, s->r1 - s->r0);
+    std::memset(s->oldest + s->r0, kNoOldest, s->r1 - s->r0);
+    std::memset(s->newest + s->r0, 0, s->r1 - s->r0);
+    return;
+  }
   for (uint32_t p = s->r0; p < s->r1; ++p) {
     const uint8_t* t = x.tri[p];
     uint32_t f = 0, old = kNoOldest, hi = 0;
