@@ -132,24 +132,27 @@ void index_strips(const uint8_t (*tris)[3], const uint32_t* mat, const uint32_t*
   // unpredictable compares were ~10% of the write stage on a 1M-triangle sphere). An edge
   // held by two or more corners (non-manifold, repeated vertices) is marked and found by the
   // walk, ascending, as before; so are edges whose one holder lies in another run.
-  uint8_t edge_owner[kMaxClusterVertices * kMaxClusterVertices];
+  // edge_corner: the owner's corner where the edge starts (read only for a single owner, so
+  // never cleared).
+  uint8_t edge_owner[kMaxClusterVertices * kMaxClusterVertices], edge_corner[kMaxClusterVertices * kMaxClusterVertices];
   std::memset(edge_owner, kNoEdgeOwner, size_t(vc) * vc);
   for (uint32_t p = 0; p < tc; ++p)
     for (uint32_t k = 0; k < 3; ++k) {
-      uint8_t& e = edge_owner[x->tri[p][k] * vc + x->tri[p][(k + 1) % 3]];
-      e = e == kNoEdgeOwner ? uint8_t(p) : kManyEdgeOwners;
+      const uint32_t key = x->tri[p][k] * vc + x->tri[p][(k + 1) % 3];
+      edge_owner[key] = edge_owner[key] == kNoEdgeOwner ? uint8_t(p) : kManyEdgeOwners;
+      edge_corner[key] = uint8_t(k);
     }
   for (uint32_t p = 0; p < tc; ++p)
     for (uint32_t k = 0; k < 3; ++k) {
       x->across_first[p][k] = kNoStripTriangle, x->across_corner[p][k] = 0, x->across_more[p][k] = false;
       const uint8_t from = x->tri[p][(k + 1) % 3], to = x->tri[p][k];
-      const uint8_t q = edge_owner[from * vc + to];
+      const uint32_t key = from * vc + to;
+      const uint8_t q = edge_owner[key];
       if (q == kNoEdgeOwner) continue;
       if (q != kManyEdgeOwners) {
         if (q < x->run_begin[p] || q >= x->run_end[p]) continue;
-        const uint8_t* t = x->tri[q];
         x->across_first[p][k] = q;
-        x->across_corner[p][k] = uint8_t(t[0] == from && t[1] == to ? 0 : t[1] == from && t[2] == to ? 1 : 2);
+        x->across_corner[p][k] = edge_corner[key];
         continue;
       }
       for_each_across(*x, p, from, to, [&](uint32_t q2, uint32_t j) {
