@@ -8,6 +8,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <memory>
 
 #include "vgeo/core/byte_io.h"
 #include "vgeo/core/error.h"
@@ -849,6 +850,10 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
   assert(version == 1 || version == 2);
   const uint32_t channels = q.channel_count();
   std::vector<uint8_t> b;
+  // The page's bound (break_batch's): no regrowth copies.
+  uint64_t bound = 12;
+  for (const auto* c : clusters) bound += disk_cluster_bytes(*c, channels, version);
+  b.reserve(bound);
   append_le32(b, version >= 2 ? kDiskPageMagicV2 : kDiskPageMagic);
   append_le32(b, uint32_t(clusters.size()));
   for (const auto* c : clusters) b.push_back(uint8_t(c->vertex_count));
@@ -942,34 +947,36 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
     for (uint32_t z : copy_refs) b.push_back(uint8_t(z >> (8 * plane)));
   section(&DiskStreams::vertex_refs);
   // Residuals against the parallelogram / previous-vertex prediction, non-copies only.
-  std::vector<uint8_t (*)[3]> preds;
-  std::vector<std::vector<uint8_t>> pred_store(clusters.size());
-  std::vector<std::vector<uint8_t>> has_store(clusters.size());
-  for (size_t i = 0; i < clusters.size(); ++i) {
-    pred_store[i].assign(3 * kMaxClusterVertices, 0);
-    has_store[i].assign(kMaxClusterVertices, 0);
-    bool has[kMaxClusterVertices];  // strip_predictors fills the first vertex_count entries
-    strip_predictors(*clusters[i], reinterpret_cast<uint8_t(*)[3]>(pred_store[i].data()), has);
-    for (uint32_t v = 0; v < clusters[i]->vertex_count; ++v) has_store[i][v] = has[v] ? 1 : 0;
+  // Predictors per page vertex (strip_predictors fills each cluster's first vertex_count
+  // entries), found once for every channel.
+  std::vector<uint8_t> pred_store(size_t(total_vertices) * 3);
+  std::unique_ptr<bool[]> has_store(new bool[total_vertices]);
+  {
+    uint64_t base = 0;
+    for (const auto* c : clusters) {
+      strip_predictors(*c, reinterpret_cast<uint8_t(*)[3]>(&pred_store[3 * base]), &has_store[base]);
+      base += c->vertex_count;
+    }
   }
-  std::vector<uint32_t> z;
+  uint32_t z[kMaxClusterVertices];
   for (uint32_t k = 0; k < channels; ++k) {
     uint32_t base = 0;
     for (size_t i = 0; i < clusters.size(); ++i) {
       const CanonicalCluster& c = *clusters[i];
       const uint32_t nb = delta_bytes(c.bits[k]);
-      bool has[kMaxClusterVertices];
-      for (uint32_t v = 0; v < c.vertex_count; ++v) has[v] = has_store[i][v] != 0;
-      const auto* pred = reinterpret_cast<const uint8_t(*)[3]>(pred_store[i].data());
-      z.clear();
+      const bool* has = &has_store[base];
+      const auto* pred = reinterpret_cast<const uint8_t(*)[3]>(&pred_store[3 * size_t(base)]);
+      uint32_t zn = 0;
       if (nb > 0)
         for (uint32_t v = 0; v < c.vertex_count; ++v) {
           if (copy_of[base + v] != UINT32_MAX) continue;
           const int64_t p = predict_v2(c.values[k], v, c.min[k], channel_hi(c, k), pred, has);
-          z.push_back(zigzag(int32_t(int64_t(c.values[k][v]) - p)));
+          z[zn++] = zigzag(int32_t(int64_t(c.values[k][v]) - p));
         }
+      size_t at = b.size();
+      b.resize(at + size_t(nb) * zn);
       for (uint32_t plane = 0; plane < nb; ++plane)
-        for (uint32_t x : z) b.push_back(uint8_t(x >> (8 * plane)));
+        for (uint32_t j = 0; j < zn; ++j) b[at++] = uint8_t(z[j] >> (8 * plane));
       base += c.vertex_count;
     }
     section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs);
