@@ -410,8 +410,9 @@ struct PageStream {
       totals.clusters += 1;
       totals.triangles += c.triangle_count;
       totals.vertices += c.vertex_count;
-      totals.wide_index_clusters += index_offset_bits(c) > kNaniteIndexOffsetBits ? 1 : 0;
-      const uint64_t m = 4ull * memory_cluster_words(c, q.channel_count());
+      const uint32_t offset_bits = index_offset_bits(c);
+      totals.wide_index_clusters += offset_bits > kNaniteIndexOffsetBits ? 1 : 0;
+      const uint64_t m = 4ull * memory_cluster_words(c, offset_bits);
       const uint64_t r = disk_cluster_bytes(c, q.channel_count(), o.version);
       if (open.count && (open.memory_bytes + m > o.page_size || open.raw_bound + r > max_raw)) {
         complete.push_back(open);

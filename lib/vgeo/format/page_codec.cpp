@@ -617,8 +617,7 @@ uint32_t vertex_bits(const CanonicalCluster& c) {
 }
 }  // namespace
 
-uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t) {
-  const uint32_t ob = index_offset_bits(c);
+uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t ob) {
   return kDescriptorWords + words_for_bits(uint64_t(c.vertex_count) * vertex_bits(c)) +
          words_for_bits(uint64_t(c.triangle_count) * memory_triangle_bits(c.vertex_count, ob)) + c.run_count;
 }
