@@ -542,7 +542,10 @@ void choose_strip_order(const uint8_t (*tris)[3], const uint32_t* mat, uint32_t 
                         CanonicalCluster* out) {
   uint32_t order[kMaxClusterTriangles] = {};  // (cleared: GCC cannot see the loop below fills what is read)
   for (uint32_t t = 0; t < tc; ++t) order[t] = t;
-  std::stable_sort(order, order + tc, [&](uint32_t a, uint32_t b) { return mat[a] < mat[b]; });
+  // Already in material order (one material: nearly every cluster): the identity is the stable
+  // sort's result, without its temporary buffer.
+  if (!std::is_sorted(mat, mat + tc))
+    std::stable_sort(order, order + tc, [&](uint32_t a, uint32_t b) { return mat[a] < mat[b]; });
   StripIndex index;
   index_strips(tris, mat, order, tc, vc, &index);
   uint32_t run_material[kMaxClusterTriangles];
