@@ -25,7 +25,7 @@ namespace {
 double inverse_step_of(int32_t step_log2) { return std::ldexp(1.0, -step_log2); }
 int32_t quantize_scalar(float v, double inverse_step, int32_t limit, const char* what) {
   if (!std::isfinite(v)) encode_fail(std::string("non-finite ") + what);
-  const double q = std::nearbyint(double(v) * inverse_step);
+  const double q = round_to_nearest_even(double(v) * inverse_step);
   if (!(std::fabs(q) <= double(limit)))
     encode_fail(std::string(what) + " beyond 2^24 grid steps (use a coarser step)");
   return int32_t(q);

@@ -75,7 +75,7 @@ FormatReport::MeshQuantizationReport measure_quantization(const ClusterDag& dag,
     const double inverse_step = std::ldexp(1.0, -e), step = std::ldexp(1.0, e);
     double m = 0;
     for (float v : values)
-      m = std::max(m, std::fabs(double(float(double(int32_t(std::nearbyint(double(v) * inverse_step))) * step)) - double(v)));
+      m = std::max(m, std::fabs(double(float(double(int32_t(round_to_nearest_even(double(v) * inverse_step))) * step)) - double(v)));
     return m;
   };
   r.position_max_error = max_error(dag.positions, q.position_step_log2);
