@@ -474,7 +474,10 @@ void channel_value_range(const MeshQuantization& q, uint32_t channel, int64_t* l
   }
 }
 
-void min_first(const uint8_t in[3], uint8_t out[3]) {
+namespace {
+// min_first's body, inlined into the memory-form encoder: an exported function of this
+// shared library is interposable, so the compiler calls it (once per triangle) instead.
+[[gnu::always_inline]] inline void rotate_min_first(const uint8_t in[3], uint8_t out[3]) {
   // Rotation (winding kept) with the smallest index first; ties: lexicographically smallest
   // (bytes packed most significant first compare as the byte sequences do).
   auto packed = [&](int r) { return uint32_t(in[r]) << 16 | uint32_t(in[(r + 1) % 3]) << 8 | in[(r + 2) % 3]; };
@@ -484,6 +487,9 @@ void min_first(const uint8_t in[3], uint8_t out[3]) {
     if (packed(r) < best_key) best = r, best_key = packed(r);
   for (int k = 0; k < 3; ++k) out[k] = in[(best + k) % 3];
 }
+}  // namespace
+
+void min_first(const uint8_t in[3], uint8_t out[3]) { rotate_min_first(in, out); }
 
 uint32_t index_offset_bits(const CanonicalCluster& c) {
   // After min_first the first index is the smallest, so a triangle's span
@@ -658,7 +664,7 @@ void MemoryPageBuilder::add(const CanonicalCluster& c) {
   bit = (data + vwords) * 32;
   for (uint32_t t = 0; t < c.triangle_count; ++t, bit += tb) {
     uint8_t m[3];
-    min_first(c.strip[t], m);
+    rotate_min_first(c.strip[t], m);
     write_bits(w_.data(), bit, bb, m[0]);
     write_bits(w_.data(), bit + bb, ob, uint32_t(m[1] - m[0]));
     write_bits(w_.data(), bit + bb + ob, ob, uint32_t(m[2] - m[0]));
