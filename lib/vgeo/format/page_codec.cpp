@@ -8,6 +8,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <memory>
 
 #include "vgeo/core/byte_io.h"
 #include "vgeo/core/error.h"
@@ -24,7 +25,7 @@ namespace {
 double inverse_step_of(int32_t step_log2) { return std::ldexp(1.0, -step_log2); }
 int32_t quantize_scalar(float v, double inverse_step, int32_t limit, const char* what) {
   if (!std::isfinite(v)) encode_fail(std::string("non-finite ") + what);
-  const double q = std::nearbyint(double(v) * inverse_step);
+  const double q = round_to_nearest_even(double(v) * inverse_step);
   if (!(std::fabs(q) <= double(limit)))
     encode_fail(std::string(what) + " beyond 2^24 grid steps (use a coarser step)");
   return int32_t(q);
@@ -55,6 +56,7 @@ struct StripIndex {
   uint32_t triangle_count = 0;
   uint8_t tri[kMaxClusterTriangles][3];   // triangle at position p, original winding
   uint8_t run_begin[kMaxClusterTriangles], run_end[kMaxClusterTriangles];  // p's material run
+  uint8_t distinct[kMaxClusterTriangles];  // distinct vertices of p (all fresh before any is numbered)
   // Positions that use each vertex, ascending, each once (CSR over vertices).
   uint16_t uses_begin[kMaxClusterVertices + 1];
   uint8_t uses[3 * kMaxClusterTriangles];
@@ -70,6 +72,10 @@ struct StripIndex {
   bool across_more[kMaxClusterTriangles][3];
 };
 constexpr uint8_t kNoStripTriangle = 0xFF;
+// index_strips' edge table: no corner holds the edge / two or more do (positions are < 128).
+constexpr uint8_t kNoEdgeOwner = 0xFF, kManyEdgeOwners = 0xFE;
+// No numbered vertex yet (ids are < kMaxClusterVertices = 255).
+constexpr uint8_t kNoOldest = 0xFF;
 
 // Each of the triangles of p's run that hold directed edge from -> to, by ascending position,
 // until `f` returns true.
@@ -103,6 +109,10 @@ void index_strips(const uint8_t (*tris)[3], const uint32_t* mat, const uint32_t*
       if (t[2] != t[0] && t[2] != t[1]) f(t[2], p);
     }
   };
+  for (uint32_t p = 0; p < tc; ++p) {
+    const uint8_t* t = x->tri[p];
+    x->distinct[p] = uint8_t(1 + (t[1] != t[0]) + (t[2] != t[0] && t[2] != t[1]));
+  }
   for_each_use([&](uint8_t v, uint32_t) { ++count[v + 1]; });
   for (uint32_t v = 0; v < vc; ++v) count[v + 1] = uint16_t(count[v + 1] + count[v]);
   std::copy(count, count + vc + 1, x->uses_begin);
@@ -118,12 +128,37 @@ void index_strips(const uint8_t (*tris)[3], const uint32_t* mat, const uint32_t*
       x->corner_position[c] = uint8_t(p), x->corner_index[c] = uint8_t(k);
       x->corner_next[c] = x->tri[p][(k + 1) % 3];
     }
+  // The triangle holding each directed edge (from, to), by a table over vertex pairs: a
+  // lookup per edge instead of a walk over the corners of its vertex (that walk's
+  // unpredictable compares were ~10% of the write stage on a 1M-triangle sphere). An edge
+  // held by two or more corners (non-manifold, repeated vertices) is marked and found by the
+  // walk, ascending, as before; so are edges whose one holder lies in another run.
+  // edge_corner: the owner's corner where the edge starts (read only for a single owner, so
+  // never cleared).
+  uint8_t edge_owner[kMaxClusterVertices * kMaxClusterVertices], edge_corner[kMaxClusterVertices * kMaxClusterVertices];
+  std::memset(edge_owner, kNoEdgeOwner, size_t(vc) * vc);
+  for (uint32_t p = 0; p < tc; ++p)
+    for (uint32_t k = 0; k < 3; ++k) {
+      const uint32_t key = x->tri[p][k] * vc + x->tri[p][(k + 1) % 3];
+      edge_owner[key] = edge_owner[key] == kNoEdgeOwner ? uint8_t(p) : kManyEdgeOwners;
+      edge_corner[key] = uint8_t(k);
+    }
   for (uint32_t p = 0; p < tc; ++p)
     for (uint32_t k = 0; k < 3; ++k) {
       x->across_first[p][k] = kNoStripTriangle, x->across_corner[p][k] = 0, x->across_more[p][k] = false;
-      for_each_across(*x, p, x->tri[p][(k + 1) % 3], x->tri[p][k], [&](uint32_t q, uint32_t j) {
+      const uint8_t from = x->tri[p][(k + 1) % 3], to = x->tri[p][k];
+      const uint32_t key = from * vc + to;
+      const uint8_t q = edge_owner[key];
+      if (q == kNoEdgeOwner) continue;
+      if (q != kManyEdgeOwners) {
+        if (q < x->run_begin[p] || q >= x->run_end[p]) continue;
+        x->across_first[p][k] = q;
+        x->across_corner[p][k] = edge_corner[key];
+        continue;
+      }
+      for_each_across(*x, p, from, to, [&](uint32_t q2, uint32_t j) {
         if (x->across_first[p][k] != kNoStripTriangle) return x->across_more[p][k] = true;
-        x->across_first[p][k] = uint8_t(q), x->across_corner[p][k] = uint8_t(j);
+        x->across_first[p][k] = uint8_t(q2), x->across_corner[p][k] = uint8_t(j);
         return false;
       });
     }
@@ -137,6 +172,15 @@ struct StripOrder {
   uint32_t seen = 0, emitted = 0;
   bool visited[kMaxClusterTriangles];
   uint8_t fresh[kMaxClusterTriangles];  // distinct unnumbered vertices (current run, unvisited)
+  // Smallest and largest numbered id (kNoOldest: none yet; current run, unvisited).
+  uint8_t oldest[kMaxClusterTriangles], newest[kMaxClusterTriangles];
+  // Unvisited triangles of the run by fresh-vertex count f ∈ {1, 2} and oldest numbered id: a
+  // span is seen + f − 1 − oldest for them, so these counts answer the window and give-up
+  // questions without walking any triangle (count_at_window, check_give_up).
+  uint8_t waiting[kMaxFreshBesideNumbered + 1][kMaxClusterVertices];
+  // Unvisited triangles of the run with every vertex numbered and a span that fits the window,
+  // by oldest id: with `waiting`, strip_start skips an id no fitting triangle starts at.
+  uint8_t settled_fitting[kMaxClusterVertices];
   // Unvisited triangles of the run with every vertex numbered and a span of exactly the window.
   uint32_t settled_at_window = 0;
   uint32_t r0 = 0, r1 = 0;  // the current material run
@@ -145,6 +189,11 @@ struct StripOrder {
   uint32_t oldest_live = 0;
   uint32_t max_span = 0;    // largest span emitted so far
   uint32_t first_start = UINT32_MAX;  // the first triangle the order emitted
+  // A retry's bound (build_strip_order's give_up_span; UINT32_MAX: none), and whether an
+  // unvisited triangle of the run already spans at least that much if emitted now: a span
+  // never shrinks while a triangle waits (below), so the order is then bound to reach it.
+  uint32_t give_up_span = UINT32_MAX;
+  bool doomed = false;
 };
 
 // Position of the first unvisited triangle across edge k of p, and the corner of that
@@ -170,27 +219,18 @@ struct StripOrder {
   for (uint32_t k = 0; k < 3; ++k) n += across(x, s, p, k, &corner) >= 0 ? 1 : 0;
   return n;
 }
-// Span of a triangle if emitted now: its new corners get the next first-use ids. `oldest`:
-// its smallest already-numbered id (UINT32_MAX if none).
-[[gnu::always_inline]] inline uint32_t span_now(const StripIndex& x, const StripOrder& s, uint32_t p, uint32_t* oldest) {
-  const uint8_t* t = x.tri[p];
-  uint32_t next = s.seen, lo = UINT32_MAX, hi = 0, old = UINT32_MAX;
-  for (int k = 0; k < 3; ++k) {
-    uint32_t id;
-    if (s.new_id[t[k]] >= 0) {
-      id = uint32_t(s.new_id[t[k]]);
-      old = std::min(old, id);
-    } else if (k > 0 && t[k] == t[k - 1]) {
-      id = next - 1;  // degenerate corner repeated: one new vertex
-    } else if (k == 2 && t[2] == t[0] && s.new_id[t[0]] < 0) {
-      id = s.seen;
-    } else {
-      id = next++;
-    }
-    lo = std::min(lo, id), hi = std::max(hi, id);
+// Span of a triangle of the current run if emitted now: its f fresh (distinct) vertices get
+// the next f first-use ids seen .. seen + f − 1, above every numbered id. `oldest`: its
+// smallest already-numbered id (UINT32_MAX if none). From the run's per-triangle counts, not
+// from its corners: the fresh count already tells repeated corners apart.
+[[gnu::always_inline]] inline uint32_t span_now(const StripIndex&, const StripOrder& s, uint32_t p, uint32_t* oldest) {
+  const uint32_t f = s.fresh[p], old = s.oldest[p];
+  if (old == kNoOldest) {
+    if (oldest) *oldest = UINT32_MAX;
+    return f - 1;  // every vertex fresh (f ≥ 1)
   }
   if (oldest) *oldest = old;
-  return hi - lo;
+  return (f > 0 ? s.seen + f - 1 : uint32_t(s.newest[p])) - old;
 }
 // A triangle that uses a numbered vertex and spans the whole window: one more fresh vertex
 // would push it out.
@@ -201,21 +241,62 @@ struct StripOrder {
 }
 bool in_run(const StripOrder& s, uint32_t p) { return p >= s.r0 && p < s.r1; }
 
+// Early give-up of a retry (same result as running it to the end, sooner). An unvisited
+// triangle's span_now never shrinks: its numbered ids are fixed, and its f fresh vertices get
+// f distinct ids ≥ seen whenever they are numbered, so its span when emitted is ≥ span_now.
+// A triangle with a numbered vertex (oldest id o) and f ∈ {1, 2} fresh ones spans
+// seen + f − 1 − o, which grows by one with each vertex numbered elsewhere and stays put when
+// one of its own is numbered; once f = 0 it is fixed. So a triangle first reaches `give_up_span`
+// just after a vertex is numbered, with o = seen + f − 1 − give_up_span: the waiting counts of
+// those two (f, o) say whether one did. A run's triangles are checked whole when the run
+// begins (their spans grew unseen during the earlier runs).
+void check_give_up(StripOrder* s) {
+  const uint32_t g = s->give_up_span;
+  for (uint32_t f = 1; f <= kMaxFreshBesideNumbered; ++f)
+    if (s->seen + f >= g + 1 && s->waiting[f][s->seen + f - 1 - g] != 0) s->doomed = true;
+}
+
+// A triangle of the run with every vertex numbered enters (+1) or leaves (−1) the counts of
+// settled triangles at the window's edge and of those that fit (its span is fixed from now on).
+void settle(const StripIndex& x, uint32_t p, int delta, StripOrder* s) {
+  const uint32_t sp = span_now(x, *s, p, nullptr);
+  if (sp == kIndexSpanWindow) s->settled_at_window += uint32_t(delta);
+  if (sp <= kIndexSpanWindow) s->settled_fitting[s->oldest[p]] = uint8_t(s->settled_fitting[s->oldest[p]] + delta);
+}
+
 void begin_run(const StripIndex& x, uint32_t r0, StripOrder* s) {
   s->r0 = r0, s->r1 = x.run_end[r0];
   s->settled_at_window = 0, s->oldest_live = 0;
+  std::memset(s->waiting, 0, sizeof s->waiting);
+  std::memset(s->settled_fitting, 0, sizeof s->settled_fitting);
+  if (s->seen == 0) {
+    // Nothing numbered yet (every order's first run): all fresh, spans ≤ 2, nothing counted.
+    std::memcpy(s->fresh + s->r0, x.distinct + s->r0, s->r1 - s->r0);
+    std::memset(s->oldest + s->r0, kNoOldest, s->r1 - s->r0);
+    std::memset(s->newest + s->r0, 0, s->r1 - s->r0);
+    return;
+  }
   for (uint32_t p = s->r0; p < s->r1; ++p) {
     const uint8_t* t = x.tri[p];
-    uint32_t f = s->new_id[t[0]] < 0 ? 1 : 0;
-    if (t[1] != t[0] && s->new_id[t[1]] < 0) ++f;
-    if (t[2] != t[0] && t[2] != t[1] && s->new_id[t[2]] < 0) ++f;
-    s->fresh[p] = uint8_t(f);
-    if (f == 0 && at_window_edge(x, *s, p)) ++s->settled_at_window;
+    uint32_t f = 0, old = kNoOldest, hi = 0;
+    for (int k = 0; k < 3; ++k) {
+      const int32_t id = s->new_id[t[k]];
+      if (id >= 0) old = std::min(old, uint32_t(id)), hi = std::max(hi, uint32_t(id));
+      else if ((k < 1 || t[k] != t[0]) && (k < 2 || t[k] != t[1])) ++f;  // distinct fresh vertices
+    }
+    s->fresh[p] = uint8_t(f), s->oldest[p] = uint8_t(old), s->newest[p] = uint8_t(hi);
+    if (f > 0 && old != kNoOldest) ++s->waiting[f][old];
+    if (f == 0) settle(x, p, +1, s);
+    if (s->give_up_span != UINT32_MAX && span_now(x, *s, p, nullptr) >= s->give_up_span) s->doomed = true;
   }
 }
 void visit(const StripIndex& x, uint32_t p, StripOrder* s) {
   s->visited[p] = true;
-  if (s->fresh[p] == 0 && at_window_edge(x, *s, p)) --s->settled_at_window;
+  if (s->fresh[p] == 0) {
+    settle(x, p, -1, s);
+  } else if (s->oldest[p] != kNoOldest) {
+    --s->waiting[s->fresh[p]][s->oldest[p]];
+  }
 }
 // Emits corner v of the triangle being written: a new vertex takes the next first-use id,
 // a numbered one becomes an explicit reference (`flag` in ctl).
@@ -231,26 +312,26 @@ uint8_t corner(const StripIndex& x, uint8_t v, uint8_t* ctl, uint8_t flag, Strip
   for (uint32_t u = x.uses_begin[v]; u < x.uses_begin[v + 1]; ++u) {
     const uint32_t q = x.uses[u];
     if (!in_run(*s, q) || s->visited[q]) continue;
-    if (--s->fresh[q] == 0 && at_window_edge(x, *s, q)) ++s->settled_at_window;
+    if (s->oldest[q] != kNoOldest) --s->waiting[s->fresh[q]][s->oldest[q]];
+    else s->oldest[q] = uint8_t(s->new_id[v]);
+    s->newest[q] = uint8_t(s->new_id[v]);  // the largest id so far
+    if (--s->fresh[q] == 0) {
+      settle(x, q, +1, s);
+    } else {
+      ++s->waiting[s->fresh[q]][s->oldest[q]];
+    }
   }
+  if (s->give_up_span != UINT32_MAX) check_give_up(s);
   return uint8_t(s->new_id[v]);
 }
 // Unvisited triangles of the run at the window's edge. Those with every vertex numbered are
 // counted as they settle; one with f ∈ {1, 2} fresh vertices spans seen + f − 1 − oldest,
-// so it is at the edge only if its oldest numbered vertex has id seen − 32 + f.
-uint32_t count_at_window(const StripIndex& x, const StripOrder& s) {
+// so it is at the edge only if its oldest numbered vertex has id seen − 32 + f (the waiting
+// counts).
+uint32_t count_at_window(const StripOrder& s) {
   uint32_t n = s.settled_at_window;
-  for (uint32_t f = 1; f <= kMaxFreshBesideNumbered; ++f) {
-    if (s.seen + f < kIndexSpanWindow + 1) continue;
-    const uint32_t id = s.seen + f - (kIndexSpanWindow + 1);
-    const uint8_t v = s.vertex_of_id[id];
-    for (uint32_t u = x.uses_begin[v]; u < x.uses_begin[v + 1]; ++u) {
-      const uint32_t q = x.uses[u];
-      if (!in_run(s, q) || s.visited[q] || s.fresh[q] == 0) continue;
-      uint32_t old;
-      if (span_now(x, s, q, &old) == kIndexSpanWindow && old == id) ++n;
-    }
-  }
+  for (uint32_t f = 1; f <= kMaxFreshBesideNumbered; ++f)
+    if (s.seen + f >= kIndexSpanWindow + 1) n += s.waiting[f][s.seen + f - (kIndexSpanWindow + 1)];
   return n;
 }
 // Start of a strip (span-aware, spec/format.md §3): a triangle whose span fits the window,
@@ -263,6 +344,10 @@ uint32_t strip_start(const StripIndex& x, StripOrder* so) {
   const StripOrder& s = *so;
   for (; so->oldest_live < s.seen; ++so->oldest_live) {
     const uint32_t id = s.oldest_live;
+    // No fitting triangle has this oldest id (the counts; spans seen + f − 1 − id for f fresh).
+    if (s.settled_fitting[id] == 0 && (s.waiting[1][id] == 0 || s.seen - id > kIndexSpanWindow) &&
+        (s.waiting[2][id] == 0 || s.seen + 1 - id > kIndexSpanWindow))
+      continue;
     const uint8_t v = s.vertex_of_id[id];
     uint32_t start = UINT32_MAX, best_open = UINT32_MAX;
     for (uint32_t u = x.uses_begin[v]; u < x.uses_begin[v + 1]; ++u) {
@@ -293,18 +378,21 @@ void note_span(const uint8_t* t, StripOrder* s) {
 
 // Builds one strip order into `out` (strip, ctl, refs, runs) and `s`. `first` forces the
 // first triangle of the cluster (position in the first run; UINT32_MAX = the heuristic's
-// choice). Returns false, with `out` incomplete, as soon as a span reaches `give_up_span`.
+// choice). Returns false, with `out` incomplete, as soon as a span reaches `give_up_span` or an
+// unvisited triangle is bound to (check_give_up).
 bool build_strip_order(const StripIndex& x, const uint32_t* run_material, uint32_t vc, uint32_t first,
                        uint32_t give_up_span, StripOrder* s, CanonicalCluster* out) {
   const uint32_t tc = x.triangle_count;
   std::fill(s->new_id, s->new_id + vc, -1);
   std::fill(s->visited, s->visited + tc, false);
   s->seen = 0, s->emitted = 0, s->max_span = 0, s->first_start = UINT32_MAX;
+  s->give_up_span = give_up_span, s->doomed = false;
   out->ref_count = 0, out->run_count = 0;
   for (uint32_t r0 = 0; r0 < tc; r0 = x.run_end[r0]) {
     out->run_start[out->run_count] = uint8_t(r0);
     out->run_material[out->run_count++] = run_material[r0];
     begin_run(x, r0, s);
+    if (s->doomed) return false;
     for (uint32_t left = s->r1 - r0; left > 0;) {
       uint32_t cur = first < s->r1 - r0 && s->emitted == 0 ? r0 + first : strip_start(x, s);
       if (s->emitted == 0) s->first_start = cur;
@@ -325,7 +413,7 @@ bool build_strip_order(const StripIndex& x, const uint32_t* run_material, uint32
       o[2] = corner(x, t[(rot + 2) % 3], &ctl, kCtlRef0 << 2, s, out);
       out->ctl[s->emitted++] = ctl;
       note_span(o, s);
-      if (s->max_span >= give_up_span) return false;
+      if (s->max_span >= give_up_span || s->doomed) return false;
       while (left > 0) {
         // Candidates across b–c (side 0) and c–a (side 1); corner k of a candidate starts the
         // shared edge, so its strip rotation is k and its third vertex tri[n][k + 2].
@@ -338,7 +426,7 @@ bool build_strip_order(const StripIndex& x, const uint32_t* run_material, uint32
         auto fits = [&](int n, uint32_t k) {
           if (n < 0 || span_now(x, *s, uint32_t(n), nullptr) > kIndexSpanWindow) return false;
           if (s->new_id[x.tri[n][(k + 2) % 3]] >= 0) return true;
-          if (at_window < 0) at_window = int(count_at_window(x, *s));
+          if (at_window < 0) at_window = int(count_at_window(*s));
           return at_window - (at_window_edge(x, *s, uint32_t(n)) ? 1 : 0) <= 0;
         };
         const bool ok1 = fits(n1, k1), ok2 = fits(n2, k2);
@@ -360,7 +448,7 @@ bool build_strip_order(const StripIndex& x, const uint32_t* run_material, uint32
         o[2] = corner(x, x.tri[n][(k + 2) % 3], &ctl, kCtlRef0, s, out);
         out->ctl[s->emitted++] = ctl;
         note_span(o, s);
-        if (s->max_span >= give_up_span) return false;
+        if (s->max_span >= give_up_span || s->doomed) return false;
         cur = n, rot = k;
       }
     }
@@ -386,7 +474,10 @@ void channel_value_range(const MeshQuantization& q, uint32_t channel, int64_t* l
   }
 }
 
-void min_first(const uint8_t in[3], uint8_t out[3]) {
+namespace {
+// min_first's body, inlined into the memory-form encoder: an exported function of this
+// shared library is interposable, so the compiler calls it (once per triangle) instead.
+[[gnu::always_inline]] inline void rotate_min_first(const uint8_t in[3], uint8_t out[3]) {
   // Rotation (winding kept) with the smallest index first; ties: lexicographically smallest
   // (bytes packed most significant first compare as the byte sequences do).
   auto packed = [&](int r) { return uint32_t(in[r]) << 16 | uint32_t(in[(r + 1) % 3]) << 8 | in[(r + 2) % 3]; };
@@ -396,6 +487,9 @@ void min_first(const uint8_t in[3], uint8_t out[3]) {
     if (packed(r) < best_key) best = r, best_key = packed(r);
   for (int k = 0; k < 3; ++k) out[k] = in[(best + k) % 3];
 }
+}  // namespace
+
+void min_first(const uint8_t in[3], uint8_t out[3]) { rotate_min_first(in, out); }
 
 uint32_t index_offset_bits(const CanonicalCluster& c) {
   // After min_first the first index is the smallest, so a triangle's span
@@ -452,9 +546,12 @@ void read_cluster_triangles(const ClusterDag& dag, const DagCluster& cl, uint8_t
 // vertex renumbering in *s.
 void choose_strip_order(const uint8_t (*tris)[3], const uint32_t* mat, uint32_t tc, uint32_t vc, StripOrder* s,
                         CanonicalCluster* out) {
-  uint32_t order[kMaxClusterTriangles];
+  uint32_t order[kMaxClusterTriangles] = {};  // (cleared: GCC cannot see the loop below fills what is read)
   for (uint32_t t = 0; t < tc; ++t) order[t] = t;
-  std::stable_sort(order, order + tc, [&](uint32_t a, uint32_t b) { return mat[a] < mat[b]; });
+  // Already in material order (one material: nearly every cluster): the identity is the stable
+  // sort's result, without its temporary buffer.
+  if (!std::is_sorted(mat, mat + tc))
+    std::stable_sort(order, order + tc, [&](uint32_t a, uint32_t b) { return mat[a] < mat[b]; });
   StripIndex index;
   index_strips(tris, mat, order, tc, vc, &index);
   uint32_t run_material[kMaxClusterTriangles];
@@ -529,8 +626,7 @@ uint32_t vertex_bits(const CanonicalCluster& c) {
 }
 }  // namespace
 
-uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t) {
-  const uint32_t ob = index_offset_bits(c);
+uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t ob) {
   return kDescriptorWords + words_for_bits(uint64_t(c.vertex_count) * vertex_bits(c)) +
          words_for_bits(uint64_t(c.triangle_count) * memory_triangle_bits(c.vertex_count, ob)) + c.run_count;
 }
@@ -568,7 +664,7 @@ void MemoryPageBuilder::add(const CanonicalCluster& c) {
   bit = (data + vwords) * 32;
   for (uint32_t t = 0; t < c.triangle_count; ++t, bit += tb) {
     uint8_t m[3];
-    min_first(c.strip[t], m);
+    rotate_min_first(c.strip[t], m);
     write_bits(w_.data(), bit, bb, m[0]);
     write_bits(w_.data(), bit + bb, ob, uint32_t(m[1] - m[0]));
     write_bits(w_.data(), bit + bb + ob, ob, uint32_t(m[2] - m[0]));
@@ -762,6 +858,10 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
   assert(version == 1 || version == 2);
   const uint32_t channels = q.channel_count();
   std::vector<uint8_t> b;
+  // The page's bound (break_batch's): no regrowth copies.
+  uint64_t bound = 12;
+  for (const auto* c : clusters) bound += disk_cluster_bytes(*c, channels, version);
+  b.reserve(bound);
   append_le32(b, version >= 2 ? kDiskPageMagicV2 : kDiskPageMagic);
   append_le32(b, uint32_t(clusters.size()));
   for (const auto* c : clusters) b.push_back(uint8_t(c->vertex_count));
@@ -855,34 +955,36 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
     for (uint32_t z : copy_refs) b.push_back(uint8_t(z >> (8 * plane)));
   section(&DiskStreams::vertex_refs);
   // Residuals against the parallelogram / previous-vertex prediction, non-copies only.
-  std::vector<uint8_t (*)[3]> preds;
-  std::vector<std::vector<uint8_t>> pred_store(clusters.size());
-  std::vector<std::vector<uint8_t>> has_store(clusters.size());
-  for (size_t i = 0; i < clusters.size(); ++i) {
-    pred_store[i].assign(3 * kMaxClusterVertices, 0);
-    has_store[i].assign(kMaxClusterVertices, 0);
-    bool has[kMaxClusterVertices];  // strip_predictors fills the first vertex_count entries
-    strip_predictors(*clusters[i], reinterpret_cast<uint8_t(*)[3]>(pred_store[i].data()), has);
-    for (uint32_t v = 0; v < clusters[i]->vertex_count; ++v) has_store[i][v] = has[v] ? 1 : 0;
+  // Predictors per page vertex (strip_predictors fills each cluster's first vertex_count
+  // entries), found once for every channel.
+  std::vector<uint8_t> pred_store(size_t(total_vertices) * 3);
+  std::unique_ptr<bool[]> has_store(new bool[total_vertices]);
+  {
+    uint64_t base = 0;
+    for (const auto* c : clusters) {
+      strip_predictors(*c, reinterpret_cast<uint8_t(*)[3]>(&pred_store[3 * base]), &has_store[base]);
+      base += c->vertex_count;
+    }
   }
-  std::vector<uint32_t> z;
+  uint32_t z[kMaxClusterVertices];
   for (uint32_t k = 0; k < channels; ++k) {
     uint32_t base = 0;
     for (size_t i = 0; i < clusters.size(); ++i) {
       const CanonicalCluster& c = *clusters[i];
       const uint32_t nb = delta_bytes(c.bits[k]);
-      bool has[kMaxClusterVertices];
-      for (uint32_t v = 0; v < c.vertex_count; ++v) has[v] = has_store[i][v] != 0;
-      const auto* pred = reinterpret_cast<const uint8_t(*)[3]>(pred_store[i].data());
-      z.clear();
+      const bool* has = &has_store[base];
+      const auto* pred = reinterpret_cast<const uint8_t(*)[3]>(&pred_store[3 * size_t(base)]);
+      uint32_t zn = 0;
       if (nb > 0)
         for (uint32_t v = 0; v < c.vertex_count; ++v) {
           if (copy_of[base + v] != UINT32_MAX) continue;
           const int64_t p = predict_v2(c.values[k], v, c.min[k], channel_hi(c, k), pred, has);
-          z.push_back(zigzag(int32_t(int64_t(c.values[k][v]) - p)));
+          z[zn++] = zigzag(int32_t(int64_t(c.values[k][v]) - p));
         }
+      size_t at = b.size();
+      b.resize(at + size_t(nb) * zn);
       for (uint32_t plane = 0; plane < nb; ++plane)
-        for (uint32_t x : z) b.push_back(uint8_t(x >> (8 * plane)));
+        for (uint32_t j = 0; j < zn; ++j) b[at++] = uint8_t(z[j] >> (8 * plane));
       base += c.vertex_count;
     }
     section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs);

@@ -63,7 +63,8 @@ void min_first(const uint8_t in[3], uint8_t out[3]);
 // triangle span (max(i1 - i0, i2 - i0) after min_first); 0..8.
 uint32_t index_offset_bits(const CanonicalCluster& c);
 
-uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t channel_count);
+// Memory-form words of a cluster whose index_offset_bits is `offset_bits` (the caller has it).
+uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t offset_bits);
 // Appends clusters one at a time to a memory-form page of `cluster_count` clusters; fails
 // with FORMAT_INCONSISTENT (at `where`) as soon as the page would exceed `max_words`.
 class MemoryPageBuilder {

@@ -67,11 +67,19 @@ int32_t choose_uv_step(const ClusterDag& dag, const FormatOptions& o) {
 FormatReport::MeshQuantizationReport measure_quantization(const ClusterDag& dag, const MeshQuantization& q) {
   FormatReport::MeshQuantizationReport r;
   r.quantization = q;
-  auto err = [](float v, int32_t e) {
-    return std::fabs(double(dequantize_position(int32_t(std::nearbyint(std::ldexp(double(v), -e))), e)) - double(v));
+  // Per value: the quantized value and its dequantization (dequantize_position) as products
+  // with the exact powers of two 2^-e and 2^e (e within ±104, so no double overflows or goes
+  // subnormal for a float times them): the same doubles as std::ldexp, without two libm calls
+  // per coordinate (~5% of the write stage's instructions on bunny00).
+  auto max_error = [](const std::vector<float>& values, int32_t e) {
+    const double inverse_step = std::ldexp(1.0, -e), step = std::ldexp(1.0, e);
+    double m = 0;
+    for (float v : values)
+      m = std::max(m, std::fabs(double(float(double(int32_t(round_to_nearest_even(double(v) * inverse_step))) * step)) - double(v)));
+    return m;
   };
-  for (float p : dag.positions) r.position_max_error = std::max(r.position_max_error, err(p, q.position_step_log2));
-  for (float u : dag.uvs) r.uv_max_error = std::max(r.uv_max_error, err(u, q.uv_step_log2));
+  r.position_max_error = max_error(dag.positions, q.position_step_log2);
+  r.uv_max_error = max_error(dag.uvs, q.uv_step_log2);
   return r;
 }
 
