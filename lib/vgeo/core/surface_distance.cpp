@@ -240,6 +240,10 @@ uint32_t TriangleDistanceTree::build(Subtree at, BuildItem* items) {
 }
 
 double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) const {
+  return nearest_or_within_squared(p, -1.0, hint);  // no distance is ≤ -1: the nearest, always
+}
+
+double TriangleDistanceTree::nearest_or_within_squared(DVec3 p, double threshold, uint32_t* hint) const {
   double best = std::numeric_limits<double>::infinity();
   if (nodes_.empty()) return best;
   uint32_t best_t = *hint;
@@ -250,6 +254,7 @@ double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) c
       const double d = triangle_d2(p, t);
       if (d < best) best = d, best_t = t;
     }
+    if (best <= threshold) return *hint = best_t, best;
   }
   // Nodes are pushed with their box distance: compared again with the (smaller) best when
   // popped, not recomputed.
@@ -270,6 +275,7 @@ double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) c
         double d = triangle_d2(p, t);
         if (d < best) best = d, best_t = t;
       }
+      if (best <= threshold) return *hint = best_t, best;
       continue;
     }
     uint32_t l = nd.first, r = nd.first + 1;

@@ -71,6 +71,11 @@ class TriangleDistanceTree {
   // Squared distance to the nearest triangle; `hint` (in/out) is a triangle to start from
   // (pass ~0u initially; an opaque tree position); +inf when empty.
   double nearest_distance_squared(DVec3 p, uint32_t* hint) const;
+  // nearest_distance_squared(p), or, as soon as the search has found a triangle within
+  // sqrt(threshold) of p, that triangle's squared distance (≤ threshold): the decision of
+  // any_within_squared and, when it is "no", the nearest distance (bit-exactly: until then the
+  // search is nearest_distance_squared's), in one search instead of two.
+  double nearest_or_within_squared(DVec3 p, double threshold, uint32_t* hint) const;
   // Whether some triangle lies within sqrt(threshold) of p (the decision of
   // nearest_distance_squared(p) <= threshold, bit-exactly), stopping at the first one found;
   // `hint` (in/out, as above) is where the search starts and gets the triangle found.

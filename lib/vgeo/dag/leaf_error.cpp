@@ -16,8 +16,8 @@
 // the running threshold cannot raise the maximum and needs no nearest search. That triangle
 // is looked for by walking over the leaf surface (edge adjacency by welded position) from
 // the last one found to the triangle the point projects into, tested with the tree's own
-// triangle test; only when the walk fails does the tree's any-within query decide, and only
-// a point farther than the threshold from every leaf gets the exact nearest search. The walk
+// triangle test; only when the walk fails does the tree decide, in one search that stops at
+// the first leaf triangle within the threshold or else finds the exact nearest. The walk
 // proves "within" only, so the result is the tree's, bit for bit
 // (docs/acceptance/issue23_errspeed.md: 99.5% of the points are decided by a walk of ~2.4 steps).
 #include <algorithm>
@@ -165,8 +165,9 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
   auto visit = [&](DVec3 p) {
     const double threshold = std::max(best2, floor_d2);
     if (at != kNone && walk_within(leaves, p, threshold, &at)) return;
-    if (leaves.tree.any_within_squared(p, threshold, &at)) return;
-    best2 = std::max(best2, leaves.tree.nearest_distance_squared(p, &at));
+    // One tree search: "within" or, when not, the nearest distance.
+    const double d2 = leaves.tree.nearest_or_within_squared(p, threshold, &at);
+    if (d2 > threshold) best2 = std::max(best2, d2);
   };
   auto vertex = [&](uint32_t v) {
     return DVec3{mesh.positions[3 * size_t(v)], mesh.positions[3 * size_t(v) + 1], mesh.positions[3 * size_t(v) + 2]};
