@@ -24,9 +24,9 @@ double brute_nearest(const std::vector<float>& c, DVec3 p) {
   return best;
 }
 
-// 20 random query points against both trees: the nearest distance equals brute force, and the
-// within-threshold decision at the distance itself and one ulp either side (from the last hint
-// and from a fresh one).
+// 20 random query points against both trees: the nearest distance equals brute force, and
+// nearest_or_within_squared decides "within" at the distance itself and one ulp either side
+// exactly (from the last hint and from a fresh one), giving the nearest distance when not within.
 void expect_queries_equal_brute_force(const TriangleDistanceTree& serial, const TriangleDistanceTree& parallel,
                                       const std::vector<float>& corners) {
   uint32_t hint_serial = ~0u, hint_parallel = ~0u, hint_any = ~0u;
@@ -36,10 +36,16 @@ void expect_queries_equal_brute_force(const TriangleDistanceTree& serial, const 
     const double expected = brute_nearest(corners, p);
     RC_ASSERT(serial.nearest_distance_squared(p, &hint_serial) == expected);
     RC_ASSERT(parallel.nearest_distance_squared(p, &hint_parallel) == expected);
+    // The decision at the distance itself and one ulp either side, from the last hint.
     for (double threshold : {expected, std::nextafter(expected, 0.0), std::nextafter(expected, 1e300)}) {
-      RC_ASSERT(parallel.any_within_squared(p, threshold, &hint_any) == (expected <= threshold));
+      // Within: some distance ≤ threshold; else the nearest, exactly.
+      const double hinted = parallel.nearest_or_within_squared(p, threshold, &hint_any);
+      RC_ASSERT((hinted <= threshold) == (expected <= threshold));
+      RC_ASSERT((hinted <= threshold || hinted == expected));
       uint32_t fresh = ~0u;
-      RC_ASSERT(serial.any_within_squared(p, threshold, &fresh) == (expected <= threshold));
+      const double unhinted = serial.nearest_or_within_squared(p, threshold, &fresh);
+      RC_ASSERT((unhinted <= threshold) == (expected <= threshold));
+      RC_ASSERT((unhinted <= threshold || unhinted == expected));
     }
   }
 }
@@ -83,7 +89,7 @@ TEST(TriangleDistanceTree, EmptyTree) {
   uint32_t hint = ~0u;
   EXPECT_TRUE(tree.empty());
   EXPECT_EQ(tree.nearest_distance_squared({0, 0, 0}, &hint), std::numeric_limits<double>::infinity());
-  EXPECT_FALSE(tree.any_within_squared({0, 0, 0}, 1.0, &hint));
+  EXPECT_EQ(tree.nearest_or_within_squared({0, 0, 0}, 1.0, &hint), std::numeric_limits<double>::infinity());
 }
 
 }  // namespace

@@ -175,12 +175,6 @@ static inline double box_d2(DVec3 p, const float* lo, const float* hi) {
   return dx * dx + dy * dy + dz * dz;
 }
 
-static double box_centre_d2(DVec3 p, const float* lo, const float* hi) {
-  const double dx = 0.5 * (double(lo[0]) + double(hi[0])) - p.x, dy = 0.5 * (double(lo[1]) + double(hi[1])) - p.y,
-               dz = 0.5 * (double(lo[2]) + double(hi[2])) - p.z;
-  return dx * dx + dy * dy + dz * dz;
-}
-
 // The median split of items[first, last) (an inner node's triangles): along the longest axis
 // of the centroids' extent; returns where the second child's triangles begin.
 uint32_t TriangleDistanceTree::split(BuildItem* items, uint32_t first, uint32_t last) {
@@ -241,6 +235,10 @@ uint32_t TriangleDistanceTree::build(Subtree at, BuildItem* items) {
 }
 
 double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) const {
+  return nearest_or_within_squared(p, -1.0, hint);  // no distance is ≤ -1: the nearest, always
+}
+
+double TriangleDistanceTree::nearest_or_within_squared(DVec3 p, double threshold, uint32_t* hint) const {
   double best = std::numeric_limits<double>::infinity();
   if (nodes_.empty()) return best;
   uint32_t best_t = *hint;
@@ -251,6 +249,7 @@ double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) c
       const double d = triangle_d2(p, t);
       if (d < best) best = d, best_t = t;
     }
+    if (best <= threshold) return *hint = best_t, best;
   }
   // Nodes are pushed with their box distance: compared again with the (smaller) best when
   // popped, not recomputed.
@@ -271,6 +270,7 @@ double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) c
         double d = triangle_d2(p, t);
         if (d < best) best = d, best_t = t;
       }
+      if (best <= threshold) return *hint = best_t, best;
       continue;
     }
     uint32_t l = nd.first, r = nd.first + 1;
@@ -281,63 +281,6 @@ double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) c
   }
   *hint = best_t;
   return best;
-}
-
-inline bool TriangleDistanceTree::triangle_within_squared(DVec3 p, uint32_t t, double threshold) const {
-  double d2;
-  return prepared_triangle_within_squared(p, prepare_triangle(corner(t, 0), corner(t, 1), corner(t, 2)), threshold, &d2);
-}
-
-bool TriangleDistanceTree::any_within_squared(DVec3 p, double threshold, uint32_t* hint) const {
-  if (nodes_.empty()) return false;
-  // Searched from the hint outwards (the hint triangle, the rest of its tree leaf, then the
-  // sibling subtree of each ancestor): every triangle is searched, and a query near the last
-  // one ends near its leaf instead of descending from the root.
-  const bool hinted = *hint < leaf_of_.size();
-  uint32_t node = hinted ? leaf_of_[*hint] : 0;
-  uint32_t stack[128];
-  // Searches the subtree at `root`; a node is pushed only once its box passed the test.
-  auto search = [&](uint32_t root) {
-    if (box_d2(p, nodes_[root].lo, nodes_[root].hi) > threshold) return false;
-    int top = 0;
-    stack[top++] = root;
-    while (top) {
-      const Node& nd = nodes_[stack[--top]];
-      if (nd.count) {
-        for (uint32_t i = 0; i < nd.count; ++i)
-          if (triangle_within_squared(p, nd.first + i, threshold)) return *hint = nd.first + i, true;
-        continue;
-      }
-      uint32_t l = nd.first, r = nd.first + 1;
-      double dl = box_d2(p, nodes_[l].lo, nodes_[l].hi), dr = box_d2(p, nodes_[r].lo, nodes_[r].hi);
-      // Boxes of a curved surface's triangles often all contain p (distance 0): then the
-      // child whose box centre is nearer more likely holds a triangle within the threshold.
-      const bool swap = dl == dr ? box_centre_d2(p, nodes_[l].lo, nodes_[l].hi) > box_centre_d2(p, nodes_[r].lo, nodes_[r].hi)
-                                 : dl > dr;
-      if (swap) std::swap(l, r), std::swap(dl, dr);
-      if (dr <= threshold) stack[top++] = r;
-      if (dl <= threshold) stack[top++] = l;
-    }
-    return false;
-  };
-  if (hinted) {
-    // The hint's leaf, the hint first (the points of one triangle come together).
-    const Node& leaf = nodes_[node];
-    if (box_d2(p, leaf.lo, leaf.hi) <= threshold) {
-      if (triangle_within_squared(p, *hint, threshold)) return true;
-      for (uint32_t t = leaf.first; t < leaf.first + leaf.count; ++t)
-        if (t != *hint && triangle_within_squared(p, t, threshold)) return *hint = t, true;
-    }
-  } else if (search(node)) {
-    return true;
-  }
-  while (node != 0) {
-    const uint32_t parent = parent_[node];
-    const uint32_t sibling = nodes_[parent].first + (nodes_[parent].first == node ? 1 : 0);
-    if (search(sibling)) return true;
-    node = parent;
-  }
-  return false;
 }
 
 void TriangleDistanceTree::triangles_in_box(DVec3 lo, DVec3 hi, std::vector<uint32_t>* out, DVec3 normal, double offset,

@@ -80,10 +80,12 @@ class TriangleDistanceTree {
   // Squared distance to the nearest triangle; `hint` (in/out) is a triangle to start from
   // (pass ~0u initially; an opaque tree position); +inf when empty.
   double nearest_distance_squared(DVec3 p, uint32_t* hint) const;
-  // Whether some triangle lies within sqrt(threshold) of p (the decision of
-  // nearest_distance_squared(p) <= threshold, bit-exactly), stopping at the first one found;
-  // `hint` (in/out, as above) is where the search starts and gets the triangle found.
-  bool any_within_squared(DVec3 p, double threshold, uint32_t* hint) const;
+  // nearest_distance_squared(p, hint), or, as soon as its search finds a triangle within
+  // sqrt(threshold) of p, that triangle's squared distance (≤ threshold): whether some
+  // triangle lies within (result ≤ threshold, the decision of nearest_distance_squared(p) <=
+  // threshold, bit-exactly) and, when none does, the nearest distance, in one search.
+  // `hint` (in/out, as above) gets the triangle found.
+  double nearest_or_within_squared(DVec3 p, double threshold, uint32_t* hint) const;
   // Appends to `out` every triangle whose box (over its corners) meets the closed box
   // [lo, hi] and that has a corner on each side of the slab {x : |normal·x - offset| <= width}
   // or in it (normal: any vector; width 0 and normal 0 accept all), in tree order (the same
@@ -130,7 +132,6 @@ class TriangleDistanceTree {
   void finish(uint32_t n, ThreadPool* pool, const std::vector<Subtree>& frontier, const std::vector<Subtree>& top);
   void set_box(uint32_t index);
   double triangle_d2(DVec3 p, uint32_t t) const;
-  bool triangle_within_squared(DVec3 p, uint32_t t, double threshold) const;
   std::vector<float> corners_;  // soup: 9 per triangle, in tree order
   const float* positions_ = nullptr;   // indexed: the caller's positions
   std::vector<uint32_t> corner_ids_;   // indexed: 3 per triangle
