@@ -719,7 +719,7 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     target.max_error = s.internal.simplify_error_budget * max_member_error;
   std::vector<uint32_t> scratch = s.scratch.take();
   const PreparedGroup prepared = prepare_group(s.welded, merged, s.locks.locked, s.options.simplifier, s.fins,
-                                               target.open_borders && target.mesh_border != nullptr, scratch);
+                                               target.open_borders ? target.mesh_border : nullptr, scratch);
   SimplifyResult simplified;
   bool sealed = simplify_sealed(s, blk.group_shared_edges[g], prepared, target, scratch, simplified);
   if (!sealed && target.mesh_border && target.open_borders && s.options.simplifier == Simplifier::kMeshopt) {

@@ -307,10 +307,10 @@ struct PreparedGroup {
   OpenBorder open_border;
 };
 // `scratch` (weld.size() entries, all kNone) is returned in that state.
-// `open_border_caps`: some simplification of it may ask for caps (SimplifyTarget::open_borders
-// with a mesh_border, meshopt).
+// `mesh_border`: SimplifyTarget::mesh_border when some simplification of the group may ask for
+// open-border caps (open_borders), else null.
 PreparedGroup prepare_group(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked,
-                            Simplifier simplifier, const FinSet& fins, bool open_border_caps,
+                            Simplifier simplifier, const FinSet& fins, const std::vector<uint8_t>* mesh_border,
                             std::vector<uint32_t>& scratch);
 SimplifyResult simplify_prepared(const WeldedMesh& welded, const PreparedGroup& prepared,
                                  const std::vector<uint8_t>& locked, Simplifier simplifier,

@@ -527,7 +527,7 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
 }  // namespace
 
 PreparedGroup prepare_group(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked,
-                            Simplifier simplifier, const FinSet& fins, bool open_border_caps,
+                            Simplifier simplifier, const FinSet& fins, const std::vector<uint8_t>* mesh_border,
                             std::vector<uint32_t>& scratch) {
   // Triangles with a repeated welded position are left out (they cover no area and use each
   // of their edges twice, so no edge's parity and no open edge changes): to meshopt such a
@@ -549,12 +549,17 @@ PreparedGroup prepare_group(const WeldedMesh& welded, const TriangleSet& group, 
   // ids (scratch marks the ids seen).
   constexpr uint32_t kSeen = 0;
   std::vector<uint32_t> left_out;  // triangle indices
+  // Caps are accepted only with a cap base between two mesh-border vertices
+  // (remove_open_border_caps): a group without one is never capped.
+  bool on_mesh_border = false;
   for (size_t t = 0; t < group.triangle_count(); ++t) {
     const uint32_t* c = &group.corners[3 * t];
     const uint32_t w[3] = {welded.weld[c[0]], welded.weld[c[1]], welded.weld[c[2]]};
     if (w[0] == w[1] || w[1] == w[2] || w[2] == w[0] || is_fin(c)) left_out.push_back(uint32_t(t));
-    for (uint32_t x : w)
+    for (uint32_t x : w) {
       if (locked[x] && scratch[x] != kSeen) scratch[x] = kSeen, p.group_locked.push_back(x);
+      if (mesh_border && (*mesh_border)[x]) on_mesh_border = true;
+    }
   }
   for (uint32_t x : p.group_locked) scratch[x] = kNone;
   p.any_left_out = !left_out.empty();
@@ -573,7 +578,7 @@ PreparedGroup prepare_group(const WeldedMesh& welded, const TriangleSet& group, 
   }
   if (simplifier == Simplifier::kMeshopt && p.input().triangle_count() > 0) {
     build_sub_mesh(welded, p, scratch);
-    if (open_border_caps) p.open_border = find_open_border(welded, p.input(), locked);
+    if (on_mesh_border) p.open_border = find_open_border(welded, p.input(), locked);
   }
   return p;
 }
@@ -593,8 +598,8 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
                               const std::vector<uint8_t>& locked, Simplifier simplifier, const SimplifyTarget& target,
                               const FinSet& fins) {
   std::vector<uint32_t> scratch(welded.weld.size(), kNone);
-  const bool caps = target.open_borders && target.mesh_border != nullptr;
-  const PreparedGroup prepared = prepare_group(welded, group, locked, simplifier, fins, caps, scratch);
+  const PreparedGroup prepared =
+      prepare_group(welded, group, locked, simplifier, fins, target.open_borders ? target.mesh_border : nullptr, scratch);
   return simplify_prepared(welded, prepared, locked, simplifier, target, scratch);
 }
 
