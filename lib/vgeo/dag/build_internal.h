@@ -300,8 +300,8 @@ struct PreparedGroup {
   // any, each input corner's sub-mesh key (the corners that may take its attributes).
   std::vector<uint32_t> welded_positions;
   std::vector<uint64_t> corner_sub_key;
-  // Distinct locked welded ids of the group's corners and of the input's (in order of first use):
-  // what the border checks ask the simplifications to keep.
+  // Distinct locked welded ids of the group's corners and of the input's (in no particular
+  // order): what the border checks ask the simplifications to keep.
   std::vector<uint32_t> group_locked, input_locked;
   // The input's open edges, for open-border caps (empty unless prepared for them).
   OpenBorder open_border;

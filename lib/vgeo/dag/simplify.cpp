@@ -545,41 +545,41 @@ PreparedGroup prepare_group(const WeldedMesh& welded, const TriangleSet& group, 
   };
   PreparedGroup p;
   p.group = &group;
-  // One pass over the corners' welded ids finds the triangles left out and the group's locked
-  // ids (scratch marks the ids seen).
-  constexpr uint32_t kSeen = 0;
   std::vector<uint32_t> left_out;  // triangle indices
-  // Caps are accepted only with a cap base between two mesh-border vertices
-  // (remove_open_border_caps): a group without one is never capped.
-  bool on_mesh_border = false;
   for (size_t t = 0; t < group.triangle_count(); ++t) {
     const uint32_t* c = &group.corners[3 * t];
-    const uint32_t w[3] = {welded.weld[c[0]], welded.weld[c[1]], welded.weld[c[2]]};
-    if (w[0] == w[1] || w[1] == w[2] || w[2] == w[0] || is_fin(c)) left_out.push_back(uint32_t(t));
-    for (uint32_t x : w) {
-      if (locked[x] && scratch[x] != kSeen) scratch[x] = kSeen, p.group_locked.push_back(x);
-      if (mesh_border && (*mesh_border)[x]) on_mesh_border = true;
-    }
+    const uint32_t a = welded.weld[c[0]], b = welded.weld[c[1]], d = welded.weld[c[2]];
+    if (a == b || b == d || d == a || is_fin(c)) left_out.push_back(uint32_t(t));
   }
-  for (uint32_t x : p.group_locked) scratch[x] = kNone;
   p.any_left_out = !left_out.empty();
-  if (p.any_left_out) {
-    for (size_t t = 0, k = 0; t < group.triangle_count(); ++t) {
-      if (k < left_out.size() && left_out[k] == t) {
-        ++k;
-        continue;
-      }
-      p.proper.corners.insert(p.proper.corners.end(), &group.corners[3 * t], &group.corners[3 * t] + 3);
-      p.proper.materials.push_back(group.materials[t]);
+  for (size_t t = 0, k = 0; p.any_left_out && t < group.triangle_count(); ++t) {
+    if (k < left_out.size() && left_out[k] == t) {
+      ++k;
+      continue;
     }
-    p.input_locked = locked_ids(welded, p.proper.corners, locked, scratch);
-  } else {
-    p.input_locked = p.group_locked;
+    p.proper.corners.insert(p.proper.corners.end(), &group.corners[3 * t], &group.corners[3 * t] + 3);
+    p.proper.materials.push_back(group.materials[t]);
   }
-  if (simplifier == Simplifier::kMeshopt && p.input().triangle_count() > 0) {
-    build_sub_mesh(welded, p, scratch);
-    if (on_mesh_border) p.open_border = find_open_border(welded, p.input(), locked);
+  if (simplifier != Simplifier::kMeshopt || p.input().triangle_count() == 0) {
+    p.group_locked = locked_ids(welded, group.corners, locked, scratch);
+    p.input_locked = p.any_left_out ? locked_ids(welded, p.proper.corners, locked, scratch) : p.group_locked;
+    return p;
   }
+  build_sub_mesh(welded, p, scratch);
+  // The input's locked ids, and whether it has a mesh-border vertex, from its sub-mesh vertices
+  // (each welded position of the input once, or once per material: a sixth of its corners).
+  // Caps are accepted only with a cap base between two mesh-border vertices of the input
+  // (remove_open_border_caps): an input without one is never capped.
+  constexpr uint32_t kSeen = 0;
+  bool on_mesh_border = false;
+  for (uint64_t key : p.sub_keys) {
+    const uint32_t w = welded.weld[uint32_t(key >> 32)];
+    if (locked[w] && scratch[w] != kSeen) scratch[w] = kSeen, p.input_locked.push_back(w);
+    if (mesh_border && (*mesh_border)[w]) on_mesh_border = true;
+  }
+  for (uint32_t w : p.input_locked) scratch[w] = kNone;
+  p.group_locked = p.any_left_out ? locked_ids(welded, group.corners, locked, scratch) : p.input_locked;
+  if (on_mesh_border) p.open_border = find_open_border(welded, p.input(), locked);
   return p;
 }
 
