@@ -46,31 +46,30 @@ size_t find_root(std::vector<uint32_t>& parent, uint32_t x) {
 
 }  // namespace
 
-BorderCaps add_open_border_caps(const std::vector<uint32_t>& welded_of_sub, const std::vector<uint8_t>& locked,
-                                std::vector<unsigned int>& indices, std::vector<float>& positions) {
+OpenBorder find_open_border(const WeldedMesh& welded, const TriangleSet& input, const std::vector<uint8_t>& locked) {
+  OpenBorder border;
+  EdgeUses uses(input.corners.size());
+  for_each_welded_edge(welded, input.corners, [&](uint32_t a, uint32_t b) {
+    if (a != b) uses.add(edge_key(a, b));
+  });
+  for (size_t i = 0; i < input.corners.size(); ++i) {
+    const uint32_t a = welded.weld[input.corners[i]], b = welded.weld[input.corners[i - i % 3 + (i + 1) % 3]];
+    if (a == b || uses.count(edge_key(a, b)) != 1) continue;
+    border.open_edges.push_back(edge_key(a, b));
+    if (!(locked[a] && locked[b])) border.chain_corners.push_back(uint32_t(i));
+  }
+  std::sort(border.open_edges.begin(), border.open_edges.end());
+  return border;
+}
+
+BorderCaps add_open_border_caps(const std::vector<uint32_t>& chain_corners, const std::vector<uint32_t>& welded_of_sub,
+                                const std::vector<uint8_t>& locked, std::vector<unsigned int>& indices,
+                                std::vector<float>& positions) {
   BorderCaps caps;
   const size_t real_vertices = positions.size() / 3;
   caps.first_apex = real_vertices;
-  caps.real_index_count = indices.size();
-  const size_t n = indices.size() / 3;
-  // Welded edges used once by the group (the group's open edges), as (key, corner) pairs.
-  std::vector<std::pair<uint64_t, uint32_t>> edges;
-  edges.reserve(indices.size());
-  for (size_t i = 0; i < 3 * n; ++i) {
-    const uint32_t a = welded_of_sub[indices[i]], b = welded_of_sub[indices[i - i % 3 + (i + 1) % 3]];
-    if (a != b) edges.push_back({edge_key(a, b), uint32_t(i)});
-  }
-  std::sort(edges.begin(), edges.end());
-  std::vector<uint32_t> chain_corners;  // corner i: its edge (i, next corner) is a chain edge
-  for (size_t i = 0; i < edges.size();) {
-    size_t j = i + 1;
-    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
-    const uint32_t a = uint32_t(edges[i].first >> 32), b = uint32_t(edges[i].first);
-    if (j - i == 1 && !(locked[a] && locked[b])) chain_corners.push_back(edges[i].second);
-    i = j;
-  }
+  // chain_corners: corner i's edge (i, next corner) is a chain edge (find_open_border).
   if (chain_corners.empty()) return caps;
-  std::sort(chain_corners.begin(), chain_corners.end());
   auto next_corner = [](uint32_t i) { return i - i % 3 + (i + 1) % 3; };
   // Chains: connected components of the chain edges over sub-mesh vertices.
   std::vector<uint32_t> parent(real_vertices);
@@ -153,14 +152,14 @@ BorderCaps add_open_border_caps(const std::vector<uint32_t>& welded_of_sub, cons
 }
 
 bool remove_open_border_caps(const BorderCaps& caps, const std::vector<uint32_t>& welded_of_sub,
-                             const std::vector<uint8_t>& mesh_border, const std::vector<unsigned int>& input,
+                             const std::vector<uint8_t>& mesh_border, const std::vector<uint64_t>& input_open_edges,
                              std::vector<unsigned int>& out, size_t& out_count) {
   if (caps.apex_count == 0) return true;
   auto appended = [&](unsigned int v) { return v >= caps.first_apex; };
-  auto next_corner = [](size_t i) { return i - i % 3 + (i + 1) % 3; };
   // Real output triangles are compacted in order; cap triangles give their bases (welded).
-  std::vector<uint64_t> bases, real_edges, allowed_open;
+  std::vector<uint64_t> bases;
   std::vector<uint8_t> apex_seen(caps.origin.size(), 0);
+  EdgeUses real_edges(out_count);  // welded edge uses of the real output
   size_t kept = 0;
   for (size_t t = 0; t < out_count / 3; ++t) {
     const unsigned int* c = &out[3 * t];
@@ -182,46 +181,24 @@ bool remove_open_border_caps(const BorderCaps& caps, const std::vector<uint32_t>
     }
     for (int k = 0; k < 3; ++k) {
       const uint32_t a = welded_of_sub[c[k]], b = welded_of_sub[c[(k + 1) % 3]];
-      if (a != b) real_edges.push_back(edge_key(a, b));
+      if (a != b) real_edges.add(edge_key(a, b));
     }
     std::copy_n(c, 3, &out[3 * kept++]);
   }
   // Every apex keeps a cap (else a chain closed over its hole, or the apex moved).
   for (size_t k = 0; k < caps.origin.size(); ++k)
     if (caps.origin[k] == kApex && !apex_seen[k]) return false;
-  // The input's open edges (real triangles only) stay allowed as open edges of the output.
-  for (size_t i = 0; i < caps.real_index_count; ++i) {
-    const uint32_t a = welded_of_sub[input[i]], b = welded_of_sub[input[next_corner(i)]];
-    if (a != b) allowed_open.push_back(edge_key(a, b));
-  }
-  std::sort(allowed_open.begin(), allowed_open.end());
-  {
-    std::vector<uint64_t> once;
-    for (size_t i = 0; i < allowed_open.size();) {
-      size_t j = i + 1;
-      while (j < allowed_open.size() && allowed_open[j] == allowed_open[i]) ++j;
-      if (j - i == 1) once.push_back(allowed_open[i]);
-      i = j;
-    }
-    allowed_open = std::move(once);
-  }
   std::sort(bases.begin(), bases.end());
-  std::sort(real_edges.begin(), real_edges.end());
   // Each cap base is used exactly once by the real output (it is the simplified border there).
   for (size_t i = 0; i < bases.size(); ++i) {
     if (i > 0 && bases[i] == bases[i - 1]) return false;
-    auto [lo, hi] = std::equal_range(real_edges.begin(), real_edges.end(), bases[i]);
-    if (hi - lo != 1) return false;
+    if (real_edges.count(bases[i]) != 1) return false;
   }
-  // Every open edge of the real output is a cap base or was open in the input.
-  for (size_t i = 0; i < real_edges.size();) {
-    size_t j = i + 1;
-    while (j < real_edges.size() && real_edges[j] == real_edges[i]) ++j;
-    if (j - i == 1 && !std::binary_search(bases.begin(), bases.end(), real_edges[i]) &&
-        !std::binary_search(allowed_open.begin(), allowed_open.end(), real_edges[i]))
+  // Every open edge of the real output is a cap base or was open in the input (real triangles).
+  for (size_t i = 0; i < real_edges.keys.size(); ++i)
+    if (real_edges.uses[i] == 1 && !std::binary_search(bases.begin(), bases.end(), real_edges.keys[i]) &&
+        !std::binary_search(input_open_edges.begin(), input_open_edges.end(), real_edges.keys[i]))
       return false;
-    i = j;
-  }
   out_count = 3 * kept;
   return true;
 }

@@ -662,9 +662,12 @@ bool reduces_enough(const TriangleSet& before, const TriangleSet& after) {
 }
 
 // A group's simplification whose locked border is kept (or, as the last resort, only folded
-// over): false when no attempt reduced enough with the border intact.
-bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, const TriangleSet& merged,
-                     SimplifyTarget target, SimplifyResult& simplified) {
+// over): false when no attempt reduced enough with the border intact. Every attempt
+// simplifies the same prepared input (prepare_group); `scratch` (weld.size() entries, all
+// kNone) is returned in that state.
+bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, const PreparedGroup& prepared,
+                     SimplifyTarget target, std::vector<uint32_t>& scratch, SimplifyResult& simplified) {
+  const TriangleSet& merged = *prepared.group;
   SimplifyResult folded_over_border;
   bool sealed = false, have_folded = false;
   // A result that breaks the border or folds over it is retried with fewer collapses (a fold
@@ -674,13 +677,14 @@ bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, c
   // as the last resort: a fold over the border is better than a stuck group.
   for (size_t attempt = 0; attempt <= kBorderRetryRatios.size() && !sealed; ++attempt) {
     if (attempt > 0) target.ratio = std::max(target.ratio, kBorderRetryRatios[attempt - 1]);
-    simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target, s.fins);
+    simplified = simplify_prepared(s.welded, prepared, s.locks.locked, s.options.simplifier, target, scratch);
     if (!reduces_enough(merged, simplified.triangles) && std::isfinite(target.max_error)) {
       target.max_error = std::numeric_limits<float>::infinity();
-      simplified = simplify_group(s.welded, merged, s.locks.locked, s.options.simplifier, target, s.fins);
+      simplified = simplify_prepared(s.welded, prepared, s.locks.locked, s.options.simplifier, target, scratch);
     }
     if (!reduces_enough(merged, simplified.triangles)) break;
-    const SimplificationCheck check = check_simplification(s.welded, merged, simplified.triangles, s.locks.locked, shared_edges);
+    const SimplificationCheck check =
+        check_simplification(s.welded, merged, simplified.triangles, prepared.group_locked, shared_edges, scratch);
     const BorderState border = check.border;
     if (border == BorderState::kBroken || check.folds) continue;
     sealed = border == BorderState::kKept;
@@ -694,7 +698,12 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   const Block& blk = L.blocks[b];
   GroupResult& r = L.blocks[b].results[g];
   const double ts = steady_seconds();
+  double seconds_error = 0;  // in leaf_deviation: the report shows it apart from the simplification
   TriangleSet merged;
+  size_t merged_triangles = 0;
+  for (uint32_t m : blk.groups[g]) merged_triangles += s.clusters[m].triangles.triangle_count();
+  merged.corners.reserve(3 * merged_triangles);
+  merged.materials.reserve(merged_triangles);
   for (uint32_t m : blk.groups[g]) {
     const TriangleSet& t = s.clusters[m].triangles;
     merged.corners.insert(merged.corners.end(), t.corners.begin(), t.corners.end());
@@ -708,18 +717,22 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   if (!s.locks.mesh_border.empty()) target.mesh_border = &s.locks.mesh_border;
   if (s.internal.simplify_error_budget > 0 && max_member_error > 0)
     target.max_error = s.internal.simplify_error_budget * max_member_error;
+  std::vector<uint32_t> scratch = s.scratch.take();
+  const PreparedGroup prepared = prepare_group(s.welded, merged, s.locks.locked, s.options.simplifier, s.fins,
+                                               target.open_borders ? target.mesh_border : nullptr, scratch);
   SimplifyResult simplified;
-  bool sealed = simplify_sealed(s, blk.group_shared_edges[g], merged, target, simplified);
+  bool sealed = simplify_sealed(s, blk.group_shared_edges[g], prepared, target, scratch, simplified);
   if (!sealed && target.mesh_border && target.open_borders && s.options.simplifier == Simplifier::kMeshopt) {
     target.open_borders = false;  // stuck with moving own borders: as before, with them locked
-    sealed = simplify_sealed(s, blk.group_shared_edges[g], merged, target, simplified);
+    sealed = simplify_sealed(s, blk.group_shared_edges[g], prepared, target, scratch, simplified);
   }
   float error = 0.0f;
-  const double tv0 = steady_seconds();
+  double tv0 = steady_seconds();
   // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the distance from the
   // simplified surface to the leaves, measured as verify measures it; the members' stored
   // error is a floor (the parent's error takes the max with it anyway).
   if (sealed) error = leaf_deviation(s.leaf_surface, s.mesh, merged, simplified.triangles, max_member_error);
+  seconds_error += steady_seconds() - tv0;
   if (sealed && simplified.capped) {
     // The group's own open borders moved (border_caps.cpp). A border collapse can cost more
     // measured error than it saves triangles (a chord across a curved hole): the group is
@@ -728,24 +741,27 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     // so the product compares the two at equal error).
     target.open_borders = false;
     SimplifyResult locked_borders;
-    if (simplify_sealed(s, blk.group_shared_edges[g], merged, target, locked_borders)) {
+    if (simplify_sealed(s, blk.group_shared_edges[g], prepared, target, scratch, locked_borders)) {
+      tv0 = steady_seconds();
       const float locked_error = leaf_deviation(s.leaf_surface, s.mesh, merged, locked_borders.triangles, max_member_error);
+      seconds_error += steady_seconds() - tv0;
       if (double(locked_error) * double(locked_borders.triangles.triangle_count()) <
           double(error) * double(simplified.triangles.triangle_count()))
         simplified = std::move(locked_borders), error = locked_error;
     }
   }
-  const double seconds_error = steady_seconds() - tv0;
   const double tm = steady_seconds();
-  r.seconds_simplify = tm - ts;
-  if (!sealed) return;
-  std::vector<uint32_t> scratch = s.scratch.take();
+  r.seconds_simplify = tm - ts - seconds_error;
+  r.seconds_error = seconds_error;
+  if (!sealed) {
+    s.scratch.give(std::move(scratch));
+    return;
+  }
   r.clusters = split_into_clusters(s.welded, simplified.triangles, scratch, s.internal.group_split);
   s.scratch.give(std::move(scratch));
   r.seconds_split = steady_seconds() - tm;
   r.terminal = false;
   r.error = error;
-  r.seconds_error = seconds_error;
 }
 
 // ---- 3e. the level scheduler: one pipelined parallel region per level ----

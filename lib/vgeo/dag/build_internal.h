@@ -205,17 +205,28 @@ struct BorderCaps {
   std::vector<uint32_t> origin;  // per appended vertex: the real sub-mesh vertex it copies, or ~0 (apex)
   size_t apex_count = 0;        // 0: nothing was added
   size_t cap_triangles = 0;
-  size_t real_index_count = 0;  // indices before the caps
 };
-BorderCaps add_open_border_caps(const std::vector<uint32_t>& welded_of_sub, const std::vector<uint8_t>& locked,
-                                std::vector<unsigned int>& indices, std::vector<float>& positions);
-// Removes the cap triangles from a simplification `out` (out_count indices) of `input` (the
-// indices add_open_border_caps returned). False when the result is not a simplification of
-// the real surface alone (an apex lost, a real vertex moved onto an apex, a cap base not a
-// single border edge of the real output, or a new open edge that is no cap base): then the
-// caller simplifies without caps.
+// A group's own open edges, found once per group (every simplification of it sees the same
+// welded edges): `chain_corners`, the corners i of `input` whose welded edge (i, next corner)
+// the input uses once and which has an unlocked end (ascending: the caps' chain edges), and
+// `open_edges`, the welded edges the input uses once (sorted). One hash count of the edges.
+struct OpenBorder {
+  std::vector<uint32_t> chain_corners;
+  std::vector<uint64_t> open_edges;
+};
+OpenBorder find_open_border(const WeldedMesh& welded, const TriangleSet& input, const std::vector<uint8_t>& locked);
+// `chain_corners`: find_open_border's, for the sub-mesh whose corners `indices` are (one per
+// input corner, in order).
+BorderCaps add_open_border_caps(const std::vector<uint32_t>& chain_corners, const std::vector<uint32_t>& welded_of_sub,
+                                const std::vector<uint8_t>& locked, std::vector<unsigned int>& indices,
+                                std::vector<float>& positions);
+// Removes the cap triangles from a simplification `out` (out_count indices) of the capped
+// sub-mesh. False when the result is not a simplification of the real surface alone (an apex
+// lost, a real vertex moved onto an apex, a cap base not a single border edge of the real
+// output, or a new open edge that is no cap base nor in `input_open_edges`, find_open_border's
+// open_edges): then the caller simplifies without caps.
 bool remove_open_border_caps(const BorderCaps& caps, const std::vector<uint32_t>& welded_of_sub,
-                             const std::vector<uint8_t>& mesh_border, const std::vector<unsigned int>& input,
+                             const std::vector<uint8_t>& mesh_border, const std::vector<uint64_t>& input_open_edges,
                              std::vector<unsigned int>& out, size_t& out_count);
 
 // Simplification of one group's triangles with locked vertices (by welded id).
@@ -286,6 +297,41 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
                               const std::vector<uint8_t>& locked, Simplifier simplifier,
                               const SimplifyTarget& target = {}, const FinSet& fins = {});
 
+// What simplify_group builds from a group before simplifying it, which does not depend on the
+// target: the builder prepares each group once (prepare_group; the level's locks are final
+// before any group is simplified) and simplifies it as often as its retries need
+// (simplify_prepared), each time from the same input.
+struct PreparedGroup {
+  const TriangleSet* group = nullptr;
+  bool any_left_out = false;  // degenerate triangles or fins were left out: the input is `proper`
+  TriangleSet proper;
+  const TriangleSet& input() const { return any_left_out ? proper : *group; }
+  // meshopt's sub-mesh (simplify.cpp): sorted distinct sub-mesh keys (vertex or welded id) << 32
+  // | material, one per sub-mesh vertex; their xyz, and 3 indices per input triangle.
+  std::vector<uint64_t> sub_keys;
+  std::vector<float> positions;
+  std::vector<unsigned int> indices;
+  float scale = 0.0f;  // meshopt_simplifyScale of the sub-mesh
+  // Welded ids whose wedges are welded into one sub-mesh vertex per material (sorted), and, when
+  // any, each input corner's sub-mesh key (the corners that may take its attributes).
+  std::vector<uint32_t> welded_positions;
+  std::vector<uint64_t> corner_sub_key;
+  // Distinct locked welded ids of the group's corners and of the input's (in no particular
+  // order): what the border checks ask the simplifications to keep.
+  std::vector<uint32_t> group_locked, input_locked;
+  // The input's open edges, for open-border caps (empty unless prepared for them).
+  OpenBorder open_border;
+};
+// `scratch` (weld.size() entries, all kNone) is returned in that state.
+// `mesh_border`: SimplifyTarget::mesh_border when some simplification of the group may ask for
+// open-border caps (open_borders), else null.
+PreparedGroup prepare_group(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked,
+                            Simplifier simplifier, const FinSet& fins, const std::vector<uint8_t>* mesh_border,
+                            std::vector<uint32_t>& scratch);
+SimplifyResult simplify_prepared(const WeldedMesh& welded, const PreparedGroup& prepared,
+                                 const std::vector<uint8_t>& locked, Simplifier simplifier,
+                                 const SimplifyTarget& target, std::vector<uint32_t>& scratch);
+
 // True when `after` uses some welded edge more than twice (three or more of its triangles on
 // one edge: a fold) and an odd number of times more or fewer than `before` does: a change of
 // that edge's parity, a crack to `vgeo verify` (spec/dag.md §2.3).
@@ -304,8 +350,11 @@ struct SimplificationCheck {
   BorderState border;
   bool folds;
 };
+// `before_locked`: the distinct locked welded ids of `before` (PreparedGroup::group_locked).
+// `scratch` (weld.size() entries, all kNone) is returned in that state.
 SimplificationCheck check_simplification(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                                         const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges);
+                                         const std::vector<uint32_t>& before_locked,
+                                         const std::vector<uint64_t>& shared_edges, std::vector<uint32_t>& scratch);
 
 // Spheres, computed in double and rounded outward so containment survives float rounding
 // (bounding_spheres.cpp).
@@ -330,6 +379,34 @@ inline void set_metis_options(idx_t (&options)[METIS_NOPTIONS]) {
 inline uint64_t edge_key(uint32_t a, uint32_t b) {
   return a < b ? (uint64_t(a) << 32) | b : (uint64_t(b) << 32) | a;
 }
+
+// Welded edge use counts of a triangle set: open addressing (load ≤ 1/2), keys edge_key(a, b).
+struct EdgeUses {  // (simplify.cpp, border_caps.cpp)
+  static constexpr uint64_t kEmpty = ~uint64_t(0);  // no edge key (a < b) equals it
+  std::vector<uint64_t> keys;
+  std::vector<uint32_t> uses;
+  int shift = 60;
+  explicit EdgeUses(size_t edges) {
+    size_t slots = 16;
+    while (slots < 2 * edges) slots <<= 1, --shift;
+    keys.assign(slots, kEmpty);
+    uses.assign(slots, 0);
+  }
+  size_t slot(uint64_t key) const {
+    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+    while (keys[h] != kEmpty && keys[h] != key) h = (h + 1) & (keys.size() - 1);
+    return h;
+  }
+  uint32_t add(uint64_t key) {
+    const size_t h = slot(key);
+    keys[h] = key;
+    return ++uses[h];
+  }
+  uint32_t count(uint64_t key) const {
+    const size_t h = slot(key);
+    return keys[h] == key ? uses[h] : 0;
+  }
+};
 
 // The welded edges of a corner list: fn(a, b) per corner, a = welded id of the corner, b = of
 // the next corner of its triangle, in corner order. a == b on welded-degenerate triangles.

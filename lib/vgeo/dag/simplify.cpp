@@ -17,7 +17,6 @@
 #include <cstring>
 #include <functional>
 #include <iterator>
-#include <memory>
 #include <unordered_map>
 
 #include "vgeo/dag/build_internal.h"
@@ -75,46 +74,39 @@ void perturbed_copy(const float* p, uint32_t k, float* out) {
   }
 }
 
-// Locked welded ids of a corner list, as an open addressing set (load ≤ 1/2): the border
-// checks ask of every locked corner of a group whether its simplification still uses it.
-// Locked vertices lie on the group border (a minority), so the set is small; a sorted list
-// cost a sort and a binary search per corner.
-class LockedIdSet {
- public:
-  LockedIdSet(const WeldedMesh& welded, const std::vector<uint32_t>& corners, const std::vector<uint8_t>& locked) {
-    std::vector<uint32_t> ids;
-    for (uint32_t v : corners)
-      if (locked[welded.weld[v]]) ids.push_back(welded.weld[v]);
-    size_t slots = 16;
-    while (slots < 2 * ids.size()) slots <<= 1, --shift_;
-    table_.assign(slots, kEmpty);
-    for (uint32_t w : ids) table_[slot(w)] = w;
-  }
-  bool contains(uint32_t w) const { return table_[slot(w)] == w; }
-
- private:
-  static constexpr uint32_t kEmpty = ~uint32_t(0);  // welded ids < 2^32 - 1, so never an id
-  size_t slot(uint32_t w) const {
-    size_t h = size_t((uint64_t(w) * 0x9E3779B97F4A7C15ull) >> shift_);
-    while (table_[h] != kEmpty && table_[h] != w) h = (h + 1) & (table_.size() - 1);
-    return h;
-  }
-  std::vector<uint32_t> table_;
-  int shift_ = 60;  // hash = top log2(slots) bits of a multiplicative hash
-};
-
-// Locked welded ids used by `before` but not by `after` (sorted).
-std::vector<uint32_t> lost_locked_vertices(const WeldedMesh& welded, const TriangleSet& before,
-                                           const std::vector<uint32_t>& after_corners,
-                                           const std::vector<uint8_t>& locked) {
-  const LockedIdSet kept(welded, after_corners, locked);
-  std::vector<uint32_t> lost;
-  for (uint32_t v : before.corners) {
+// Distinct locked welded ids of a corner list, in order of first use. `scratch` (welded ids,
+// all kNone) is returned so.
+std::vector<uint32_t> locked_ids(const WeldedMesh& welded, const std::vector<uint32_t>& corners,
+                                 const std::vector<uint8_t>& locked, std::vector<uint32_t>& scratch) {
+  constexpr uint32_t kSeen = 0;
+  std::vector<uint32_t> ids;
+  for (uint32_t v : corners) {
     const uint32_t w = welded.weld[v];
-    if (locked[w] && !kept.contains(w)) lost.push_back(w);
+    if (locked[w] && scratch[w] != kSeen) scratch[w] = kSeen, ids.push_back(w);
   }
+  for (uint32_t w : ids) scratch[w] = kNone;
+  return ids;
+}
+
+// Of `before_locked` (distinct welded ids), those `after_corners` do not use (sorted). The
+// border checks ask this of every simplification: the ids are marked in `scratch` (welded ids,
+// all kNone, returned so), then one pass over the output's corners finds the kept ones, with
+// no set built and nothing allocated when none is lost.
+std::vector<uint32_t> lost_locked_vertices(const WeldedMesh& welded, const std::vector<uint32_t>& before_locked,
+                                           const std::vector<uint32_t>& after_corners, std::vector<uint32_t>& scratch) {
+  constexpr uint32_t kWanted = 0, kKept = 1;
+  for (uint32_t w : before_locked) scratch[w] = kWanted;
+  size_t kept = 0;
+  for (uint32_t v : after_corners) {
+    uint32_t& mark = scratch[welded.weld[v]];
+    if (mark == kWanted) mark = kKept, ++kept;
+  }
+  std::vector<uint32_t> lost;
+  if (kept != before_locked.size())
+    for (uint32_t w : before_locked)
+      if (scratch[w] == kWanted) lost.push_back(w);
+  for (uint32_t w : before_locked) scratch[w] = kNone;
   std::sort(lost.begin(), lost.end());
-  lost.erase(std::unique(lost.begin(), lost.end()), lost.end());
   return lost;
 }
 
@@ -154,13 +146,14 @@ std::vector<uint32_t> locked_vertices_off_the_border(const WeldedMesh& welded, c
 // Returns the index count of the real output in `out`, or 0 when there was nothing to cap or
 // the capped result was refused (remove_open_border_caps): then the caller simplifies
 // without caps.
-size_t simplify_with_open_border_caps(const std::vector<unsigned int>& sub_indices, const std::vector<float>& sub_positions,
+size_t simplify_with_open_border_caps(const OpenBorder& border, const std::vector<unsigned int>& sub_indices,
+                                      const std::vector<float>& sub_positions,
                                       const std::vector<uint32_t>& welded_of_sub, const std::vector<uint8_t>& locked,
                                       size_t target_real_triangles, const SimplifyTarget& target,
                                       std::vector<unsigned int>& out) {
   std::vector<unsigned int> indices = sub_indices;
   std::vector<float> positions = sub_positions;
-  const BorderCaps caps = add_open_border_caps(welded_of_sub, locked, indices, positions);
+  const BorderCaps caps = add_open_border_caps(border.chain_corners, welded_of_sub, locked, indices, positions);
   if (caps.apex_count == 0) return 0;
   const size_t vertices = positions.size() / 3;
   // meshopt's error bound is relative to the extent of every vertex it is given (apexes too).
@@ -171,39 +164,69 @@ size_t simplify_with_open_border_caps(const std::vector<unsigned int>& sub_indic
   size_t count = meshopt_simplify(out.data(), indices.data(), indices.size(), positions.data(), vertices,
                                   sizeof(float) * 3, 3 * (target_real_triangles + target_caps), target_error,
                                   meshopt_SimplifyLockBorder, nullptr);
-  if (!remove_open_border_caps(caps, welded_of_sub, *target.mesh_border, indices, out, count) || count == 0) return 0;
+  if (!remove_open_border_caps(caps, welded_of_sub, *target.mesh_border, border.open_edges, out, count) || count == 0) return 0;
   return count;
 }
 
-SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked,
-                                const SimplifyTarget& target) {
-  const Mesh& mesh = *welded.mesh;
-  size_t n = group.triangle_count();
-  // Distinct (vertex << 32 | material) keys of the corners via an open addressing table
-  // (load ≤ 1/2); slot_of[i] is each corner's index into unique_slots (its distinct key).
-  // Only the key array is filled: a slot's unique index is read only once its key is set, so
-  // that array stays uninitialised (the table is sized for the worst case, 3n distinct keys,
-  // while groups have about n/2: filling it cost more than the lookups).
-  size_t slots = 16;
-  int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
-  while (slots < 6 * n) slots <<= 1, --shift;
-  constexpr uint64_t kEmpty = ~uint64_t(0);  // vertex ids < 2^32 - 1, so never a key
-  std::vector<uint64_t> slot_key(slots, kEmpty);
-  std::unique_ptr<uint32_t[]> unique_of_slot(new uint32_t[slots]);
-  std::vector<uint32_t> slot_of(3 * n);
-  std::vector<uint64_t> unique_slots;  // distinct keys in order of first use
-  unique_slots.reserve(3 * n);
-  for (size_t i = 0; i < 3 * n; ++i) {
-    const uint64_t key = (uint64_t(group.corners[i]) << 32) | group.materials[i / 3];
-    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
-    while (slot_key[h] != kEmpty && slot_key[h] != key) h = (h + 1) & (slots - 1);
-    if (slot_key[h] == kEmpty) {
-      slot_key[h] = key;
-      unique_of_slot[h] = uint32_t(unique_slots.size());
-      unique_slots.push_back(key);
+// The permutation that sorts `keys` ascending (stable): a least-significant-digit radix sort
+// on bytes (Knuth, TAOCP vol. 3, §5.2.5) that skips every byte all keys share (the material
+// and the high bytes of the vertex id on most groups: three passes for a million-vertex
+// mesh). A group has about a thousand sub-mesh keys, where std::sort's mispredicted
+// comparisons (and a binary search per key for its rank) cost several times more.
+std::vector<uint32_t> sort_keys(const std::vector<uint64_t>& keys) {
+  constexpr int kDigitBits = 8, kDigits = 64 / kDigitBits;
+  constexpr size_t kBuckets = size_t(1) << kDigitBits;
+  const size_t n = keys.size();
+  std::vector<uint32_t> order(n), next(n);
+  for (size_t i = 0; i < n; ++i) order[i] = uint32_t(i);
+  if (n < 2) return order;
+  std::vector<uint32_t> count(kDigits * kBuckets, 0);
+  for (uint64_t key : keys)
+    for (int d = 0; d < kDigits; ++d) ++count[d * kBuckets + ((key >> (kDigitBits * d)) & (kBuckets - 1))];
+  for (int d = 0; d < kDigits; ++d) {
+    uint32_t* c = &count[d * kBuckets];
+    const int shift = kDigitBits * d;
+    if (c[(keys[0] >> shift) & (kBuckets - 1)] == n) continue;  // every key has this digit
+    uint32_t sum = 0;
+    for (size_t b = 0; b < kBuckets; ++b) {
+      const uint32_t k = c[b];
+      c[b] = sum;
+      sum += k;
     }
-    slot_of[i] = unique_of_slot[h];
+    for (uint32_t i : order) next[c[(keys[i] >> shift) & (kBuckets - 1)]++] = i;
+    order.swap(next);
   }
+  return order;
+}
+
+// The meshopt sub-mesh of a group's input (PreparedGroup's meshopt fields).
+void build_sub_mesh(const WeldedMesh& welded, PreparedGroup& p, std::vector<uint32_t>& scratch) {
+  const Mesh& mesh = *welded.mesh;
+  const TriangleSet& group = p.input();
+  const size_t n = group.triangle_count();
+  // Distinct (vertex << 32 | material) keys of the corners, in order of first use;
+  // distinct_of[i] is corner i's. scratch[v] holds the last distinct key found with vertex v
+  // and next_of_vertex chains the earlier ones: a vertex has one key per material of its
+  // triangles in the group (almost always one), so a corner's key is found in one or two
+  // steps without hashing (the vertex-indexed scratch array is there anyway).
+  std::vector<uint64_t> distinct;
+  std::vector<uint32_t> next_of_vertex, distinct_of(3 * n);
+  distinct.reserve(3 * n);
+  next_of_vertex.reserve(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) {
+    const uint32_t v = group.corners[i];
+    const uint64_t key = (uint64_t(v) << 32) | group.materials[i / 3];
+    uint32_t u = scratch[v];
+    while (u != kNone && distinct[u] != key) u = next_of_vertex[u];
+    if (u == kNone) {
+      u = uint32_t(distinct.size());
+      distinct.push_back(key);
+      next_of_vertex.push_back(scratch[v]);
+      scratch[v] = u;
+    }
+    distinct_of[i] = u;
+  }
+  for (uint64_t key : distinct) scratch[uint32_t(key >> 32)] = kNone;
   // Positions with more than kMaxSeamWedges wedges in the group, or more than kMaxSeamWedges
   // input vertices in the mesh, are welded: the second because above the leaves a group of a
   // per-corner mesh holds only the corners earlier levels kept (often one or two per position,
@@ -214,18 +237,18 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
   // (most meshes): then none is welded, and the sort below is skipped.
   bool any_wedges = std::adjacent_find(group.materials.begin(), group.materials.end(),
                                        std::not_equal_to<uint32_t>()) != group.materials.end();
-  for (size_t u = 0; u < unique_slots.size() && !any_wedges; ++u)
-    any_wedges = welded.copies[welded.weld[uint32_t(unique_slots[u] >> 32)]] > 1;
+  for (size_t u = 0; u < distinct.size() && !any_wedges; ++u)
+    any_wedges = welded.copies[welded.weld[uint32_t(distinct[u] >> 32)]] > 1;
   std::vector<std::pair<uint32_t, uint32_t>> wedge_of;  // (welded id, vertex)
   if (any_wedges) {
-    wedge_of.resize(unique_slots.size());
-    for (size_t u = 0; u < unique_slots.size(); ++u) {
-      uint32_t v = uint32_t(unique_slots[u] >> 32);
+    wedge_of.resize(distinct.size());
+    for (size_t u = 0; u < distinct.size(); ++u) {
+      uint32_t v = uint32_t(distinct[u] >> 32);
       wedge_of[u] = {welded.weld[v], v};
     }
     std::sort(wedge_of.begin(), wedge_of.end());
   }
-  std::vector<uint32_t> welded_positions;  // sorted
+  std::vector<uint32_t>& welded_positions = p.welded_positions;  // sorted
   for (size_t i = 0; i < wedge_of.size();) {
     size_t j = i;
     while (j < wedge_of.size() && wedge_of[j].first == wedge_of[i].first) ++j;
@@ -233,33 +256,48 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
       welded_positions.push_back(wedge_of[i].first);
     i = j;
   }
+  // Sub-mesh key per distinct key; the sub-mesh vertex = rank among the distinct sub-mesh keys.
+  std::vector<uint64_t> sub_of(distinct);
+  if (!welded_positions.empty())
+    for (uint64_t& key : sub_of) {
+      const uint32_t w = welded.weld[uint32_t(key >> 32)];
+      if (std::binary_search(welded_positions.begin(), welded_positions.end(), w))
+        key = (uint64_t(w) << 32) | uint32_t(key);
+    }
+  // The sub-mesh vertex = rank among the distinct sub-mesh keys: one stable sort of (key,
+  // distinct key) and a walk that counts the distinct keys.
+  std::vector<uint32_t> order = sort_keys(sub_of);
+  std::vector<uint32_t> rank_of(distinct.size());
+  p.sub_keys.reserve(distinct.size());
+  for (uint32_t u : order) {
+    if (p.sub_keys.empty() || p.sub_keys.back() != sub_of[u]) p.sub_keys.push_back(sub_of[u]);
+    rank_of[u] = uint32_t(p.sub_keys.size() - 1);
+  }
+  p.indices.resize(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) p.indices[i] = rank_of[distinct_of[i]];
+  p.positions.resize(3 * p.sub_keys.size());
+  for (size_t v = 0; v < p.sub_keys.size(); ++v)
+    std::memcpy(&p.positions[3 * v], &mesh.positions[3 * size_t(p.sub_keys[v] >> 32)], 12);
+  // meshopt 0.18's error bound is relative to the sub-mesh's extent.
+  p.scale = meshopt_simplifyScale(p.positions.data(), p.sub_keys.size(), sizeof(float) * 3);
+  if (!welded_positions.empty()) {
+    p.corner_sub_key.resize(3 * n);
+    for (size_t i = 0; i < 3 * n; ++i) p.corner_sub_key[i] = sub_of[distinct_of[i]];
+  }
+}
+
+SimplifyResult simplify_meshopt(const WeldedMesh& welded, const PreparedGroup& p, const std::vector<uint8_t>& locked,
+                                const SimplifyTarget& target, std::vector<uint32_t>& scratch) {
+  const Mesh& mesh = *welded.mesh;
+  const TriangleSet& group = p.input();
+  const size_t n = group.triangle_count();
+  const std::vector<uint64_t>& unique_keys = p.sub_keys;
+  const std::vector<unsigned int>& indices = p.indices;
+  const std::vector<float>& positions = p.positions;
+  const std::vector<uint32_t>& welded_positions = p.welded_positions;
   auto is_welded = [&](uint32_t w) {
     return std::binary_search(welded_positions.begin(), welded_positions.end(), w);
   };
-  // Sub-mesh key per distinct key, then the sub-mesh vertex = rank among the distinct sub-mesh
-  // keys (one sort of (sub-mesh key, distinct key) pairs).
-  std::vector<uint64_t> sub_key_of_slot(unique_slots.size());
-  std::vector<std::pair<uint64_t, uint32_t>> by_sub_key(unique_slots.size());
-  for (size_t u = 0; u < unique_slots.size(); ++u) {
-    const uint64_t key = unique_slots[u];
-    uint32_t v = uint32_t(key >> 32), w = welded.weld[v];
-    uint64_t sub = welded_positions.empty() || !is_welded(w) ? key : (uint64_t(w) << 32) | uint32_t(key);
-    sub_key_of_slot[u] = sub;
-    by_sub_key[u] = {sub, uint32_t(u)};
-  }
-  std::sort(by_sub_key.begin(), by_sub_key.end());
-  std::vector<uint64_t> unique_keys;
-  unique_keys.reserve(unique_slots.size());
-  std::vector<uint32_t> rank_of_slot(unique_slots.size());
-  for (const auto& [sub, u] : by_sub_key) {
-    if (unique_keys.empty() || unique_keys.back() != sub) unique_keys.push_back(sub);
-    rank_of_slot[u] = uint32_t(unique_keys.size() - 1);
-  }
-  std::vector<unsigned int> indices(3 * n);
-  for (size_t i = 0; i < 3 * n; ++i) indices[i] = rank_of_slot[slot_of[i]];
-  std::vector<float> positions(3 * unique_keys.size());
-  for (size_t v = 0; v < unique_keys.size(); ++v)
-    std::memcpy(&positions[3 * v], &mesh.positions[3 * size_t(unique_keys[v] >> 32)], 12);
 
   // LockBorder keeps the sub-mesh's topological border only. A locked vertex with no open
   // edge in the group (the coarse surface can pinch: another group uses the vertex too) or
@@ -274,7 +312,7 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
   std::vector<uint32_t> split;  // welded ids given per-corner copies, sorted
   std::vector<unsigned int> out(indices.size());
   // meshopt 0.18's error bound is relative to the sub-mesh's extent (meshopt_simplifyScale).
-  const float scale = meshopt_simplifyScale(positions.data(), unique_keys.size(), sizeof(float) * 3);
+  const float scale = p.scale;
   const float target_error = std::isfinite(target.max_error) && scale > 0 ? target.max_error / scale : kMeshoptTargetError;
   SimplifyResult r;
   size_t out_count = 0;
@@ -301,10 +339,12 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
     const size_t sub_vertices = unique_keys.size() + copy_keys.size();
     out_count = 0;
     r.capped = false;
-    if (target.open_borders && target.mesh_border) {
+    // Caps need a chain of the group's own open edges (most groups have none: their open edges
+    // are group borders, both ends locked).
+    if (target.open_borders && target.mesh_border && !p.open_border.chain_corners.empty()) {
       std::vector<uint32_t> welded_of_sub(sub_vertices);
       for (size_t v = 0; v < sub_vertices; ++v) welded_of_sub[v] = welded.weld[uint32_t(key_of(unsigned(v)) >> 32)];
-      out_count = simplify_with_open_border_caps(sub_indices, sub_positions, welded_of_sub, locked,
+      out_count = simplify_with_open_border_caps(p.open_border, sub_indices, sub_positions, welded_of_sub, locked,
                                                  target_triangles(n, target.ratio), target, out);
       r.capped = out_count > 0;
     }
@@ -319,7 +359,7 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
     for (size_t i = 0; i < out_count; ++i) r.triangles.corners[i] = uint32_t(key_of(out[i]) >> 32);
     for (size_t t = 0; t < out_count / 3; ++t) r.triangles.materials[t] = uint32_t(key_of(out[3 * t]));
     if (attempt == kMaxLockedRetries) break;
-    std::vector<uint32_t> lost = lost_locked_vertices(welded, group, r.triangles.corners, locked);
+    std::vector<uint32_t> lost = lost_locked_vertices(welded, p.input_locked, r.triangles.corners, scratch);
     if (lost.empty()) break;
     // Another collapse order loses other such vertices: the first retry also splits every
     // locked vertex LockBorder cannot hold (not exactly two open welded edges in the group).
@@ -340,7 +380,7 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
   // corners keep the attributes of the face they now approximate. D2: an input vertex.
   std::vector<std::pair<uint64_t, uint32_t>> candidates;  // (sub-mesh key, input corner)
   for (size_t i = 0; i < 3 * n; ++i) {
-    const uint64_t sub = sub_key_of_slot[slot_of[i]];
+    const uint64_t sub = p.corner_sub_key[i];
     if (is_welded(uint32_t(sub >> 32))) candidates.push_back({sub, uint32_t(i)});
   }
   std::sort(candidates.begin(), candidates.end());
@@ -487,9 +527,9 @@ SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& gr
 
 }  // namespace
 
-SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
-                              const std::vector<uint8_t>& locked, Simplifier simplifier, const SimplifyTarget& target,
-                              const FinSet& fins) {
+PreparedGroup prepare_group(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked,
+                            Simplifier simplifier, const FinSet& fins, const std::vector<uint8_t>* mesh_border,
+                            std::vector<uint32_t>& scratch) {
   // Triangles with a repeated welded position are left out (they cover no area and use each
   // of their edges twice, so no edge's parity and no open edge changes): to meshopt such a
   // triangle is the far side of a border edge, so locked border vertices would move, and
@@ -498,30 +538,70 @@ SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group
   // position. Fins are left out too: to meshopt one is a border that locks its base edge,
   // OpenMesh refuses it; they change only the mesh's own border. Other collinear slivers
   // stay: dropping one would open its edges (spec/dag.md §2.3).
-  auto left_out = [&](size_t t) {
-    const uint32_t* c = &group.corners[3 * t];
-    const uint32_t a = welded.weld[c[0]], b = welded.weld[c[1]], d = welded.weld[c[2]];
-    if (a == b || b == d || d == a) return true;
+  auto is_fin = [&](const uint32_t* c) {
     if (fins.empty()) return false;
     std::array<uint32_t, 3> key{c[0], c[1], c[2]};
     std::sort(key.begin(), key.end());
     return std::binary_search(fins.begin(), fins.end(), key);
   };
-  TriangleSet proper;
-  bool any_degenerate = false;
-  for (size_t t = 0; t < group.triangle_count() && !any_degenerate; ++t) any_degenerate = left_out(t);
-  if (any_degenerate)
-    for (size_t t = 0; t < group.triangle_count(); ++t)
-      if (!left_out(t)) {
-        proper.corners.insert(proper.corners.end(), &group.corners[3 * t], &group.corners[3 * t] + 3);
-        proper.materials.push_back(group.materials[t]);
-      }
-  const TriangleSet& input = any_degenerate ? proper : group;
+  PreparedGroup p;
+  p.group = &group;
+  std::vector<uint32_t> left_out;  // triangle indices
+  for (size_t t = 0; t < group.triangle_count(); ++t) {
+    const uint32_t* c = &group.corners[3 * t];
+    const uint32_t a = welded.weld[c[0]], b = welded.weld[c[1]], d = welded.weld[c[2]];
+    if (a == b || b == d || d == a || is_fin(c)) left_out.push_back(uint32_t(t));
+  }
+  p.any_left_out = !left_out.empty();
+  for (size_t t = 0, k = 0; p.any_left_out && t < group.triangle_count(); ++t) {
+    if (k < left_out.size() && left_out[k] == t) {
+      ++k;
+      continue;
+    }
+    p.proper.corners.insert(p.proper.corners.end(), &group.corners[3 * t], &group.corners[3 * t] + 3);
+    p.proper.materials.push_back(group.materials[t]);
+  }
+  if (simplifier != Simplifier::kMeshopt || p.input().triangle_count() == 0) {
+    p.group_locked = locked_ids(welded, group.corners, locked, scratch);
+    p.input_locked = p.any_left_out ? locked_ids(welded, p.proper.corners, locked, scratch) : p.group_locked;
+    return p;
+  }
+  build_sub_mesh(welded, p, scratch);
+  // The input's locked ids, and whether it has a mesh-border vertex, from its sub-mesh vertices
+  // (each welded position of the input once, or once per material: a sixth of its corners).
+  // Caps are accepted only with a cap base between two mesh-border vertices of the input
+  // (remove_open_border_caps): an input without one is never capped.
+  constexpr uint32_t kSeen = 0;
+  bool on_mesh_border = false;
+  for (uint64_t key : p.sub_keys) {
+    const uint32_t w = welded.weld[uint32_t(key >> 32)];
+    if (locked[w] && scratch[w] != kSeen) scratch[w] = kSeen, p.input_locked.push_back(w);
+    if (mesh_border && (*mesh_border)[w]) on_mesh_border = true;
+  }
+  for (uint32_t w : p.input_locked) scratch[w] = kNone;
+  p.group_locked = p.any_left_out ? locked_ids(welded, group.corners, locked, scratch) : p.input_locked;
+  if (on_mesh_border) p.open_border = find_open_border(welded, p.input(), locked);
+  return p;
+}
+
+SimplifyResult simplify_prepared(const WeldedMesh& welded, const PreparedGroup& prepared,
+                                 const std::vector<uint8_t>& locked, Simplifier simplifier,
+                                 const SimplifyTarget& target, std::vector<uint32_t>& scratch) {
+  const TriangleSet& input = prepared.input();
   if (input.triangle_count() == 0) return SimplifyResult{};
   SimplifyResult r = simplifier == Simplifier::kOpenMesh ? simplify_openmesh(welded, input, locked, target)
-                                                         : simplify_meshopt(welded, input, locked, target);
+                                                         : simplify_meshopt(welded, prepared, locked, target, scratch);
   drop_reversed_pairs(welded, r.triangles);
-  return r;
+return r;
+}
+
+SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
+                              const std::vector<uint8_t>& locked, Simplifier simplifier, const SimplifyTarget& target,
+                              const FinSet& fins) {
+  std::vector<uint32_t> scratch(welded.weld.size(), kNone);
+  const PreparedGroup prepared =
+      prepare_group(welded, group, locked, simplifier, fins, target.open_borders ? target.mesh_border : nullptr, scratch);
+  return simplify_prepared(welded, prepared, locked, simplifier, target, scratch);
 }
 
 void drop_reversed_pairs(const WeldedMesh& welded, TriangleSet& triangles) {
@@ -598,34 +678,6 @@ void drop_reversed_pairs(const WeldedMesh& welded, TriangleSet& triangles) {
 
 namespace {
 
-// Welded edge use counts of a triangle set: open addressing (load ≤ 1/2), keys edge_key(a, b).
-struct EdgeUses {
-  static constexpr uint64_t kEmpty = ~uint64_t(0);  // no edge key (a < b) equals it
-  std::vector<uint64_t> keys;
-  std::vector<uint32_t> uses;
-  int shift = 60;
-  explicit EdgeUses(size_t edges) {
-    size_t slots = 16;
-    while (slots < 2 * edges) slots <<= 1, --shift;
-    keys.assign(slots, kEmpty);
-    uses.assign(slots, 0);
-  }
-  size_t slot(uint64_t key) const {
-    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
-    while (keys[h] != kEmpty && keys[h] != key) h = (h + 1) & (keys.size() - 1);
-    return h;
-  }
-  uint32_t add(uint64_t key) {
-    const size_t h = slot(key);
-    keys[h] = key;
-    return ++uses[h];
-  }
-  uint32_t count(uint64_t key) const {
-    const size_t h = slot(key);
-    return keys[h] == key ? uses[h] : 0;
-  }
-};
-
 // `after`'s welded edge uses, and in `folded` the keys of the edges it uses more than a
 // 2-manifold allows (once each).
 EdgeUses count_edge_uses(const WeldedMesh& welded, const TriangleSet& after, std::vector<uint64_t>& folded) {
@@ -652,15 +704,10 @@ bool folds_parity(const WeldedMesh& welded, const TriangleSet& before, const Edg
 }
 
 // The border check (check_simplification) given `after`'s edge uses.
-BorderState border_state(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                         const EdgeUses& out, const std::vector<uint8_t>& locked,
-                         const std::vector<uint64_t>& before_shared) {
+BorderState border_state(const WeldedMesh& welded, const std::vector<uint32_t>& before_locked, const TriangleSet& after,
+                         const EdgeUses& out, const std::vector<uint64_t>& before_shared, std::vector<uint32_t>& scratch) {
   // Every locked vertex of `before` is used by `after`.
-  const LockedIdSet kept(welded, after.corners, locked);
-  for (uint32_t v : before.corners) {
-    const uint32_t a = welded.weld[v];
-    if (locked[a] && !kept.contains(a)) return BorderState::kBroken;
-  }
+  if (!lost_locked_vertices(welded, before_locked, after.corners, scratch).empty()) return BorderState::kBroken;
   // Every shared edge of `before` is an edge of `after`; one used once (a manifold border)
   // should stay used once: more uses are a fold over the border (spec/dag.md §2.3).
   BorderState state = BorderState::kKept;
@@ -684,11 +731,13 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
 }
 
 SimplificationCheck check_simplification(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                                         const std::vector<uint8_t>& locked, const std::vector<uint64_t>& shared_edges) {
+                                         const std::vector<uint32_t>& before_locked,
+                                         const std::vector<uint64_t>& shared_edges, std::vector<uint32_t>& scratch) {
   // One count of `after`'s edges serves both checks.
   std::vector<uint64_t> folded;
   const EdgeUses out = count_edge_uses(welded, after, folded);
-  return {border_state(welded, before, after, out, locked, shared_edges), folds_parity(welded, before, out, folded)};
+  return {border_state(welded, before_locked, after, out, shared_edges, scratch),
+          folds_parity(welded, before, out, folded)};
 }
 
 }  // namespace vgeo::build_detail
