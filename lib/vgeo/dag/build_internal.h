@@ -251,6 +251,10 @@ LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const
 // input, measured for the members already).
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
                      float floor);
+// Flips edges inside a simplified group where the other diagonal lies clearly closer to the
+// leaves; never an edge with both ends locked, never onto an existing edge (edge_flip.cpp).
+void flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
+                               float floor, TriangleSet& triangles);
 
 // How far a group is simplified: to ratio × its triangles, stopping early where the
 // backend's error estimate would pass max_error (object units; meshopt only; +inf: no bound).

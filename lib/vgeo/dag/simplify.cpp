@@ -175,6 +175,13 @@ size_t simplify_with_open_border_caps(const std::vector<unsigned int>& sub_indic
   return count;
 }
 
+// Whether any corner of `group` is locked (shared with another group).
+bool group_has_locked_vertex(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked) {
+  for (uint32_t v : group.corners)
+    if (locked[welded.weld[v]]) return true;
+  return false;
+}
+
 SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked,
                                 const SimplifyTarget& target) {
   const Mesh& mesh = *welded.mesh;
@@ -301,7 +308,15 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const TriangleSet& gro
     const size_t sub_vertices = unique_keys.size() + copy_keys.size();
     out_count = 0;
     r.capped = false;
-    if (target.open_borders && target.mesh_border) {
+    if (target.open_borders && target.mesh_border && !group_has_locked_vertex(welded, group, locked)) {
+      // Nothing of the group is shared with another group: no vertex needs LockBorder, and
+      // meshopt moves the mesh's own border vertices only along their border.
+      out.resize(sub_indices.size());
+      out_count = meshopt_simplify(out.data(), sub_indices.data(), sub_indices.size(), sub_positions.data(),
+                                   sub_vertices, sizeof(float) * 3, 3 * target_triangles(n, target.ratio), target_error,
+                                   0, nullptr);
+      r.capped = out_count > 0;
+    } else if (target.open_borders && target.mesh_border) {
       std::vector<uint32_t> welded_of_sub(sub_vertices);
       for (size_t v = 0; v < sub_vertices; ++v) welded_of_sub[v] = welded.weld[uint32_t(key_of(unsigned(v)) >> 32)];
       out_count = simplify_with_open_border_caps(sub_indices, sub_positions, welded_of_sub, locked,
