@@ -262,6 +262,10 @@ LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const
 // input, measured for the members already).
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
                      float floor);
+// Flips edges inside a simplified group where the other diagonal lies clearly closer to the
+// leaves; never an edge with both ends locked, never onto an existing edge (edge_flip.cpp).
+void flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
+                               float floor, TriangleSet& triangles);
 
 // Certified mode (BuildOptions::error_bound = ErrorBound::kCertified; leaf_certify.cpp,
 // spec/dag.md §Error "Certified bound"). twin[3t + j]: the edge k of g = neighbour[3t + j]

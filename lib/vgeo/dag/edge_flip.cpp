@@ -1,0 +1,223 @@
+// Edge flips at a fixed vertex set after a group's simplification (spec/dag.md §Simplify):
+// both backends only collapse edges, so which diagonal joins two kept triangles is whatever
+// the collapse order left. On a curved or noisy surface the other diagonal can lie closer
+// to the original surface; the stored error is the largest distance of the simplified
+// surface from the leaves, so a flip that brings the pair closer to the leaves can lower it.
+// Based on: Hoppe, DeRose, Duchamp, McDonald, Stuetzle, "Mesh Optimization", SIGGRAPH 1993
+// (§4.2: edge swaps kept when they lower the distance energy); Dyn, Hormann, Kim, Levin,
+// "Optimizing 3D Triangulations Using Discrete Curvature Analysis", 2001 (data-dependent
+// triangulations: the diagonal chosen by the surface, not by the plane).
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "vgeo/core/surface_distance.h"
+#include "vgeo/dag/build_internal.h"
+
+namespace vgeo::build_detail {
+
+namespace {
+
+// A flip must lower the pair's largest sampled squared distance by this factor: a flip is
+// kept only for a clear gain, so no pair flips back and forth on rounding noise.
+constexpr double kFlipGain = 0.98;
+// Sweeps over the group's edges. A pair is flipped at most once per sweep, so a flip blocks
+// its neighbours; the second sweep visits only pairs next to a first-sweep flip (200k sphere:
+// 12% more flips, and dagq's curve 0.96 -> 0.90 of the peer's on bunny00 against one sweep).
+constexpr int kFlipSweeps = 2;
+// Barycentric steps of the sample points of a pair (the centroid of each triangle, the thirds
+// of the diagonal: verify's lattice, kErrorLatticeSubdivisions, on the edges a flip changes).
+// 4 steps (9 points a pair) flipped as well and cost more (dagq within noise of 3's).
+constexpr uint32_t kFlipSampleSteps = 3;
+// A pair whose diagonal midpoint lies within this fraction of the diagonal's length of the
+// leaves is flat to float precision: there a "gain" is rounding (blade, a CAD part with flat
+// faces, flipped on it and lost its last level: dagq 0.85 -> 1.28 of the peer's).
+constexpr double kFlatDeviation = 1e-4;
+
+// Walk steps before the tree takes over (as leaf_error.cpp's walk: a sample lies within a few
+// leaf triangles of the previous one).
+constexpr int kFlipMaxWalkSteps = 32;
+
+DVec3 flip_position(const Mesh& mesh, uint32_t v) {
+  const float* p = &mesh.positions[3 * size_t(v)];
+  return {p[0], p[1], p[2]};
+}
+
+// Squared distance from p to the leaf triangle a visibility walk from *at reaches (the one p
+// projects into, or where the walk stops at a border, a fold or the step limit); *at gets it.
+// The triangle p projects into gives an upper bound of the distance to the leaves, equal to it
+// where the leaves are a height field around p: enough to rank two diagonals; a stopped walk
+// asks the tree (exact).
+double walked_distance_squared(const LeafSurface& leaves, DVec3 p, uint32_t* at) {
+  uint32_t t = *at, previous = kNone;
+  for (int step = 1;; ++step) {
+    const PreparedTriangle tri = prepare_triangle(leaves.tree.corner(t, 0), leaves.tree.corner(t, 1), leaves.tree.corner(t, 2));
+    const int region = prepared_triangle_region(p, tri);
+    if (region == kProjectsInside) return *at = t, prepared_plane_distance_squared(p, tri);
+    const uint32_t next = region == kNoNormal ? kNone : leaves.neighbour[3 * size_t(t) + size_t(region)];
+    // A border, a ridge (two triangles each behind the other) or a long way: the tree decides
+    // (taking the nearer of the two ridge triangles instead over-states the distance at
+    // vertices and flips wrongly: dagq 1.0-1.2 of the peer's on three spheres, against 0.9-1.0).
+    if (next == kNone || next == previous || step == kFlipMaxWalkSteps) return *at = t, leaves.tree.nearest_distance_squared(p, at);
+    previous = t;
+    t = next;
+  }
+}
+
+// Whether p lies within sqrt(threshold) of the leaves, by the same walk: the triangle p
+// projects into decides (as walked_distance_squared would), a stopped walk asks the tree.
+bool walked_within(const LeafSurface& leaves, DVec3 p, double threshold, uint32_t* at) {
+  uint32_t t = *at, previous = kNone;
+  for (int step = 1;; ++step) {
+    const PreparedTriangle tri = prepare_triangle(leaves.tree.corner(t, 0), leaves.tree.corner(t, 1), leaves.tree.corner(t, 2));
+    const int region = prepared_triangle_region(p, tri);
+    if (region == kProjectsInside) return *at = t, prepared_plane_distance_squared(p, tri) <= threshold;
+    const uint32_t next = region == kNoNormal ? kNone : leaves.neighbour[3 * size_t(t) + size_t(region)];
+    if (next == kNone || next == previous || step == kFlipMaxWalkSteps) return *at = t, leaves.tree.nearest_or_within_squared(p, threshold, at) <= threshold;
+    previous = t;
+    t = next;
+  }
+}
+
+DVec3 midpoint(DVec3 p, DVec3 q) { return {0.5 * (p.x + q.x), 0.5 * (p.y + q.y), 0.5 * (p.z + q.z)}; }
+
+// The largest squared distance to the leaves of the sample points of triangles (p, q, r) and
+// (q, p, s) that are not on their outer edges (their interior points and the diagonal p-q's),
+// by walks. A walk can over-state a distance, so a flip may rarely raise a pair's true
+// maximum; re-measuring the farthest sample exactly with the tree rules that out, but cost
+// 0.47 s of the 1M sphere's 3.5 (+38% -> +17% over no flips) for dagq within noise
+// (0.917 against 0.918 of the peer's there; the same or within ±0.04 on 12 other meshes).
+// The stored error is measured after the flips either way.
+double pair_deviation(const LeafSurface& leaves, DVec3 p, DVec3 q, DVec3 r, DVec3 s, uint32_t start) {
+  const uint32_t n = kFlipSampleSteps;
+  double worst = 0;
+  uint32_t at = start;
+  auto visit = [&](DVec3 x) { worst = std::max(worst, walked_distance_squared(leaves, x, &at)); };
+  for (uint32_t i = 1; i < n; ++i) {
+    const double f = double(i) / n;
+    visit({p.x + (q.x - p.x) * f, p.y + (q.y - p.y) * f, p.z + (q.z - p.z) * f});
+  }
+  for (const DVec3& c : {r, s})
+    for (uint32_t u = 1; u < n; ++u)
+      for (uint32_t w = 1; u + w < n; ++w) {
+        const double bu = double(u) / n, bw = double(w) / n, bv = 1.0 - bu - bw;
+        visit({p.x * bv + q.x * bu + c.x * bw, p.y * bv + q.y * bu + c.y * bw, p.z * bv + q.z * bu + c.z * bw});
+      }
+  return worst;
+}
+
+// Whether every sample point of pair_deviation lies within sqrt(threshold) of the leaves.
+bool pair_within(const LeafSurface& leaves, DVec3 p, DVec3 q, DVec3 r, DVec3 s, double threshold, uint32_t start) {
+  const uint32_t n = kFlipSampleSteps;
+  uint32_t at = start;
+  for (uint32_t i = 1; i < n; ++i) {
+    const double f = double(i) / n;
+    if (!walked_within(leaves, {p.x + (q.x - p.x) * f, p.y + (q.y - p.y) * f, p.z + (q.z - p.z) * f}, threshold, &at)) return false;
+  }
+  for (const DVec3& c : {r, s})
+    for (uint32_t u = 1; u < n; ++u)
+      for (uint32_t w = 1; u + w < n; ++w) {
+        const double bu = double(u) / n, bw = double(w) / n, bv = 1.0 - bu - bw;
+        if (!walked_within(leaves, {p.x * bv + q.x * bu + c.x * bw, p.y * bv + q.y * bu + c.y * bw, p.z * bv + q.z * bu + c.z * bw}, threshold, &at)) return false;
+      }
+  return true;
+}
+
+}  // namespace
+
+void flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
+                               float floor, TriangleSet& triangles) {
+  const Mesh& mesh = *welded.mesh;
+  const size_t n = triangles.triangle_count();
+  // The first simplification of the leaves (floor 0) is left as collapsed: it lies a few
+  // percent of a leaf edge from the leaves (200k sphere: 1.8e-4 of a 3.6 diagonal), far below
+  // any error a cut is asked for, and it is half the candidates (flipping there too: dagq's
+  // ratio to the peer within noise, geometric mean 0.91 both, over three spheres, armadillo
+  // and bunny00).
+  if (n < 2 || leaves.tree.empty() || !(floor > 0)) return;
+  std::vector<uint32_t>& corners = triangles.corners;
+  auto w = [&](size_t corner) { return welded.weld[corners[corner]]; };
+  std::vector<uint8_t> flipped_before;  // triangles flipped by the previous sweep
+  for (int sweep = 0; sweep < kFlipSweeps; ++sweep) {
+    // Welded edges of the group: open addressing (load <= 1/2), per edge its number of uses
+    // and its first two directed uses (3t + j). Edges made by a flip are added (one use each:
+    // never a candidate again in this sweep, and never made twice).
+    size_t slots = 16;
+    int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
+    while (slots < 4 * n) slots <<= 1, --shift;
+    constexpr uint64_t kNoEdgeKey = ~uint64_t(0);  // no edge key (a < b) equals it
+    std::vector<uint64_t> keys(slots, kNoEdgeKey);
+    std::vector<std::array<uint32_t, 3>> edge(slots);  // uses, first use, second use
+    auto slot = [&](uint64_t key) {
+      size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+      while (keys[h] != kNoEdgeKey && keys[h] != key) h = (h + 1) & (slots - 1);
+      return h;
+    };
+    auto add_use = [&](uint64_t key, uint32_t use) {
+      const size_t h = slot(key);
+      if (keys[h] == kNoEdgeKey) keys[h] = key, edge[h] = {0, kNone, kNone};
+      std::array<uint32_t, 3>& e = edge[h];
+      if (e[0] < 2) e[1 + e[0]] = use;
+      ++e[0];
+    };
+    for (size_t t = 0; t < n; ++t)
+      for (int j = 0; j < 3; ++j) {
+        const uint32_t a = w(3 * t + j), b = w(3 * t + (j + 1) % 3);
+        if (a != b) add_use(edge_key(a, b), uint32_t(3 * t + j));
+      }
+    std::vector<uint8_t> touched(n, 0);  // a triangle flipped in this sweep (its uses are stale)
+    size_t flips = 0;
+    for (uint32_t u1 = 0; u1 < 3 * n; ++u1) {
+      // Each manifold edge once, at its first use, in triangle order.
+      if (touched[u1 / 3]) continue;
+      const uint32_t ea = w(u1), eb = w(3 * (u1 / 3) + (u1 % 3 + 1) % 3);
+      if (ea == eb) continue;
+      const std::array<uint32_t, 3>& e = edge[slot(edge_key(ea, eb))];
+      if (e[0] != 2 || e[1] != u1) continue;
+      const uint32_t u2 = e[2];
+      const uint32_t t1 = u1 / 3, t2 = u2 / 3, j1 = u1 % 3, j2 = u2 % 3;
+      if (touched[t1] || touched[t2] || triangles.materials[t1] != triangles.materials[t2]) continue;
+      // After the first sweep only pairs next to a flip can have changed (or were blocked by it).
+      if (sweep > 0 && !flipped_before[t1] && !flipped_before[t2]) continue;
+      // t1 = (a, b, c), t2 = (b, a, d): opposite directions, the same vertices (no seam) on the edge.
+      const uint32_t ia = 3 * t1 + j1, ib = 3 * t1 + (j1 + 1) % 3, ic = 3 * t1 + (j1 + 2) % 3;
+      const uint32_t jb = 3 * t2 + j2, ja = 3 * t2 + (j2 + 1) % 3, jd = 3 * t2 + (j2 + 2) % 3;
+      if (corners[ia] != corners[ja] || corners[ib] != corners[jb]) continue;
+      const uint32_t a = w(ia), b = w(ib), c = w(ic), d = w(jd);
+      if (c == d || c == a || c == b || d == a || d == b) continue;
+      // Group-border edges are never removed or made (another group may use them).
+      if ((locked[a] && locked[b]) || (locked[c] && locked[d])) continue;
+      if (keys[slot(edge_key(c, d))] != kNoEdgeKey) continue;  // would be used more than twice
+      const DVec3 pa = flip_position(mesh, corners[ia]), pb = flip_position(mesh, corners[ib]);
+      const DVec3 pc = flip_position(mesh, corners[ic]), pd = flip_position(mesh, corners[jd]);
+      // The new pair (c, a, d), (d, b, c) must face as the old pair does.
+      using surface_distance_detail::cross, surface_distance_detail::dot, surface_distance_detail::sub;
+      const DVec3 n1 = cross(sub(pb, pa), sub(pc, pa)), n2 = cross(sub(pa, pb), sub(pd, pb));
+      const DVec3 m1 = cross(sub(pa, pc), sub(pd, pc)), m2 = cross(sub(pb, pd), sub(pc, pd));
+      if (dot(m1, n1) <= 0 || dot(m1, n2) <= 0 || dot(m2, n1) <= 0 || dot(m2, n2) <= 0) continue;
+      const uint32_t start = leaves.vertex_triangle[corners[ia]];
+      if (start == kNone) continue;
+      // The two pairs differ most at their diagonals: the midpoints reject most candidates,
+      // then every sample of the new pair must lie clearly closer than the old pair's worst
+      // (the new pair's "within" is proved by the walk's triangle or the tree). The samples
+      // are verify's lattice points on the edges a flip changes; the outer edges' points stay.
+      uint32_t at = start;
+      const double mid_before = walked_distance_squared(leaves, midpoint(pa, pb), &at);
+      const DVec3 ab = sub(pb, pa);
+      if (mid_before <= kFlatDeviation * kFlatDeviation * dot(ab, ab)) continue;
+      if (!walked_within(leaves, midpoint(pc, pd), kFlipGain * mid_before, &at)) continue;
+      const double before = pair_deviation(leaves, pa, pb, pc, pd, at);
+      if (!pair_within(leaves, pc, pd, pb, pa, kFlipGain * before, at)) continue;
+      const uint32_t vc = corners[ic], vd = corners[jd], va = corners[ia], vb = corners[ib];
+      corners[3 * t1] = vc, corners[3 * t1 + 1] = va, corners[3 * t1 + 2] = vd;
+      corners[3 * t2] = vd, corners[3 * t2 + 1] = vb, corners[3 * t2 + 2] = vc;
+      touched[t1] = touched[t2] = 1;
+      add_use(edge_key(c, d), kNone);
+      ++flips;
+    }
+    if (flips == 0) break;
+    flipped_before = std::move(touched);
+  }
+}
+
+}  // namespace vgeo::build_detail
