@@ -4,9 +4,9 @@
 // --threads. Per run: process CPU (user + sys) and peak RSS from wait4, wall time, and the CPU of
 // each stage (import / build / write) from the build report's `cpu_seconds`. Variants of a mesh
 // run interleaved, the starting variant rotating per repetition (bench_harness.h), medians.
-// This is the benchmark issue 23's goals 1-2 are measured with; the peer (meshoptimizer's
+// The builder's CPU and memory goals are measured with it; the peer (meshoptimizer's
 // clusterlod) is measured beside it with the kit in ../shared/peer, never built into vgeo
-// (docs/acceptance/issue23_*.md hold the side-by-side tables).
+// (docs/acceptance/issue23_stop31.md holds the side-by-side table).
 #include <spawn.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -41,7 +41,7 @@ struct BuildInput {
 };
 
 // VGEO_BUILD_INPUTS: comma-separated mesh files or "sphere:N" (replaces the defaults). Defaults: the
-// meshes of issue 23's side-by-side table (the 1M sphere, bunny00 and armadillo when tools/fetch-data
+// meshes of the side-by-side table (docs/acceptance/issue23_stop31.md) (the 1M sphere, bunny00 and armadillo when tools/fetch-data
 // has fetched them); quick: a 20k sphere.
 std::vector<BuildInput> build_inputs(bool quick) {
   std::vector<BuildInput> in;
