@@ -28,6 +28,7 @@ namespace {
 
 struct BuildArgs {
   std::string input, output, report, simplifier = "meshopt", page_size, zstd_level, error_bound = "measured";
+  bool edge_flips = false;
   unsigned threads = 0;
 };
 
@@ -179,6 +180,9 @@ void add_build_command(CLI::App& app, Context& ctx) {
                   "zstd level of the page format's pages and metadata: " + std::to_string(kMinZstdLevel) + ".." +
                       std::to_string(kMaxZstdLevel) + " (default " + std::to_string(kDefaultZstdLevel) +
                       "; `vgeo bench compression` measures size against CPU); ignored for .vgeodag");
+  cmd->add_flag("--edge-flips", args->edge_flips,
+                "flip edges towards the leaves after each simplification: fewer triangles at equal measured error "
+                "for more build CPU (spec/dag.md, Edge flips)");
   cmd->add_option("--error-bound", args->error_bound,
                   "what the stored errors promise: measured (default; the verify lattice's maximum, ERROR_BOUND) or "
                   "certified (an upper bound of the continuous deviation, ERROR_CERTIFIED; the same clusters, more build "
@@ -203,6 +207,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
     options.simplifier = args->simplifier == "openmesh" ? Simplifier::kOpenMesh : Simplifier::kMeshopt;
     options.threads = args->threads;
     if (args->error_bound == "certified") options.error_bound = ErrorBound::kCertified;
+    options.edge_flips = args->edge_flips;
     options.progress = progress_wanted();
     std::vector<BuildReport> reports;
     const clock::time_point t_build = clock::now();
@@ -249,6 +254,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
       j["output"] = args->output;
       j["simplifier"] = args->simplifier;
       j["error_bound"] = args->error_bound;
+      j["edge_flips"] = args->edge_flips;
       if (kind == AssetFileKind::kPages) j["format"] = format_report_json(format_report, format_options);
       j["meshes"] = nlohmann::json::array();
       for (size_t i = 0; i < reports.size(); ++i) {

@@ -726,7 +726,7 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     target.open_borders = false;  // stuck with moving own borders: as before, with them locked
     sealed = simplify_sealed(s, blk.group_shared_edges[g], prepared, target, scratch, simplified);
   }
-  if (sealed) flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, max_member_error, simplified.triangles);
+  if (sealed && s.options.edge_flips) flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, max_member_error, simplified.triangles);
   float error = 0.0f;
   double tv0 = steady_seconds();
   // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the distance from the
