@@ -33,19 +33,39 @@ Mesh bench_mesh(const std::string& name, const std::string& path) {
   return import_scene(path).scene.meshes[0];
 }
 
-void BM_LeafClusters(benchmark::State& state) {
-  const char* dir = std::getenv("VGEO_DATA_DIR");
-  std::string path = std::string(dir ? dir : "data") + "/cgal/meshes/" + kSplitBenchMeshes[state.range(0)] + ".off";
-  if (std::string(kSplitBenchMeshes[state.range(0)]) != "sphere" && !std::filesystem::exists(path)) {
-    state.SkipWithError(("missing " + path + " (run tools/fetch-data)").c_str());
-    return;
-  }
-  const Mesh mesh = bench_mesh(kSplitBenchMeshes[state.range(0)], path);
-  WeldedMesh welded = weld_positions(mesh);
+// One benchmark's input (mesh index state.range(0)): the mesh, its welded positions, all its
+// triangles as one set, a vertex scratch array.
+struct BenchInput {
+  Mesh mesh;
+  WeldedMesh welded;
   TriangleSet all;
-  all.corners = mesh.indices;
-  all.materials.assign(mesh.triangle_count(), 0);
-  std::vector<uint32_t> scratch(mesh.vertex_count(), kNone);
+  std::vector<uint32_t> scratch;
+};
+
+// False, with the benchmark skipped and why, when the mesh file is missing.
+bool load_bench_input(benchmark::State& state, BenchInput* in) {
+  const char* dir = std::getenv("VGEO_DATA_DIR");
+  const std::string name = kSplitBenchMeshes[state.range(0)];
+  const std::string path = std::string(dir ? dir : "data") + "/cgal/meshes/" + name + ".off";
+  if (name != "sphere" && !std::filesystem::exists(path)) {
+    state.SkipWithError(("missing " + path + " (run tools/fetch-data)").c_str());
+    return false;
+  }
+  in->mesh = bench_mesh(name, path);
+  in->welded = weld_positions(in->mesh);
+  in->all.corners = in->mesh.indices;
+  in->all.materials.assign(in->mesh.triangle_count(), 0);
+  in->scratch.assign(in->mesh.vertex_count(), kNone);
+  return true;
+}
+
+void BM_LeafClusters(benchmark::State& state) {
+  BenchInput in;
+  if (!load_bench_input(state, &in)) return;
+  const Mesh& mesh = in.mesh;
+  const WeldedMesh& welded = in.welded;
+  const TriangleSet& all = in.all;
+  std::vector<uint32_t>& scratch = in.scratch;
   const SplitMethod method = SplitMethod(state.range(1));
   std::vector<TriangleSet> clusters;
   for (auto _ : state) clusters = split_into_clusters(welded, all, scratch, method);
@@ -73,18 +93,12 @@ BENCHMARK(BM_LeafClusters)->ArgNames({"mesh", "method"})
 // builder does for up to kGroupBlockClusters clusters; "sphere" is the one-chunk UV sphere
 // (1,023 clusters). Counters: clusters, groups.
 void BM_GroupClusters(benchmark::State& state) {
-  const char* dir = std::getenv("VGEO_DATA_DIR");
-  std::string path = std::string(dir ? dir : "data") + "/cgal/meshes/" + kSplitBenchMeshes[state.range(0)] + ".off";
-  if (std::string(kSplitBenchMeshes[state.range(0)]) != "sphere" && !std::filesystem::exists(path)) {
-    state.SkipWithError(("missing " + path + " (run tools/fetch-data)").c_str());
-    return;
-  }
-  const Mesh mesh = bench_mesh(kSplitBenchMeshes[state.range(0)], path);
-  WeldedMesh welded = weld_positions(mesh);
-  TriangleSet all;
-  all.corners = mesh.indices;
-  all.materials.assign(mesh.triangle_count(), 0);
-  std::vector<uint32_t> scratch(mesh.vertex_count(), kNone);
+  BenchInput in;
+  if (!load_bench_input(state, &in)) return;
+  const Mesh& mesh = in.mesh;
+  const WeldedMesh& welded = in.welded;
+  const TriangleSet& all = in.all;
+  std::vector<uint32_t>& scratch = in.scratch;
   const std::vector<TriangleSet> clusters = split_into_clusters(welded, all, scratch, SplitMethod::kGrow);
   std::vector<const TriangleSet*> sets;
   std::vector<std::vector<uint64_t>> open_keys(clusters.size());

@@ -427,15 +427,7 @@ void check_certified_bound(const ClusterDag& dag, const VerifyOptions& options, 
   // The tolerance of ERROR_BOUND (spec/invariants.md §5): four float ulps of the largest
   // coordinate, which also covers the double rounding of the proofs (~2^-50 relative).
   const double abs_tol = 4.0 * float_ulp(max_abs);
-  std::vector<float> leaf_corners;
-  for (const DagCluster& k : dag.clusters) {
-    if (k.generating_group != kNone) continue;
-    for (uint32_t t = 0; t < k.triangle_count; ++t)
-      for (int j = 0; j < 3; ++j) {
-        const float* p = &dag.positions[3 * (size_t(k.vertex_offset) + dag.indices[3 * (size_t(k.triangle_offset) + t) + j])];
-        leaf_corners.insert(leaf_corners.end(), p, p + 3);
-      }
-  }
+  std::vector<float> leaf_corners = leaf_corner_soup(dag);
   ThreadPool pool(options.threads);
   const TriangleDistanceTree leaves(std::move(leaf_corners), &pool);
   const LeafPairing pairing = pair_leaf_edges(leaves);

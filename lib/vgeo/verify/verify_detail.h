@@ -113,6 +113,9 @@ inline ContainmentMiss containment_miss(const Sphere& outer, const Sphere& inner
 }
 // " (misses by 1.2e-07 = 0.5 ulp, 3e-08 relative)"
 std::string miss_text(const ContainmentMiss& m);
+// The leaf clusters' triangles as a corner soup (9 floats a triangle, cluster order): the
+// surface the error checks measure against (verify_error.cpp, verify_certify.cpp).
+std::vector<float> leaf_corner_soup(const ClusterDag& dag);
 inline std::vector<VerifyValue> miss_values(const ContainmentMiss& m) {
   return {{"excess", m.excess}, {"excess_ulps", m.ulps}, {"excess_relative", m.relative}};
 }

@@ -16,8 +16,7 @@
 
 namespace vgeo {
 
-ClusterDeviation measure_cluster_deviation(const ClusterDag& dag, const VerifyOptions& options) {
-  const size_t nc = dag.clusters.size();
+std::vector<float> verify_detail::leaf_corner_soup(const ClusterDag& dag) {
   std::vector<float> leaf_corners;
   for (const DagCluster& k : dag.clusters) {
     if (k.generating_group != kNone) continue;
@@ -27,6 +26,12 @@ ClusterDeviation measure_cluster_deviation(const ClusterDag& dag, const VerifyOp
         leaf_corners.insert(leaf_corners.end(), p, p + 3);
       }
   }
+  return leaf_corners;
+}
+
+ClusterDeviation measure_cluster_deviation(const ClusterDag& dag, const VerifyOptions& options) {
+  const size_t nc = dag.clusters.size();
+  std::vector<float> leaf_corners = verify_detail::leaf_corner_soup(dag);
   ThreadPool pool(options.threads);
   TriangleDistanceTree bvh(std::move(leaf_corners), &pool);
   ClusterDeviation out;
