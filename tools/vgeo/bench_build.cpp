@@ -1,8 +1,8 @@
 // Suite "build": the builder end to end, as a user runs it. Each run is `vgeo build MESH -o OUT`
 // in a child process of its own (so its peak RSS is its own, libraries and all): the DAG file
 // (.vgeodag) and the page format (.vgp, the default output) on one thread, and the page format on
-// --threads. Per run: process CPU (user + sys) and peak RSS from wait4, wall time, and the CPU of
-// each stage (import / build / write) from the build report's `cpu_seconds`. Variants of a mesh
+// --threads. Per run: process CPU (user + sys) from wait4, its peak RSS (VmHWM) and the CPU of
+// each stage (import / build / write) from the build report, and wall time. Variants of a mesh
 // run interleaved, the starting variant rotating per repetition (bench_harness.h), medians.
 // The builder's CPU and memory goals are measured with it; the peer (meshoptimizer's
 // clusterlod) is measured beside it with the kit in ../shared/peer, never built into vgeo
@@ -110,8 +110,10 @@ RunResult run_build(const std::string& input, const std::string& output, const s
   RunResult r;
   r.wall = now_seconds() - t0;
   r.cpu = double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) + 1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-  r.rss_mib = double(usage.ru_maxrss) / 1024.0;  // KiB on Linux
   const nlohmann::json j = nlohmann::json::parse(read_text_file(report));
+  // The child's own peak (its report's VmHWM): wait4's ru_maxrss would count this process's
+  // address space, which the spawned child had before exec (lib/vgeo/core/process_memory.h).
+  r.rss_mib = double(j.at("peak_rss_bytes").get<uint64_t>()) / (1024.0 * 1024.0);
   const char* stages[3] = {"import", "build", "write"};
   for (int s = 0; s < 3; ++s) r.stage_cpu[s] = j.at("cpu_seconds").at(stages[s]).get<double>();
   return r;
@@ -130,7 +132,7 @@ void run_build_suite(const BenchConfig& cfg, SuiteReport& out) {
   std::filesystem::create_directories(dir);
   out.summary =
       "`vgeo build MESH -o OUT` end to end, each run a child process: CPU = user + sys of the process (all threads), "
-      "peak RSS = its ru_maxrss, stage CPU from the build report's cpu_seconds (import / build / write). Median of " +
+      "peak RSS = its VmHWM (the report's peak_rss_bytes), stage CPU from the build report's cpu_seconds (import / build / write). Median of " +
       std::to_string(reps) +
       " interleaved repetitions [min, max]. Default options: the page format (.vgp) at the default zstd level; the "
       ".vgeodag output is the lossless DAG file (no page encoding). The peer's figures are measured with the kit in "

@@ -18,6 +18,7 @@
 #include "vgeo/dag/dag_io.h"
 #include "vgeo/format/asset_file.h"
 #include "vgeo/core/error.h"
+#include "vgeo/core/process_memory.h"
 #include "vgeo/core/progress.h"
 #include "vgeo/mesh/import.h"
 #include "vgeo/render/run.h"
@@ -248,6 +249,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
       j["seconds"] = {{"import", seconds_import}, {"build", seconds_build}, {"write", seconds_write}};
       // CPU of the stages, all threads (`vgeo bench build` reads it): on a shared machine the
       // stable measure, and the one the builder is compared by.
+      j["peak_rss_bytes"] = peak_rss_bytes();  // the whole run: import, build and write
       j["cpu_seconds"] = {{"import", cpu_imported - cpu_start},
                           {"build", cpu_built - cpu_imported},
                           {"write", cpu_written - cpu_built}};

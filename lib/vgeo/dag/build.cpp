@@ -4,9 +4,9 @@
 // Rendering, §"Build operations" (cluster; per level group, merge, simplify to half, split),
 // §"LOD cracks solution" (group borders locked, so every cut is crack-free) and §"DAG".
 #include "vgeo/dag/build.h"
+#include "vgeo/core/process_memory.h"
 
 #include <sys/mman.h>
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -1149,8 +1149,7 @@ void finish_report(BuildReport& rep, const ClusterDag& dag, double seconds_total
         rep.root_triangles += dag.clusters[c].triangle_count;
     }
   rep.seconds_total = seconds_total;
-  struct rusage usage {};
-  if (getrusage(RUSAGE_SELF, &usage) == 0) rep.peak_memory_bytes = uint64_t(usage.ru_maxrss) * 1024;
+  rep.peak_memory_bytes = peak_rss_bytes();
 }
 
 }  // namespace
