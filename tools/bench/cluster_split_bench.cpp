@@ -62,24 +62,20 @@ bool load_bench_input(benchmark::State& state, BenchInput* in) {
 void BM_LeafClusters(benchmark::State& state) {
   BenchInput in;
   if (!load_bench_input(state, &in)) return;
-  const Mesh& mesh = in.mesh;
-  const WeldedMesh& welded = in.welded;
-  const TriangleSet& all = in.all;
-  std::vector<uint32_t>& scratch = in.scratch;
   const SplitMethod method = SplitMethod(state.range(1));
   std::vector<TriangleSet> clusters;
-  for (auto _ : state) clusters = split_into_clusters(welded, all, scratch, method);
+  for (auto _ : state) clusters = split_into_clusters(in.welded, in.all, in.scratch, method);
   uint64_t open = 0, edges = 0;
   for (const TriangleSet& c : clusters) {
     uint64_t o, a;
-    count_cluster_edges(welded, c, &o, &a);
+    count_cluster_edges(in.welded, c, &o, &a);
     open += o;
     edges += a;
   }
   state.SetLabel(kSplitBenchMeshes[state.range(0)]);
-  state.counters["triangles"] = double(mesh.triangle_count());
+  state.counters["triangles"] = double(in.mesh.triangle_count());
   state.counters["clusters"] = double(clusters.size());
-  state.counters["fill"] = double(mesh.triangle_count()) / double(clusters.size()) / kMaxClusterTriangles;
+  state.counters["fill"] = double(in.mesh.triangle_count()) / double(clusters.size()) / kMaxClusterTriangles;
   state.counters["border"] = double(open) / double(edges);
 }
 
@@ -95,19 +91,15 @@ BENCHMARK(BM_LeafClusters)->ArgNames({"mesh", "method"})
 void BM_GroupClusters(benchmark::State& state) {
   BenchInput in;
   if (!load_bench_input(state, &in)) return;
-  const Mesh& mesh = in.mesh;
-  const WeldedMesh& welded = in.welded;
-  const TriangleSet& all = in.all;
-  std::vector<uint32_t>& scratch = in.scratch;
-  const std::vector<TriangleSet> clusters = split_into_clusters(welded, all, scratch, SplitMethod::kGrow);
+  const std::vector<TriangleSet> clusters = split_into_clusters(in.welded, in.all, in.scratch, SplitMethod::kGrow);
   std::vector<const TriangleSet*> sets;
   std::vector<std::vector<uint64_t>> open_keys(clusters.size());
   std::vector<Sphere> bounds;
   for (size_t i = 0; i < clusters.size(); ++i) {
     uint64_t open = 0, edges = 0;
-    count_cluster_edges(welded, clusters[i], &open, &edges, &open_keys[i]);
+    count_cluster_edges(in.welded, clusters[i], &open, &edges, &open_keys[i]);
     sets.push_back(&clusters[i]);
-    bounds.push_back(sphere_of_points(mesh, clusters[i].corners.data(), clusters[i].corners.size()));
+    bounds.push_back(sphere_of_points(in.mesh, clusters[i].corners.data(), clusters[i].corners.size()));
   }
   std::vector<std::vector<uint32_t>> groups;
   for (auto _ : state) groups = group_clusters(sets, open_keys, bounds, kGroupTargetClusters);
