@@ -13,6 +13,7 @@
 #include "vgeo/dag/build.h"
 #include "vgeo/core/math.h"
 #include "vgeo/core/surface_distance.h"
+#include "vgeo/core/surface_distance_impl.h"
 #include "vgeo/core/thread_pool.h"
 #include "vgeo/mesh/mesh.h"
 
@@ -255,6 +256,16 @@ struct LeafSurface {
 };
 LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves,
                                ThreadPool& pool);
+// Where a visibility walk over the leaf surface ends: from triangle `start` towards p, crossing
+// the first edge p lies outside of, never straight back, at most `max_steps` triangles; in the
+// triangle p projects into (projects_inside), or where it stops: a border, a ridge (two
+// triangles each behind the other), a triangle without a normal, the step limit.
+struct LeafWalkEnd {
+  uint32_t triangle = kNone;
+  PreparedTriangle prepared;
+  bool projects_inside = false;
+};
+LeafWalkEnd walk_leaf_surface(const LeafSurface& s, DVec3 p, uint32_t start, int max_steps);
 // max(floor, the distance lib/vgeo/verify measures from `simplified` to the leaves), rounded
 // up to float: the lattice of surface_distance.h, exact nearest leaf triangle, the same
 // points. `floor` = the largest stored error of the group's members (`input`); the search

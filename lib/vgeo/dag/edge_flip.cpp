@@ -49,34 +49,22 @@ DVec3 flip_position(const Mesh& mesh, uint32_t v) {
 // where the leaves are a height field around p: enough to rank two diagonals; a stopped walk
 // asks the tree (exact).
 double walked_distance_squared(const LeafSurface& leaves, DVec3 p, uint32_t* at) {
-  uint32_t t = *at, previous = kNone;
-  for (int step = 1;; ++step) {
-    const PreparedTriangle tri = prepare_triangle(leaves.tree.corner(t, 0), leaves.tree.corner(t, 1), leaves.tree.corner(t, 2));
-    const int region = prepared_triangle_region(p, tri);
-    if (region == kProjectsInside) return *at = t, prepared_plane_distance_squared(p, tri);
-    const uint32_t next = region == kNoNormal ? kNone : leaves.neighbour[3 * size_t(t) + size_t(region)];
-    // A border, a ridge (two triangles each behind the other) or a long way: the tree decides
-    // (taking the nearer of the two ridge triangles instead over-states the distance at
-    // vertices and flips wrongly: dagq 1.0-1.2 of the peer's on three spheres, against 0.9-1.0).
-    if (next == kNone || next == previous || step == kFlipMaxWalkSteps) return *at = t, leaves.tree.nearest_distance_squared(p, at);
-    previous = t;
-    t = next;
-  }
+  const LeafWalkEnd end = walk_leaf_surface(leaves, p, *at, kFlipMaxWalkSteps);
+  *at = end.triangle;
+  if (end.projects_inside) return prepared_plane_distance_squared(p, end.prepared);
+  // A border, a ridge (two triangles each behind the other) or a long way: the tree decides
+  // (taking the nearer of the two ridge triangles instead over-states the distance at
+  // vertices and flips wrongly: dagq 1.0-1.2 of the peer's on three spheres, against 0.9-1.0).
+  return leaves.tree.nearest_distance_squared(p, at);
 }
 
 // Whether p lies within sqrt(threshold) of the leaves, by the same walk: the triangle p
 // projects into decides (as walked_distance_squared would), a stopped walk asks the tree.
 bool walked_within(const LeafSurface& leaves, DVec3 p, double threshold, uint32_t* at) {
-  uint32_t t = *at, previous = kNone;
-  for (int step = 1;; ++step) {
-    const PreparedTriangle tri = prepare_triangle(leaves.tree.corner(t, 0), leaves.tree.corner(t, 1), leaves.tree.corner(t, 2));
-    const int region = prepared_triangle_region(p, tri);
-    if (region == kProjectsInside) return *at = t, prepared_plane_distance_squared(p, tri) <= threshold;
-    const uint32_t next = region == kNoNormal ? kNone : leaves.neighbour[3 * size_t(t) + size_t(region)];
-    if (next == kNone || next == previous || step == kFlipMaxWalkSteps) return *at = t, leaves.tree.nearest_or_within_squared(p, threshold, at) <= threshold;
-    previous = t;
-    t = next;
-  }
+  const LeafWalkEnd end = walk_leaf_surface(leaves, p, *at, kFlipMaxWalkSteps);
+  *at = end.triangle;
+  if (end.projects_inside) return prepared_plane_distance_squared(p, end.prepared) <= threshold;
+  return leaves.tree.nearest_or_within_squared(p, threshold, at) <= threshold;
 }
 
 DVec3 midpoint(DVec3 p, DVec3 q) { return {0.5 * (p.x + q.x), 0.5 * (p.y + q.y), 0.5 * (p.z + q.z)}; }

@@ -96,19 +96,11 @@ void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector
 // triangle where the walk stopped: found, or nearby (the tree's starting hint). A walk only
 // ever proves "within"; a miss is decided by the tree.
 bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at) {
-  uint32_t t = *at, previous = kNone;
-  for (int step = 1;; ++step) {
-    const PreparedTriangle tri = prepare_triangle(s.tree.corner(t, 0), s.tree.corner(t, 1), s.tree.corner(t, 2));
-    const int region = prepared_triangle_region(p, tri);
-    if (region == kProjectsInside) return *at = t, prepared_plane_distance_squared(p, tri) <= threshold;
-    const uint32_t next = region == kNoNormal ? kNone : s.neighbour[3 * size_t(t) + size_t(region)];
-    if (next == kNone || next == previous || step == kMaxWalkSteps) {
-      double d2;  // p lies off t's edges (or t has no normal): the nearest edge decides
-      return *at = t, prepared_triangle_within_squared(p, tri, threshold, &d2);
-    }
-    previous = t;
-    t = next;
-  }
+  const LeafWalkEnd end = walk_leaf_surface(s, p, *at, kMaxWalkSteps);
+  *at = end.triangle;
+  if (end.projects_inside) return prepared_plane_distance_squared(p, end.prepared) <= threshold;
+  double d2;  // p lies off the triangle's edges (or it has no normal): the nearest edge decides
+  return prepared_triangle_within_squared(p, end.prepared, threshold, &d2);
 }
 
 }  // namespace
@@ -209,6 +201,22 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
       }
   }
   return std::max(floor, round_up_to_float(std::sqrt(best2)));
+}
+
+LeafWalkEnd walk_leaf_surface(const LeafSurface& s, DVec3 p, uint32_t start, int max_steps) {
+  uint32_t t = start, previous = kNone;
+  for (int step = 1;; ++step) {
+    LeafWalkEnd end;
+    end.triangle = t;
+    end.prepared = prepare_triangle(s.tree.corner(t, 0), s.tree.corner(t, 1), s.tree.corner(t, 2));
+    const int region = prepared_triangle_region(p, end.prepared);
+    end.projects_inside = region == kProjectsInside;
+    if (end.projects_inside) return end;
+    const uint32_t next = region == kNoNormal ? kNone : s.neighbour[3 * size_t(t) + size_t(region)];
+    if (next == kNone || next == previous || step == max_steps) return end;
+    previous = t;
+    t = next;
+  }
 }
 
 }  // namespace vgeo::build_detail
