@@ -70,6 +70,7 @@ struct StripIndex {
   uint8_t uses[3 * kMaxClusterTriangles];
   // The corners at each vertex by ascending (position, corner) (CSR over vertices): the
   // position and the vertex after the corner, i.e. the directed edges leaving the vertex.
+  // Filled only when some directed edge has two or more holders (the only walk that reads it).
   uint16_t corners_begin[kMaxClusterVertices + 1];
   uint8_t corner_position[3 * kMaxClusterTriangles], corner_index[3 * kMaxClusterTriangles],
       corner_next[3 * kMaxClusterTriangles];
@@ -125,17 +126,6 @@ void index_strips(const uint8_t (*tris)[3], const uint32_t* mat, const uint32_t*
   for (uint32_t v = 0; v < vc; ++v) count[v + 1] = uint16_t(count[v + 1] + count[v]);
   std::copy(count, count + vc + 1, x->uses_begin);
   for_each_use([&](uint8_t v, uint32_t p) { x->uses[count[v]++] = uint8_t(p); });
-  std::fill(count, count + vc + 1, 0);
-  for (uint32_t p = 0; p < tc; ++p)
-    for (uint32_t k = 0; k < 3; ++k) ++count[x->tri[p][k] + 1];
-  for (uint32_t v = 0; v < vc; ++v) count[v + 1] = uint16_t(count[v + 1] + count[v]);
-  std::copy(count, count + vc + 1, x->corners_begin);
-  for (uint32_t p = 0; p < tc; ++p)
-    for (uint32_t k = 0; k < 3; ++k) {
-      const uint32_t c = count[x->tri[p][k]]++;
-      x->corner_position[c] = uint8_t(p), x->corner_index[c] = uint8_t(k);
-      x->corner_next[c] = x->tri[p][(k + 1) % 3];
-    }
   // The triangle holding each directed edge (from, to), by a table over vertex pairs: a
   // lookup per edge instead of a walk over the corners of its vertex (that walk's
   // unpredictable compares were ~10% of the write stage on a 1M-triangle sphere). An edge
@@ -145,12 +135,29 @@ void index_strips(const uint8_t (*tris)[3], const uint32_t* mat, const uint32_t*
   // never cleared).
   uint8_t edge_owner[kMaxClusterVertices * kMaxClusterVertices], edge_corner[kMaxClusterVertices * kMaxClusterVertices];
   std::memset(edge_owner, kNoEdgeOwner, size_t(vc) * vc);
+  bool shared_edges = false;
   for (uint32_t p = 0; p < tc; ++p)
     for (uint32_t k = 0; k < 3; ++k) {
       const uint32_t key = x->tri[p][k] * vc + x->tri[p][(k + 1) % 3];
+      shared_edges |= edge_owner[key] != kNoEdgeOwner;
       edge_owner[key] = edge_owner[key] == kNoEdgeOwner ? uint8_t(p) : kManyEdgeOwners;
       edge_corner[key] = uint8_t(k);
     }
+  // The corner walk (for_each_across) is only taken for an edge with two or more holders: a
+  // cluster without one (nearly all) never reads the corners, so they are not indexed.
+  if (shared_edges) {
+    std::fill(count, count + vc + 1, 0);
+    for (uint32_t p = 0; p < tc; ++p)
+      for (uint32_t k = 0; k < 3; ++k) ++count[x->tri[p][k] + 1];
+    for (uint32_t v = 0; v < vc; ++v) count[v + 1] = uint16_t(count[v + 1] + count[v]);
+    std::copy(count, count + vc + 1, x->corners_begin);
+    for (uint32_t p = 0; p < tc; ++p)
+      for (uint32_t k = 0; k < 3; ++k) {
+        const uint32_t c = count[x->tri[p][k]]++;
+        x->corner_position[c] = uint8_t(p), x->corner_index[c] = uint8_t(k);
+        x->corner_next[c] = x->tri[p][(k + 1) % 3];
+      }
+  }
   for (uint32_t p = 0; p < tc; ++p)
     for (uint32_t k = 0; k < 3; ++k) {
       x->across_first[p][k] = kNoStripTriangle, x->across_corner[p][k] = 0, x->across_more[p][k] = false;
