@@ -500,6 +500,28 @@ namespace {
     if (packed(r) < best_key) best = r, best_key = packed(r);
   for (int k = 0; k < 3; ++k) out[k] = in[(best + k) % 3];
 }
+// Writes fields LSB-first from a word boundary on, in the layout write_bits gives (spec/format.md
+// §4), a whole word at a time: the memory-form encoder's streams are written in order, so no
+// word is read back and or-ed once per field.
+struct SequentialBitWriter {
+  uint32_t* out;
+  uint64_t pending = 0;   // bits not yet stored, least significant first
+  uint32_t pending_bits = 0;  // < 32 between calls
+  void put(uint32_t n, uint32_t value) {  // n ≤ 32
+    const uint64_t field = n == 32 ? value : value & ((1u << n) - 1u);
+    pending |= field << pending_bits;
+    pending_bits += n;
+    if (pending_bits >= 32) {
+      *out++ = uint32_t(pending);
+      pending >>= 32;
+      pending_bits -= 32;
+    }
+  }
+  void flush() {  // the last, partial word
+    if (pending_bits != 0) *out++ = uint32_t(pending);
+    pending = 0, pending_bits = 0;
+  }
+};
 }  // namespace
 
 void min_first(const uint8_t in[3], uint8_t out[3]) { rotate_min_first(in, out); }
@@ -675,21 +697,26 @@ void MemoryPageBuilder::add(const CanonicalCluster& c) {
   for (uint32_t k = 0; k < 6; ++k) d[1] |= c.bits[k] << (5 * k);
   d[2] = c.bits[6] | uint32_t(data << 10);
   for (uint32_t k = 0; k < kMaxChannels; ++k) d[3 + k] = uint32_t(c.min[k]);
-  // Vertices: fixed-width records, fields in channel order.
-  uint64_t bit = data * 32;
+  // Vertices: fixed-width records, fields in channel order (channels of 0 bits hold nothing).
+  uint32_t stored[kMaxChannels], stored_count = 0;
+  for (uint32_t k = 0; k < kMaxChannels; ++k)
+    if (c.bits[k] != 0) stored[stored_count++] = k;
+  SequentialBitWriter vertices{&w_[data]};
   for (uint32_t v = 0; v < c.vertex_count; ++v)
-    for (uint32_t k = 0; k < kMaxChannels; ++k) {
-      write_bits(w_.data(), bit, c.bits[k], uint32_t(int64_t(c.values[k][v]) - c.min[k]));
-      bit += c.bits[k];
+    for (uint32_t i = 0; i < stored_count; ++i) {
+      const uint32_t k = stored[i];
+      vertices.put(c.bits[k], uint32_t(int64_t(c.values[k][v]) - c.min[k]));
     }
-  bit = (data + vwords) * 32;
-  for (uint32_t t = 0; t < c.triangle_count; ++t, bit += tb) {
+  vertices.flush();
+  SequentialBitWriter indices{&w_[data + vwords]};
+  for (uint32_t t = 0; t < c.triangle_count; ++t) {
     uint8_t m[3];
     rotate_min_first(c.strip[t], m);
-    write_bits(w_.data(), bit, bb, m[0]);
-    write_bits(w_.data(), bit + bb, ob, uint32_t(m[1] - m[0]));
-    write_bits(w_.data(), bit + bb + ob, ob, uint32_t(m[2] - m[0]));
+    indices.put(bb, m[0]);
+    indices.put(ob, uint32_t(m[1] - m[0]));
+    indices.put(ob, uint32_t(m[2] - m[0]));
   }
+  indices.flush();
   uint64_t mat = data + vwords + twords;
   for (uint32_t r = 0; r < c.run_count; ++r) w_[mat++] = c.run_start[r] | (c.run_material[r] << 8);
 }
