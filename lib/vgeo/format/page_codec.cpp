@@ -203,7 +203,7 @@ struct StripOrder {
   // the window (strip_start).
   uint32_t oldest_live = 0;
   uint32_t max_span = 0;    // largest span emitted so far
-  // A retry's bound (build_strip_order's give_up_span; UINT32_MAX: none), and whether an
+  // The order's give-up bound (build_strip_order's give_up_span; UINT32_MAX: none, the fallback), and whether an
   // unvisited triangle of the run already spans at least that much if emitted now: a span
   // never shrinks while a triangle waits (below), so the order is then bound to reach it.
   uint32_t give_up_span = UINT32_MAX;
@@ -255,7 +255,7 @@ struct StripOrder {
 }
 bool in_run(const StripOrder& s, uint32_t p) { return p >= s.r0 && p < s.r1; }
 
-// Early give-up of a retry (same result as running it to the end, sooner). An unvisited
+// Early give-up of an order (same result as running it to the end, sooner). An unvisited
 // triangle's span_now never shrinks: its numbered ids are fixed, and its f fresh vertices get
 // f distinct ids ≥ seen whenever they are numbered, so its span when emitted is ≥ span_now.
 // A triangle with a numbered vertex (oldest id o) and f ∈ {1, 2} fresh ones spans
