@@ -203,9 +203,10 @@ struct StripOrder {
   // the window (strip_start).
   uint32_t oldest_live = 0;
   uint32_t max_span = 0;    // largest span emitted so far
-  // The order's give-up bound (build_strip_order's give_up_span; UINT32_MAX: none, the fallback), and whether an
-  // unvisited triangle of the run already spans at least that much if emitted now: a span
-  // never shrinks while a triangle waits (below), so the order is then bound to reach it.
+  // The order's give-up bound (build_strip_order's give_up_span; UINT32_MAX: none, the
+  // fallback order), and whether an unvisited triangle of the run already spans at least that
+  // much if emitted now: a span never shrinks while a triangle waits (below), so the order is
+  // then bound to reach it.
   uint32_t give_up_span = UINT32_MAX;
   bool doomed = false;
 };
