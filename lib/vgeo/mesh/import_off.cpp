@@ -113,11 +113,16 @@ bool read_plain_number_line(TextCursor& in, float* values, size_t count) {
 bool read_plain_face_line(TextCursor& in, int64_t vertex_count, std::vector<uint32_t>& ring) {
   const char* p = in.p;
   const char* const end = in.end;
+  // parse_plain_digits fused with the token scan (one pass over the digits); unsigned
+  // arithmetic, so a token too long to keep is refused after wrapping, never overflowing.
   auto next_plain_digits = [&](int64_t& value) {
     p = skip_line_blanks(p, end);
     const char* b = p;
-    while (p < end && kByteClass[uint8_t(*p)] == kTokenByte) ++p;
-    return parse_plain_digits({b, size_t(p - b)}, value);
+    uint64_t v = 0;
+    for (unsigned digit; p < end && (digit = unsigned(uint8_t(*p)) - unsigned('0')) <= 9; ++p) v = v * 10 + digit;
+    if (p == b || size_t(p - b) > kDigitLoopMaxDigits || !ends_token(p, end)) return false;
+    value = int64_t(v);
+    return true;
   };
   int64_t n = 0;
   if (!next_plain_digits(n) || uint64_t(n) >= kMaxLineTokens) return false;

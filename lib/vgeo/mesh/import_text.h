@@ -115,7 +115,16 @@ struct PolygonSink {
   std::vector<uint32_t> sorted;  // scratch for the repeat test of long polygons
 
   explicit PolygonSink(Mesh& m) : mesh(m) {}
-  void add(const uint32_t* ring, size_t n);
+  void add(const uint32_t* ring, size_t n) {
+    // A triangle of three distinct vertices (nearly every polygon of a triangle mesh) is its
+    // own fan; inline, it skips the call and the repeat test's loops.
+    if (n == 3 && ring[0] != ring[1] && ring[0] != ring[2] && ring[1] != ring[2]) {
+      mesh.indices.insert(mesh.indices.end(), ring, ring + 3);
+      return;
+    }
+    add_polygon(ring, n);
+  }
+  void add_polygon(const uint32_t* ring, size_t n);
   // Adds the FACE_REPEATED_VERTEX warning and count to `out` (once, after the last polygon).
   void finish(ImportResult& out) const;
 };
