@@ -202,9 +202,12 @@ void import_off(const uint8_t* data, size_t size, const std::string& where, Impo
   float values[8];  // x y z [nx ny nz] [u v]: `needed` at most
   for (int64_t v = 0; v < nv; ++v) {
     if (!kw.colors && read_plain_number_line(in, values, needed)) {
-      mesh.positions.insert(mesh.positions.end(), values, values + 3);
-      if (kw.normals) mesh.normals.insert(mesh.normals.end(), values + 3, values + 6);
-      if (kw.uvs) mesh.uvs.insert(mesh.uvs.end(), values + needed - 2, values + needed);
+      // push_back per value: a ranged insert of 2 or 3 values is a memmove call each.
+      for (size_t k = 0; k < 3; ++k) mesh.positions.push_back(values[k]);
+      if (kw.normals)
+        for (size_t k = 3; k < 6; ++k) mesh.normals.push_back(values[k]);
+      if (kw.uvs)
+        for (size_t k = needed - 2; k < needed; ++k) mesh.uvs.push_back(values[k]);
       continue;
     }
     if (!next_record(in, tok, line))

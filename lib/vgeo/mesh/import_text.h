@@ -119,7 +119,10 @@ struct PolygonSink {
     // A triangle of three distinct vertices (nearly every polygon of a triangle mesh) is its
     // own fan; inline, it skips the call and the repeat test's loops.
     if (n == 3 && ring[0] != ring[1] && ring[0] != ring[2] && ring[1] != ring[2]) {
-      mesh.indices.insert(mesh.indices.end(), ring, ring + 3);
+      // Three push_backs, not insert(): a ranged insert of 3 is a memmove call.
+      mesh.indices.push_back(ring[0]);
+      mesh.indices.push_back(ring[1]);
+      mesh.indices.push_back(ring[2]);
       return;
     }
     add_polygon(ring, n);
