@@ -65,6 +65,81 @@ bool next_record(TextCursor& in, std::vector<std::string_view>& tokens, uint64_t
   return false;
 }
 
+// The fast path: nearly every line of an OFF file is a vertex line of plain numbers or a face
+// line of plain indices. Those are read straight from the bytes (no token list) and any other
+// line (a comment, a '+' sign, a token a number does not fill, a bad or out-of-range value, a
+// blank line) is left untouched for next_record and the checks after it, so values, errors
+// and their line numbers are exactly those of the token path. A token read here ends at a
+// blank or the line's end, the same bytes next_record's token ends at, so from_chars sees
+// the same characters either way.
+bool ends_token(const char* q, const char* end) {
+  return q >= end || kByteClass[uint8_t(*q)] == kBlankByte || kByteClass[uint8_t(*q)] == kLineEndByte;
+}
+const char* skip_line_blanks(const char* p, const char* end) {
+  while (p < end && kByteClass[uint8_t(*p)] == kBlankByte) ++p;
+  return p;
+}
+// Past the line's end if only blanks are left on it (nullptr otherwise).
+const char* past_line_end(const char* p, const char* end, uint64_t& line) {
+  p = skip_line_blanks(p, end);
+  if (p >= end) return p;
+  if (*p != '\n') return nullptr;
+  ++line;
+  return p + 1;
+}
+
+// A line of exactly `count` numbers into `values`; false (cursor untouched) for any other line.
+bool read_plain_number_line(TextCursor& in, float* values, size_t count) {
+  const char* p = in.p;
+  const char* const end = in.end;
+  for (size_t k = 0; k < count; ++k) {
+    p = skip_line_blanks(p, end);
+    if (p >= end || *p == '+') return false;  // parse_number's sign rules: the token path
+    const auto r = std::from_chars(p, end, values[k]);
+    if (r.ec != std::errc() || !ends_token(r.ptr, end)) return false;
+    p = r.ptr;
+  }
+  uint64_t line = in.line;
+  p = past_line_end(p, end, line);
+  if (p == nullptr) return false;
+  in.p = p;
+  in.line = line;
+  return true;
+}
+
+// A face line "n i0 .. i(n-1)" of plain indices below `vertex_count` into `ring`; false (cursor
+// untouched) for any other line. n stays below next_record's token cap, so a line the token path
+// would cut short is left to it.
+bool read_plain_face_line(TextCursor& in, int64_t vertex_count, std::vector<uint32_t>& ring) {
+  const char* p = in.p;
+  const char* const end = in.end;
+  // parse_plain_digits fused with the token scan (one pass over the digits); unsigned
+  // arithmetic, so a token too long to keep is refused after wrapping, never overflowing.
+  auto next_plain_digits = [&](int64_t& value) {
+    p = skip_line_blanks(p, end);
+    const char* b = p;
+    uint64_t v = 0;
+    for (unsigned digit; p < end && (digit = unsigned(uint8_t(*p)) - unsigned('0')) <= 9; ++p) v = v * 10 + digit;
+    if (p == b || size_t(p - b) > kDigitLoopMaxDigits || !ends_token(p, end)) return false;
+    value = int64_t(v);
+    return true;
+  };
+  int64_t n = 0;
+  if (!next_plain_digits(n) || uint64_t(n) >= kMaxLineTokens) return false;
+  ring.clear();
+  for (int64_t c = 0; c < n; ++c) {
+    int64_t idx = 0;
+    if (!next_plain_digits(idx) || idx >= vertex_count) return false;
+    ring.push_back(uint32_t(idx));
+  }
+  uint64_t line = in.line;
+  p = past_line_end(p, end, line);
+  if (p == nullptr) return false;
+  in.p = p;
+  in.line = line;
+  return true;
+}
+
 OffKeyword parse_keyword(std::string_view k, const std::string& where) {
   OffKeyword kw;
   if (k.size() < 3 || k.substr(k.size() - 3) != "OFF")
@@ -124,7 +199,17 @@ void import_off(const uint8_t* data, size_t size, const std::string& where, Impo
   if (kw.normals) mesh.normals.reserve(size_t(nv) * 3);
   if (kw.uvs) mesh.uvs.reserve(size_t(nv) * 2);
   const size_t needed = 3 + (kw.normals ? 3 : 0) + (kw.uvs ? 2 : 0);
+  float values[8];  // x y z [nx ny nz] [u v]: `needed` at most
   for (int64_t v = 0; v < nv; ++v) {
+    if (!kw.colors && read_plain_number_line(in, values, needed)) {
+      // push_back per value: a ranged insert of 2 or 3 values is a memmove call each.
+      for (size_t k = 0; k < 3; ++k) mesh.positions.push_back(values[k]);
+      if (kw.normals)
+        for (size_t k = 3; k < 6; ++k) mesh.normals.push_back(values[k]);
+      if (kw.uvs)
+        for (size_t k = needed - 2; k < needed; ++k) mesh.uvs.push_back(values[k]);
+      continue;
+    }
     if (!next_record(in, tok, line))
       fail("FILE_TRUNCATED", where, "OFF file ends after " + std::to_string(v) + " of " + std::to_string(nv) + " vertices");
     if (tok.size() < needed || (!kw.colors && tok.size() != needed))
@@ -143,6 +228,10 @@ void import_off(const uint8_t* data, size_t size, const std::string& where, Impo
   PolygonSink sink(mesh);
   std::vector<uint32_t> ring;
   for (int64_t f = 0; f < nf; ++f) {
+    if (read_plain_face_line(in, nv, ring)) {
+      sink.add(ring.data(), ring.size());
+      continue;
+    }
     if (!next_record(in, tok, line))
       fail("FILE_TRUNCATED", where, "OFF file ends after " + std::to_string(f) + " of " + std::to_string(nf) + " faces");
     int64_t n = -1;

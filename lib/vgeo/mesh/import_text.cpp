@@ -20,7 +20,7 @@ bool repeats_a_vertex(const uint32_t* ring, size_t n, std::vector<uint32_t>& sor
 }
 }  // namespace
 
-void PolygonSink::add(const uint32_t* ring, size_t n) {
+void PolygonSink::add_polygon(const uint32_t* ring, size_t n) {
   if (n < 3) return;
   if (repeats_a_vertex(ring, n, sorted)) {
     ++repeated_vertex_faces;
