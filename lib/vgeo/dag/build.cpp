@@ -609,7 +609,7 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
     }
     const uint32_t target = s.internal.group_target_clusters ? s.internal.group_target_clusters
                                                              : default_group_target_clusters(s.options.simplifier);
-    blk.groups = group_clusters(sets, keys, bounds, target);
+    blk.groups = group_clusters(sets, keys, bounds, target, s.internal.group_method);
     for (auto& g : blk.groups)
       for (uint32_t& m : g) m = L.active[blk.items[m]];
   }
