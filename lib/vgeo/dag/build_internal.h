@@ -156,7 +156,7 @@ std::vector<TriangleSet> split_metis(const WeldedMesh& welded, const TriangleSet
                                      std::vector<uint32_t>& scratch);
 
 // How group_clusters partitions the cluster graph: kGreedy (the builder's; cluster_partition.cpp)
-// or METIS k-way (kept for measuring: quality at parity, ~8× the CPU; spec/dag.md §Grouping).
+// or METIS k-way (kept for measuring: quality at parity, ~9× the CPU; spec/dag.md §Grouping).
 enum class GroupMethod { kGreedy, kMetis };
 
 // Clusters → groups: returns, per group, its member indices into `clusters` (ascending).

@@ -6,7 +6,7 @@
 // refinement moves single border nodes with a positive gain, as in Fiduccia, Mattheyses, "A
 // Linear-Time Heuristic for Improving Network Partitions", DAC 1982 (no negative-gain moves).
 // Why a cut: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021 — a group's border is locked,
-// so few shared edges per triangle should be cut; METIS k-way finds such cuts at ~8× the CPU
+// so few shared edges per triangle should be cut; METIS k-way finds such cuts at ~9× the CPU
 // for the same quality at equal measured error (docs/acceptance/issue23_gpart.md).
 #include <algorithm>
 #include <cassert>
