@@ -354,7 +354,7 @@ struct GroupResult {
   double seconds_simplify = 0, seconds_split = 0, seconds_error = 0;
 };
 
-// A spatial block of one level's active clusters: grouped by its own METIS call.
+// A spatial block of one level's active clusters: grouped by its own partition (group_clusters).
 struct Block {
   std::vector<uint32_t> items;                // indices into `active`, ascending
   std::vector<std::vector<uint32_t>> groups;  // members as cluster indices
@@ -592,7 +592,7 @@ void plan_blocks(BuildState& s, LevelState& L) {
   L.seconds_cross = steady_seconds() - t0;
 }
 
-// ---- 3c. block task: METIS grouping, then the locks and shared edges of the block ----
+// ---- 3c. block task: grouping (group_clusters), then the locks and shared edges of the block ----
 // (its own vertices only: cross-block ones are locked already, so tasks never race).
 void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
   Block& blk = L.blocks[b];
@@ -609,7 +609,7 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
     }
     const uint32_t target = s.internal.group_target_clusters ? s.internal.group_target_clusters
                                                              : default_group_target_clusters(s.options.simplifier);
-    blk.groups = group_clusters(sets, keys, bounds, target);
+    blk.groups = group_clusters(sets, keys, bounds, target, s.internal.group_method);
     for (auto& g : blk.groups)
       for (uint32_t& m : g) m = L.active[blk.items[m]];
   }

@@ -31,7 +31,8 @@ inline constexpr double kMinReduction = 0.15;
 // Target ratios of the retries of a group whose simplification broke its border or folded
 // (spec/dag.md §2.3): fewer collapses, each still below 1 - kMinReduction = 0.85.
 inline constexpr std::array<double, 2> kBorderRetryRatios = {0.65, 0.8};
-// Mean clusters per group asked from METIS. Chosen by `vgeo bench dagquality` (spec/dag.md,
+// Mean clusters per group asked from the partitioner (chosen with METIS k-way, kept for the
+// greedy partitioner that replaced it: same mean group weight). Chosen by `vgeo bench dagquality` (spec/dag.md,
 // "Group size and error budget"): 16 with kSimplifyErrorBudget draws 9–50% fewer triangles at equal
 // measured error than 8 on the spheres, bunny00, refined_elephant and mech-holes-shark
 // (fewer locked border edges per triangle), 12% more on armadillo at 1e-3 only.
@@ -52,14 +53,15 @@ inline constexpr float kSimplifyErrorBudget = 1.25f;
 // Weak spatial edges for islands: each cluster is linked to its nearest kSpatialNeighbors
 // clusters among kSpatialWindow neighbours on each side in Morton order, with weight 1
 // (a shared triangle edge weighs 1 too, and real neighbours share ~10-30 edges), so
-// they only decide where the mesh graph gives no preference: islands share no edge, so METIS
-// would group them arbitrarily, while strong spatial edges override the surface's own.
+// they only decide where the mesh graph gives no preference: islands share no edge, so the
+// partitioner would group them arbitrarily (or leave them alone), while strong spatial edges
+// override the surface's own.
 inline constexpr uint32_t kSpatialNeighbors = 2;
 inline constexpr uint32_t kSpatialWindow = 8;
 inline constexpr int kSpatialEdgeWeight = 1;
 // Levels with more active clusters than this are grouped in spatial blocks of at most this
-// many clusters, one METIS call each, so the (serialised) METIS calls overlap the
-// simplification of blocks already grouped. 4096 clusters = 512 groups per block: block
+// many clusters, one partition each, so the blocks' partitions run in parallel and overlap the
+// simplification of blocks already grouped. 4096 clusters = 256 groups per block: block
 // borders are a few percent of the group borders (they are group borders at that level).
 inline constexpr size_t kGroupBlockClusters = 4096;
 // Fixed METIS seed: METIS is randomised; a fixed seed makes the grouping reproducible.
@@ -153,13 +155,29 @@ std::vector<TriangleSet> split_meshopt(const WeldedMesh& welded, const TriangleS
 std::vector<TriangleSet> split_metis(const WeldedMesh& welded, const TriangleSet& tris,
                                      std::vector<uint32_t>& scratch);
 
+// How group_clusters partitions the cluster graph: kGreedy (the builder's; cluster_partition.cpp)
+// or METIS k-way (kept for measuring: quality at parity, ~9× the CPU; spec/dag.md §Grouping).
+enum class GroupMethod { kGreedy, kMetis };
+
 // Clusters → groups: returns, per group, its member indices into `clusters` (ascending).
-// Deterministic (fixed METIS seed, single call).
+// Deterministic (kGreedy: serial, ties broken by index; kMetis: fixed seed, single call).
 // `open_edges[i]`: sorted welded edge keys used once inside cluster i (count_cluster_edges).
 std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const TriangleSet*>& clusters,
                                                   const std::vector<std::vector<uint64_t>>& open_edges,
                                                   const std::vector<Sphere>& bounds,
-                                                  uint32_t target_clusters = kGroupTargetClusters);
+                                                  uint32_t target_clusters = kGroupTargetClusters,
+                                                  GroupMethod method = GroupMethod::kGreedy);
+
+// The cluster graph of a block: row c = [first[c], first[c + 1]) of (to, weight), neighbours
+// ascending, weight = shared welded edges (+ the weak spatial edges, kSpatialEdgeWeight).
+struct ClusterAdjacency {
+  std::vector<uint32_t> first, to, weight;
+};
+// Partitions the graph's nodes (node weight = triangles) into groups of about the weight of
+// 1 / part_count of the whole with few cut edges (cluster_partition.cpp): returns each node's
+// group, groups numbered in order of their lowest node. Deterministic.
+std::vector<uint32_t> partition_clusters(const ClusterAdjacency& graph, const std::vector<uint32_t>& weight,
+                                         size_t part_count);
 
 // Splits items (by their centres) into spatially compact blocks of at most max_items:
 // recursive median split along the largest extent, ties by index. Each block's indices are
@@ -180,6 +198,7 @@ struct InternalBuildOptions {
   SplitMethod group_split = SplitMethod::kGrow;
   uint32_t group_target_clusters = 0;  // 0: default_group_target_clusters(the simplifier)
   size_t group_block_clusters = kGroupBlockClusters;  // tests force small blocks
+  GroupMethod group_method = GroupMethod::kGreedy;
   double simplify_target_ratio = kSimplifyTargetRatio;
   // > 0: a group's simplification stops where meshopt's error estimate passes this × the
   // largest stored error of its members (0: no bound, the ratio alone decides).

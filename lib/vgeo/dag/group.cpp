@@ -1,9 +1,10 @@
-// Grouping clusters of one level with METIS (spec/dag.md §Grouping): graph nodes are
-// clusters (weight = triangles), edge weight = number of shared welded triangle edges,
-// plus weak spatial edges so islands are grouped with their neighbours.
+// Grouping clusters of one level (spec/dag.md §Grouping): the cluster graph — nodes are
+// clusters (weight = triangles), edge weight = number of shared welded triangle edges, plus
+// weak spatial edges so islands are grouped with their neighbours — partitioned by the greedy
+// partitioner (cluster_partition.cpp) or, for measuring, by METIS k-way.
 // Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"DAG: Which clusters to group?" (a
 // minimum edge cut locks the fewest edges); Karypis, Kumar, "A Fast and High Quality Multilevel
-// Scheme for Partitioning Irregular Graphs", SIAM J. Sci. Comput. 20(1), 1998 (METIS).
+// Scheme for Partitioning Irregular Graphs", SIAM J. Sci. Comput. 20(1), 1998 (METIS, GroupMethod::kMetis).
 #include <metis.h>
 
 #include <algorithm>
@@ -62,12 +63,6 @@ std::vector<OpenEdge> sorted_open_edges(const std::vector<std::vector<uint64_t>>
   }
   return edges;
 }
-
-// The cluster graph in METIS's CSR form: each node's neighbours ascending, weight = shared
-// welded edges, plus the weak spatial edges.
-struct ClusterGraph {
-  std::vector<idx_t> xadj, adjncy, adjwgt;
-};
 
 // Rows of (neighbour, weight) pairs: row a = [first[a], first[a + 1]).
 struct WeightedRows {
@@ -172,15 +167,15 @@ std::vector<WeightedEdge> spatial_edges(const WeightedRows& shared, const std::v
 
 // The shared-edge rows and the spatial edges merged row by row (weights of equal pairs
 // summed; none are equal, spatial edges join only non-adjacent clusters).
-ClusterGraph cluster_graph(const std::vector<std::vector<uint64_t>>& cluster_open_edges,
-                           const std::vector<Sphere>& bounds) {
+ClusterAdjacency cluster_graph(const std::vector<std::vector<uint64_t>>& cluster_open_edges,
+                               const std::vector<Sphere>& bounds) {
   const size_t n = cluster_open_edges.size();
   const WeightedRows shared = shared_edge_rows(cluster_open_edges);
   const std::vector<WeightedEdge> spatial = spatial_edges(shared, bounds);
-  ClusterGraph g;
-  g.xadj.assign(n + 1, 0);
-  g.adjncy.reserve(shared.to.size() + spatial.size());
-  g.adjwgt.reserve(shared.to.size() + spatial.size());
+  ClusterAdjacency g;
+  g.first.assign(n + 1, 0);
+  g.to.reserve(shared.to.size() + spatial.size());
+  g.weight.reserve(shared.to.size() + spatial.size());
   size_t s = 0;
   for (size_t a = 0; a < n; ++a) {
     size_t i = shared.first[a];
@@ -192,10 +187,10 @@ ClusterGraph cluster_graph(const std::vector<std::vector<uint64_t>>& cluster_ope
       int w = 0;
       if (take_shared) w += shared.weight[i++];
       if (take_spatial) w += spatial[s++].weight;
-      g.adjncy.push_back(idx_t(b));
-      g.adjwgt.push_back(idx_t(w));
+      g.to.push_back(b);
+      g.weight.push_back(uint32_t(w));
     }
-    g.xadj[a + 1] = idx_t(g.adjncy.size());
+    g.first[a + 1] = uint32_t(g.to.size());
   }
   return g;
 }
@@ -241,39 +236,60 @@ std::vector<std::vector<uint32_t>> spatial_blocks(const std::vector<Vec3>& centr
   return blocks;
 }
 
-std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const TriangleSet*>& clusters,
-                                                  const std::vector<std::vector<uint64_t>>& cluster_open_edges,
-                                                  const std::vector<Sphere>& bounds, uint32_t target_clusters) {
-  size_t n = clusters.size();
-  std::vector<std::vector<uint32_t>> groups;
-  if (n == 0) return groups;
-  size_t nparts = (n + target_clusters - 1) / target_clusters;
-  if (nparts <= 1) {  // METIS misbehaves for nparts = 1; the answer is known anyway
-    groups.emplace_back(n);
-    for (size_t i = 0; i < n; ++i) groups[0][i] = uint32_t(i);
-    return groups;
-  }
+namespace {
 
-  ClusterGraph graph = cluster_graph(cluster_open_edges, bounds);
-  std::vector<idx_t> vwgt(n);
-  for (size_t i = 0; i < n; ++i) vwgt[i] = idx_t(std::max<size_t>(1, clusters[i]->triangle_count()));
+// METIS k-way over the same graph (GroupMethod::kMetis): each node's group, or an empty
+// vector where METIS failed.
+std::vector<uint32_t> partition_clusters_metis(const ClusterAdjacency& graph, const std::vector<uint32_t>& weight,
+                                               size_t part_count) {
+  const size_t n = weight.size();
+  std::vector<idx_t> xadj(graph.first.begin(), graph.first.end()), adjncy(graph.to.begin(), graph.to.end()),
+      adjwgt(graph.weight.begin(), graph.weight.end()), vwgt(weight.begin(), weight.end());
   std::vector<idx_t> part(n, 0);
-  idx_t nvtxs = idx_t(n), ncon = 1, np = idx_t(nparts), objval = 0;
+  idx_t nvtxs = idx_t(n), ncon = 1, np = idx_t(part_count), objval = 0;
   idx_t options[METIS_NOPTIONS];
   set_metis_options(options);
   int rc;
   {
     std::lock_guard<std::mutex> lock(metis_mutex());
-    rc = METIS_PartGraphKway(&nvtxs, &ncon, graph.xadj.data(), graph.adjncy.data(), vwgt.data(), nullptr,
-                             graph.adjwgt.data(), &np,
+    rc = METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, adjwgt.data(), &np,
                              nullptr, nullptr, options, &objval, part.data());
   }
-  groups.assign(nparts, {});
-  if (rc == METIS_OK) {
-    for (size_t i = 0; i < n; ++i) groups[size_t(part[i]) < nparts ? size_t(part[i]) : 0].push_back(uint32_t(i));
-  } else {
-    // Fallback (METIS failed, e.g. out of memory): consecutive runs in Morton-free index order.
-    for (size_t i = 0; i < n; ++i) groups[i / target_clusters].push_back(uint32_t(i));
+  if (rc != METIS_OK) return {};
+  std::vector<uint32_t> out(n);
+  for (size_t i = 0; i < n; ++i) out[i] = size_t(part[i]) < part_count ? uint32_t(part[i]) : 0;
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const TriangleSet*>& clusters,
+                                                  const std::vector<std::vector<uint64_t>>& cluster_open_edges,
+                                                  const std::vector<Sphere>& bounds, uint32_t target_clusters,
+                                                  GroupMethod method) {
+  size_t n = clusters.size();
+  std::vector<std::vector<uint32_t>> groups;
+  if (n == 0) return groups;
+  size_t nparts = (n + target_clusters - 1) / target_clusters;
+  if (nparts <= 1) {  // one group: the answer is known (and METIS misbehaves for nparts = 1)
+    groups.emplace_back(n);
+    for (size_t i = 0; i < n; ++i) groups[0][i] = uint32_t(i);
+    return groups;
+  }
+
+  const ClusterAdjacency graph = cluster_graph(cluster_open_edges, bounds);
+  std::vector<uint32_t> weight(n);
+  for (size_t i = 0; i < n; ++i) weight[i] = uint32_t(std::max<size_t>(1, clusters[i]->triangle_count()));
+  std::vector<uint32_t> part = method == GroupMethod::kMetis ? partition_clusters_metis(graph, weight, nparts)
+                                                             : partition_clusters(graph, weight, nparts);
+  if (part.empty()) {
+    // Fallback (METIS failed, e.g. out of memory): consecutive runs in index order.
+    part.resize(n);
+    for (size_t i = 0; i < n; ++i) part[i] = uint32_t(i / target_clusters);
+  }
+  for (size_t i = 0; i < n; ++i) {
+    if (part[i] >= groups.size()) groups.resize(part[i] + 1);
+    groups[part[i]].push_back(uint32_t(i));
   }
   groups.erase(std::remove_if(groups.begin(), groups.end(), [](const auto& g) { return g.empty(); }), groups.end());
   return groups;
