@@ -142,6 +142,9 @@ std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const Tri
 // Returns the welded ids per local id; `local_corner` gets 3 local ids per triangle.
 std::vector<uint32_t> compact_welded(const WeldedMesh& welded, const TriangleSet& tris,
                                      std::vector<uint32_t>& scratch, std::vector<uint32_t>& local_corner);
+// Appends one cluster of triangles `ids` (indices into tris), as they are: the caller knows
+// it holds ≤ kMaxClusterTriangles triangles and ≤ kMaxClusterVertices original vertices.
+void append_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<TriangleSet>& out);
 // Appends the clusters holding triangles `ids` (indices into tris), bisecting in order
 // until the original-vertex limit holds (attribute seams can push a welded cluster of
 // ≤ 255 positions over 255 vertices).

@@ -31,20 +31,30 @@ std::vector<uint32_t> compact_welded(const WeldedMesh& welded, const TriangleSet
   return welded_of_local;
 }
 
+void append_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<TriangleSet>& out) {
+  TriangleSet c;
+  c.corners.resize(3 * count);
+  c.materials.resize(count);
+  for (size_t i = 0; i < count; ++i) {
+    const uint32_t* corners = &tris.corners[3 * size_t(ids[i])];
+    c.corners[3 * i] = corners[0], c.corners[3 * i + 1] = corners[1], c.corners[3 * i + 2] = corners[2];
+    c.materials[i] = tris.materials[ids[i]];
+  }
+  out.push_back(std::move(c));
+}
+
 void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<uint32_t>& scratch,
                   std::vector<TriangleSet>& out) {
+  // Distinct vertices marked in scratch, then unmarked by a second pass over the corners
+  // (no list of the marked ones to allocate: this ran once per cluster).
   uint32_t unique = 0;
-  std::vector<uint32_t> touched;
   for (size_t i = 0; i < count; ++i)
     for (int k = 0; k < 3; ++k) {
-      uint32_t v = tris.corners[3 * ids[i] + k];
-      if (scratch[v] == kNone) {
-        scratch[v] = 0;
-        touched.push_back(v);
-        ++unique;
-      }
+      uint32_t& mark = scratch[tris.corners[3 * size_t(ids[i]) + k]];
+      if (mark == kNone) mark = 0, ++unique;
     }
-  for (uint32_t v : touched) scratch[v] = kNone;
+  for (size_t i = 0; i < count; ++i)
+    for (int k = 0; k < 3; ++k) scratch[tris.corners[3 * size_t(ids[i]) + k]] = kNone;
   if (count > kMaxClusterTriangles || unique > kMaxClusterVertices) {
     assert(count > 1);
     size_t half = count / 2;
@@ -52,14 +62,7 @@ void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, st
     emit_cluster(tris, ids + half, count - half, scratch, out);
     return;
   }
-  TriangleSet c;
-  c.corners.reserve(3 * count);
-  c.materials.reserve(count);
-  for (size_t i = 0; i < count; ++i) {
-    c.corners.insert(c.corners.end(), &tris.corners[3 * ids[i]], &tris.corners[3 * ids[i]] + 3);
-    c.materials.push_back(tris.materials[ids[i]]);
-  }
-  out.push_back(std::move(c));
+  append_cluster(tris, ids, count, out);
 }
 
 namespace {
