@@ -84,14 +84,21 @@ void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, u
   }
   std::fill(table, table + slots, kEmpty);
   size_t all = 0;
-  for_each_welded_edge(welded, cluster.corners, [&](uint32_t a, uint32_t b) {
-    if (a == b) return;
-    const uint64_t key = edge_key(a, b);
-    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
-    while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
-    if (table[h] == kEmpty) table[h] = key, uses[h] = 0, filled[all++] = uint32_t(h);
-    ++uses[h];
-  });
+  const uint32_t* weld = welded.weld.data();
+  const uint32_t* corners = cluster.corners.data();
+  for (size_t t = 0; t < n; ++t) {
+    // Each corner's welded id read once (for_each_welded_edge reads each twice).
+    const uint32_t w[3] = {weld[corners[3 * t]], weld[corners[3 * t + 1]], weld[corners[3 * t + 2]]};
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = w[k], b = w[k == 2 ? 0 : k + 1];
+      if (a == b) continue;
+      const uint64_t key = edge_key(a, b);
+      size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+      while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
+      if (table[h] == kEmpty) table[h] = key, uses[h] = 0, filled[all++] = uint32_t(h);
+      ++uses[h];
+    }
+  }
   uint64_t open = 0;
   const size_t first_open = open_keys ? open_keys->size() : 0;
   for (size_t i = 0; i < all; ++i)
