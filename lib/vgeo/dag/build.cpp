@@ -296,13 +296,20 @@ std::vector<uint64_t> build_detail::lock_cross_block_vertices(const WeldedMesh& 
   std::vector<std::vector<uint64_t>> per_cluster(clusters.size());
   pool.parallel_for(clusters.size(), [&](size_t i) {
     const TriangleSet& t = *clusters[i];
-    for (uint32_t v : t.corners) {
-      std::atomic_ref<uint32_t> claim(owner[welded.weld[v]]);
-      if (claim.load(std::memory_order_relaxed) != kNone) claim.store(kNone, std::memory_order_relaxed);
+    // One pass over the corners: the claims reset, and for_each_welded_edge's edges with both
+    // ends locked (each corner's weld and lock read once).
+    for (size_t c = 0; c + 3 <= t.corners.size(); c += 3) {
+      const uint32_t w[3] = {welded.weld[t.corners[c]], welded.weld[t.corners[c + 1]], welded.weld[t.corners[c + 2]]};
+      for (uint32_t x : w) {
+        std::atomic_ref<uint32_t> claim(owner[x]);
+        if (claim.load(std::memory_order_relaxed) != kNone) claim.store(kNone, std::memory_order_relaxed);
+      }
+      const bool l[3] = {locked[w[0]] != 0, locked[w[1]] != 0, locked[w[2]] != 0};
+      for (int k = 0; k < 3; ++k) {
+        const int next = k == 2 ? 0 : k + 1;
+        if (l[k] && l[next] && w[k] != w[next]) per_cluster[i].push_back(edge_key(w[k], w[next]));
+      }
     }
-    for_each_welded_edge(welded, t.corners, [&](uint32_t a, uint32_t b) {
-      if (a != b && locked[a] && locked[b]) per_cluster[i].push_back(edge_key(a, b));
-    });
   });
   // (edge, block) pairs; an edge used by two blocks is shared.
   std::vector<std::pair<uint64_t, uint32_t>> candidates;

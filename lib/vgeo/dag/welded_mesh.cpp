@@ -95,18 +95,29 @@ void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, u
       const uint64_t key = edge_key(a, b);
       size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
       while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
-      if (table[h] == kEmpty) table[h] = key, uses[h] = 0, filled[all++] = uint32_t(h);
-      ++uses[h];
+      // A first use or a second one, about evenly mixed: written without a branch on which.
+      const bool first_use = table[h] == kEmpty;
+      table[h] = key;
+      uses[h] = first_use ? 1 : uses[h] + 1;
+      filled[all] = uint32_t(h);
+      all += first_use;
     }
   }
   uint64_t open = 0;
-  const size_t first_open = open_keys ? open_keys->size() : 0;
-  for (size_t i = 0; i < all; ++i)
-    if (uses[filled[i]] == 1) {
-      ++open;
-      if (open_keys) open_keys->push_back(table[filled[i]]);
+  for (size_t i = 0; i < all; ++i) open += uses[filled[i]] == 1;
+  if (open_keys) {
+    // Sized once (the list grew by doubling, several allocations per cluster).
+    // One slot more: every key is written, and the last ones (not open) land past the list.
+    const size_t first_open = open_keys->size();
+    open_keys->resize(first_open + open + 1);
+    uint64_t* out = open_keys->data() + first_open;
+    for (size_t i = 0; i < all; ++i) {
+      *out = table[filled[i]];
+      out += uses[filled[i]] == 1;
     }
-  if (open_keys) std::sort(open_keys->begin() + ptrdiff_t(first_open), open_keys->end());
+    open_keys->pop_back();
+    std::sort(open_keys->begin() + ptrdiff_t(first_open), open_keys->end());
+  }
   *open_edges = open;
   *all_edges = all;
 }
