@@ -43,24 +43,6 @@ inline uint32_t spread_bits(uint32_t x) {
   return x;
 }
 
-// Per triangle, what a grower step reads together (one 32-byte record, two per cache line,
-// instead of five arrays: the candidate filing touched a line of each per triangle).
-struct TriangleRecord {
-  uint32_t v[3];      // local vertex ids
-  float c[3];         // centroid
-  uint32_t slot;      // index in its bucket
-  uint8_t bucket;     // its bucket, or kNoBucket
-  uint8_t clustered;  // 1 once in a cluster
-};
-static_assert(sizeof(TriangleRecord) == 32);
-constexpr uint8_t kNoBucket = 0xFF;
-
-// Per local vertex: its unclustered triangles (adjacency[first, first + live)), and which
-// cluster uses it (stamp) at which rank (joined).
-struct VertexRecord {
-  uint32_t first, live, stamp, joined;
-};
-
 // Triangle centroids in a bounding-box tree whose nodes keep their smallest unclustered
 // triangle (none: the region is clustered, and the nearest search skips it). Built on first use (connected meshes rarely need
 // it) in linear time: the centroids sorted along a Morton curve (radix sort), cut into leaves
@@ -78,18 +60,18 @@ struct CentroidTree {
   std::vector<Node> nodes;
   // Along the curve (leaf j holds [16j, 16j + 16)): the triangle ids, their centroids, and
   // whether each is still unclustered, so a leaf's scan reads three short runs of memory, not
-  // the triangles' records at random.
+  // the triangles' arrays at random.
   std::vector<uint32_t> order;
   std::vector<float> curve_centroid;  // 3 per entry of order
   std::vector<uint8_t> unclustered;   // 1 per entry of order
   std::vector<uint32_t> place;        // per triangle: its index in order (kNone: not in the tree)
   uint32_t leaf_base = 0;             // node index of leaf 0
-  const TriangleRecord* tris = nullptr;
+  const float* centroids = nullptr;
 
-  bool built() const { return tris != nullptr; }
-  void build(const TriangleRecord* t, size_t n) {
-    tris = t;
-    sort_along_curve(n);
+  bool built() const { return centroids != nullptr; }
+  void build(const float* c, size_t n, const std::vector<uint8_t>& clustered) {
+    centroids = c;
+    sort_along_curve(n, clustered);
     const uint32_t m = uint32_t(order.size());
     const uint32_t leaves = (m + kKdLeafSize - 1) / kKdLeafSize;
     uint32_t padded = 1;
@@ -103,7 +85,7 @@ struct CentroidTree {
       Node& leaf = nodes[leaf_base + j];
       const uint32_t end = std::min(m, (j + 1) * kKdLeafSize);
       for (uint32_t i = j * kKdLeafSize; i < end; ++i) {
-        const float* p = tris[order[i]].c;
+        const float* p = &centroids[3 * size_t(order[i])];
         for (int k = 0; k < 3; ++k) {
           leaf.lo[k] = std::min(leaf.lo[k], p[k]), leaf.hi[k] = std::max(leaf.hi[k], p[k]);
           curve_centroid[3 * size_t(i) + k] = p[k];
@@ -121,11 +103,12 @@ struct CentroidTree {
   }
   // `order` = the unclustered triangles sorted by the Morton code of their centroid in the
   // centroids' bounding box (ties by id: the passes are stable and start in id order).
-  void sort_along_curve(size_t n) {
+  void sort_along_curve(size_t n, const std::vector<uint8_t>& clustered) {
     float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
     for (size_t t = 0; t < n; ++t)
-      if (!tris[t].clustered)
-        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], tris[t].c[k]), hi[k] = std::max(hi[k], tris[t].c[k]);
+      if (!clustered[t])
+        for (int k = 0; k < 3; ++k)
+          lo[k] = std::min(lo[k], centroids[3 * t + k]), hi[k] = std::max(hi[k], centroids[3 * t + k]);
     // In double: a float scale over a denormal extent would overflow (0 · inf = NaN).
     constexpr double kCells = double(1u << kMortonBitsPerAxis);
     double scale[3];
@@ -133,10 +116,10 @@ struct CentroidTree {
     std::vector<uint64_t> keys, sorted;  // code << 32 | id
     keys.reserve(n);
     for (size_t t = 0; t < n; ++t) {
-      if (tris[t].clustered) continue;
+      if (clustered[t]) continue;
       uint32_t code = 0;
       for (int k = 0; k < 3; ++k) {
-        const double q = (double(tris[t].c[k]) - double(lo[k])) * scale[k];
+        const double q = (double(centroids[3 * t + k]) - double(lo[k])) * scale[k];
         code |= spread_bits(uint32_t(std::clamp(q, 0.0, kCells - 1))) << k;
       }
       keys.push_back((uint64_t(code) << 32) | t);
@@ -232,21 +215,25 @@ struct BucketEntry {
 // where it is the last unclustered triangle (0..4).
 constexpr uint32_t kPriorityBuckets = 5;
 
-// The grower's state over one split: the triangles in local (compacted welded) ids with their
+// The grower's state over one split: the triangles in local (compacted welded) ids, their
 // centroids, each vertex's unclustered triangles, and the cluster being grown with its
 // candidates (the unclustered triangles at its vertices) bucketed by priority.
 struct Grower {
   Grower(const TriangleSet& t, std::vector<uint32_t>& s) : tris(t), scratch(s), n(t.triangle_count()) {}
   const TriangleSet& tris;
   std::vector<uint32_t>& scratch;
-  size_t n;                           // triangles
-  std::vector<uint32_t> local;        // 3 local vertex ids per triangle (compact_welded's output)
-  std::vector<TriangleRecord> tri;    // per triangle
-  std::vector<VertexRecord> vert;     // per local vertex
+  size_t n;                      // triangles
+  std::vector<uint32_t> local;   // 3 local vertex ids per triangle
+  std::vector<float> centroid;   // 3 per triangle
   // Unclustered triangles per vertex (CSR; a triangle leaves its vertices' lists when clustered).
-  std::vector<uint32_t> adjacency;
+  std::vector<uint32_t> first, live, adjacency;
   CentroidTree tree;
+  std::vector<uint8_t> clustered;
+  std::vector<uint32_t> in_cluster;  // stamp: index of the cluster using the vertex
+  std::vector<uint32_t> joined;      // per vertex: its rank in the cluster using it
   std::vector<BucketEntry> buckets[kPriorityBuckets];
+  std::vector<uint8_t> bucket_of;    // per triangle: its bucket, or kNoBucket
+  std::vector<uint32_t> slot_of;     // per triangle: its index in that bucket
   std::vector<uint32_t> ids;  // the cluster's triangles in order of addition
   std::vector<TriangleSet> out;
   uint32_t stamp = 0, cluster_vertices = 0;
@@ -255,25 +242,29 @@ struct Grower {
   // original vertices are its positions (cluster_vertices), and it is emitted without a count.
   bool seams = false;
 };
+constexpr uint8_t kNoBucket = 0xFF;
 
 // Local ids, centroids and the vertex → triangle lists of `g.tris`.
 void index_triangles(Grower& g, const WeldedMesh& welded) {
-  const float* P = welded.mesh->positions.data();
+  const Mesh& mesh = *welded.mesh;
   const size_t n = g.n;
   const std::vector<uint32_t> welded_of_local = compact_welded(welded, g.tris, g.scratch, g.local);
   const size_t vcount = welded_of_local.size();
-  g.tri.resize(n);
-  g.vert.assign(vcount, VertexRecord{0, 0, kNone, 0});
-  for (size_t t = 0; t < n; ++t) {
-    TriangleRecord& r = g.tri[t];
-    for (int k = 0; k < 3; ++k) r.v[k] = g.local[3 * t + k];
-    const float *a = &P[3 * size_t(welded_of_local[r.v[0]])], *b = &P[3 * size_t(welded_of_local[r.v[1]])],
-                *c = &P[3 * size_t(welded_of_local[r.v[2]])];
-    for (int k = 0; k < 3; ++k) r.c[k] = (a[k] + b[k] + c[k]) / 3.0f;
-    r.slot = 0;
-    r.bucket = kNoBucket;
-    r.clustered = 0;
-    for (int k = 0; k < 3; ++k) ++g.vert[r.v[k]].live;
+  g.centroid.resize(3 * n);
+  for (size_t t = 0; t < n; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const size_t a = welded_of_local[g.local[3 * t]], b = welded_of_local[g.local[3 * t + 1]],
+                   c = welded_of_local[g.local[3 * t + 2]];
+      g.centroid[3 * t + k] = (mesh.positions[3 * a + k] + mesh.positions[3 * b + k] + mesh.positions[3 * c + k]) / 3.0f;
+    }
+  g.first.assign(vcount + 1, 0);
+  g.live.assign(vcount, 0);
+  g.adjacency.resize(3 * n);
+  for (uint32_t v : g.local) ++g.live[v];
+  for (size_t v = 0; v < vcount; ++v) g.first[v + 1] = g.first[v] + g.live[v];
+  {
+    std::vector<uint32_t> fill(g.first.begin(), g.first.end() - 1);
+    for (size_t i = 0; i < g.local.size(); ++i) g.adjacency[fill[g.local[i]]++] = uint32_t(i / 3);
   }
   {
     std::vector<uint32_t> original(vcount, kNone);  // per local vertex: the first original vertex at it
@@ -283,45 +274,46 @@ void index_triangles(Grower& g, const WeldedMesh& welded) {
       else g.seams = o != g.tris.corners[i];
     }
   }
-  uint32_t first = 0;
-  for (VertexRecord& v : g.vert) v.first = first, first += v.live, v.joined = v.first;  // joined: fill cursor
-  g.adjacency.resize(3 * n);
-  for (size_t i = 0; i < g.local.size(); ++i) g.adjacency[g.vert[g.local[i]].joined++] = uint32_t(i / 3);
+  g.clustered.assign(n, 0);
+  g.in_cluster.assign(vcount, kNone);
+  g.joined.resize(vcount);
+  g.bucket_of.assign(n, kNoBucket);
+  g.slot_of.resize(n);
 }
 
 uint32_t new_vertices(const Grower& g, uint32_t t) {
-  const uint32_t* c = g.tri[t].v;
-  return uint32_t(g.vert[c[0]].stamp != g.stamp) + (g.vert[c[1]].stamp != g.stamp) + (g.vert[c[2]].stamp != g.stamp);
+  const uint32_t* c = &g.local[3 * size_t(t)];
+  return uint32_t(g.in_cluster[c[0]] != g.stamp) + (g.in_cluster[c[1]] != g.stamp) + (g.in_cluster[c[2]] != g.stamp);
 }
 
 uint32_t priority_of(const Grower& g, uint32_t t) {
   const uint32_t extra = new_vertices(g, t);
   if (extra == 0) return 0u;
-  const uint32_t* c = g.tri[t].v;
-  const bool dangling = g.vert[c[0]].live == 1 || g.vert[c[1]].live == 1 || g.vert[c[2]].live == 1;
+  const uint32_t* c = &g.local[3 * size_t(t)];
+  const bool dangling = g.live[c[0]] == 1 || g.live[c[1]] == 1 || g.live[c[2]] == 1;
   return 1 + (dangling ? 0 : extra);
 }
 
 void leave_bucket(Grower& g, uint32_t t) {
-  TriangleRecord& r = g.tri[t];
-  if (r.bucket == kNoBucket) return;
-  std::vector<BucketEntry>& bucket = g.buckets[r.bucket];
-  const uint32_t slot = r.slot;
+  const uint8_t b = g.bucket_of[t];
+  if (b == kNoBucket) return;
+  std::vector<BucketEntry>& bucket = g.buckets[b];
+  const uint32_t slot = g.slot_of[t];
   bucket[slot] = bucket.back();
-  g.tri[bucket[slot].triangle].slot = slot;
+  g.slot_of[bucket[slot].triangle] = slot;
   bucket.pop_back();
-  r.bucket = kNoBucket;
+  g.bucket_of[t] = kNoBucket;
 }
 
 // (Re)files candidate t under its current priority.
 void file_candidate(Grower& g, uint32_t t) {
   const uint32_t p = priority_of(g, t);
-  TriangleRecord& r = g.tri[t];
-  if (r.bucket == p) return;
+  if (g.bucket_of[t] == p) return;
   leave_bucket(g, t);
-  r.bucket = uint8_t(p);
-  r.slot = uint32_t(g.buckets[p].size());
-  g.buckets[p].push_back({r.c[0], r.c[1], r.c[2], t});
+  g.bucket_of[t] = uint8_t(p);
+  g.slot_of[t] = uint32_t(g.buckets[p].size());
+  const float* c = &g.centroid[3 * size_t(t)];
+  g.buckets[p].push_back({c[0], c[1], c[2], t});
 }
 
 // The grown cluster emitted; the next one starts empty.
@@ -336,7 +328,7 @@ void finish_cluster(Grower& g) {
   }
   g.ids.clear();
   for (std::vector<BucketEntry>& bucket : g.buckets) {
-    for (const BucketEntry& e : bucket) g.tri[e.triangle].bucket = kNoBucket;
+    for (const BucketEntry& e : bucket) g.bucket_of[e.triangle] = kNoBucket;
     bucket.clear();
   }
   ++g.stamp;
@@ -348,32 +340,35 @@ void finish_cluster(Grower& g) {
 // at its new vertices become candidates, and those whose priority changed (a vertex joined,
 // or one of theirs now has a single unclustered triangle) are refiled.
 void add_triangle(Grower& g, uint32_t t) {
-  TriangleRecord& r = g.tri[t];
-  r.clustered = 1;
+  g.clustered[t] = 1;
   g.tree.remove(t);
   leave_bucket(g, t);
   g.ids.push_back(t);
-  for (int k = 0; k < 3; ++k) g.sum[k] += r.c[k];
-  const uint32_t c[3] = {r.v[0], r.v[1], r.v[2]};
+  for (int k = 0; k < 3; ++k) g.sum[k] += g.centroid[3 * size_t(t) + k];
+  const uint32_t* c = &g.local[3 * size_t(t)];
   for (int k = 0; k < 3; ++k) {
-    VertexRecord& v = g.vert[c[k]];
-    uint32_t* list = &g.adjacency[v.first];
-    for (uint32_t i = 0; i < v.live; ++i)
+    const uint32_t v = c[k];
+    uint32_t* list = &g.adjacency[g.first[v]];
+    for (uint32_t i = 0; i < g.live[v]; ++i)
       if (list[i] == t) {
-        list[i] = list[--v.live];
+        list[i] = list[--g.live[v]];
         break;
       }
   }
   for (int k = 0; k < 3; ++k) {
-    VertexRecord& v = g.vert[c[k]];
-    const uint32_t* list = &g.adjacency[v.first];
-    if (v.stamp != g.stamp) {
-      v.stamp = g.stamp;
-      v.joined = g.cluster_vertices++;
-      for (uint32_t i = 0; i < v.live; ++i) file_candidate(g, list[i]);
-    } else if (v.live == 1) {
-      file_candidate(g, list[0]);  // now the last triangle at v: dangling
+    const uint32_t v = c[k];
+    const uint32_t* list = &g.adjacency[g.first[v]];
+    // A new vertex refiles all its triangles; an old one its last triangle, now dangling.
+    // (One call site: the compiler inlines file_candidate, the grower's most frequent step.)
+    uint32_t refile = 0;
+    if (g.in_cluster[v] != g.stamp) {
+      g.in_cluster[v] = g.stamp;
+      g.joined[v] = g.cluster_vertices++;
+      refile = g.live[v];
+    } else if (g.live[v] == 1) {
+      refile = 1;
     }
+    for (uint32_t i = 0; i < refile; ++i) file_candidate(g, list[i]);
   }
 }
 
@@ -382,10 +377,10 @@ void add_triangle(Grower& g, uint32_t t) {
 // meets scanning the cluster's vertices in order, so this is its order up to the order of a
 // vertex's triangles.
 uint32_t earliest_vertex(const Grower& g, uint32_t t) {
-  const uint32_t* c = g.tri[t].v;
+  const uint32_t* c = &g.local[3 * size_t(t)];
   uint32_t r = UINT32_MAX;
   for (int k = 0; k < 3; ++k)
-    if (g.vert[c[k]].stamp == g.stamp) r = std::min(r, g.vert[c[k]].joined);
+    if (g.in_cluster[c[k]] == g.stamp) r = std::min(r, g.joined[c[k]]);
   return r;
 }
 bool breaks_tie(const Grower& g, uint32_t t, uint32_t best) {
@@ -418,14 +413,14 @@ uint32_t nearest_to_cluster(Grower& g) {
   float c[3];
   for (int k = 0; k < 3; ++k) c[k] = g.sum[k] / float(g.ids.size());
   if (g.n > kNearestScanMaxTriangles) {
-    if (!g.tree.built()) g.tree.build(g.tri.data(), g.n);
+    if (!g.tree.built()) g.tree.build(g.centroid.data(), g.n, g.clustered);
     return g.tree.nearest(c);
   }
   uint32_t best = kNone;
   float best_d2 = FLT_MAX;
   for (uint32_t t = 0; t < g.n; ++t) {
-    if (g.tri[t].clustered) continue;
-    const float d2 = squared_distance(g.tri[t].c, c);
+    if (g.clustered[t]) continue;
+    const float d2 = squared_distance(&g.centroid[3 * size_t(t)], c);
     if (d2 < best_d2) best = t, best_d2 = d2;
   }
   return best;
@@ -438,7 +433,7 @@ uint32_t first_seed(const Grower& g) {
   uint32_t next = 0;
   float best_d2 = FLT_MAX;
   for (uint32_t t = 0; t < g.n; ++t) {
-    const float d2 = squared_distance(g.tri[t].c, origin);
+    const float d2 = squared_distance(&g.centroid[3 * size_t(t)], origin);
     if (d2 < best_d2) next = t, best_d2 = d2;
   }
   return next;
