@@ -89,7 +89,10 @@ Aabb indexed_bounds(const Mesh& mesh, ThreadPool& pool) {
   return box;
 }
 
-std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPool& pool) {
+// `degenerate` (per mesh triangle) is cut the same way into `chunk_degenerate`.
+std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPool& pool,
+                                     const std::vector<uint8_t>& degenerate,
+                                     std::vector<std::vector<uint8_t>>& chunk_degenerate) {
   size_t n = mesh.triangle_count();
   std::vector<TriangleSet> chunks;
   if (n <= kLeafChunkTriangles) {
@@ -98,6 +101,7 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
     all.materials.resize(n);
     for (size_t t = 0; t < n; ++t) all.materials[t] = mesh.material(t);
     chunks.push_back(std::move(all));
+    chunk_degenerate = {degenerate};
     return chunks;
   }
   constexpr uint32_t kCells = 16;  // per axis: 4096 cells, ≥ 2 chunks' worth each on 10M+
@@ -148,14 +152,17 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
     }
   if (begin < n) ranges.push_back({begin, n});
   chunks.resize(ranges.size());
+  chunk_degenerate.resize(ranges.size());
   pool.parallel_for(ranges.size(), [&](size_t k) {
     TriangleSet& chunk = chunks[k];
     chunk.corners.reserve(3 * (ranges[k].second - ranges[k].first));
     chunk.materials.reserve(ranges[k].second - ranges[k].first);
+    chunk_degenerate[k].reserve(ranges[k].second - ranges[k].first);
     for (size_t i = ranges[k].first; i < ranges[k].second; ++i) {
       uint32_t t = order[i];
       chunk.corners.insert(chunk.corners.end(), &mesh.indices[3 * size_t(t)], &mesh.indices[3 * size_t(t)] + 3);
       chunk.materials.push_back(mesh.material(t));
+      chunk_degenerate[k].push_back(degenerate[t]);
     }
   });
   return chunks;
@@ -367,6 +374,7 @@ struct BuildState {
   ScratchPool scratch;
   LockState locks;
   FinSet fins;  // left out of every simplifier input (find_fins)
+  std::vector<uint8_t> leaf_degenerate;  // is_degenerate per mesh triangle (find_fins; freed after the leaves)
   std::vector<WorkCluster> clusters;
   std::vector<WorkGroup> groups;
   LeafSurface leaf_surface;  // the original surface the stored errors are measured against
@@ -544,7 +552,7 @@ void prepare(BuildState& s) {
   s.locks.owner.assign(vertex_count, kNone);
   s.locks.locked.assign(vertex_count, 0);
   pin_seam_vertices(s);
-  s.fins = find_fins(s.welded, s.pool);
+  s.fins = find_fins(s.welded, s.pool, &s.leaf_degenerate);
   s.report.seconds_prepare = steady_seconds() - t0;
 }
 
@@ -554,13 +562,17 @@ void build_leaves(BuildState& s) {
   // Large meshes are cut into spatially coherent chunks (cells of a 16^3 grid in Morton
   // order, consecutive cells merged up to kLeafChunkTriangles) clustered in parallel.
   // The chunking depends only on the mesh, so the output does not depend on threads.
-  std::vector<TriangleSet> chunks = leaf_chunks(s.mesh, s.mesh_box, s.pool);
+  std::vector<std::vector<uint8_t>> chunk_degenerate;
+  std::vector<TriangleSet> chunks = leaf_chunks(s.mesh, s.mesh_box, s.pool, s.leaf_degenerate, chunk_degenerate);
+  s.leaf_degenerate = {};
   std::vector<std::vector<TriangleSet>> chunk_leaves(chunks.size());
   s.pool.parallel_for(chunks.size(), [&](size_t i) {
     std::vector<uint32_t> scratch = s.scratch.take();
-    chunk_leaves[i] = split_into_clusters(s.welded, chunks[i], scratch, s.internal.leaf_split);
+    chunk_leaves[i] =
+        split_into_clusters(s.welded, chunks[i], scratch, s.internal.leaf_split, chunk_degenerate[i].data());
     s.scratch.give(std::move(scratch));
     chunks[i] = TriangleSet();
+    chunk_degenerate[i] = {};
   });
   std::vector<TriangleSet> leaves;
   for (auto& cl : chunk_leaves)

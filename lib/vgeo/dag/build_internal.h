@@ -124,17 +124,21 @@ using FinSet = std::vector<std::array<uint32_t, 3>>;
 // Triangles per task of the fin scan: large enough that task overhead is noise (the test per
 // triangle is a few ns), small enough to balance two threads on a 1M mesh.
 inline constexpr size_t kFinScanTriangles = size_t(1) << 16;
-FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool);
+// With `degenerate`, it also gets is_degenerate of every mesh triangle (the scan computes it),
+// so the leaf split need not compute it again (split_into_clusters' `degenerate`).
+FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool, std::vector<uint8_t>* degenerate = nullptr);
 
 // Splits triangles into clusters of ≤ kMaxClusterTriangles triangles and
 // ≤ kMaxClusterVertices original vertices. Deterministic. `scratch` must have
 // weld.size() entries, all kNone, and is returned in that state. kGrow: the own greedy grower
 // (the default; meshopt_buildMeshlets 0.18's rule, cluster_grow.cpp); kMeshopt:
 // meshopt_buildMeshlets itself; kMetis: recursive bisection (both kept for measurement).
+// `degenerate`, when given: is_degenerate of each triangle of `tris`, known already.
 enum class SplitMethod : uint8_t { kMeshopt = 0, kMetis = 1, kGrow = 2 };
 std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const TriangleSet& tris,
                                              std::vector<uint32_t>& scratch,
-                                             SplitMethod method = SplitMethod::kGrow);
+                                             SplitMethod method = SplitMethod::kGrow,
+                                             const uint8_t* degenerate = nullptr);
 
 // The splitters' shared steps (cluster_split.cpp), the grower (cluster_grow.cpp) and the two
 // kept for measurement (cluster_split_alternatives.cpp), which split_into_clusters calls.

@@ -264,7 +264,8 @@ std::vector<TriangleSet> attach_degenerate(const WeldedMesh& welded, const Trian
 }  // namespace
 
 std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const TriangleSet& tris,
-                                             std::vector<uint32_t>& scratch, SplitMethod method) {
+                                             std::vector<uint32_t>& scratch, SplitMethod method,
+                                             const uint8_t* known_degenerate) {
   const size_t n = tris.triangle_count();
   if (n == 0) return {};
   // Degenerate triangles are left out of the clusterizer and attached afterwards: meshopt
@@ -272,7 +273,8 @@ std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const Tri
   // border (spec/dag.md §2.2).
   std::vector<uint32_t> degenerate;
   for (size_t t = 0; t < n; ++t)
-    if (is_degenerate(welded, &tris.corners[3 * t])) degenerate.push_back(uint32_t(t));
+    if (known_degenerate ? known_degenerate[t] != 0 : is_degenerate(welded, &tris.corners[3 * t]))
+      degenerate.push_back(uint32_t(t));
   if (degenerate.empty() || degenerate.size() == n) return split_proper(welded, tris, scratch, method);
   TriangleSet proper;
   proper.corners.reserve(3 * (n - degenerate.size()));

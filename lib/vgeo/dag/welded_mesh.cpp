@@ -145,9 +145,10 @@ bool is_degenerate(const WeldedMesh& welded, const uint32_t* corners) {
   return n2 < kDegenerateRelativeHeight * kDegenerateRelativeHeight * longest2 * longest2;
 }
 
-FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool) {
+FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool, std::vector<uint8_t>* degenerate) {
   const Mesh& mesh = *welded.mesh;
   const size_t n = mesh.triangle_count();
+  if (degenerate) degenerate->assign(n, 1);
   // Collinear slivers on three distinct positions, per task in triangle order (deterministic).
   const size_t tasks = (n + kFinScanTriangles - 1) / kFinScanTriangles;
   std::vector<std::vector<uint32_t>> found(tasks);
@@ -155,7 +156,10 @@ FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool) {
     for (size_t t = k * kFinScanTriangles; t < std::min(n, (k + 1) * kFinScanTriangles); ++t) {
       const uint32_t* c = &mesh.indices[3 * t];
       const uint32_t a = welded.weld[c[0]], b = welded.weld[c[1]], d = welded.weld[c[2]];
-      if (a != b && b != d && d != a && is_degenerate(welded, c)) found[k].push_back(uint32_t(t));
+      if (a == b || b == d || d == a) continue;  // degenerate (the flag's default), not a sliver
+      const bool sliver = is_degenerate(welded, c);
+      if (sliver) found[k].push_back(uint32_t(t));
+      if (degenerate) (*degenerate)[t] = uint8_t(sliver);
     }
   });
   std::vector<uint32_t> slivers;
