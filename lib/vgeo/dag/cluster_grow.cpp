@@ -238,8 +238,9 @@ struct Grower {
   std::vector<TriangleSet> out;
   uint32_t stamp = 0, cluster_vertices = 0;
   float sum[3] = {0, 0, 0};  // of the cluster's triangle centroids
-  // False when every welded position of the set is one original vertex: then a cluster's
-  // original vertices are its positions (cluster_vertices), and it is emitted without a count.
+  // False when no corner of the set is a copy of another vertex's position (compact_welded):
+  // then a cluster's original vertices are its positions (cluster_vertices), and it is
+  // emitted without counting them.
   bool seams = false;
 };
 constexpr uint8_t kNoBucket = 0xFF;
@@ -248,7 +249,7 @@ constexpr uint8_t kNoBucket = 0xFF;
 void index_triangles(Grower& g, const WeldedMesh& welded) {
   const Mesh& mesh = *welded.mesh;
   const size_t n = g.n;
-  const std::vector<uint32_t> welded_of_local = compact_welded(welded, g.tris, g.scratch, g.local);
+  const std::vector<uint32_t> welded_of_local = compact_welded(welded, g.tris, g.scratch, g.local, &g.seams);
   const size_t vcount = welded_of_local.size();
   g.centroid.resize(3 * n);
   for (size_t t = 0; t < n; ++t)
@@ -265,14 +266,6 @@ void index_triangles(Grower& g, const WeldedMesh& welded) {
   {
     std::vector<uint32_t> fill(g.first.begin(), g.first.end() - 1);
     for (size_t i = 0; i < g.local.size(); ++i) g.adjacency[fill[g.local[i]]++] = uint32_t(i / 3);
-  }
-  {
-    std::vector<uint32_t> original(vcount, kNone);  // per local vertex: the first original vertex at it
-    for (size_t i = 0; i < g.local.size() && !g.seams; ++i) {
-      uint32_t& o = original[g.local[i]];
-      if (o == kNone) o = g.tris.corners[i];
-      else g.seams = o != g.tris.corners[i];
-    }
   }
   g.clustered.assign(n, 0);
   g.in_cluster.assign(vcount, kNone);
