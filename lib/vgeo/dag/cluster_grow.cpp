@@ -241,7 +241,7 @@ struct Grower {
   // False when no corner of the set is a copy of another vertex's position (compact_welded):
   // then a cluster's original vertices are its positions (cluster_vertices), and it is
   // emitted without counting them.
-  bool seams = false;
+  bool copies = false;
 };
 constexpr uint8_t kNoBucket = 0xFF;
 
@@ -249,7 +249,7 @@ constexpr uint8_t kNoBucket = 0xFF;
 void index_triangles(Grower& g, const WeldedMesh& welded) {
   const Mesh& mesh = *welded.mesh;
   const size_t n = g.n;
-  const std::vector<uint32_t> welded_of_local = compact_welded(welded, g.tris, g.scratch, g.local, &g.seams);
+  const std::vector<uint32_t> welded_of_local = compact_welded(welded, g.tris, g.scratch, g.local, &g.copies);
   const size_t vcount = welded_of_local.size();
   g.centroid.resize(3 * n);
   for (size_t t = 0; t < n; ++t)
@@ -314,7 +314,7 @@ void finish_cluster(Grower& g) {
   // (The nearest triangle joins a cluster without the vertex check: cluster_vertices can pass
   // the limit, and emit_cluster then bisects.)
   if (g.ids.empty()) {
-  } else if (!g.seams && g.ids.size() <= kMaxClusterTriangles && g.cluster_vertices <= kMaxClusterVertices) {
+  } else if (!g.copies && g.ids.size() <= kMaxClusterTriangles && g.cluster_vertices <= kMaxClusterVertices) {
     append_cluster(g.tris, g.ids.data(), g.ids.size(), g.out);
   } else {
     emit_cluster(g.tris, g.ids.data(), g.ids.size(), g.scratch, g.out);
