@@ -89,7 +89,10 @@ Aabb indexed_bounds(const Mesh& mesh, ThreadPool& pool) {
   return box;
 }
 
-std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPool& pool) {
+// `degenerate` (per mesh triangle) is cut the same way into `chunk_degenerate`.
+std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPool& pool,
+                                     const std::vector<uint8_t>& degenerate,
+                                     std::vector<std::vector<uint8_t>>& chunk_degenerate) {
   size_t n = mesh.triangle_count();
   std::vector<TriangleSet> chunks;
   if (n <= kLeafChunkTriangles) {
@@ -98,6 +101,7 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
     all.materials.resize(n);
     for (size_t t = 0; t < n; ++t) all.materials[t] = mesh.material(t);
     chunks.push_back(std::move(all));
+    chunk_degenerate = {degenerate};
     return chunks;
   }
   constexpr uint32_t kCells = 16;  // per axis: 4096 cells, ≥ 2 chunks' worth each on 10M+
@@ -112,19 +116,32 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
     }
     return morton_code(q[2], q[1], q[0]);  // z in the lowest bit of each triple
   };
+  // A counting sort by cell, stable (triangle order within a cell), in parallel: per task a
+  // histogram, then each (cell, task) range starts after the cell's earlier tasks' ranges, so
+  // the order is the serial sort's on any thread count.
+  constexpr size_t kCellCount = size_t(kCells) * kCells * kCells;
+  const size_t tasks = (n + kTrianglesPerTask - 1) / kTrianglesPerTask;
   std::vector<uint16_t> cell(n);
-  std::vector<size_t> count(kCells * kCells * kCells + 1, 0);
-  pool.parallel_for((n + kTrianglesPerTask - 1) / kTrianglesPerTask, [&](size_t k) {
-    for (size_t t = k * kTrianglesPerTask; t < std::min(n, (k + 1) * kTrianglesPerTask); ++t)
+  std::vector<uint32_t> task_count(tasks * kCellCount, 0);  // [task][cell]
+  pool.parallel_for(tasks, [&](size_t k) {
+    uint32_t* histogram = &task_count[k * kCellCount];
+    for (size_t t = k * kTrianglesPerTask; t < std::min(n, (k + 1) * kTrianglesPerTask); ++t) {
       cell[t] = uint16_t(cell_of(t));
+      ++histogram[cell[t]];
+    }
   });
-  for (size_t t = 0; t < n; ++t) ++count[cell[t] + 1];
-  for (size_t c = 0; c + 1 < count.size(); ++c) count[c + 1] += count[c];
-  std::vector<uint32_t> order(n);
-  {
-    std::vector<size_t> fill(count.begin(), count.end() - 1);
-    for (size_t t = 0; t < n; ++t) order[fill[cell[t]]++] = uint32_t(t);
+  std::vector<size_t> count(kCellCount + 1, 0);  // count[c] = first position of cell c
+  std::vector<size_t> task_fill(tasks * kCellCount);
+  for (size_t c = 0, at = 0; c < kCellCount; ++c) {
+    count[c] = at;
+    for (size_t k = 0; k < tasks; ++k) task_fill[k * kCellCount + c] = at, at += task_count[k * kCellCount + c];
   }
+  count[kCellCount] = n;
+  std::vector<uint32_t> order(n);
+  pool.parallel_for(tasks, [&](size_t k) {
+    size_t* fill = &task_fill[k * kCellCount];
+    for (size_t t = k * kTrianglesPerTask; t < std::min(n, (k + 1) * kTrianglesPerTask); ++t) order[fill[cell[t]]++] = uint32_t(t);
+  });
   // Chunk = consecutive cells until it reaches kLeafChunkTriangles: ranges of `order`.
   std::vector<std::pair<size_t, size_t>> ranges;
   size_t begin = 0;
@@ -135,14 +152,17 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
     }
   if (begin < n) ranges.push_back({begin, n});
   chunks.resize(ranges.size());
+  chunk_degenerate.resize(ranges.size());
   pool.parallel_for(ranges.size(), [&](size_t k) {
     TriangleSet& chunk = chunks[k];
     chunk.corners.reserve(3 * (ranges[k].second - ranges[k].first));
     chunk.materials.reserve(ranges[k].second - ranges[k].first);
+    chunk_degenerate[k].reserve(ranges[k].second - ranges[k].first);
     for (size_t i = ranges[k].first; i < ranges[k].second; ++i) {
       uint32_t t = order[i];
       chunk.corners.insert(chunk.corners.end(), &mesh.indices[3 * size_t(t)], &mesh.indices[3 * size_t(t)] + 3);
       chunk.materials.push_back(mesh.material(t));
+      chunk_degenerate[k].push_back(degenerate[t]);
     }
   });
   return chunks;
@@ -265,21 +285,38 @@ std::vector<uint64_t> build_detail::lock_cross_block_vertices(const WeldedMesh& 
                                                               std::vector<uint32_t>& owner,
                                                               std::vector<uint8_t>& locked) {
   pool.parallel_for(clusters.size(), [&](size_t i) {
+    const uint32_t block = block_of[i];
     for (uint32_t v : clusters[i]->corners) {
-      uint32_t w = welded.weld[v], expected = kNone;
-      if (!std::atomic_ref<uint32_t>(owner[w]).compare_exchange_strong(expected, block_of[i],
-                                                                        std::memory_order_relaxed) &&
-          expected != block_of[i])
-        std::atomic_ref<uint8_t>(locked[w]).store(1, std::memory_order_relaxed);
+      const uint32_t w = welded.weld[v];
+      // An owner, once claimed, never changes: a plain read that finds one decides without the
+      // compare-exchange (a locked instruction per corner was most of this pass; a vertex's
+      // corners mostly follow its first claim in the same cluster).
+      std::atomic_ref<uint32_t> claim(owner[w]);
+      uint32_t expected = claim.load(std::memory_order_relaxed);
+      if (expected == kNone && claim.compare_exchange_strong(expected, block, std::memory_order_relaxed)) continue;
+      if (expected != block) {
+        std::atomic_ref<uint8_t> lock(locked[w]);
+        if (!lock.load(std::memory_order_relaxed)) lock.store(1, std::memory_order_relaxed);
+      }
     }
   });
   std::vector<std::vector<uint64_t>> per_cluster(clusters.size());
   pool.parallel_for(clusters.size(), [&](size_t i) {
     const TriangleSet& t = *clusters[i];
-    for (uint32_t v : t.corners) std::atomic_ref<uint32_t>(owner[welded.weld[v]]).store(kNone, std::memory_order_relaxed);
-    for_each_welded_edge(welded, t.corners, [&](uint32_t a, uint32_t b) {
-      if (a != b && locked[a] && locked[b]) per_cluster[i].push_back(edge_key(a, b));
-    });
+    // One pass over the corners: the claims reset, and for_each_welded_edge's edges with both
+    // ends locked (each corner's weld and lock read once).
+    for (size_t c = 0; c + 3 <= t.corners.size(); c += 3) {
+      const uint32_t w[3] = {welded.weld[t.corners[c]], welded.weld[t.corners[c + 1]], welded.weld[t.corners[c + 2]]};
+      for (uint32_t x : w) {
+        std::atomic_ref<uint32_t> claim(owner[x]);
+        if (claim.load(std::memory_order_relaxed) != kNone) claim.store(kNone, std::memory_order_relaxed);
+      }
+      const bool l[3] = {locked[w[0]] != 0, locked[w[1]] != 0, locked[w[2]] != 0};
+      for (int k = 0; k < 3; ++k) {
+        const int next = k == 2 ? 0 : k + 1;
+        if (l[k] && l[next] && w[k] != w[next]) per_cluster[i].push_back(edge_key(w[k], w[next]));
+      }
+    }
   });
   // (edge, block) pairs; an edge used by two blocks is shared.
   std::vector<std::pair<uint64_t, uint32_t>> candidates;
@@ -337,6 +374,7 @@ struct BuildState {
   ScratchPool scratch;
   LockState locks;
   FinSet fins;  // left out of every simplifier input (find_fins)
+  std::vector<uint8_t> leaf_degenerate;  // is_degenerate per mesh triangle (find_fins; freed after the leaves)
   std::vector<WorkCluster> clusters;
   std::vector<WorkGroup> groups;
   LeafSurface leaf_surface;  // the original surface the stored errors are measured against
@@ -394,10 +432,24 @@ void pin_seam_vertices(BuildState& s) {
   // zero, every edge is used an even number of times (up to a 2^-64 collision, which only
   // keeps the borders locked) and the mesh has no border: closed meshes, most of the large
   // ones, skip the sort below (0.2 CPU-s on the 1M sphere).
-  uint64_t parity = 0;
-  for_each_welded_edge(s.welded, s.mesh.indices, [&](uint32_t a, uint32_t b) {
-    if (a != b) parity ^= (edge_key(a, b) + 1) * 0x9E3779B97F4A7C15ull ^ (edge_key(a, b) >> 29);
+  // XOR is order-free: per-task parts combine to the same value on any thread count.
+  const size_t triangles = s.mesh.triangle_count(), tasks = (triangles + kTrianglesPerTask - 1) / kTrianglesPerTask;
+  std::vector<uint64_t> part(tasks, 0);
+  s.pool.parallel_for(tasks, [&](size_t k) {
+    const uint32_t* weld = s.welded.weld.data();
+    uint64_t x = 0;
+    for (size_t t = k * kTrianglesPerTask; t < std::min(triangles, (k + 1) * kTrianglesPerTask); ++t) {
+      const uint32_t* c = &s.mesh.indices[3 * t];
+      const uint32_t w[3] = {weld[c[0]], weld[c[1]], weld[c[2]]};
+      for (int j = 0; j < 3; ++j) {
+        const uint32_t a = w[j], b = w[j == 2 ? 0 : j + 1];
+        if (a != b) x ^= (edge_key(a, b) + 1) * 0x9E3779B97F4A7C15ull ^ (edge_key(a, b) >> 29);
+      }
+    }
+    part[k] = x;
   });
+  uint64_t parity = 0;
+  for (uint64_t x : part) parity ^= x;
   if (parity == 0) return;
   std::vector<uint64_t> edges;
   edges.reserve(s.mesh.indices.size());
@@ -500,7 +552,7 @@ void prepare(BuildState& s) {
   s.locks.owner.assign(vertex_count, kNone);
   s.locks.locked.assign(vertex_count, 0);
   pin_seam_vertices(s);
-  s.fins = find_fins(s.welded, s.pool);
+  s.fins = find_fins(s.welded, s.pool, &s.leaf_degenerate);
   s.report.seconds_prepare = steady_seconds() - t0;
 }
 
@@ -510,13 +562,17 @@ void build_leaves(BuildState& s) {
   // Large meshes are cut into spatially coherent chunks (cells of a 16^3 grid in Morton
   // order, consecutive cells merged up to kLeafChunkTriangles) clustered in parallel.
   // The chunking depends only on the mesh, so the output does not depend on threads.
-  std::vector<TriangleSet> chunks = leaf_chunks(s.mesh, s.mesh_box, s.pool);
+  std::vector<std::vector<uint8_t>> chunk_degenerate;
+  std::vector<TriangleSet> chunks = leaf_chunks(s.mesh, s.mesh_box, s.pool, s.leaf_degenerate, chunk_degenerate);
+  s.leaf_degenerate = {};
   std::vector<std::vector<TriangleSet>> chunk_leaves(chunks.size());
   s.pool.parallel_for(chunks.size(), [&](size_t i) {
     std::vector<uint32_t> scratch = s.scratch.take();
-    chunk_leaves[i] = split_into_clusters(s.welded, chunks[i], scratch, s.internal.leaf_split);
+    chunk_leaves[i] =
+        split_into_clusters(s.welded, chunks[i], scratch, s.internal.leaf_split, chunk_degenerate[i].data());
     s.scratch.give(std::move(scratch));
     chunks[i] = TriangleSet();
+    chunk_degenerate[i] = {};
   });
   std::vector<TriangleSet> leaves;
   for (auto& cl : chunk_leaves)

@@ -126,24 +126,34 @@ using FinSet = std::vector<std::array<uint32_t, 3>>;
 // Triangles per task of the fin scan: large enough that task overhead is noise (the test per
 // triangle is a few ns), small enough to balance two threads on a 1M mesh.
 inline constexpr size_t kFinScanTriangles = size_t(1) << 16;
-FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool);
+// With `degenerate`, it also gets is_degenerate of every mesh triangle (the scan computes it),
+// so the leaf split need not compute it again (split_into_clusters' `degenerate`).
+FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool, std::vector<uint8_t>* degenerate = nullptr);
 
 // Splits triangles into clusters of ≤ kMaxClusterTriangles triangles and
 // ≤ kMaxClusterVertices original vertices. Deterministic. `scratch` must have
 // weld.size() entries, all kNone, and is returned in that state. kGrow: the own greedy grower
 // (the default; meshopt_buildMeshlets 0.18's rule, cluster_grow.cpp); kMeshopt:
 // meshopt_buildMeshlets itself; kMetis: recursive bisection (both kept for measurement).
+// `degenerate`, when given: is_degenerate of each triangle of `tris`, known already.
 enum class SplitMethod : uint8_t { kMeshopt = 0, kMetis = 1, kGrow = 2 };
 std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const TriangleSet& tris,
                                              std::vector<uint32_t>& scratch,
-                                             SplitMethod method = SplitMethod::kGrow);
+                                             SplitMethod method = SplitMethod::kGrow,
+                                             const uint8_t* degenerate = nullptr);
 
 // The splitters' shared steps (cluster_split.cpp), the grower (cluster_grow.cpp) and the two
 // kept for measurement (cluster_split_alternatives.cpp), which split_into_clusters calls.
 // Compacts the welded ids of `tris` into local ids [0, n) in order of first use.
 // Returns the welded ids per local id; `local_corner` gets 3 local ids per triangle.
+// With `copies`: set when a corner's vertex is not its welded position's representative (a
+// copy: without any, each position of the set is one vertex).
 std::vector<uint32_t> compact_welded(const WeldedMesh& welded, const TriangleSet& tris,
-                                     std::vector<uint32_t>& scratch, std::vector<uint32_t>& local_corner);
+                                     std::vector<uint32_t>& scratch, std::vector<uint32_t>& local_corner,
+                                     bool* copies = nullptr);
+// Appends one cluster of triangles `ids` (indices into tris), as they are: the caller knows
+// it holds ≤ kMaxClusterTriangles triangles and ≤ kMaxClusterVertices original vertices.
+void append_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<TriangleSet>& out);
 // Appends the clusters holding triangles `ids` (indices into tris), bisecting in order
 // until the original-vertex limit holds (attribute seams can push a welded cluster of
 // ≤ 255 positions over 255 vertices).

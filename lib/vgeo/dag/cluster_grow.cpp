@@ -58,9 +58,14 @@ struct CentroidTree {
     uint32_t min_id = kNone;
   };
   std::vector<Node> nodes;
-  std::vector<uint32_t> order;  // triangle ids along the curve; leaf j holds [16j, 16j + 16)
-  std::vector<uint32_t> leaf_of;
-  uint32_t leaf_base = 0;       // node index of leaf 0
+  // Along the curve (leaf j holds [16j, 16j + 16)): the triangle ids, their centroids, and
+  // whether each is still unclustered, so a leaf's scan reads three short runs of memory, not
+  // the triangles' arrays at random.
+  std::vector<uint32_t> order;
+  std::vector<float> curve_centroid;  // 3 per entry of order
+  std::vector<uint8_t> unclustered;   // 1 per entry of order
+  std::vector<uint32_t> place;        // per triangle: its index in order (kNone: not in the tree)
+  uint32_t leaf_base = 0;             // node index of leaf 0
   const float* centroids = nullptr;
 
   bool built() const { return centroids != nullptr; }
@@ -73,14 +78,19 @@ struct CentroidTree {
     while (padded < leaves) padded <<= 1;
     leaf_base = padded - 1;
     nodes.assign(2 * size_t(padded) - 1, Node());
-    leaf_of.assign(n, kNone);
+    place.assign(n, kNone);
+    curve_centroid.resize(3 * size_t(m));
+    unclustered.assign(m, 1);
     for (uint32_t j = 0; j < leaves; ++j) {
       Node& leaf = nodes[leaf_base + j];
       const uint32_t end = std::min(m, (j + 1) * kKdLeafSize);
       for (uint32_t i = j * kKdLeafSize; i < end; ++i) {
         const float* p = &centroids[3 * size_t(order[i])];
-        for (int k = 0; k < 3; ++k) leaf.lo[k] = std::min(leaf.lo[k], p[k]), leaf.hi[k] = std::max(leaf.hi[k], p[k]);
-        leaf_of[order[i]] = leaf_base + j;
+        for (int k = 0; k < 3; ++k) {
+          leaf.lo[k] = std::min(leaf.lo[k], p[k]), leaf.hi[k] = std::max(leaf.hi[k], p[k]);
+          curve_centroid[3 * size_t(i) + k] = p[k];
+        }
+        place[order[i]] = i;
         leaf.min_id = std::min(leaf.min_id, order[i]);
       }
     }
@@ -129,16 +139,18 @@ struct CentroidTree {
   // Triangle t (now clustered) leaves the smallest ids on its path. Only when t was its
   // leaf's smallest does anything change, and only up to the first ancestor whose smallest id
   // stays (its ancestors' stay too): most removals touch one node, not the path to the root.
-  void remove(uint32_t t, const std::vector<uint8_t>& clustered) {
+  void remove(uint32_t t) {
     if (!built()) return;
-    const uint32_t leaf = leaf_of[t];
+    const uint32_t at = place[t];
+    unclustered[at] = 0;
+    const uint32_t leaf = leaf_base + at / kKdLeafSize;
     Node& l = nodes[leaf];
     if (l.min_id != t) return;
     l.min_id = kNone;
     const uint32_t begin = (leaf - leaf_base) * kKdLeafSize;
     const uint32_t end = std::min(uint32_t(order.size()), begin + kKdLeafSize);
     for (uint32_t i = begin; i < end; ++i)
-      if (!clustered[order[i]]) l.min_id = std::min(l.min_id, order[i]);
+      if (unclustered[i]) l.min_id = std::min(l.min_id, order[i]);
     for (uint32_t n = leaf; n != 0;) {
       n = (n - 1) / 2;
       const uint32_t min_id = std::min(nodes[2 * n + 1].min_id, nodes[2 * n + 2].min_id);
@@ -156,14 +168,13 @@ struct CentroidTree {
     return d2;
   }
   // Nearest unclustered triangle to p (ties: smaller id); kNone when none is left.
-  uint32_t nearest(const float* p, const std::vector<uint8_t>& clustered) const {
+  uint32_t nearest(const float* p) const {
     uint32_t best = kNone;
     float best_d2 = FLT_MAX;
-    if (!nodes.empty() && nodes[0].min_id != kNone) search(0, box_d2(0, p), p, clustered, best, best_d2);
+    if (!nodes.empty() && nodes[0].min_id != kNone) search(0, box_d2(0, p), p, best, best_d2);
     return best;
   }
-  void search(uint32_t id, float node_d2, const float* p, const std::vector<uint8_t>& clustered, uint32_t& best,
-              float& best_d2) const {
+  void search(uint32_t id, float node_d2, const float* p, uint32_t& best, float& best_d2) const {
     // A box at the best distance can only hold a winner with a smaller id: without this, a
     // mesh whose distances all round to one value (squares underflowing at 1e-37 scale) made
     // every search visit the whole tree.
@@ -172,9 +183,9 @@ struct CentroidTree {
       const uint32_t begin = (id - leaf_base) * kKdLeafSize;
       const uint32_t end = std::min(uint32_t(order.size()), begin + kKdLeafSize);
       for (uint32_t i = begin; i < end; ++i) {
+        if (!unclustered[i]) continue;
         const uint32_t t = order[i];
-        if (clustered[t]) continue;
-        const float d2 = squared_distance(&centroids[3 * size_t(t)], p);
+        const float d2 = squared_distance(&curve_centroid[3 * size_t(i)], p);
         if (d2 < best_d2 || (d2 == best_d2 && t < best)) best = t, best_d2 = d2;
       }
       return;
@@ -184,11 +195,11 @@ struct CentroidTree {
     const uint32_t l = 2 * id + 1, r = 2 * id + 2;
     const float dl = box_d2(l, p), dr = box_d2(r, p);
     if (dl < dr || (dl == dr && nodes[l].min_id <= nodes[r].min_id)) {
-      search(l, dl, p, clustered, best, best_d2);
-      search(r, dr, p, clustered, best, best_d2);
+      search(l, dl, p, best, best_d2);
+      search(r, dr, p, best, best_d2);
     } else {
-      search(r, dr, p, clustered, best, best_d2);
-      search(l, dl, p, clustered, best, best_d2);
+      search(r, dr, p, best, best_d2);
+      search(l, dl, p, best, best_d2);
     }
   }
 };
@@ -227,6 +238,10 @@ struct Grower {
   std::vector<TriangleSet> out;
   uint32_t stamp = 0, cluster_vertices = 0;
   float sum[3] = {0, 0, 0};  // of the cluster's triangle centroids
+  // False when no corner of the set is a copy of another vertex's position (compact_welded):
+  // then a cluster's original vertices are its positions (cluster_vertices), and it is
+  // emitted without counting them.
+  bool copies = false;
 };
 constexpr uint8_t kNoBucket = 0xFF;
 
@@ -234,7 +249,7 @@ constexpr uint8_t kNoBucket = 0xFF;
 void index_triangles(Grower& g, const WeldedMesh& welded) {
   const Mesh& mesh = *welded.mesh;
   const size_t n = g.n;
-  const std::vector<uint32_t> welded_of_local = compact_welded(welded, g.tris, g.scratch, g.local);
+  const std::vector<uint32_t> welded_of_local = compact_welded(welded, g.tris, g.scratch, g.local, &g.copies);
   const size_t vcount = welded_of_local.size();
   g.centroid.resize(3 * n);
   for (size_t t = 0; t < n; ++t)
@@ -296,7 +311,14 @@ void file_candidate(Grower& g, uint32_t t) {
 
 // The grown cluster emitted; the next one starts empty.
 void finish_cluster(Grower& g) {
-  if (!g.ids.empty()) emit_cluster(g.tris, g.ids.data(), g.ids.size(), g.scratch, g.out);
+  // (The nearest triangle joins a cluster without the vertex check: cluster_vertices can pass
+  // the limit, and emit_cluster then bisects.)
+  if (g.ids.empty()) {
+  } else if (!g.copies && g.ids.size() <= kMaxClusterTriangles && g.cluster_vertices <= kMaxClusterVertices) {
+    append_cluster(g.tris, g.ids.data(), g.ids.size(), g.out);
+  } else {
+    emit_cluster(g.tris, g.ids.data(), g.ids.size(), g.scratch, g.out);
+  }
   g.ids.clear();
   for (std::vector<BucketEntry>& bucket : g.buckets) {
     for (const BucketEntry& e : bucket) g.bucket_of[e.triangle] = kNoBucket;
@@ -312,7 +334,7 @@ void finish_cluster(Grower& g) {
 // or one of theirs now has a single unclustered triangle) are refiled.
 void add_triangle(Grower& g, uint32_t t) {
   g.clustered[t] = 1;
-  g.tree.remove(t, g.clustered);
+  g.tree.remove(t);
   leave_bucket(g, t);
   g.ids.push_back(t);
   for (int k = 0; k < 3; ++k) g.sum[k] += g.centroid[3 * size_t(t) + k];
@@ -329,13 +351,17 @@ void add_triangle(Grower& g, uint32_t t) {
   for (int k = 0; k < 3; ++k) {
     const uint32_t v = c[k];
     const uint32_t* list = &g.adjacency[g.first[v]];
+    // A new vertex refiles all its triangles; an old one its last triangle, now dangling.
+    // (One call site: the compiler inlines file_candidate, the grower's most frequent step.)
+    uint32_t refile = 0;
     if (g.in_cluster[v] != g.stamp) {
       g.in_cluster[v] = g.stamp;
       g.joined[v] = g.cluster_vertices++;
-      for (uint32_t i = 0; i < g.live[v]; ++i) file_candidate(g, list[i]);
+      refile = g.live[v];
     } else if (g.live[v] == 1) {
-      file_candidate(g, list[0]);  // now the last triangle at v: dangling
+      refile = 1;
     }
+    for (uint32_t i = 0; i < refile; ++i) file_candidate(g, list[i]);
   }
 }
 
@@ -381,7 +407,7 @@ uint32_t nearest_to_cluster(Grower& g) {
   for (int k = 0; k < 3; ++k) c[k] = g.sum[k] / float(g.ids.size());
   if (g.n > kNearestScanMaxTriangles) {
     if (!g.tree.built()) g.tree.build(g.centroid.data(), g.n, g.clustered);
-    return g.tree.nearest(c, g.clustered);
+    return g.tree.nearest(c);
   }
   uint32_t best = kNone;
   float best_d2 = FLT_MAX;

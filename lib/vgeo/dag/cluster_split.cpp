@@ -16,11 +16,14 @@
 namespace vgeo::build_detail {
 
 std::vector<uint32_t> compact_welded(const WeldedMesh& welded, const TriangleSet& tris,
-                                     std::vector<uint32_t>& scratch, std::vector<uint32_t>& local_corner) {
+                                     std::vector<uint32_t>& scratch, std::vector<uint32_t>& local_corner,
+                                     bool* copies) {
   std::vector<uint32_t> welded_of_local;
   local_corner.resize(tris.corners.size());
+  bool copy = false;
   for (size_t i = 0; i < tris.corners.size(); ++i) {
     uint32_t w = welded.weld[tris.corners[i]];
+    copy |= w != tris.corners[i];
     if (scratch[w] == kNone) {
       scratch[w] = uint32_t(welded_of_local.size());
       welded_of_local.push_back(w);
@@ -28,23 +31,34 @@ std::vector<uint32_t> compact_welded(const WeldedMesh& welded, const TriangleSet
     local_corner[i] = scratch[w];
   }
   for (uint32_t w : welded_of_local) scratch[w] = kNone;
+  if (copies) *copies = copy;
   return welded_of_local;
+}
+
+void append_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<TriangleSet>& out) {
+  TriangleSet c;
+  c.corners.resize(3 * count);
+  c.materials.resize(count);
+  for (size_t i = 0; i < count; ++i) {
+    const uint32_t* corners = &tris.corners[3 * size_t(ids[i])];
+    c.corners[3 * i] = corners[0], c.corners[3 * i + 1] = corners[1], c.corners[3 * i + 2] = corners[2];
+    c.materials[i] = tris.materials[ids[i]];
+  }
+  out.push_back(std::move(c));
 }
 
 void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<uint32_t>& scratch,
                   std::vector<TriangleSet>& out) {
+  // Distinct vertices marked in scratch, then unmarked by a second pass over the corners
+  // (no list of the marked ones to allocate: this ran once per cluster).
   uint32_t unique = 0;
-  std::vector<uint32_t> touched;
   for (size_t i = 0; i < count; ++i)
     for (int k = 0; k < 3; ++k) {
-      uint32_t v = tris.corners[3 * ids[i] + k];
-      if (scratch[v] == kNone) {
-        scratch[v] = 0;
-        touched.push_back(v);
-        ++unique;
-      }
+      uint32_t& mark = scratch[tris.corners[3 * size_t(ids[i]) + k]];
+      if (mark == kNone) mark = 0, ++unique;
     }
-  for (uint32_t v : touched) scratch[v] = kNone;
+  for (size_t i = 0; i < count; ++i)
+    for (int k = 0; k < 3; ++k) scratch[tris.corners[3 * size_t(ids[i]) + k]] = kNone;
   if (count > kMaxClusterTriangles || unique > kMaxClusterVertices) {
     assert(count > 1);
     size_t half = count / 2;
@@ -52,14 +66,7 @@ void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, st
     emit_cluster(tris, ids + half, count - half, scratch, out);
     return;
   }
-  TriangleSet c;
-  c.corners.reserve(3 * count);
-  c.materials.reserve(count);
-  for (size_t i = 0; i < count; ++i) {
-    c.corners.insert(c.corners.end(), &tris.corners[3 * ids[i]], &tris.corners[3 * ids[i]] + 3);
-    c.materials.push_back(tris.materials[ids[i]]);
-  }
-  out.push_back(std::move(c));
+  append_cluster(tris, ids, count, out);
 }
 
 namespace {
@@ -261,7 +268,8 @@ std::vector<TriangleSet> attach_degenerate(const WeldedMesh& welded, const Trian
 }  // namespace
 
 std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const TriangleSet& tris,
-                                             std::vector<uint32_t>& scratch, SplitMethod method) {
+                                             std::vector<uint32_t>& scratch, SplitMethod method,
+                                             const uint8_t* known_degenerate) {
   const size_t n = tris.triangle_count();
   if (n == 0) return {};
   // Degenerate triangles are left out of the clusterizer and attached afterwards: meshopt
@@ -269,7 +277,8 @@ std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const Tri
   // border (spec/dag.md §2.2).
   std::vector<uint32_t> degenerate;
   for (size_t t = 0; t < n; ++t)
-    if (is_degenerate(welded, &tris.corners[3 * t])) degenerate.push_back(uint32_t(t));
+    if (known_degenerate ? known_degenerate[t] != 0 : is_degenerate(welded, &tris.corners[3 * t]))
+      degenerate.push_back(uint32_t(t));
   if (degenerate.empty() || degenerate.size() == n) return split_proper(welded, tris, scratch, method);
   TriangleSet proper;
   proper.corners.reserve(3 * (n - degenerate.size()));

@@ -60,16 +60,19 @@ WeldedMesh weld_positions(const Mesh& mesh) {
 
 void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
                          uint64_t* all_edges, std::vector<uint64_t>* open_keys) {
-  // Uses per distinct welded edge in an open addressing table (load ≤ 1/2) instead of a
-  // sort of all keys: only the open keys (a minority) are sorted. The table and the list of
-  // filled slots live on the stack up to kStackSlots (every cluster: 6 × 128 triangles fit),
-  // so the per-cluster pass allocates nothing and visits only the filled slots.
-  constexpr size_t kStackSlots = 1024;
+  // Uses per distinct welded edge in an open addressing table instead of a sort of all keys:
+  // only the open keys (a minority) are sorted. The table and the list of filled slots live on
+  // the stack up to kStackSlots (every cluster: 4 × 128 triangles fit), so the per-cluster pass
+  // allocates nothing and visits only the filled slots. At least 4 slots per triangle: a load
+  // ≤ 3/4 if all 3n edges were distinct, about 0.4 on a surface (each inner edge is used
+  // twice); an empty slot is one with no use, so only the use counts are cleared (the
+  // clearing was a third of this pass at 6 slots per triangle, keys and counts).
+  constexpr size_t kStackSlots = 512;
+  constexpr size_t kSlotsPerTriangle = 4;
   const size_t n = cluster.triangle_count();
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
-  while (slots < 6 * n) slots <<= 1, --shift;
-  constexpr uint64_t kEmpty = ~uint64_t(0);  // no edge key (a < b) equals it
+  while (slots < kSlotsPerTriangle * n) slots <<= 1, --shift;
   uint64_t stack_table[kStackSlots];
   uint32_t stack_uses[kStackSlots], stack_filled[kStackSlots];
   std::vector<uint64_t> heap_table;
@@ -82,24 +85,42 @@ void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, u
     heap_filled.resize(slots);
     table = heap_table.data(), uses = heap_uses.data(), filled = heap_filled.data();
   }
-  std::fill(table, table + slots, kEmpty);
+  std::fill(uses, uses + slots, 0u);
   size_t all = 0;
-  for_each_welded_edge(welded, cluster.corners, [&](uint32_t a, uint32_t b) {
-    if (a == b) return;
-    const uint64_t key = edge_key(a, b);
-    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
-    while (table[h] != kEmpty && table[h] != key) h = (h + 1) & (slots - 1);
-    if (table[h] == kEmpty) table[h] = key, uses[h] = 0, filled[all++] = uint32_t(h);
-    ++uses[h];
-  });
-  uint64_t open = 0;
-  const size_t first_open = open_keys ? open_keys->size() : 0;
-  for (size_t i = 0; i < all; ++i)
-    if (uses[filled[i]] == 1) {
-      ++open;
-      if (open_keys) open_keys->push_back(table[filled[i]]);
+  const uint32_t* weld = welded.weld.data();
+  const uint32_t* corners = cluster.corners.data();
+  for (size_t t = 0; t < n; ++t) {
+    // Each corner's welded id read once (for_each_welded_edge reads each twice).
+    const uint32_t w[3] = {weld[corners[3 * t]], weld[corners[3 * t + 1]], weld[corners[3 * t + 2]]};
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = w[k], b = w[k == 2 ? 0 : k + 1];
+      if (a == b) continue;
+      const uint64_t key = edge_key(a, b);
+      size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+      while (uses[h] != 0 && table[h] != key) h = (h + 1) & (slots - 1);
+      // A first use or a second one, about evenly mixed: written without a branch on which.
+      const bool first_use = uses[h] == 0;
+      table[h] = key;
+      ++uses[h];
+      filled[all] = uint32_t(h);
+      all += first_use;
     }
-  if (open_keys) std::sort(open_keys->begin() + ptrdiff_t(first_open), open_keys->end());
+  }
+  uint64_t open = 0;
+  for (size_t i = 0; i < all; ++i) open += uses[filled[i]] == 1;
+  if (open_keys) {
+    // Sized once (the list grew by doubling, several allocations per cluster).
+    // One slot more: every key is written, and the last ones (not open) land past the list.
+    const size_t first_open = open_keys->size();
+    open_keys->resize(first_open + open + 1);
+    uint64_t* out = open_keys->data() + first_open;
+    for (size_t i = 0; i < all; ++i) {
+      *out = table[filled[i]];
+      out += uses[filled[i]] == 1;
+    }
+    open_keys->pop_back();
+    std::sort(open_keys->begin() + ptrdiff_t(first_open), open_keys->end());
+  }
   *open_edges = open;
   *all_edges = all;
 }
@@ -127,9 +148,10 @@ bool is_degenerate(const WeldedMesh& welded, const uint32_t* corners) {
   return n2 < kDegenerateRelativeHeight * kDegenerateRelativeHeight * longest2 * longest2;
 }
 
-FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool) {
+FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool, std::vector<uint8_t>* degenerate) {
   const Mesh& mesh = *welded.mesh;
   const size_t n = mesh.triangle_count();
+  if (degenerate) degenerate->assign(n, 1);
   // Collinear slivers on three distinct positions, per task in triangle order (deterministic).
   const size_t tasks = (n + kFinScanTriangles - 1) / kFinScanTriangles;
   std::vector<std::vector<uint32_t>> found(tasks);
@@ -137,7 +159,10 @@ FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool) {
     for (size_t t = k * kFinScanTriangles; t < std::min(n, (k + 1) * kFinScanTriangles); ++t) {
       const uint32_t* c = &mesh.indices[3 * t];
       const uint32_t a = welded.weld[c[0]], b = welded.weld[c[1]], d = welded.weld[c[2]];
-      if (a != b && b != d && d != a && is_degenerate(welded, c)) found[k].push_back(uint32_t(t));
+      if (a == b || b == d || d == a) continue;  // degenerate (the flag's default), not a sliver
+      const bool sliver = is_degenerate(welded, c);
+      if (sliver) found[k].push_back(uint32_t(t));
+      if (degenerate) (*degenerate)[t] = uint8_t(sliver);
     }
   });
   std::vector<uint32_t> slivers;
