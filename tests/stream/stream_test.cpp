@@ -329,7 +329,7 @@ std::vector<uint32_t> page_meshes() {
 // spec/stream.md §Requests: a lower-priority view's requests (shadow views) are served only
 // after the primary view's. The primary view wants the sphere (mesh 0), a shadow view the grid
 // (mesh 1) from nearer, so its own projected errors exceed the primary's. With the budget
-// between what the primary view needs and everything: no grid page is issued while a page the
+// between what the primary view needs (plus one grid page) and everything: no grid page is issued while a page the
 // primary view needs is missing, the primary view's pages all become resident, and grid pages
 // take only the rest. With the shadow view's raw errors as priorities (no mapping) the grid's
 // pages would go first: the same check fails there.
@@ -368,7 +368,13 @@ TEST(Stream, PrimaryRequestsAreServedBeforeShadowRequests) {
   for (const GroupRequest& r : primary) primary_max = std::max(primary_max, r.priority);
   for (const GroupRequest& r : shadow) shadow_raw_max = std::max(shadow_raw_max, raw(r.priority));
   ASSERT_GT(shadow_raw_max, primary_max);  // unmapped, the shadow view would outrank the primary one
-  const uint64_t budget = f.pinned + primary_bytes + (f.total - f.pinned - primary_bytes) / 4;
+  // Room for the primary view's pages and any one grid page (whichever the shadow view asks for
+  // first), and less than everything: the budget must choose.
+  uint64_t largest_grid_page = 0;
+  for (uint32_t p = 0; p < mesh_of.size(); ++p)
+    if (mesh_of[p] == 1 && !primary_pages[p]) largest_grid_page = std::max<uint64_t>(largest_grid_page, f.container.pages[p].memory_size);
+  const uint64_t budget = f.pinned + primary_bytes + largest_grid_page;
+  ASSERT_LT(budget, f.total);
   for (bool mapped : {true, false}) {
     StreamOptions ob = o;
     ob.budget_bytes = budget;

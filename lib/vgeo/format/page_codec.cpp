@@ -46,11 +46,13 @@ uint32_t delta_bytes(uint32_t bits) { return bits == 0 ? 0 : (bits + 1 + 7) / 8;
 // Largest triangle span the 5-bit memory-form offsets hold (Nanite's window of 32).
 constexpr uint32_t kIndexSpanWindow = (1u << kNaniteIndexOffsetBits) - 1;
 // First triangles of the orders tried (choose_strip_order), as positions of the first material
-// run of n triangles: its last triangle, then n·k/8 for k in this order (each position once).
+// run of n triangles: n·k/8 for k in this order, then its last triangle (each position once).
 // A DAG cluster's triangles come in the order its builder grew or split them, so positions far
 // apart in the list lie far apart on the cluster: the starts are spread over the surface, halving
-// it first, then quartering. Measured on the 1M-triangle sphere (15,745 clusters): the order from
-// the last triangle fits the window for 65% of the clusters, and the eight further starts leave
+// it first, then quartering; the last triangle comes after them. Position 0 is first so that a
+// decoded memory form re-encodes to itself (its first triangle started the kept order; the raster
+// vectors rely on it, spec/raster.md §14). Measured on the 1M-triangle sphere (15,745 clusters):
+// one start alone fits the window for 59–67% of the clusters, and the further starts leave
 // 40 clusters with wider offsets, where the previous rule (the heuristic's own start, then each of
 // the first 16 positions) left 394 after emitting 72% more triangles
 // (docs/acceptance/issue23_wstrip.md).
@@ -580,16 +582,16 @@ void read_cluster_triangles(const ClusterDag& dag, const DagCluster& cl, uint8_t
 // spans all fit the window is kept: the memory form's offset bits are what a wider span costs,
 // and a fitting order is as narrow as any (5 bits). Every order but the kept one gives up as
 // soon as it is bound to exceed the window (build_strip_order). When none fits (0.25% of the
-// clusters on a 1M-triangle sphere), the first candidate's order is run to its end. Leaves the
+// clusters on a 1M-triangle sphere), the first candidate's order (position 0) is run to its end. Leaves the
 // strip order in *out and the vertex renumbering in *s.
 uint32_t strip_start_candidates(uint32_t run_triangles, uint32_t* out) {
   const uint32_t n = run_triangles;
   uint32_t count = 0;
-  out[count++] = n - 1;
   for (uint32_t k : kStripStartEighths) {
     const uint32_t p = n * k / kStripStartDivisor;
     if (std::find(out, out + count, p) == out + count) out[count++] = p;
   }
+  if (std::find(out, out + count, n - 1) == out + count) out[count++] = n - 1;
   return count;
 }
 void choose_strip_order(const uint8_t (*tris)[3], const uint32_t* mat, uint32_t tc, uint32_t vc, StripOrder* s,
