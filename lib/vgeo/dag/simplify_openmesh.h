@@ -1,7 +1,7 @@
 #pragma once
 // The OpenMesh simplification backend (`--simplifier openmesh`), in its own source file so the
 // `vgeo` executable can leave OpenMesh out of every process that does not ask for it: the CLI
-// loads it from the vgeo_openmesh module on first use (tools/vgeo/openmesh_module.cpp), while
+// loads it from the vgeo_extras module on first use (tools/modules/extras_module.h), while
 // libvgeo.so links it directly.
 #include <cstddef>
 #include <cstdint>

@@ -1,8 +1,8 @@
-// The `vgeo` executable's forwarding definitions of libvgeo's OpenMesh functions
-// (subdivide_loop, build_detail::simplify_openmesh): the executable is linked without their
-// objects and without OpenMesh (tools/CMakeLists.txt), and the first call loads the
-// vgeo_openmesh module built from those same objects (tools/modules/openmesh_module.h), so
-// only the commands that use OpenMesh pay for loading it. A missing or foreign module is a
+// The `vgeo` executable's forwarding definitions of the libvgeo functions that need OpenMesh,
+// tinygltf or libpng (subdivide_loop, build_detail::simplify_openmesh, detail::import_gltf,
+// write_png): the executable is linked without their objects and without those libraries
+// (tools/CMakeLists.txt), and the first call loads the vgeo_extras module built from those same
+// objects (tools/modules/extras_module.h), so only the commands that use them pay for loading them. A missing or foreign module is a
 // one-line error with a stable code (MODULE_UNAVAILABLE, spec/errors.md), never a crash.
 #include <dlfcn.h>
 #include <unistd.h>
@@ -12,14 +12,14 @@
 #include <mutex>
 #include <string>
 
-#include "../modules/openmesh_module.h"
+#include "../modules/extras_module.h"
 #include "vgeo/core/error.h"
 
 namespace vgeo {
 namespace {
 
 constexpr const char* kErrModuleUnavailable = "MODULE_UNAVAILABLE";
-constexpr const char* kModuleFile = "vgeo_openmesh.so";
+constexpr const char* kModuleFile = "vgeo_extras.so";
 
 // The module's folder relative to the executable's: the build tree and an install share the
 // layout <prefix>/bin/vgeo, <prefix>/<libdir>/vgeo/ (VGEO_MODULE_DIR_FROM_BIN, set by
@@ -36,26 +36,26 @@ std::string module_path() {
   return dir + "/" VGEO_MODULE_DIR_FROM_BIN "/" + kModuleFile;
 }
 
-const OpenMeshModule& load_openmesh_module() {
+const ExtrasModule& load_extras_module() {
   // Loaded once per process, by the first caller (the simplifier runs on worker threads);
   // never unloaded: the table's functions stay callable until exit.
   static std::once_flag once;
-  static const OpenMeshModule* table = nullptr;
+  static const ExtrasModule* table = nullptr;
   static std::string failure;
   static const std::string path = module_path();
   std::call_once(once, [] {
     void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!handle) {
       const char* why = dlerror();
-      failure = std::string("cannot load the OpenMesh module (") + (why ? why : "unknown reason") + ")";
+      failure = std::string("cannot load the vgeo_extras module (") + (why ? why : "unknown reason") + ")";
       return;
     }
-    using Entry = const OpenMeshModule* (*)();
-    auto entry = reinterpret_cast<Entry>(dlsym(handle, "vgeo_openmesh_module"));
-    const OpenMeshModule* t = entry ? entry() : nullptr;
-    if (!t || t->abi != kOpenMeshModuleAbi || t->table_size != sizeof(OpenMeshModule) || !t->subdivide_loop ||
-        !t->simplify_openmesh) {
-      failure = "not the OpenMesh module of this vgeo build (entry point or table mismatch)";
+    using Entry = const ExtrasModule* (*)();
+    auto entry = reinterpret_cast<Entry>(dlsym(handle, "vgeo_extras_module"));
+    const ExtrasModule* t = entry ? entry() : nullptr;
+    if (!t || t->abi != kExtrasModuleAbi || t->table_size != sizeof(ExtrasModule) || !t->subdivide_loop ||
+        !t->simplify_openmesh || !t->import_gltf || !t->write_png) {
+      failure = "not the vgeo_extras module of this vgeo build (entry point or table mismatch)";
       return;
     }
     table = t;
@@ -67,14 +67,25 @@ const OpenMeshModule& load_openmesh_module() {
 }  // namespace
 
 Mesh subdivide_loop(const Mesh& mesh, const SubdivideOptions& options) {
-  return load_openmesh_module().subdivide_loop(mesh, options);
+  return load_extras_module().subdivide_loop(mesh, options);
 }
+
+void write_png(const std::string& path, const Image& image) { load_extras_module().write_png(path, image); }
+
+namespace detail {
+
+void import_gltf(const uint8_t* data, size_t size, std::vector<uint8_t>* owned_bytes, bool is_glb,
+                 const std::string& where, const std::string& base_dir, bool allow_fs, ImportResult& out) {
+  load_extras_module().import_gltf(data, size, owned_bytes, is_glb, where, base_dir, allow_fs, out);
+}
+
+}  // namespace detail
 
 namespace build_detail {
 
 SimplifyResult simplify_openmesh(const WeldedMesh& welded, const TriangleSet& group, const std::vector<uint8_t>& locked,
                                  const SimplifyTarget& target) {
-  return load_openmesh_module().simplify_openmesh(welded, group, locked, target);
+  return load_extras_module().simplify_openmesh(welded, group, locked, target);
 }
 
 }  // namespace build_detail
