@@ -1,3 +1,4 @@
+#include <cstdlib>
 // Edge flips at a fixed vertex set after a group's simplification (spec/dag.md §Simplify):
 // both backends only collapse edges, so which diagonal joins two kept triangles is whatever
 // the collapse order left. On a curved or noisy surface the other diagonal can lie closer
@@ -113,19 +114,21 @@ bool pair_within(const LeafSurface& leaves, DVec3 p, DVec3 q, DVec3 r, DVec3 s, 
 
 }  // namespace
 
-void flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
-                               float floor, TriangleSet& triangles) {
+bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
+                               float floor, const LatticePeak& peak, TriangleSet& triangles, std::vector<uint8_t>& flipped) {
   const Mesh& mesh = *welded.mesh;
   const size_t n = triangles.triangle_count();
   // The first simplification of the leaves (floor 0) is left as collapsed: it lies a few
   // percent of a leaf edge from the leaves (200k sphere: 1.8e-4 of a 3.6 diagonal), far below
   // any error a cut is asked for, and it is half the candidates (flipping there too: dagq's
   // ratio to the peer within noise, geometric mean 0.91 both, over three spheres, armadillo
-  // and bunny00).
-  if (n < 2 || leaves.tree.empty() || !(floor > 0)) return;
+  // and bunny00). A group whose error is its floor (no peak) cannot get below it.
+  flipped.assign(n, 0);
+  if (n < 2 || leaves.tree.empty() || !(floor > 0) || peak.triangle == kNone || peak.triangle >= n) return false;
   std::vector<uint32_t>& corners = triangles.corners;
   auto w = [&](size_t corner) { return welded.weld[corners[corner]]; };
   std::vector<uint8_t> flipped_before;  // triangles flipped by the previous sweep
+  size_t total_flips = 0;
   for (int sweep = 0; sweep < kFlipSweeps; ++sweep) {
     // Welded edges of the group: open addressing (load <= 1/2), per edge its number of uses
     // and its first two directed uses (3t + j). Edges made by a flip are added (one use each:
@@ -155,36 +158,37 @@ void flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leav
       }
     std::vector<uint8_t> touched(n, 0);  // a triangle flipped in this sweep (its uses are stale)
     size_t flips = 0;
-    for (uint32_t u1 = 0; u1 < 3 * n; ++u1) {
-      // Each manifold edge once, at its first use, in triangle order.
-      if (touched[u1 / 3]) continue;
+    // Flips the edge of directed use u1 when it passes every test; whether it flipped. Each
+    // manifold edge is tried at its first use.
+    auto try_flip = [&](uint32_t u1) {
+      if (touched[u1 / 3]) return false;
       const uint32_t ea = w(u1), eb = w(3 * (u1 / 3) + (u1 % 3 + 1) % 3);
-      if (ea == eb) continue;
+      if (ea == eb) return false;
       const std::array<uint32_t, 3>& e = edge[slot(edge_key(ea, eb))];
-      if (e[0] != 2 || e[1] != u1) continue;
+      if (e[0] != 2 || e[1] != u1) return false;
       const uint32_t u2 = e[2];
       const uint32_t t1 = u1 / 3, t2 = u2 / 3, j1 = u1 % 3, j2 = u2 % 3;
-      if (touched[t1] || touched[t2] || triangles.materials[t1] != triangles.materials[t2]) continue;
+      if (touched[t1] || touched[t2] || triangles.materials[t1] != triangles.materials[t2]) return false;
       // After the first sweep only pairs next to a flip can have changed (or were blocked by it).
-      if (sweep > 0 && !flipped_before[t1] && !flipped_before[t2]) continue;
+      if (sweep > 0 && !flipped_before[t1] && !flipped_before[t2]) return false;
       // t1 = (a, b, c), t2 = (b, a, d): opposite directions, the same vertices (no seam) on the edge.
       const uint32_t ia = 3 * t1 + j1, ib = 3 * t1 + (j1 + 1) % 3, ic = 3 * t1 + (j1 + 2) % 3;
       const uint32_t jb = 3 * t2 + j2, ja = 3 * t2 + (j2 + 1) % 3, jd = 3 * t2 + (j2 + 2) % 3;
-      if (corners[ia] != corners[ja] || corners[ib] != corners[jb]) continue;
+      if (corners[ia] != corners[ja] || corners[ib] != corners[jb]) return false;
       const uint32_t a = w(ia), b = w(ib), c = w(ic), d = w(jd);
-      if (c == d || c == a || c == b || d == a || d == b) continue;
+      if (c == d || c == a || c == b || d == a || d == b) return false;
       // Group-border edges are never removed or made (another group may use them).
-      if ((locked[a] && locked[b]) || (locked[c] && locked[d])) continue;
-      if (keys[slot(edge_key(c, d))] != kNoEdgeKey) continue;  // would be used more than twice
+      if ((locked[a] && locked[b]) || (locked[c] && locked[d])) return false;
+      if (keys[slot(edge_key(c, d))] != kNoEdgeKey) return false;  // would be used more than twice
       const DVec3 pa = flip_position(mesh, corners[ia]), pb = flip_position(mesh, corners[ib]);
       const DVec3 pc = flip_position(mesh, corners[ic]), pd = flip_position(mesh, corners[jd]);
       // The new pair (c, a, d), (d, b, c) must face as the old pair does.
       using surface_distance_detail::cross, surface_distance_detail::dot, surface_distance_detail::sub;
       const DVec3 n1 = cross(sub(pb, pa), sub(pc, pa)), n2 = cross(sub(pa, pb), sub(pd, pb));
       const DVec3 m1 = cross(sub(pa, pc), sub(pd, pc)), m2 = cross(sub(pb, pd), sub(pc, pd));
-      if (dot(m1, n1) <= 0 || dot(m1, n2) <= 0 || dot(m2, n1) <= 0 || dot(m2, n2) <= 0) continue;
+      if (dot(m1, n1) <= 0 || dot(m1, n2) <= 0 || dot(m2, n1) <= 0 || dot(m2, n2) <= 0) return false;
       const uint32_t start = leaves.vertex_triangle[corners[ia]];
-      if (start == kNone) continue;
+      if (start == kNone) return false;
       // The two pairs differ most at their diagonals: the midpoints reject most candidates,
       // then every sample of the new pair must lie clearly closer than the old pair's worst
       // (the new pair's "within" is proved by the walk's triangle or the tree). The samples
@@ -192,20 +196,44 @@ void flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leav
       uint32_t at = start;
       const double mid_before = walked_distance_squared(leaves, midpoint(pa, pb), &at);
       const DVec3 ab = sub(pb, pa);
-      if (mid_before <= kFlatDeviation * kFlatDeviation * dot(ab, ab)) continue;
-      if (!walked_within(leaves, midpoint(pc, pd), kFlipGain * mid_before, &at)) continue;
+      if (mid_before <= kFlatDeviation * kFlatDeviation * dot(ab, ab)) return false;
+      if (!walked_within(leaves, midpoint(pc, pd), kFlipGain * mid_before, &at)) return false;
       const double before = pair_deviation(leaves, pa, pb, pc, pd, at);
-      if (!pair_within(leaves, pc, pd, pb, pa, kFlipGain * before, at)) continue;
+      if (!pair_within(leaves, pc, pd, pb, pa, kFlipGain * before, at)) return false;
       const uint32_t vc = corners[ic], vd = corners[jd], va = corners[ia], vb = corners[ib];
       corners[3 * t1] = vc, corners[3 * t1 + 1] = va, corners[3 * t1 + 2] = vd;
       corners[3 * t2] = vd, corners[3 * t2 + 1] = vb, corners[3 * t2 + 2] = vc;
       touched[t1] = touched[t2] = 1;
+      flipped[t1] = flipped[t2] = 1;
       add_use(edge_key(c, d), kNone);
       ++flips;
+      return true;
+    };
+    if (sweep == 0) {
+      // The peak first: the edge its point lies on, or the three edges of the triangle it lies
+      // inside. Unless one of them flips, the peak stays a point of the flipped surface, whose
+      // error then cannot fall below the unflipped one's, and the group keeps its triangles as
+      // collapsed (the caller's keep rule): the other candidates need no test.
+      const uint32_t t = peak.triangle;
+      const int first = peak.place == kLatticeInterior ? 0 : peak.place;
+      const int last = peak.place == kLatticeInterior ? 2 : peak.place;
+      bool peak_flipped = false;
+      for (int j = first; j <= last && !peak_flipped; ++j) {
+        const uint32_t ea = w(3 * t + j), eb = w(3 * t + (j + 1) % 3);
+        if (ea == eb) continue;
+        const std::array<uint32_t, 3>& e = edge[slot(edge_key(ea, eb))];
+        if (e[0] == 2) peak_flipped = try_flip(e[1]);
+      }
+      if (!peak_flipped) return false;
+      static const bool peak_only = getenv("FF_PEAKONLY") != nullptr;
+      if (peak_only) return true;
     }
+    for (uint32_t u1 = 0; u1 < 3 * n; ++u1) try_flip(u1);
+    total_flips += flips;
     if (flips == 0) break;
     flipped_before = std::move(touched);
   }
+  return total_flips > 0;
 }
 
 }  // namespace vgeo::build_detail

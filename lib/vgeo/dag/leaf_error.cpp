@@ -95,12 +95,14 @@ void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector
 // (surface_distance_impl.h), so a "within" here is one the tree would find. *at gets the
 // triangle where the walk stopped: found, or nearby (the tree's starting hint). A walk only
 // ever proves "within"; a miss is decided by the tree.
-bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at) {
+// `*d2` gets the squared distance to the part of the walk's triangle that decided (an upper
+// bound of p's distance to the leaves when within).
+bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at, double* d2) {
   const LeafWalkEnd end = walk_leaf_surface(s, p, *at, kMaxWalkSteps);
   *at = end.triangle;
-  if (end.projects_inside) return prepared_plane_distance_squared(p, end.prepared) <= threshold;
-  double d2;  // p lies off the triangle's edges (or it has no normal): the nearest edge decides
-  return prepared_triangle_within_squared(p, end.prepared, threshold, &d2);
+  if (end.projects_inside) return (*d2 = prepared_plane_distance_squared(p, end.prepared)) <= threshold;
+  // p lies off the triangle's edges (or it has no normal): the nearest edge decides
+  return prepared_triangle_within_squared(p, end.prepared, threshold, d2);
 }
 
 }  // namespace
@@ -120,12 +122,17 @@ LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const
   return s;
 }
 
-float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
-                     float floor) {
-  if (leaves.tree.empty() || simplified.triangle_count() == 0) return floor;
-  // A float squared is exact in double, and sqrt and the rounding up are monotonic: a
-  // maximum ≤ floor² rounds to ≤ floor, so points within the floor cannot change the result.
-  const double floor_d2 = std::isfinite(floor) && floor > 0 ? double(floor) * double(floor) : 0.0;
+namespace {
+
+// A float squared is exact in double, and sqrt and the rounding up are monotonic: a maximum
+// ≤ floor² rounds to ≤ floor, so points within the floor cannot change the result.
+double floor_squared(float floor) { return std::isfinite(floor) && floor > 0 ? double(floor) * double(floor) : 0.0; }
+
+// leaf_deviation's search (below) before the rounding: the largest squared distance of the
+// points beyond floor_d2, or 0 when none lies beyond it. `record` (optional) gets every point
+// visited.
+double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input,
+                         const TriangleSet& simplified, double floor_d2, LatticePeak* peak, LatticeRecord* record) {
   // Edges (by original vertex ids, smaller first: the lattice points depend on both) whose
   // points need no visit: edges of the input when the input is itself simplified (floor > 0)
   // — the same points were measured for the members, within their stored error ≤ floor —
@@ -154,12 +161,19 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
   // search ended (the points of a triangle are visited in a tour around it), or a leaf
   // triangle at the first corner of an edge whose tour predecessor was skipped.
   uint32_t at = kNone;
+  LatticePeak here;  // the place of the points being visited (for `peak`)
   auto visit = [&](DVec3 p) {
     const double threshold = std::max(best2, floor_d2);
-    if (at != kNone && walk_within(leaves, p, threshold, &at)) return;
-    // One tree search: "within" or, when not, the nearest distance.
-    const double d2 = leaves.tree.nearest_or_within_squared(p, threshold, &at);
-    if (d2 > threshold) best2 = std::max(best2, d2);
+    double d2;
+    if (at == kNone || !walk_within(leaves, p, threshold, &at, &d2)) {
+      // One tree search: "within" or, when not, the nearest distance.
+      d2 = leaves.tree.nearest_or_within_squared(p, threshold, &at);
+      if (d2 > threshold) {
+        best2 = d2;
+        if (peak) *peak = here;
+      }
+    }
+    if (record) record->points.push_back({p, d2, here.triangle});
   };
   auto vertex = [&](uint32_t v) {
     return DVec3{mesh.positions[3 * size_t(v)], mesh.positions[3 * size_t(v) + 1], mesh.positions[3 * size_t(v) + 2]};
@@ -174,6 +188,7 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
   for (size_t t = 0; t < simplified.triangle_count(); ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
     at = leaves.vertex_triangle[tri[0]];
+    here.triangle = uint32_t(t);
     bool after_previous_edge = false;  // the last point visited is on edge j - 1, next to corner j
     for (int j = 0; j < 3; ++j) {
       if (!insert_edge(tri[j], tri[(j + 1) % 3])) {
@@ -185,6 +200,7 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
       // (sphere 1M: 11.40M -> 10.59M walk steps).
       if (j > 0 && !after_previous_edge) at = leaves.vertex_triangle[tri[j]];
       after_previous_edge = true;
+      here.place = j;
       const bool forward = tri[j] < tri[(j + 1) % 3];
       const DVec3 e0 = vertex(forward ? tri[j] : tri[(j + 1) % 3]), e1 = vertex(forward ? tri[(j + 1) % 3] : tri[j]);
       for (uint32_t k = 1; k < s; ++k) {
@@ -194,11 +210,54 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
       }
     }
     const DVec3 a = vertex(tri[0]), b = vertex(tri[1]), c = vertex(tri[2]);
+    here.place = kLatticeInterior;
     for (uint32_t u = 1; u < s; ++u)
       for (uint32_t w = 1; u + w < s; ++w) {
         const double bu = double(u) / s, bw = double(w) / s, bv = 1.0 - bu - bw;
         visit(DVec3{a.x * bv + b.x * bu + c.x * bw, a.y * bv + b.y * bu + c.y * bw, a.z * bv + b.z * bu + c.z * bw});
       }
+  }
+  return best2;
+}
+
+}  // namespace
+
+float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
+                     float floor, LatticePeak* peak, LatticeRecord* record) {
+  if (peak) *peak = LatticePeak{};
+  if (record) record->points.clear();
+  if (leaves.tree.empty() || simplified.triangle_count() == 0) return floor;
+  const double best2 = deviation_squared(leaves, mesh, input, simplified, floor_squared(floor), peak, record);
+  return std::max(floor, round_up_to_float(std::sqrt(best2)));
+}
+
+float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input,
+                                  const TriangleSet& changed_surface, const std::vector<uint8_t>& changed,
+                                  const LatticeRecord& record, float floor) {
+  if (leaves.tree.empty() || changed_surface.triangle_count() == 0) return floor;
+  const double floor_d2 = floor_squared(floor);
+  // The changed triangles' points (new, or on an edge a changed triangle shares), measured.
+  TriangleSet now;
+  for (size_t t = 0; t < changed_surface.triangle_count(); ++t)
+    if (changed[t]) {
+      now.corners.insert(now.corners.end(), &changed_surface.corners[3 * t], &changed_surface.corners[3 * t + 3]);
+      now.materials.push_back(changed_surface.materials[t]);
+    }
+  double best2 = now.triangle_count() ? deviation_squared(leaves, mesh, input, now, floor_d2, nullptr, nullptr) : 0.0;
+  // Every other point was visited from an unchanged triangle: its recorded value bounds its
+  // distance, so only those recorded beyond the running maximum are searched, largest first.
+  std::vector<const LatticeRecord::Point*> open;
+  for (const LatticeRecord::Point& q : record.points)
+    if (q.triangle < changed.size() && !changed[q.triangle] && q.d2 > std::max(best2, floor_d2)) open.push_back(&q);
+  std::sort(open.begin(), open.end(), [](const LatticeRecord::Point* x, const LatticeRecord::Point* y) {
+    return x->d2 > y->d2 || (x->d2 == y->d2 && x < y);
+  });
+  uint32_t at = kNone;
+  for (const LatticeRecord::Point* q : open) {
+    const double threshold = std::max(best2, floor_d2);
+    if (q->d2 <= threshold) break;
+    const double d2 = leaves.tree.nearest_or_within_squared(q->p, threshold, &at);
+    if (d2 > threshold) best2 = d2;
   }
   return std::max(floor, round_up_to_float(std::sqrt(best2)));
 }
