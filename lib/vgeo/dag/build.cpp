@@ -1,6 +1,3 @@
-#include <atomic>
-#include <cstdio>
-#include <cstdlib>
 // The DAG builder driver: cluster → (group → simplify → split) per level → BVH → layout.
 // Normative description: spec/dag.md.
 // Based on: Karis, Stubbe, Wihlidal, "Nanite: A Deep Dive", SIGGRAPH 2021 Advances in Real-Time
@@ -760,26 +757,21 @@ bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, c
 // level-1 group's error as it was, and the level-2 group that covers half the mesh measured
 // 0.0088 instead of 0.0042: dagq 1.03 -> 1.13 of the peer's). So the measurement hands the
 // flips its peak (the lattice point farthest from the leaves): unless a flip changes it, the
-// flipped surface keeps that point and its error, and nothing is flipped (most groups: no
-// flip pass and no second measurement). Otherwise the flipped surface is measured as the
-// collapsed one was, and kept when its error is lower. Either way the stored error is the
-// measured one of the triangles kept: stored ≥ measured exactly.
+// flipped surface keeps that point and its error, and nothing is flipped (no flip pass for a
+// group at its floor, none beyond the peak's edges where they do not flip). Otherwise the
+// flipped surface's error is measured from the changed triangles and the record of the
+// others (leaf_deviation_after_change: the same value a full measurement gives), and the
+// flips are kept when it is lower. Either way the stored error is the measured one of the
+// triangles kept: stored ≥ measured exactly.
 float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, float floor, TriangleSet& triangles) {
   LatticePeak peak;
   LatticeRecord record;
   const float error = leaf_deviation(s.leaf_surface, s.mesh, input, triangles, floor, &peak, &record);
   std::vector<uint8_t> changed;
-  static std::atomic<int> c_all{0}, c_peak{0}, c_flip{0}, c_keep{0};
-  struct P { std::atomic<int>*a,*b,*c,*d; ~P(){ if (getenv("FFDBG")) fprintf(stderr,"groups %d peak %d flipped %d kept %d\n",a->load(),b->load(),c->load(),d->load()); } };
-  static P pr{&c_all,&c_peak,&c_flip,&c_keep};
-  ++c_all; if (peak.triangle != kNone && floor > 0) ++c_peak;
   TriangleSet flipped = triangles;
-  if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, flipped, changed)) return error;
-  ++c_flip;
-  const float flipped_error = getenv("FF_FULL") ? leaf_deviation(s.leaf_surface, s.mesh, input, flipped, floor) : leaf_deviation_after_change(s.leaf_surface, s.mesh, input, flipped, changed, record, floor);
-  if (getenv("FF_CHECK") && flipped_error != leaf_deviation(s.leaf_surface, s.mesh, input, flipped, floor)) { fprintf(stderr, "MISMATCH\n"); abort(); }
+  if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed)) return error;
+  const float flipped_error = leaf_deviation_after_change(s.leaf_surface, s.mesh, input, flipped, changed, record, floor);
   if (!(flipped_error < error)) return error;
-  ++c_keep;
   triangles = std::move(flipped);
   return flipped_error;
 }

@@ -309,16 +309,17 @@ struct LatticePeak {
   uint32_t triangle = kNone;
   int place = kLatticeInterior;
 };
-// Every lattice point leaf_deviation visited: its position, an upper bound of its squared
-// distance to the leaves (the walk's or the tree's triangle that decided it; exact for a
-// point that raised the maximum) and the triangle of `simplified` it was visited from.
+// What leaf_deviation found at each place of `simplified` (places[4t + place], place as in
+// LatticePeak): the largest upper bound of its points' squared distances to the leaves (the
+// walk's or the tree's triangle that decided each; exact for a point that raised the
+// maximum) and the leaf triangle where that point's walk or search ended; d2 < 0: no point
+// visited there (an edge of the input, or one visited from its other triangle).
 struct LatticeRecord {
-  struct Point {
-    DVec3 p;
-    double d2 = 0;
-    uint32_t triangle = kNone;
+  struct Place {
+    double d2 = -1;
+    uint32_t leaf = kNone;
   };
-  std::vector<Point> points;
+  std::vector<Place> places;
 };
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
                      float floor, LatticePeak* peak = nullptr, LatticeRecord* record = nullptr);
@@ -337,7 +338,8 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
 // first, and when none of them flips, nothing is flipped. Returns whether any edge flipped.
 // `flipped` gets, per triangle, whether a flip replaced it.
 bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
-                               float floor, const LatticePeak& peak, TriangleSet& triangles, std::vector<uint8_t>& flipped);
+                               float floor, const LatticePeak& peak, const LatticeRecord& record, TriangleSet& triangles,
+                               std::vector<uint8_t>& flipped);
 
 // Certified mode (BuildOptions::error_bound = ErrorBound::kCertified; leaf_certify.cpp,
 // spec/dag.md §Error "Certified bound"). twin[3t + j]: the edge k of g = neighbour[3t + j]

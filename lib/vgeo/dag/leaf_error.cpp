@@ -128,6 +128,37 @@ namespace {
 // ≤ floor² rounds to ≤ floor, so points within the floor cannot change the result.
 double floor_squared(float floor) { return std::isfinite(floor) && floor > 0 ? double(floor) * double(floor) : 0.0; }
 
+DVec3 mesh_vertex(const Mesh& mesh, uint32_t v) {
+  return DVec3{mesh.positions[3 * size_t(v)], mesh.positions[3 * size_t(v) + 1], mesh.positions[3 * size_t(v) + 2]};
+}
+
+// Visits the lattice points of one place of triangle `tri` (corner ids): edge j's points (j <
+// 3), from corner j to corner j + 1, or its interior points (kLatticeInterior). The points of
+// for_each_lattice_point (lib/vgeo/core/surface_distance.h, which lib/vgeo/verify samples),
+// same formulas: an edge's point i/s is computed from its smaller vertex id.
+template <class Visit>
+void for_each_place_point(const Mesh& mesh, const uint32_t* tri, int place, Visit&& visit) {
+  const uint32_t s = kErrorLatticeSubdivisions ? kErrorLatticeSubdivisions : 1;
+  if (place != kLatticeInterior) {
+    const int j = place;
+    const bool forward = tri[j] < tri[(j + 1) % 3];
+    const DVec3 e0 = mesh_vertex(mesh, forward ? tri[j] : tri[(j + 1) % 3]);
+    const DVec3 e1 = mesh_vertex(mesh, forward ? tri[(j + 1) % 3] : tri[j]);
+    for (uint32_t k = 1; k < s; ++k) {
+      const uint32_t i = forward ? k : s - k;
+      const double f = double(i) / s;
+      visit(DVec3{e0.x + (e1.x - e0.x) * f, e0.y + (e1.y - e0.y) * f, e0.z + (e1.z - e0.z) * f});
+    }
+    return;
+  }
+  const DVec3 a = mesh_vertex(mesh, tri[0]), b = mesh_vertex(mesh, tri[1]), c = mesh_vertex(mesh, tri[2]);
+  for (uint32_t u = 1; u < s; ++u)
+    for (uint32_t w = 1; u + w < s; ++w) {
+      const double bu = double(u) / s, bw = double(w) / s, bv = 1.0 - bu - bw;
+      visit(DVec3{a.x * bv + b.x * bu + c.x * bw, a.y * bv + b.y * bu + c.y * bw, a.z * bv + b.z * bu + c.z * bw});
+    }
+}
+
 // leaf_deviation's search (below) before the rounding: the largest squared distance of the
 // points beyond floor_d2, or 0 when none lies beyond it. `record` (optional) gets every point
 // visited.
@@ -173,18 +204,17 @@ double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const Tria
         if (peak) *peak = here;
       }
     }
-    if (record) record->points.push_back({p, d2, here.triangle});
+    if (record) {
+      LatticeRecord::Place& r = record->places[4 * size_t(here.triangle) + size_t(here.place)];
+      if (d2 > r.d2) r.d2 = d2, r.leaf = at;
+    }
   };
-  auto vertex = [&](uint32_t v) {
-    return DVec3{mesh.positions[3 * size_t(v)], mesh.positions[3 * size_t(v) + 1], mesh.positions[3 * size_t(v) + 2]};
-  };
-  // The points of for_each_lattice_point (lib/vgeo/core/surface_distance.h, which
-  // lib/vgeo/verify samples), same formulas, triangle by triangle. Corners are skipped: a
-  // simplified corner is an input vertex (both backends only remove vertices), a corner of a
-  // leaf triangle, at distance exactly 0. Which points are visited decides the result, not
-  // the order: edge points go from corner j to corner j + 1 (an edge's point i/s is still
-  // computed from its smaller vertex id), so consecutive points are a short walk apart.
-  const uint32_t s = kErrorLatticeSubdivisions ? kErrorLatticeSubdivisions : 1;
+  // The points of for_each_lattice_point, triangle by triangle (for_each_place_point).
+  // Corners are skipped: a simplified corner is an input vertex (both backends only remove
+  // vertices), a corner of a leaf triangle, at distance exactly 0. Which points are visited
+  // decides the result, not the order: edge points go from corner j to corner j + 1, so
+  // consecutive points are a short walk apart.
+  if (record) record->places.assign(4 * simplified.triangle_count(), LatticeRecord::Place{});
   for (size_t t = 0; t < simplified.triangle_count(); ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
     at = leaves.vertex_triangle[tri[0]];
@@ -201,21 +231,10 @@ double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const Tria
       if (j > 0 && !after_previous_edge) at = leaves.vertex_triangle[tri[j]];
       after_previous_edge = true;
       here.place = j;
-      const bool forward = tri[j] < tri[(j + 1) % 3];
-      const DVec3 e0 = vertex(forward ? tri[j] : tri[(j + 1) % 3]), e1 = vertex(forward ? tri[(j + 1) % 3] : tri[j]);
-      for (uint32_t k = 1; k < s; ++k) {
-        const uint32_t i = forward ? k : s - k;
-        const double f = double(i) / s;
-        visit(DVec3{e0.x + (e1.x - e0.x) * f, e0.y + (e1.y - e0.y) * f, e0.z + (e1.z - e0.z) * f});
-      }
+      for_each_place_point(mesh, tri, j, visit);
     }
-    const DVec3 a = vertex(tri[0]), b = vertex(tri[1]), c = vertex(tri[2]);
     here.place = kLatticeInterior;
-    for (uint32_t u = 1; u < s; ++u)
-      for (uint32_t w = 1; u + w < s; ++w) {
-        const double bu = double(u) / s, bw = double(w) / s, bv = 1.0 - bu - bw;
-        visit(DVec3{a.x * bv + b.x * bu + c.x * bw, a.y * bv + b.y * bu + c.y * bw, a.z * bv + b.z * bu + c.z * bw});
-      }
+    for_each_place_point(mesh, tri, kLatticeInterior, visit);
   }
   return best2;
 }
@@ -225,7 +244,7 @@ double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const Tria
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
                      float floor, LatticePeak* peak, LatticeRecord* record) {
   if (peak) *peak = LatticePeak{};
-  if (record) record->points.clear();
+  if (record) record->places.clear();
   if (leaves.tree.empty() || simplified.triangle_count() == 0) return floor;
   const double best2 = deviation_squared(leaves, mesh, input, simplified, floor_squared(floor), peak, record);
   return std::max(floor, round_up_to_float(std::sqrt(best2)));
@@ -244,20 +263,21 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
       now.materials.push_back(changed_surface.materials[t]);
     }
   double best2 = now.triangle_count() ? deviation_squared(leaves, mesh, input, now, floor_d2, nullptr, nullptr) : 0.0;
-  // Every other point was visited from an unchanged triangle: its recorded value bounds its
-  // distance, so only those recorded beyond the running maximum are searched, largest first.
-  std::vector<const LatticeRecord::Point*> open;
-  for (const LatticeRecord::Point& q : record.points)
-    if (q.triangle < changed.size() && !changed[q.triangle] && q.d2 > std::max(best2, floor_d2)) open.push_back(&q);
-  std::sort(open.begin(), open.end(), [](const LatticeRecord::Point* x, const LatticeRecord::Point* y) {
-    return x->d2 > y->d2 || (x->d2 == y->d2 && x < y);
-  });
-  uint32_t at = kNone;
-  for (const LatticeRecord::Point* q : open) {
-    const double threshold = std::max(best2, floor_d2);
-    if (q->d2 <= threshold) break;
-    const double d2 = leaves.tree.nearest_or_within_squared(q->p, threshold, &at);
-    if (d2 > threshold) best2 = d2;
+  // Every other point was visited from an unchanged triangle: its place's recorded value
+  // bounds its distance, so only places recorded beyond the running maximum are searched,
+  // largest first.
+  std::vector<std::pair<double, uint32_t>> open;  // (recorded value, 4t + place)
+  for (size_t k = 0; k < record.places.size() && k / 4 < changed.size(); ++k)
+    if (!changed[k / 4] && record.places[k].d2 > std::max(best2, floor_d2)) open.push_back({record.places[k].d2, uint32_t(k)});
+  std::sort(open.begin(), open.end(), [](const auto& x, const auto& y) { return x.first > y.first || (x.first == y.first && x.second < y.second); });
+  for (const auto& [bound, k] : open) {
+    if (bound <= std::max(best2, floor_d2)) break;
+    uint32_t at = record.places[k].leaf;  // where the measurement's walk or search ended
+    for_each_place_point(mesh, &changed_surface.corners[3 * size_t(k / 4)], int(k % 4), [&](DVec3 p) {
+      const double threshold = std::max(best2, floor_d2);
+      const double d2 = leaves.tree.nearest_or_within_squared(p, threshold, &at);
+      if (d2 > threshold) best2 = d2;
+    });
   }
   return std::max(floor, round_up_to_float(std::sqrt(best2)));
 }
