@@ -28,10 +28,10 @@ namespace {
 // kept only for a clear gain, so no pair flips back and forth on rounding noise.
 constexpr double kFlipGain = 0.98;
 // Only pairs whose measured squared distance reaches this share of the group's peak are
-// candidates (their farthest point at ≥ 0.71 of the group's error). The others cannot lower
-// the group's error and are where most candidates are; flipping them changed the next
-// level's input only, within the noise of dagq (9 meshes: gmean 0.907 at 0.5, 0.899 at 0.25,
-// 0.907 with every pair, one run each), at 3-5x the walks.
+// candidates (their farthest point at ≥ 0.71 of the group's error). The others are most
+// candidates and do not decide the group's error; flipping them changes the next level's
+// input only, within dagq's noise (qual.sh's 9 meshes, two sweeps, one run each: gmean 0.907
+// at 0.5, 0.899 at 0.25, 0.907 with every pair) for ~4.7x the walks (armadillo: 84k -> 18k).
 constexpr double kCandidatePeakShare = 0.5;
 // Barycentric steps of the sample points of a pair (the centroid of each triangle, the thirds
 // of the diagonal: verify's lattice, kErrorLatticeSubdivisions, on the edges a flip changes).
