@@ -275,7 +275,9 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
     uint32_t at = record.places[k].leaf;  // where the measurement's walk or search ended
     for_each_place_point(mesh, &changed_surface.corners[3 * size_t(k / 4)], int(k % 4), [&](DVec3 p) {
       const double threshold = std::max(best2, floor_d2);
-      const double d2 = leaves.tree.nearest_or_within_squared(p, threshold, &at);
+      double d2;
+      if (at != kNone && walk_within(leaves, p, threshold, &at, &d2)) return;  // as deviation_squared
+      d2 = leaves.tree.nearest_or_within_squared(p, threshold, &at);
       if (d2 > threshold) best2 = d2;
     });
   }
