@@ -750,27 +750,30 @@ bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, c
   return sealed;
 }
 
-// Whether a group's edge flips lowered its measured error `flipped_error` (that of `flipped`):
-// flips that leave the group's error where it was change nothing a cut is chosen by, but they
-// change the next level's input, and there they cost as often as they gain (lion: flips on
-// level 1 left every level-1 group's error as it was, and the level-2 group that covers half
-// the mesh measured 0.0088 instead of 0.0042: dagq 1.03 -> 1.13 of the peer's). Flips change
-// triangles in place (the same indices), so the unflipped surface is the flipped one with the
-// changed triangles put back: its lattice points (verify's) are the flipped surface's
-// unchanged ones (within flipped_error) and those of the changed triangles, which
-// leaf_deviation measures against the floor flipped_error (the members' error ≤ it, so the
-// input edges it skips stay within too). None beyond: the unflipped surface's error is at
-// most flipped_error, which then stays its stored error (stored ≥ measured holds exactly).
-bool keep_flips_that_lower_error(const BuildState& s, const TriangleSet& input, const TriangleSet& unflipped,
-                                 const TriangleSet& flipped, float flipped_error) {
-  TriangleSet changed;  // the triangles the flips replaced, as they were
-  for (size_t t = 0; t < unflipped.triangle_count(); ++t)
-    if (!std::equal(&unflipped.corners[3 * t], &unflipped.corners[3 * t + 3], &flipped.corners[3 * t])) {
-      changed.corners.insert(changed.corners.end(), &unflipped.corners[3 * t], &unflipped.corners[3 * t + 3]);
-      changed.materials.push_back(unflipped.materials[t]);
-    }
-  if (changed.triangle_count() == 0) return false;
-  return leaf_deviation(s.leaf_surface, s.mesh, input, changed, flipped_error) > flipped_error;
+// A group's error with edge flips (spec/dag.md §3, edge flips): its measured error as
+// collapsed, then flips where they can lower it, kept only where they did. Flips that leave
+// the group's error where it was change nothing a cut is chosen by, but they change the next
+// level's input, and there they cost as often as they gain (lion: flips on level 1 left every
+// level-1 group's error as it was, and the level-2 group that covers half the mesh measured
+// 0.0088 instead of 0.0042: dagq 1.03 -> 1.13 of the peer's). So the measurement hands the
+// flips its peak (the lattice point farthest from the leaves): unless a flip changes it, the
+// flipped surface keeps that point and its error, and nothing is flipped (no flip pass for a
+// group at its floor, none beyond the peak's edges where they do not flip). Otherwise the
+// flipped surface's error is measured from the changed triangles and the record of the
+// others (leaf_deviation_after_change: the same value a full measurement gives), and the
+// flips are kept when it is lower. Either way the stored error is the measured one of the
+// triangles kept: stored ≥ measured exactly.
+float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, float floor, TriangleSet& triangles) {
+  LatticePeak peak;
+  LatticeRecord record;
+  const float error = leaf_deviation(s.leaf_surface, s.mesh, input, triangles, floor, &peak, &record);
+  std::vector<uint8_t> changed;
+  TriangleSet flipped = triangles;
+  if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed)) return error;
+  const float flipped_error = leaf_deviation_after_change(s.leaf_surface, s.mesh, input, flipped, changed, record, floor);
+  if (!(flipped_error < error)) return error;
+  triangles = std::move(flipped);
+  return flipped_error;
 }
 
 void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
@@ -805,19 +808,13 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     target.open_borders = false;  // stuck with moving own borders: as before, with them locked
     sealed = simplify_sealed(s, blk.group_shared_edges[g], prepared, target, scratch, simplified);
   }
-  TriangleSet unflipped;  // the simplification as collapsed, while its flips are on trial
-  if (sealed && s.options.edge_flips) {
-    unflipped = simplified.triangles;
-    flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, max_member_error, simplified.triangles);
-  }
   float error = 0.0f;
   double tv0 = steady_seconds();
   // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the distance from the
   // simplified surface to the leaves, measured as verify measures it; the members' stored
   // error is a floor (the parent's error takes the max with it anyway).
-  if (sealed) error = leaf_deviation(s.leaf_surface, s.mesh, merged, simplified.triangles, max_member_error);
-  if (sealed && s.options.edge_flips && !keep_flips_that_lower_error(s, merged, unflipped, simplified.triangles, error))
-    simplified.triangles = std::move(unflipped);  // `error` bounds it too
+  if (sealed && s.options.edge_flips) error = measure_with_edge_flips(s, merged, max_member_error, simplified.triangles);
+  else if (sealed) error = leaf_deviation(s.leaf_surface, s.mesh, merged, simplified.triangles, max_member_error);
   seconds_error += steady_seconds() - tv0;
   if (sealed && simplified.capped) {
     // The group's own open borders moved (border_caps.cpp). A border collapse can cost more

@@ -300,12 +300,46 @@ LeafWalkEnd walk_leaf_surface(const LeafSurface& s, DVec3 p, uint32_t start, int
 // points. `floor` = the largest stored error of the group's members (`input`); the search
 // skips points that cannot raise the result (within the floor, or on an edge of a simplified
 // input, measured for the members already).
+// Where the measured maximum lies: the lattice point farthest from the leaves that raised the
+// result above the floor, as the triangle of `simplified` it was visited from and its place
+// there (0..2: a point of edge j, corners j and j + 1; kLatticeInterior: an interior point).
+// triangle = kNone when no point lies beyond the floor (the result is the floor).
+inline constexpr int kLatticeInterior = 3;
+struct LatticePeak {
+  uint32_t triangle = kNone;
+  int place = kLatticeInterior;
+};
+// What leaf_deviation found at each place of `simplified` (places[4t + place], place as in
+// LatticePeak): the largest upper bound of its points' squared distances to the leaves (the
+// walk's or the tree's triangle that decided each; exact for a point that raised the
+// maximum) and the leaf triangle where that point's walk or search ended; d2 < 0: no point
+// visited there (an edge of the input, or one visited from its other triangle).
+struct LatticeRecord {
+  struct Place {
+    double d2 = -1;
+    uint32_t leaf = kNone;
+  };
+  std::vector<Place> places;
+};
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
-                     float floor);
+                     float floor, LatticePeak* peak = nullptr, LatticeRecord* record = nullptr);
+// leaf_deviation(leaves, mesh, input, changed_surface, floor), bit for bit, where
+// `changed_surface` is a surface leaf_deviation measured with `record`, with the triangles
+// marked in `changed` replaced (same count; an edge of a replaced triangle that is still used
+// is used by a replaced one): only the replaced triangles' points are visited, and the
+// others' recorded bounds decide which of them need a search.
+float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input,
+                                  const TriangleSet& changed_surface, const std::vector<uint8_t>& changed,
+                                  const LatticeRecord& record, float floor);
 // Flips edges inside a simplified group where the other diagonal lies clearly closer to the
 // leaves; never an edge with both ends locked, never onto an existing edge (edge_flip.cpp).
-void flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
-                               float floor, TriangleSet& triangles);
+// Only flips that can lower the group's measured error are wanted (spec/dag.md §3, edge
+// flips): the edges that change the lattice point at `peak` (leaf_deviation's) are tried
+// first, and when none of them flips, nothing is flipped. Returns whether any edge flipped.
+// `flipped` gets, per triangle, whether a flip replaced it.
+bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
+                               float floor, const LatticePeak& peak, const LatticeRecord& record, TriangleSet& triangles,
+                               std::vector<uint8_t>& flipped);
 
 // Certified mode (BuildOptions::error_bound = ErrorBound::kCertified; leaf_certify.cpp,
 // spec/dag.md §Error "Certified bound"). twin[3t + j]: the edge k of g = neighbour[3t + j]

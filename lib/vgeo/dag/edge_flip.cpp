@@ -7,6 +7,12 @@
 // (§4.2: edge swaps kept when they lower the distance energy); Dyn, Hormann, Kim, Levin,
 // "Optimizing 3D Triangulations Using Discrete Curvature Analysis", 2001 (data-dependent
 // triangulations: the diagonal chosen by the surface, not by the plane).
+//
+// The pass costs little because the group's error measurement (leaf_deviation) hands it what
+// it found: the peak (the point farthest from the leaves) and, per triangle edge and interior,
+// its points' distances and the leaf triangles their walks ended at. The old pair's side of
+// every decision is read from there, and the new pair's walks start where the measurement's
+// walks for the neighbouring old points ended (docs/acceptance/issue23_flipfast.md).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -21,19 +27,19 @@ namespace {
 // A flip must lower the pair's largest sampled squared distance by this factor: a flip is
 // kept only for a clear gain, so no pair flips back and forth on rounding noise.
 constexpr double kFlipGain = 0.98;
-// Sweeps over the group's edges. A pair is flipped at most once per sweep, so a flip blocks
-// its neighbours; the second sweep visits only pairs next to a first-sweep flip (200k sphere:
-// 12% more flips, and dagq's curve 0.96 -> 0.90 of the peer's on bunny00 against one sweep).
-constexpr int kFlipSweeps = 2;
+// Only pairs whose measured squared distance reaches this share of the group's peak are
+// candidates (their farthest point at ≥ 0.71 of the group's error). The others are most
+// candidates and do not decide the group's error; flipping them changes the next level's
+// input only, within dagq's noise (qual.sh's 9 meshes, two sweeps, one run each: gmean 0.907
+// at 0.5, 0.899 at 0.25, 0.907 with every pair) for ~4.7x the walks (armadillo: 84k -> 18k).
+constexpr double kCandidatePeakShare = 0.5;
 // Barycentric steps of the sample points of a pair (the centroid of each triangle, the thirds
 // of the diagonal: verify's lattice, kErrorLatticeSubdivisions, on the edges a flip changes).
-// 4 steps (9 points a pair) flipped as well and cost more (dagq within noise of 3's).
 constexpr uint32_t kFlipSampleSteps = 3;
-// A pair whose diagonal midpoint lies within this fraction of the diagonal's length of the
-// leaves is flat to float precision: there a "gain" is rounding (blade, a CAD part with flat
-// faces, flipped on it and lost its last level: dagq 0.85 -> 1.28 of the peer's).
+// A pair whose points lie within this fraction of the diagonal's length of the leaves is
+// flat to float precision: there a "gain" is rounding (blade, a CAD part with flat faces,
+// flipped on it and lost its last level: dagq 0.85 -> 1.28 of the peer's).
 constexpr double kFlatDeviation = 1e-4;
-
 // Walk steps before the tree takes over (as leaf_error.cpp's walk: a sample lies within a few
 // leaf triangles of the previous one).
 constexpr int kFlipMaxWalkSteps = 32;
@@ -43,23 +49,9 @@ DVec3 flip_position(const Mesh& mesh, uint32_t v) {
   return {p[0], p[1], p[2]};
 }
 
-// Squared distance from p to the leaf triangle a visibility walk from *at reaches (the one p
-// projects into, or where the walk stops at a border, a fold or the step limit); *at gets it.
-// The triangle p projects into gives an upper bound of the distance to the leaves, equal to it
-// where the leaves are a height field around p: enough to rank two diagonals; a stopped walk
-// asks the tree (exact).
-double walked_distance_squared(const LeafSurface& leaves, DVec3 p, uint32_t* at) {
-  const LeafWalkEnd end = walk_leaf_surface(leaves, p, *at, kFlipMaxWalkSteps);
-  *at = end.triangle;
-  if (end.projects_inside) return prepared_plane_distance_squared(p, end.prepared);
-  // A border, a ridge (two triangles each behind the other) or a long way: the tree decides
-  // (taking the nearer of the two ridge triangles instead over-states the distance at
-  // vertices and flips wrongly: dagq 1.0-1.2 of the peer's on three spheres, against 0.9-1.0).
-  return leaves.tree.nearest_distance_squared(p, at);
-}
-
-// Whether p lies within sqrt(threshold) of the leaves, by the same walk: the triangle p
-// projects into decides (as walked_distance_squared would), a stopped walk asks the tree.
+// Whether p lies within sqrt(threshold) of the leaves: a visibility walk from *at (*at gets
+// where it ended), decided by the triangle p projects into; a walk that stops (a border, a
+// ridge, the step limit) asks the tree, whose answer is exact.
 bool walked_within(const LeafSurface& leaves, DVec3 p, double threshold, uint32_t* at) {
   const LeafWalkEnd end = walk_leaf_surface(leaves, p, *at, kFlipMaxWalkSteps);
   *at = end.triangle;
@@ -69,32 +61,9 @@ bool walked_within(const LeafSurface& leaves, DVec3 p, double threshold, uint32_
 
 DVec3 midpoint(DVec3 p, DVec3 q) { return {0.5 * (p.x + q.x), 0.5 * (p.y + q.y), 0.5 * (p.z + q.z)}; }
 
-// The largest squared distance to the leaves of the sample points of triangles (p, q, r) and
-// (q, p, s) that are not on their outer edges (their interior points and the diagonal p-q's),
-// by walks. A walk can over-state a distance, so a flip may rarely raise a pair's true
-// maximum; re-measuring the farthest sample exactly with the tree rules that out, but cost
-// 0.47 s of the 1M sphere's 3.5 (+38% -> +17% over no flips) for dagq within noise
-// (0.917 against 0.918 of the peer's there; the same or within ±0.04 on 12 other meshes).
-// The stored error is measured after the flips either way.
-double pair_deviation(const LeafSurface& leaves, DVec3 p, DVec3 q, DVec3 r, DVec3 s, uint32_t start) {
-  const uint32_t n = kFlipSampleSteps;
-  double worst = 0;
-  uint32_t at = start;
-  auto visit = [&](DVec3 x) { worst = std::max(worst, walked_distance_squared(leaves, x, &at)); };
-  for (uint32_t i = 1; i < n; ++i) {
-    const double f = double(i) / n;
-    visit({p.x + (q.x - p.x) * f, p.y + (q.y - p.y) * f, p.z + (q.z - p.z) * f});
-  }
-  for (const DVec3& c : {r, s})
-    for (uint32_t u = 1; u < n; ++u)
-      for (uint32_t w = 1; u + w < n; ++w) {
-        const double bu = double(u) / n, bw = double(w) / n, bv = 1.0 - bu - bw;
-        visit({p.x * bv + q.x * bu + c.x * bw, p.y * bv + q.y * bu + c.y * bw, p.z * bv + q.z * bu + c.z * bw});
-      }
-  return worst;
-}
-
-// Whether every sample point of pair_deviation lies within sqrt(threshold) of the leaves.
+// Whether every sample point of triangles (p, q, r) and (q, p, s) that is not on their outer
+// edges (their interior points and the diagonal p-q's) lies within sqrt(threshold) of the
+// leaves.
 bool pair_within(const LeafSurface& leaves, DVec3 p, DVec3 q, DVec3 r, DVec3 s, double threshold, uint32_t start) {
   const uint32_t n = kFlipSampleSteps;
   uint32_t at = start;
@@ -113,99 +82,134 @@ bool pair_within(const LeafSurface& leaves, DVec3 p, DVec3 q, DVec3 r, DVec3 s, 
 
 }  // namespace
 
-void flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
-                               float floor, TriangleSet& triangles) {
+bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
+                               float floor, const LatticePeak& peak, const LatticeRecord& record, TriangleSet& triangles,
+                               std::vector<uint8_t>& flipped) {
   const Mesh& mesh = *welded.mesh;
   const size_t n = triangles.triangle_count();
+  flipped.assign(n, 0);
   // The first simplification of the leaves (floor 0) is left as collapsed: it lies a few
   // percent of a leaf edge from the leaves (200k sphere: 1.8e-4 of a 3.6 diagonal), far below
   // any error a cut is asked for, and it is half the candidates (flipping there too: dagq's
   // ratio to the peer within noise, geometric mean 0.91 both, over three spheres, armadillo
-  // and bunny00).
-  if (n < 2 || leaves.tree.empty() || !(floor > 0)) return;
+  // and bunny00). A group whose error is its floor (no peak) cannot get below it.
+  if (n < 2 || leaves.tree.empty() || !(floor > 0) || peak.triangle == kNone || peak.triangle >= n ||
+      record.places.size() != 4 * n)
+    return false;
   std::vector<uint32_t>& corners = triangles.corners;
   auto w = [&](size_t corner) { return welded.weld[corners[corner]]; };
-  std::vector<uint8_t> flipped_before;  // triangles flipped by the previous sweep
-  for (int sweep = 0; sweep < kFlipSweeps; ++sweep) {
-    // Welded edges of the group: open addressing (load <= 1/2), per edge its number of uses
-    // and its first two directed uses (3t + j). Edges made by a flip are added (one use each:
-    // never a candidate again in this sweep, and never made twice).
-    size_t slots = 16;
-    int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
-    while (slots < 4 * n) slots <<= 1, --shift;
-    constexpr uint64_t kNoEdgeKey = ~uint64_t(0);  // no edge key (a < b) equals it
-    std::vector<uint64_t> keys(slots, kNoEdgeKey);
-    std::vector<std::array<uint32_t, 3>> edge(slots);  // uses, first use, second use
-    auto slot = [&](uint64_t key) {
-      size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
-      while (keys[h] != kNoEdgeKey && keys[h] != key) h = (h + 1) & (slots - 1);
-      return h;
-    };
-    auto add_use = [&](uint64_t key, uint32_t use) {
-      const size_t h = slot(key);
-      if (keys[h] == kNoEdgeKey) keys[h] = key, edge[h] = {0, kNone, kNone};
-      std::array<uint32_t, 3>& e = edge[h];
-      if (e[0] < 2) e[1 + e[0]] = use;
-      ++e[0];
-    };
-    for (size_t t = 0; t < n; ++t)
-      for (int j = 0; j < 3; ++j) {
-        const uint32_t a = w(3 * t + j), b = w(3 * t + (j + 1) % 3);
-        if (a != b) add_use(edge_key(a, b), uint32_t(3 * t + j));
-      }
-    std::vector<uint8_t> touched(n, 0);  // a triangle flipped in this sweep (its uses are stale)
-    size_t flips = 0;
-    for (uint32_t u1 = 0; u1 < 3 * n; ++u1) {
-      // Each manifold edge once, at its first use, in triangle order.
-      if (touched[u1 / 3]) continue;
-      const uint32_t ea = w(u1), eb = w(3 * (u1 / 3) + (u1 % 3 + 1) % 3);
-      if (ea == eb) continue;
-      const std::array<uint32_t, 3>& e = edge[slot(edge_key(ea, eb))];
-      if (e[0] != 2 || e[1] != u1) continue;
-      const uint32_t u2 = e[2];
-      const uint32_t t1 = u1 / 3, t2 = u2 / 3, j1 = u1 % 3, j2 = u2 % 3;
-      if (touched[t1] || touched[t2] || triangles.materials[t1] != triangles.materials[t2]) continue;
-      // After the first sweep only pairs next to a flip can have changed (or were blocked by it).
-      if (sweep > 0 && !flipped_before[t1] && !flipped_before[t2]) continue;
-      // t1 = (a, b, c), t2 = (b, a, d): opposite directions, the same vertices (no seam) on the edge.
-      const uint32_t ia = 3 * t1 + j1, ib = 3 * t1 + (j1 + 1) % 3, ic = 3 * t1 + (j1 + 2) % 3;
-      const uint32_t jb = 3 * t2 + j2, ja = 3 * t2 + (j2 + 1) % 3, jd = 3 * t2 + (j2 + 2) % 3;
-      if (corners[ia] != corners[ja] || corners[ib] != corners[jb]) continue;
-      const uint32_t a = w(ia), b = w(ib), c = w(ic), d = w(jd);
-      if (c == d || c == a || c == b || d == a || d == b) continue;
-      // Group-border edges are never removed or made (another group may use them).
-      if ((locked[a] && locked[b]) || (locked[c] && locked[d])) continue;
-      if (keys[slot(edge_key(c, d))] != kNoEdgeKey) continue;  // would be used more than twice
-      const DVec3 pa = flip_position(mesh, corners[ia]), pb = flip_position(mesh, corners[ib]);
-      const DVec3 pc = flip_position(mesh, corners[ic]), pd = flip_position(mesh, corners[jd]);
-      // The new pair (c, a, d), (d, b, c) must face as the old pair does.
-      using surface_distance_detail::cross, surface_distance_detail::dot, surface_distance_detail::sub;
-      const DVec3 n1 = cross(sub(pb, pa), sub(pc, pa)), n2 = cross(sub(pa, pb), sub(pd, pb));
-      const DVec3 m1 = cross(sub(pa, pc), sub(pd, pc)), m2 = cross(sub(pb, pd), sub(pc, pd));
-      if (dot(m1, n1) <= 0 || dot(m1, n2) <= 0 || dot(m2, n1) <= 0 || dot(m2, n2) <= 0) continue;
-      const uint32_t start = leaves.vertex_triangle[corners[ia]];
-      if (start == kNone) continue;
-      // The two pairs differ most at their diagonals: the midpoints reject most candidates,
-      // then every sample of the new pair must lie clearly closer than the old pair's worst
-      // (the new pair's "within" is proved by the walk's triangle or the tree). The samples
-      // are verify's lattice points on the edges a flip changes; the outer edges' points stay.
-      uint32_t at = start;
-      const double mid_before = walked_distance_squared(leaves, midpoint(pa, pb), &at);
-      const DVec3 ab = sub(pb, pa);
-      if (mid_before <= kFlatDeviation * kFlatDeviation * dot(ab, ab)) continue;
-      if (!walked_within(leaves, midpoint(pc, pd), kFlipGain * mid_before, &at)) continue;
-      const double before = pair_deviation(leaves, pa, pb, pc, pd, at);
-      if (!pair_within(leaves, pc, pd, pb, pa, kFlipGain * before, at)) continue;
-      const uint32_t vc = corners[ic], vd = corners[jd], va = corners[ia], vb = corners[ib];
-      corners[3 * t1] = vc, corners[3 * t1 + 1] = va, corners[3 * t1 + 2] = vd;
-      corners[3 * t2] = vd, corners[3 * t2 + 1] = vb, corners[3 * t2 + 2] = vc;
-      touched[t1] = touched[t2] = 1;
-      add_use(edge_key(c, d), kNone);
-      ++flips;
+  // The measurement's values (the old pair's side of each decision). A diagonal without
+  // points was skipped by it: an input edge, within the floor.
+  const std::vector<LatticeRecord::Place>& known = record.places;
+  const double floor_d2 = double(floor) * double(floor);
+  double peak_d2 = floor_d2;
+  for (const LatticeRecord::Place& q : known) peak_d2 = std::max(peak_d2, q.d2);
+  const double candidate_d2 = kCandidatePeakShare * peak_d2;
+
+  // Welded edges of the group: open addressing (load <= 1/2), per edge its number of uses and
+  // its first two directed uses (3t + j). Edges made by a flip are added (one use each: never
+  // a candidate, and never made twice).
+  size_t slots = 16;
+  int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
+  while (slots < 4 * n) slots <<= 1, --shift;
+  constexpr uint64_t kNoEdgeKey = ~uint64_t(0);  // no edge key (a < b) equals it
+  std::vector<uint64_t> keys(slots, kNoEdgeKey);
+  std::vector<std::array<uint32_t, 3>> edge(slots);  // uses, first use, second use
+  auto slot = [&](uint64_t key) {
+    size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
+    while (keys[h] != kNoEdgeKey && keys[h] != key) h = (h + 1) & (slots - 1);
+    return h;
+  };
+  auto add_use = [&](uint64_t key, uint32_t use) {
+    const size_t h = slot(key);
+    if (keys[h] == kNoEdgeKey) keys[h] = key, edge[h] = {0, kNone, kNone};
+    std::array<uint32_t, 3>& e = edge[h];
+    if (e[0] < 2) e[1 + e[0]] = use;
+    ++e[0];
+  };
+  for (size_t t = 0; t < n; ++t)
+    for (int j = 0; j < 3; ++j) {
+      const uint32_t a = w(3 * t + j), b = w(3 * t + (j + 1) % 3);
+      if (a != b) add_use(edge_key(a, b), uint32_t(3 * t + j));
     }
-    if (flips == 0) break;
-    flipped_before = std::move(touched);
+
+  // Flips the edge of directed use u1 when it passes every test; whether it flipped. Each
+  // manifold edge is tried at its first use; a pair is flipped at most once (one sweep: a
+  // second over the neighbours of flips would need the flipped pairs measured again).
+  auto try_flip = [&](uint32_t use) {
+    if (flipped[use / 3]) return false;
+    const uint32_t ea = w(use), eb = w(3 * (use / 3) + (use % 3 + 1) % 3);
+    if (ea == eb) return false;
+    const std::array<uint32_t, 3>& e = edge[slot(edge_key(ea, eb))];
+    if (e[0] != 2) return false;
+    const uint32_t u1 = e[1], u2 = e[2];
+    const uint32_t t1 = u1 / 3, t2 = u2 / 3, j1 = u1 % 3, j2 = u2 % 3;
+    if (flipped[t1] || flipped[t2] || triangles.materials[t1] != triangles.materials[t2]) return false;
+    // The old pair's points as measured: the diagonal's (visited from either triangle) and
+    // both interiors'.
+    const LatticeRecord::Place diagonal = known[4 * t1 + j1].d2 >= known[4 * t2 + j2].d2 ? known[4 * t1 + j1] : known[4 * t2 + j2];
+    const LatticeRecord::Place inside = known[4 * t1 + kLatticeInterior];
+    const double before = std::max({diagonal.d2 < 0 ? floor_d2 : diagonal.d2, inside.d2, known[4 * t2 + kLatticeInterior].d2});
+    if (before < candidate_d2) return false;
+    // t1 = (a, b, c), t2 = (b, a, d): opposite directions, the same vertices (no seam) on the edge.
+    const uint32_t ia = 3 * t1 + j1, ib = 3 * t1 + (j1 + 1) % 3, ic = 3 * t1 + (j1 + 2) % 3;
+    const uint32_t jb = 3 * t2 + j2, ja = 3 * t2 + (j2 + 1) % 3, jd = 3 * t2 + (j2 + 2) % 3;
+    if (corners[ia] != corners[ja] || corners[ib] != corners[jb]) return false;
+    const uint32_t a = w(ia), b = w(ib), c = w(ic), d = w(jd);
+    if (c == d || c == a || c == b || d == a || d == b) return false;
+    // Group-border edges are never removed or made (another group may use them).
+    if ((locked[a] && locked[b]) || (locked[c] && locked[d])) return false;
+    if (keys[slot(edge_key(c, d))] != kNoEdgeKey) return false;  // would be used more than twice
+    const DVec3 pa = flip_position(mesh, corners[ia]), pb = flip_position(mesh, corners[ib]);
+    const DVec3 pc = flip_position(mesh, corners[ic]), pd = flip_position(mesh, corners[jd]);
+    using surface_distance_detail::cross, surface_distance_detail::dot, surface_distance_detail::sub;
+    const DVec3 ab = sub(pb, pa);
+    if (before <= kFlatDeviation * kFlatDeviation * dot(ab, ab)) return false;
+    // The new pair (c, a, d), (d, b, c) must face as the old pair does.
+    const DVec3 n1 = cross(sub(pb, pa), sub(pc, pa)), n2 = cross(sub(pa, pb), sub(pd, pb));
+    const DVec3 m1 = cross(sub(pa, pc), sub(pd, pc)), m2 = cross(sub(pb, pd), sub(pc, pd));
+    if (dot(m1, n1) <= 0 || dot(m1, n2) <= 0 || dot(m2, n1) <= 0 || dot(m2, n2) <= 0) return false;
+    // Every sample of the new pair must lie clearly closer than the old pair's worst; its
+    // diagonal's midpoint, farthest from the old pair, rejects most first. The new pair's
+    // points lie next to the old pair's (the new diagonal's thirds by the old interiors, its
+    // interiors by the old diagonal's thirds), so the walks start where the measurement's
+    // walks for those ended.
+    uint32_t at = diagonal.leaf != kNone ? diagonal.leaf : leaves.vertex_triangle[corners[ia]];
+    if (at == kNone) return false;
+    if (!walked_within(leaves, midpoint(pc, pd), kFlipGain * before, &at)) return false;
+    if (inside.leaf != kNone) at = inside.leaf;
+    if (!pair_within(leaves, pc, pd, pb, pa, kFlipGain * before, at)) return false;
+    const uint32_t vc = corners[ic], vd = corners[jd], va = corners[ia], vb = corners[ib];
+    corners[3 * t1] = vc, corners[3 * t1 + 1] = va, corners[3 * t1 + 2] = vd;
+    corners[3 * t2] = vd, corners[3 * t2 + 1] = vb, corners[3 * t2 + 2] = vc;
+    flipped[t1] = flipped[t2] = 1;
+    add_use(edge_key(c, d), kNone);
+    return true;
+  };
+  // The peak first: the edge its point lies on, or the three edges of the triangle it lies
+  // inside. Unless one of them flips, the peak stays a point of the flipped surface, whose
+  // error then cannot fall below the collapsed one's, and the group keeps its triangles as
+  // collapsed (the caller's keep rule): the other candidates need no test.
+  const uint32_t t = peak.triangle;
+  const int first = peak.place == kLatticeInterior ? 0 : peak.place;
+  const int last = peak.place == kLatticeInterior ? 2 : peak.place;
+  bool peak_flipped = false;
+  for (int j = first; j <= last && !peak_flipped; ++j) {
+    const uint32_t ea = w(3 * t + j), eb = w(3 * t + (j + 1) % 3);
+    if (ea == eb) continue;
+    const std::array<uint32_t, 3>& e = edge[slot(edge_key(ea, eb))];
+    if (e[0] == 2) peak_flipped = try_flip(e[1]);
   }
+  if (!peak_flipped) return false;
+  // Then every candidate, from the triangles with a place at or beyond the share (a pair's
+  // old side is its triangles' places, so each candidate has one), in triangle order.
+  for (uint32_t t = 0; t < n; ++t) {
+    double hottest = floor_d2;  // an unmeasured diagonal counts as the floor
+    for (int place = 0; place < 4; ++place) hottest = std::max(hottest, known[4 * t + place].d2);
+    if (hottest < candidate_d2) continue;
+    for (uint32_t j = 0; j < 3; ++j) try_flip(3 * t + j);
+  }
+  return true;
 }
 
 }  // namespace vgeo::build_detail

@@ -95,12 +95,14 @@ void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector
 // (surface_distance_impl.h), so a "within" here is one the tree would find. *at gets the
 // triangle where the walk stopped: found, or nearby (the tree's starting hint). A walk only
 // ever proves "within"; a miss is decided by the tree.
-bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at) {
+// `*d2` gets the squared distance to the part of the walk's triangle that decided (an upper
+// bound of p's distance to the leaves when within).
+bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at, double* d2) {
   const LeafWalkEnd end = walk_leaf_surface(s, p, *at, kMaxWalkSteps);
   *at = end.triangle;
-  if (end.projects_inside) return prepared_plane_distance_squared(p, end.prepared) <= threshold;
-  double d2;  // p lies off the triangle's edges (or it has no normal): the nearest edge decides
-  return prepared_triangle_within_squared(p, end.prepared, threshold, &d2);
+  if (end.projects_inside) return (*d2 = prepared_plane_distance_squared(p, end.prepared)) <= threshold;
+  // p lies off the triangle's edges (or it has no normal): the nearest edge decides
+  return prepared_triangle_within_squared(p, end.prepared, threshold, d2);
 }
 
 }  // namespace
@@ -120,12 +122,48 @@ LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const
   return s;
 }
 
-float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
-                     float floor) {
-  if (leaves.tree.empty() || simplified.triangle_count() == 0) return floor;
-  // A float squared is exact in double, and sqrt and the rounding up are monotonic: a
-  // maximum ≤ floor² rounds to ≤ floor, so points within the floor cannot change the result.
-  const double floor_d2 = std::isfinite(floor) && floor > 0 ? double(floor) * double(floor) : 0.0;
+namespace {
+
+// A float squared is exact in double, and sqrt and the rounding up are monotonic: a maximum
+// ≤ floor² rounds to ≤ floor, so points within the floor cannot change the result.
+double floor_squared(float floor) { return std::isfinite(floor) && floor > 0 ? double(floor) * double(floor) : 0.0; }
+
+DVec3 mesh_vertex(const Mesh& mesh, uint32_t v) {
+  return DVec3{mesh.positions[3 * size_t(v)], mesh.positions[3 * size_t(v) + 1], mesh.positions[3 * size_t(v) + 2]};
+}
+
+// Visits the lattice points of one place of triangle `tri` (corner ids): edge j's points (j <
+// 3), from corner j to corner j + 1, or its interior points (kLatticeInterior). The points of
+// for_each_lattice_point (lib/vgeo/core/surface_distance.h, which lib/vgeo/verify samples),
+// same formulas: an edge's point i/s is computed from its smaller vertex id.
+template <class Visit>
+void for_each_place_point(const Mesh& mesh, const uint32_t* tri, int place, Visit&& visit) {
+  const uint32_t s = kErrorLatticeSubdivisions ? kErrorLatticeSubdivisions : 1;
+  if (place != kLatticeInterior) {
+    const int j = place;
+    const bool forward = tri[j] < tri[(j + 1) % 3];
+    const DVec3 e0 = mesh_vertex(mesh, forward ? tri[j] : tri[(j + 1) % 3]);
+    const DVec3 e1 = mesh_vertex(mesh, forward ? tri[(j + 1) % 3] : tri[j]);
+    for (uint32_t k = 1; k < s; ++k) {
+      const uint32_t i = forward ? k : s - k;
+      const double f = double(i) / s;
+      visit(DVec3{e0.x + (e1.x - e0.x) * f, e0.y + (e1.y - e0.y) * f, e0.z + (e1.z - e0.z) * f});
+    }
+    return;
+  }
+  const DVec3 a = mesh_vertex(mesh, tri[0]), b = mesh_vertex(mesh, tri[1]), c = mesh_vertex(mesh, tri[2]);
+  for (uint32_t u = 1; u < s; ++u)
+    for (uint32_t w = 1; u + w < s; ++w) {
+      const double bu = double(u) / s, bw = double(w) / s, bv = 1.0 - bu - bw;
+      visit(DVec3{a.x * bv + b.x * bu + c.x * bw, a.y * bv + b.y * bu + c.y * bw, a.z * bv + b.z * bu + c.z * bw});
+    }
+}
+
+// leaf_deviation's search (below) before the rounding: the largest squared distance of the
+// points beyond floor_d2, or 0 when none lies beyond it. `record` (optional) gets every point
+// visited.
+double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input,
+                         const TriangleSet& simplified, double floor_d2, LatticePeak* peak, LatticeRecord* record) {
   // Edges (by original vertex ids, smaller first: the lattice points depend on both) whose
   // points need no visit: edges of the input when the input is itself simplified (floor > 0)
   // — the same points were measured for the members, within their stored error ≤ floor —
@@ -154,26 +192,33 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
   // search ended (the points of a triangle are visited in a tour around it), or a leaf
   // triangle at the first corner of an edge whose tour predecessor was skipped.
   uint32_t at = kNone;
+  LatticePeak here;  // the place of the points being visited (for `peak`)
   auto visit = [&](DVec3 p) {
     const double threshold = std::max(best2, floor_d2);
-    if (at != kNone && walk_within(leaves, p, threshold, &at)) return;
-    // One tree search: "within" or, when not, the nearest distance.
-    const double d2 = leaves.tree.nearest_or_within_squared(p, threshold, &at);
-    if (d2 > threshold) best2 = std::max(best2, d2);
+    double d2;
+    if (at == kNone || !walk_within(leaves, p, threshold, &at, &d2)) {
+      // One tree search: "within" or, when not, the nearest distance.
+      d2 = leaves.tree.nearest_or_within_squared(p, threshold, &at);
+      if (d2 > threshold) {
+        best2 = d2;
+        if (peak) *peak = here;
+      }
+    }
+    if (record) {
+      LatticeRecord::Place& r = record->places[4 * size_t(here.triangle) + size_t(here.place)];
+      if (d2 > r.d2) r.d2 = d2, r.leaf = at;
+    }
   };
-  auto vertex = [&](uint32_t v) {
-    return DVec3{mesh.positions[3 * size_t(v)], mesh.positions[3 * size_t(v) + 1], mesh.positions[3 * size_t(v) + 2]};
-  };
-  // The points of for_each_lattice_point (lib/vgeo/core/surface_distance.h, which
-  // lib/vgeo/verify samples), same formulas, triangle by triangle. Corners are skipped: a
-  // simplified corner is an input vertex (both backends only remove vertices), a corner of a
-  // leaf triangle, at distance exactly 0. Which points are visited decides the result, not
-  // the order: edge points go from corner j to corner j + 1 (an edge's point i/s is still
-  // computed from its smaller vertex id), so consecutive points are a short walk apart.
-  const uint32_t s = kErrorLatticeSubdivisions ? kErrorLatticeSubdivisions : 1;
+  // The points of for_each_lattice_point, triangle by triangle (for_each_place_point).
+  // Corners are skipped: a simplified corner is an input vertex (both backends only remove
+  // vertices), a corner of a leaf triangle, at distance exactly 0. Which points are visited
+  // decides the result, not the order: edge points go from corner j to corner j + 1, so
+  // consecutive points are a short walk apart.
+  if (record) record->places.assign(4 * simplified.triangle_count(), LatticeRecord::Place{});
   for (size_t t = 0; t < simplified.triangle_count(); ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
     at = leaves.vertex_triangle[tri[0]];
+    here.triangle = uint32_t(t);
     bool after_previous_edge = false;  // the last point visited is on edge j - 1, next to corner j
     for (int j = 0; j < 3; ++j) {
       if (!insert_edge(tri[j], tri[(j + 1) % 3])) {
@@ -185,20 +230,56 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
       // (sphere 1M: 11.40M -> 10.59M walk steps).
       if (j > 0 && !after_previous_edge) at = leaves.vertex_triangle[tri[j]];
       after_previous_edge = true;
-      const bool forward = tri[j] < tri[(j + 1) % 3];
-      const DVec3 e0 = vertex(forward ? tri[j] : tri[(j + 1) % 3]), e1 = vertex(forward ? tri[(j + 1) % 3] : tri[j]);
-      for (uint32_t k = 1; k < s; ++k) {
-        const uint32_t i = forward ? k : s - k;
-        const double f = double(i) / s;
-        visit(DVec3{e0.x + (e1.x - e0.x) * f, e0.y + (e1.y - e0.y) * f, e0.z + (e1.z - e0.z) * f});
-      }
+      here.place = j;
+      for_each_place_point(mesh, tri, j, visit);
     }
-    const DVec3 a = vertex(tri[0]), b = vertex(tri[1]), c = vertex(tri[2]);
-    for (uint32_t u = 1; u < s; ++u)
-      for (uint32_t w = 1; u + w < s; ++w) {
-        const double bu = double(u) / s, bw = double(w) / s, bv = 1.0 - bu - bw;
-        visit(DVec3{a.x * bv + b.x * bu + c.x * bw, a.y * bv + b.y * bu + c.y * bw, a.z * bv + b.z * bu + c.z * bw});
-      }
+    here.place = kLatticeInterior;
+    for_each_place_point(mesh, tri, kLatticeInterior, visit);
+  }
+  return best2;
+}
+
+}  // namespace
+
+float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
+                     float floor, LatticePeak* peak, LatticeRecord* record) {
+  if (peak) *peak = LatticePeak{};
+  if (record) record->places.clear();
+  if (leaves.tree.empty() || simplified.triangle_count() == 0) return floor;
+  const double best2 = deviation_squared(leaves, mesh, input, simplified, floor_squared(floor), peak, record);
+  return std::max(floor, round_up_to_float(std::sqrt(best2)));
+}
+
+float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input,
+                                  const TriangleSet& changed_surface, const std::vector<uint8_t>& changed,
+                                  const LatticeRecord& record, float floor) {
+  if (leaves.tree.empty() || changed_surface.triangle_count() == 0) return floor;
+  const double floor_d2 = floor_squared(floor);
+  // The changed triangles' points (new, or on an edge a changed triangle shares), measured.
+  TriangleSet now;
+  for (size_t t = 0; t < changed_surface.triangle_count(); ++t)
+    if (changed[t]) {
+      now.corners.insert(now.corners.end(), &changed_surface.corners[3 * t], &changed_surface.corners[3 * t + 3]);
+      now.materials.push_back(changed_surface.materials[t]);
+    }
+  double best2 = now.triangle_count() ? deviation_squared(leaves, mesh, input, now, floor_d2, nullptr, nullptr) : 0.0;
+  // Every other point was visited from an unchanged triangle: its place's recorded value
+  // bounds its distance, so only places recorded beyond the running maximum are searched,
+  // largest first.
+  std::vector<std::pair<double, uint32_t>> open;  // (recorded value, 4t + place)
+  for (size_t k = 0; k < record.places.size() && k / 4 < changed.size(); ++k)
+    if (!changed[k / 4] && record.places[k].d2 > std::max(best2, floor_d2)) open.push_back({record.places[k].d2, uint32_t(k)});
+  std::sort(open.begin(), open.end(), [](const auto& x, const auto& y) { return x.first > y.first || (x.first == y.first && x.second < y.second); });
+  for (const auto& [bound, k] : open) {
+    if (bound <= std::max(best2, floor_d2)) break;
+    uint32_t at = record.places[k].leaf;  // where the measurement's walk or search ended
+    for_each_place_point(mesh, &changed_surface.corners[3 * size_t(k / 4)], int(k % 4), [&](DVec3 p) {
+      const double threshold = std::max(best2, floor_d2);
+      double d2;
+      if (at != kNone && walk_within(leaves, p, threshold, &at, &d2)) return;  // as deviation_squared
+      d2 = leaves.tree.nearest_or_within_squared(p, threshold, &at);
+      if (d2 > threshold) best2 = d2;
+    });
   }
   return std::max(floor, round_up_to_float(std::sqrt(best2)));
 }
