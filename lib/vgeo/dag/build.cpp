@@ -884,28 +884,11 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
 }
 
 // ---- 3e. the level scheduler: one pipelined parallel region per level ----
-// The groups of a block, largest first (ties in index order): a level's last tasks are its
-// smallest, so the threads finish it together. Only the order of the tasks: every result has
-// its own slot.
-std::vector<uint32_t> groups_largest_first(const BuildState& s, const Block& blk) {
-  std::vector<std::pair<size_t, uint32_t>> sized(blk.groups.size());
-  for (size_t g = 0; g < blk.groups.size(); ++g) {
-    size_t triangles = 0;
-    for (uint32_t m : blk.groups[g]) triangles += s.clusters[m].triangles.triangle_count();
-    sized[g] = {triangles, uint32_t(g)};
-  }
-  std::stable_sort(sized.begin(), sized.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
-  std::vector<uint32_t> order(sized.size());
-  for (size_t i = 0; i < sized.size(); ++i) order[i] = sized[i].second;
-  return order;
-}
-
 // A level of one block (every level but the first few of a large mesh: kGroupBlockClusters):
 // its grouping runs on one thread, its locks and shared edges on the pool, then its groups.
 void run_lone_block(BuildState& s, LevelState& L) {
   group_and_lock_block(s, L, 0, &s.pool);
-  const std::vector<uint32_t> order = groups_largest_first(s, L.blocks[0]);
-  s.pool.parallel_for(order.size(), [&](size_t i) { simplify_one_group(s, L, 0, order[i]); });
+  s.pool.parallel_for(L.blocks[0].groups.size(), [&](size_t g) { simplify_one_group(s, L, 0, g); });
 }
 
 // Several blocks: a block task whenever no block task runs or no group task is ready,
@@ -927,10 +910,8 @@ void run_level(BuildState& s, LevelState& L) {
         size_t b = next_block++;
         ++blocks_running;
         lock.unlock();
-        std::vector<uint32_t> order;
         try {
           group_and_lock_block(s, L, b, nullptr);
-          order = groups_largest_first(s, L.blocks[b]);
         } catch (...) {
           std::lock_guard<std::mutex> guard(queue_mutex);
           if (!first_error) first_error = std::current_exception();
@@ -940,7 +921,7 @@ void run_level(BuildState& s, LevelState& L) {
         lock.lock();
         --blocks_running;
         ++blocks_done;
-        for (size_t i = order.size(); i-- > 0;) ready.push_back({uint32_t(b), order[i]});
+        for (size_t g = L.blocks[b].groups.size(); g-- > 0;) ready.push_back({uint32_t(b), uint32_t(g)});
         queue_changed.notify_all();
         continue;
       }
