@@ -179,3 +179,80 @@ TEST(ImportReaders, MalformedFilesGiveTheirCodes) {
   EXPECT_EQ(code_of("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n", "t.obj"), "INDEX_OUT_OF_RANGE");
   EXPECT_EQ(code_of("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\n", "t.stl"), "MESH_PARSE_ERROR");
 }
+
+namespace {
+
+// An OFF grid of (n+1)^2 vertices and 2 n^2 triangles (a body of several MiB, so the reader
+// cuts it into line ranges when given threads), with `extra` spliced in after line `at` of the body.
+std::string grid_off(int n, const std::string& extra = "", size_t at = 0) {
+  std::vector<std::string> body;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x)
+      body.push_back(std::to_string(x * 0.37f) + " " + std::to_string(y * 1.13f) + " " + std::to_string((x ^ y) * 0.01f));
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const int a = y * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
+      body.push_back("3 " + std::to_string(a) + " " + std::to_string(b) + " " + std::to_string(d));
+      // One quad in 97 and one polygon repeating a vertex in 101 (dropped and counted).
+      if ((x + y) % 101 == 0) body.push_back("4 " + std::to_string(a) + " " + std::to_string(d) + " " + std::to_string(c) + " " + std::to_string(a));
+      else if ((x + y) % 97 == 0) body.push_back("4 " + std::to_string(a) + " " + std::to_string(b) + " " + std::to_string(d) + " " + std::to_string(c));
+      else body.push_back("3 " + std::to_string(a) + " " + std::to_string(d) + " " + std::to_string(c));
+    }
+  const size_t faces = body.size() - size_t(n + 1) * (n + 1);
+  if (!extra.empty()) body.insert(body.begin() + std::ptrdiff_t(at), extra);
+  std::string s = "OFF\n" + std::to_string((n + 1) * (n + 1)) + " " + std::to_string(faces) + " 0\n";
+  for (const std::string& line : body) s += line + "\n";
+  return s;
+}
+
+vgeo::ImportResult import_with_threads(const std::string& bytes, unsigned threads) {
+  vgeo::ImportOptions options;
+  options.threads = threads;
+  return vgeo::import_scene_from_memory(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size(), "t.off", options);
+}
+
+std::string code_with_threads(const std::string& bytes, unsigned threads) {
+  try {
+    import_with_threads(bytes, threads);
+  } catch (const vgeo::VgeoError& e) {
+    return e.error().code + " " + e.error().where;
+  }
+  return "OK";
+}
+
+}  // namespace
+
+TEST(ImportReaders, OffByLineRangesEqualsOneThread) {
+  // Plain, with a comment line among the vertices (the parallel read refuses it and the serial
+  // loop reads it), and with a blank line among the faces.
+  const int n = 300;
+  for (const std::string& bytes : {grid_off(n), grid_off(n, "# a comment", 1000), grid_off(n, "", 0),
+                                   grid_off(n, "   ", size_t(n + 1) * (n + 1) + 5000)}) {
+    ASSERT_GT(bytes.size(), size_t(3) << 20);
+    const vgeo::ImportResult one = import_with_threads(bytes, 1);
+    for (unsigned threads : {2u, 3u, 0u}) {
+      const vgeo::ImportResult many = import_with_threads(bytes, threads);
+      ASSERT_EQ(many.scene.meshes.size(), 1u);
+      EXPECT_EQ(many.scene.meshes[0].positions, one.scene.meshes[0].positions);
+      EXPECT_EQ(many.scene.meshes[0].indices, one.scene.meshes[0].indices);
+      EXPECT_EQ(many.stats.degenerate_removed, one.stats.degenerate_removed);
+      ASSERT_EQ(many.warnings.size(), one.warnings.size());
+      for (size_t i = 0; i < one.warnings.size(); ++i) EXPECT_EQ(many.warnings[i].what, one.warnings[i].what);
+    }
+  }
+  EXPECT_GT(import_with_threads(grid_off(n), 2).stats.degenerate_removed, 0u);
+}
+
+TEST(ImportReaders, OffByLineRangesGivesTheOneThreadError) {
+  const int n = 300;
+  const size_t vertices = size_t(n + 1) * (n + 1);
+  std::string truncated = grid_off(n);
+  truncated.resize(truncated.size() - 200000);
+  std::string bad_index = grid_off(n, "3 0 1 " + std::to_string(vertices), vertices + 7000);
+  std::string bad_number = grid_off(n, "1 2 x", 4000);
+  for (const std::string& bytes : {truncated, bad_index, bad_number}) {
+    const std::string one = code_with_threads(bytes, 1);
+    EXPECT_NE(one, "OK");
+    EXPECT_EQ(code_with_threads(bytes, 2), one);
+  }
+}

@@ -36,8 +36,10 @@ struct BuildArgs {
 // Every format the importer reads (glTF/GLB, OBJ, PLY, OFF, STL); every mesh of the scene is
 // built. Import errors are VgeoErrors with their own codes and exit codes; warnings go to
 // stderr and never stop the build.
-Scene load_input(const std::string& path) {
-  ImportResult imported = import_scene(path);
+Scene load_input(const std::string& path, unsigned threads) {
+  ImportOptions options;
+  options.threads = threads;  // the OFF reader's body by line ranges; the same scene for any count
+  ImportResult imported = import_scene(path, options);
   for (const Warning& w : imported.warnings)
     std::fprintf(stderr, "warning[%s]: %s: %s\n", w.code.c_str(), path.c_str(), w.what.c_str());
   return std::move(imported.scene);
@@ -201,7 +203,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
     auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
     const double cpu_start = bench::cpu_seconds();
     const clock::time_point t_import = clock::now();
-    Scene scene = load_input(args->input);
+    Scene scene = load_input(args->input, args->threads);
     const double seconds_import = seconds_since(t_import);
     const double cpu_imported = bench::cpu_seconds();
     BuildOptions options;

@@ -76,6 +76,11 @@ Sphere cluster_sphere(const Mesh& mesh, const TriangleSet& t) {
 // in task order do not depend on the thread count).
 constexpr size_t kTrianglesPerTask = size_t(1) << 16;
 
+// Groups per task of a lone block's lock and shared-edge passes (group_and_lock_block): a
+// group is ~16 clusters, ~2,000 triangles, so 8 are ~50 µs of work per task against ~1 µs of
+// hand-out, and a 4,096-cluster block still gives ~30 tasks to balance.
+constexpr size_t kLockGroupsPerTask = 8;
+
 // AABB of the vertices referenced by triangles (fixed blocks combined in order).
 Aabb indexed_bounds(const Mesh& mesh, ThreadPool& pool) {
   const size_t n = mesh.triangle_count(), tasks = (n + kTrianglesPerTask - 1) / kTrianglesPerTask;
@@ -650,7 +655,11 @@ void plan_blocks(BuildState& s, LevelState& L) {
 
 // ---- 3c. block task: grouping (group_clusters), then the locks and shared edges of the block ----
 // (its own vertices only: cross-block ones are locked already, so tasks never race).
-void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
+// `inner`: a pool for the locks and shared edges when the block runs alone (a level of one
+// block: nothing else is ready, so the other threads would wait), else null (in order). The
+// claims are first-come as in lock_cross_block_vertices, so `locked` (a vertex used by two
+// groups, a retired or a pinned one) and the edges do not depend on the threads.
+void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* inner) {
   Block& blk = L.blocks[b];
   const double tb = steady_seconds();
   {
@@ -673,28 +682,52 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b) {
   blk.seconds_group = tl - tb;
   std::vector<uint32_t>& owner = s.locks.owner;
   std::vector<uint8_t>& locked = s.locks.locked;
+  const size_t group_count = blk.groups.size();
   // Locks: welded vertices used by two groups of this level, or by a retired cluster.
-  for (size_t g = 0; g < blk.groups.size(); ++g) {
-    const uint32_t tag = uint32_t(b << 16 | g);
-    for (uint32_t m : blk.groups[g])
-      for (uint32_t v : s.clusters[m].triangles.corners) {
-        uint32_t w = s.welded.weld[v];
-        if (locked[w]) continue;
-        if (s.locks.retired[w] || s.locks.pinned[w] || (owner[w] != kNone && owner[w] != tag)) locked[w] = 1;
-        else owner[w] = tag;
-      }
-  }
+  for_chunks(inner, group_count, kLockGroupsPerTask, [&](size_t begin, size_t end) {
+    for (size_t g = begin; g < end; ++g) {
+      const uint32_t tag = uint32_t(b << 16 | g);
+      for (uint32_t m : blk.groups[g])
+        for (uint32_t v : s.clusters[m].triangles.corners) {
+          const uint32_t w = s.welded.weld[v];
+          std::atomic_ref<uint8_t> lock(locked[w]);
+          if (lock.load(std::memory_order_relaxed)) continue;
+          if (s.locks.retired[w] || s.locks.pinned[w]) {
+            lock.store(1, std::memory_order_relaxed);
+            continue;
+          }
+          // A plain read decides once the vertex is claimed (a vertex's corners mostly follow
+          // its first claim in the same group): the compare-exchange runs once per vertex.
+          std::atomic_ref<uint32_t> claim(owner[w]);
+          uint32_t expected = claim.load(std::memory_order_relaxed);
+          if (expected == kNone && claim.compare_exchange_strong(expected, tag, std::memory_order_relaxed)) continue;
+          if (expected != tag) lock.store(1, std::memory_order_relaxed);
+        }
+    }
+  });
   // Shared edges: welded edges with both ends locked used by two groups of this level, by
   // two blocks, or by a retired cluster (only those must survive; few: they lie on group
   // borders). Listed per group with one entry per use (a candidate is one use of an edge by a
   // triangle of the group), so the border check needs no search of the block's edges; the
   // locks of this block's vertices are final here (other blocks lock only their own).
+  // Collected per group (in parallel with `inner`), then joined in group order: the list the
+  // sort gets is the same for any thread count.
+  std::vector<std::vector<std::pair<uint64_t, uint32_t>>> group_candidates(group_count);
+  for_chunks(inner, group_count, kLockGroupsPerTask, [&](size_t begin, size_t end) {
+    for (size_t g = begin; g < end; ++g)
+      for (uint32_t m : blk.groups[g])
+        for_each_welded_edge(s.welded, s.clusters[m].triangles.corners, [&](uint32_t a, uint32_t c) {
+          if (a != c && locked[a] && locked[c]) group_candidates[g].push_back({edge_key(a, c), uint32_t(g)});
+        });
+  });
+  size_t candidate_count = 0;
+  for (const auto& gc : group_candidates) candidate_count += gc.size();
   std::vector<std::pair<uint64_t, uint32_t>> candidates;
-  for (size_t g = 0; g < blk.groups.size(); ++g)
-    for (uint32_t m : blk.groups[g])
-      for_each_welded_edge(s.welded, s.clusters[m].triangles.corners, [&](uint32_t a, uint32_t c) {
-        if (a != c && locked[a] && locked[c]) candidates.push_back({edge_key(a, c), uint32_t(g)});
-      });
+  candidates.reserve(candidate_count);
+  for (auto& gc : group_candidates) {
+    candidates.insert(candidates.end(), gc.begin(), gc.end());
+    gc = {};
+  }
   std::sort(candidates.begin(), candidates.end());
   const std::vector<uint64_t>& retired_edges = s.locks.retired_edges;
   blk.group_shared_edges.resize(blk.groups.size());
@@ -848,12 +881,19 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
 }
 
 // ---- 3e. the level scheduler: one pipelined parallel region per level ----
-// A block task whenever no block task runs (METIS is the serial path: its calls are
-// serialised, GKlib's RNG is global), otherwise a ready group task, otherwise the next block
-// (or wait for one to finish). While one thread runs METIS on a block, the others simplify
-// the groups of blocks already grouped.
+// A level of one block (every level but the first few of a large mesh: kGroupBlockClusters):
+// its grouping runs on one thread, its locks and shared edges on the pool, then its groups.
+void run_lone_block(BuildState& s, LevelState& L) {
+  group_and_lock_block(s, L, 0, &s.pool);
+  s.pool.parallel_for(L.blocks[0].groups.size(), [&](size_t g) { simplify_one_group(s, L, 0, g); });
+}
+
+// Several blocks: a block task whenever no block task runs or no group task is ready,
+// otherwise a ready group task, otherwise wait for a block to finish. While one thread groups a
+// block, the others simplify the groups of blocks already grouped.
 void run_level(BuildState& s, LevelState& L) {
   const size_t block_count = L.blocks.size();
+  if (block_count == 1) return run_lone_block(s, L);
   std::mutex queue_mutex;
   std::condition_variable queue_changed;
   std::vector<std::pair<uint32_t, uint32_t>> ready;  // (block, group), taken from the back
@@ -868,7 +908,7 @@ void run_level(BuildState& s, LevelState& L) {
         ++blocks_running;
         lock.unlock();
         try {
-          group_and_lock_block(s, L, b);
+          group_and_lock_block(s, L, b, nullptr);
         } catch (...) {
           std::lock_guard<std::mutex> guard(queue_mutex);
           if (!first_error) first_error = std::current_exception();

@@ -521,10 +521,10 @@ std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions&
     if (dag.positions.size() % 3 || (q.has_normals && dag.normals.size() != dag.positions.size()) ||
         (q.has_uvs && dag.uvs.size() / 2 != dag.vertex_count()) || dag.uvs.size() % 2 || dag.indices.size() % 3)
       encode_fail("attribute array sizes disagree");
-    q.position_step_log2 = choose_position_step(dag, o);
+    q.position_step_log2 = choose_position_step(dag, o, &pool);
     q.normal_bits = o.normal_bits;
     q.uv_step_log2 = q.has_uvs ? choose_uv_step(dag, o) : o.uv_step_log2;
-    if (report) rep.meshes.push_back(measure_quantization(dag, q));
+    if (report) rep.meshes.push_back(measure_quantization(dag, q, &pool));
     const uint32_t nc = uint32_t(dag.clusters.size()), ng = uint32_t(dag.groups.size());
     // Structural checks the decoder would otherwise reject.
     for (const DagCluster& c : dag.clusters)

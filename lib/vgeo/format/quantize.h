@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <string>
 
+#include "vgeo/core/thread_pool.h"
 #include "vgeo/dag/cluster_dag.h"
 #include "vgeo/format/format.h"
 
@@ -30,11 +31,14 @@ inline double round_to_nearest_even(double x) {
 // The position grid step (log2) of one mesh: FormatOptions::position_step_log2 if set, else
 // the smallest power of two that fits the extent in position_bits bits, refined towards the
 // DAG's median first-simplification error (FormatOptions). Throws on a non-finite position.
-int32_t choose_position_step(const ClusterDag& dag, const FormatOptions& o);
+// `pool` (may be null): the scans of the positions in chunks on it (maxima: the same values).
+int32_t choose_position_step(const ClusterDag& dag, const FormatOptions& o, ThreadPool* pool = nullptr);
 // The UV step of one mesh: the option's step, coarsened (a power of two at a time) until
 // every |uv| fits in uv_quantized_limit steps; every finite UV fits at kMaxUvStepLog2.
 int32_t choose_uv_step(const ClusterDag& dag, const FormatOptions& o);
 // Largest |decoded − source| over a mesh's positions and UVs (FormatReport::meshes).
-FormatReport::MeshQuantizationReport measure_quantization(const ClusterDag& dag, const MeshQuantization& q);
+// `pool` (may be null) as for choose_position_step.
+FormatReport::MeshQuantizationReport measure_quantization(const ClusterDag& dag, const MeshQuantization& q,
+                                                          ThreadPool* pool = nullptr);
 
 }  // namespace vgeo::format_detail

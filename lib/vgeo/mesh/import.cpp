@@ -62,10 +62,11 @@ void finish(ImportResult& r, const ImportOptions& options, const std::string& wh
 bool is_mesh_file_format(const std::string& ext) { return ext == "obj" || ext == "ply" || ext == "off" || ext == "stl"; }
 
 // OBJ / PLY / OFF / STL: the readers of import_obj.cpp ... import_stl.cpp.
-void import_mesh_file(const uint8_t* data, size_t size, const std::string& ext, const std::string& where, ImportResult& r) {
+void import_mesh_file(const uint8_t* data, size_t size, const std::string& ext, const std::string& where, ImportResult& r,
+                      unsigned threads) {
   if (ext == "obj") detail::import_obj(data, size, where, r);
   if (ext == "ply") detail::import_ply(data, size, where, r);
-  if (ext == "off") detail::import_off(data, size, where, r);
+  if (ext == "off") detail::import_off(data, size, where, r, threads);
   if (ext == "stl") detail::import_stl(data, size, where, r);
 }
 
@@ -83,7 +84,7 @@ ImportResult import_scene(const std::string& path, const ImportOptions& options)
     detail::import_gltf(bytes.data(), bytes.size(), &bytes, ext == "glb", path, base_dir, true, r);
   } else if (is_mesh_file_format(ext)) {
     const FileBytes bytes = read_file_bytes(path);
-    import_mesh_file(bytes.data.get(), bytes.size, ext, path, r);
+    import_mesh_file(bytes.data.get(), bytes.size, ext, path, r, options.threads);
   } else {
     fail("MESH_FORMAT_UNSUPPORTED", path, "unknown extension '." + ext + "' (expected .gltf .glb .obj .ply .off .stl)");
   }
@@ -101,7 +102,7 @@ ImportResult import_scene_from_memory(const uint8_t* data, size_t size, const st
   if (ext == "gltf" || ext == "glb")
     detail::import_gltf(data, size, nullptr, ext == "glb", where, "", false, r);
   else if (is_mesh_file_format(ext))
-    import_mesh_file(data, size, ext, where, r);
+    import_mesh_file(data, size, ext, where, r, options.threads);
   else
     fail("MESH_FORMAT_UNSUPPORTED", where, "unknown extension '." + ext + "' (expected .gltf .glb .obj .ply .off .stl)");
   finish(r, options, where);

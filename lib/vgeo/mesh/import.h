@@ -52,6 +52,8 @@ struct ImportOptions {
   // Merge vertices whose position, normal and uv are exactly equal (value comparison, so
   // -0 == +0). Also drops vertices no triangle references.
   bool weld = false;
+  // Threads of the OFF reader (0 = all cores): the same scene for any count (import_off.cpp).
+  unsigned threads = 1;
 };
 
 struct ImportStats {

@@ -146,7 +146,9 @@ void push_single_mesh_scene(Mesh&& mesh, const std::string& where, ImportResult&
 // The readers. `data` is the whole file; `where` names it in errors.
 void import_obj(const uint8_t* data, size_t size, const std::string& where, ImportResult& out);
 void import_ply(const uint8_t* data, size_t size, const std::string& where, ImportResult& out);
-void import_off(const uint8_t* data, size_t size, const std::string& where, ImportResult& out);
+// `threads` (import_off; 0 = all cores): the body is read by line ranges in parallel when it is
+// plain (read_plain_body_in_parallel), with the same result as one thread.
+void import_off(const uint8_t* data, size_t size, const std::string& where, ImportResult& out, unsigned threads = 1);
 void import_stl(const uint8_t* data, size_t size, const std::string& where, ImportResult& out);
 
 }  // namespace vgeo::detail
