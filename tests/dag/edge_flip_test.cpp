@@ -37,6 +37,7 @@ TEST(EdgeFlips, KeepEveryInvariantAndTheThreadCountDoesNotMatter) {
   const Mesh mesh = noisy_sphere();
   BuildOptions plain, flips;
   plain.threads = flips.threads = 1;
+  plain.edge_flips = false;
   flips.edge_flips = true;
   const ClusterDag base = build_dag(mesh, plain);
   const ClusterDag flipped = build_dag(mesh, flips);

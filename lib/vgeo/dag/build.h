@@ -23,9 +23,10 @@ struct BuildOptions {
   // (ERROR_CERTIFIED), for the same clusters, at some build time.
   ErrorBound error_bound = ErrorBound::kMeasured;
   // Edge flips towards the leaves after each group's simplification (spec/dag.md §3, Edge
-  // flips): fewer triangles at equal measured error (1M sphere: 0.918 of the peer's against
-  // 1.086) for more build CPU (+18% on the 1M sphere, +45% on armadillo): off by default, the
-  // builder's CPU being its other goal (docs/acceptance/issue23_stop31.md).
+  // flips): fewer triangles at equal measured error (gmean over 9 meshes 0.922 of the peer's
+  // against 0.951 without) for ~6% more DAG CPU on the 1M sphere. Off by default: with them the
+  // sphere's page build measured 1.28x the peer's CPU (goal <= 1.25x), without 1.11-1.16x
+  // (docs/acceptance/issue23_stop32.md).
   bool edge_flips = false;
 };
 
