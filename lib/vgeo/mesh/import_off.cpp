@@ -91,6 +91,17 @@ const char* past_line_end(const char* p, const char* end, uint64_t& line) {
   return p + 1;
 }
 
+// Moves the cursor past the line that ends at or after p (only blanks may remain on it); false,
+// cursor untouched, when something else does.
+bool commit_plain_line(TextCursor& in, const char* p) {
+  uint64_t line = in.line;
+  p = past_line_end(p, in.end, line);
+  if (p == nullptr) return false;
+  in.p = p;
+  in.line = line;
+  return true;
+}
+
 // A line of exactly `count` numbers into `values`; false (cursor untouched) for any other line.
 bool read_plain_number_line(TextCursor& in, float* values, size_t count) {
   const char* p = in.p;
@@ -102,12 +113,7 @@ bool read_plain_number_line(TextCursor& in, float* values, size_t count) {
     if (r.ec != std::errc() || !ends_token(r.ptr, end)) return false;
     p = r.ptr;
   }
-  uint64_t line = in.line;
-  p = past_line_end(p, end, line);
-  if (p == nullptr) return false;
-  in.p = p;
-  in.line = line;
-  return true;
+  return commit_plain_line(in, p);
 }
 
 // A face line "n i0 .. i(n-1)" of plain indices below `vertex_count` into `ring`; false (cursor
@@ -135,12 +141,7 @@ bool read_plain_face_line(TextCursor& in, int64_t vertex_count, std::vector<uint
     if (!next_plain_digits(idx) || idx >= vertex_count) return false;
     ring.push_back(uint32_t(idx));
   }
-  uint64_t line = in.line;
-  p = past_line_end(p, end, line);
-  if (p == nullptr) return false;
-  in.p = p;
-  in.line = line;
-  return true;
+  return commit_plain_line(in, p);
 }
 
 OffKeyword parse_keyword(std::string_view k, const std::string& where) {
