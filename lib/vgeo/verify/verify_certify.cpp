@@ -419,11 +419,7 @@ Certificate certify_cluster(const ClusterDag& dag, const DagCluster& k, const Tr
 }  // namespace
 
 void check_certified_bound(const ClusterDag& dag, const VerifyOptions& options, Sink& sink, CertifiedBoundResult* result) {
-  double max_abs = 0;
-  for (const DagCluster& k : dag.clusters)
-    for (uint32_t v = 0; v < k.vertex_count; ++v)
-      for (int j = 0; j < 3; ++j)
-        max_abs = std::max(max_abs, std::fabs(double(dag.positions[3 * (size_t(k.vertex_offset) + v) + j])));
+  const double max_abs = largest_stored_coordinate(dag);
   // The tolerance of ERROR_BOUND (spec/invariants.md §5): four float ulps of the largest
   // coordinate, which also covers the double rounding of the proofs (~2^-50 relative).
   const double abs_tol = 4.0 * float_ulp(max_abs);

@@ -154,6 +154,10 @@ struct ErrorBoundResult {
   std::vector<std::vector<double>> ratios_per_level;
   uint64_t samples = 0, clusters = 0;
 };
+// The largest |coordinate| of the clusters' stored vertices: the scale of the error checks'
+// float tolerances (ERROR_BOUND, ERROR_CERTIFIED).
+double largest_stored_coordinate(const ClusterDag& dag);
+
 void check_error_bound(const ClusterDag& dag, const VerifyOptions& options, Sink& sink,
                        ErrorBoundResult* result);
 

@@ -74,12 +74,17 @@ ClusterDeviation measure_cluster_deviation(const ClusterDag& dag, const VerifyOp
 
 namespace vgeo::verify_detail {
 
-void check_error_bound(const ClusterDag& dag, const VerifyOptions& options, Sink& sink, ErrorBoundResult* result) {
+double largest_stored_coordinate(const ClusterDag& dag) {
   double max_abs = 0;
   for (const DagCluster& k : dag.clusters)
     for (uint32_t v = 0; v < k.vertex_count; ++v)
       for (int j = 0; j < 3; ++j)
         max_abs = std::max(max_abs, std::fabs(double(dag.positions[3 * (size_t(k.vertex_offset) + v) + j])));
+  return max_abs;
+}
+
+void check_error_bound(const ClusterDag& dag, const VerifyOptions& options, Sink& sink, ErrorBoundResult* result) {
+  const double max_abs = largest_stored_coordinate(dag);
   // Tolerance: stored positions are float; a simplified vertex placed at the measured
   // error is rounded by up to half an ulp per coordinate (√3/2 ulp), and so are the leaves.
   // Four ulps of the largest coordinate covers both roundings (spec/invariants.md §5).
