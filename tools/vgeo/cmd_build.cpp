@@ -153,8 +153,13 @@ void print_format_sizes(const FormatReport& r) {
 // (mmap above 128 KiB, raised only up to 32 MiB as chunks are freed) hands each back to the
 // kernel, so the next one is faulted in and zeroed again. Measured on the 1M sphere, one
 // thread: 0.2 s less system time and 0.1-0.3 s less user time (about 8% of the build),
-// peak RSS +2% (docs/acceptance/issue23_buildspeed.md). 32 MiB alone gained nothing.
-constexpr int kBuildMmapThresholdBytes = 256 << 20;
+// peak RSS +2% (docs/acceptance/issue23_buildspeed.md). Larger arrays (beyond 32 MiB: the
+// import's file buffer, the leaf adjacency and index arrays of multi-million-triangle meshes) are
+// mmapped and go back to the kernel when freed: kept in the heap they left holes the layout's
+// arrays could not fit in, and the 4M sphere peaked at 445 MiB, 1.25x the peer's 356 (407 MiB
+// now; CPU medians 8.45 -> 8.31 s, the 1M sphere's arrays all lie below: unchanged;
+// docs/acceptance/issue23_stop33.md; 256 MiB and 32 MiB measured the same CPU side by side).
+constexpr int kBuildMmapThresholdBytes = 32 << 20;
 // Freed heap memory is kept, not trimmed back to the kernel (glibc trims the top once 128 KiB
 // are free there): the next level's arrays and the layout's reuse it instead of faulting it
 // in again, and the peak RSS is the high-water mark either way. Measured on the 1M sphere, one
