@@ -17,6 +17,8 @@ add_library(vgeo_deps INTERFACE)
 target_include_directories(vgeo_deps INTERFACE ${METIS_INCLUDE_DIR})
 target_link_libraries(vgeo_deps INTERFACE
   meshoptimizer::meshoptimizer TinyGLTF::TinyGLTF OpenMeshCore OpenMeshTools
-  ${METIS_LIBRARY} PkgConfig::ZSTD PkgConfig::LZ4 PNG::PNG nlohmann_json::nlohmann_json Vulkan::Vulkan)
+  PkgConfig::ZSTD PkgConfig::LZ4 PNG::PNG nlohmann_json::nlohmann_json Vulkan::Headers ${CMAKE_DL_LIBS})
+# Vulkan and METIS: headers only; lib/vgeo/gpu/context.cpp opens the Vulkan loader and
+# lib/vgeo/dag/group.cpp libmetis on first use (METIS_LIBRARY: configure checks it is installed).
 # OpenMesh's headers need _USE_MATH_DEFINES on some platforms; harmless here.
 target_compile_definitions(vgeo_deps INTERFACE _USE_MATH_DEFINES)

@@ -22,11 +22,15 @@ inline void append_le32(std::vector<uint8_t>& out, uint32_t v) {
   for (int k = 0; k < 4; ++k) out.push_back(uint8_t(v >> (8 * k)));
 }
 
-// Appends fields to `bytes`. With a `sink`, `bytes` is handed over whenever it passes
-// kFlushBytes and large raw arrays go to the sink straight from the caller's memory (no copy
-// of a multi-GB file in memory); without one everything stays in `bytes`.
+// Appends fields to `bytes`. With a `sink`, `bytes` is handed over whenever it reaches
+// kFlushBytes (a raw array that would carry it past kFlushBytes hands it over first, so it never
+// regrows) and large raw arrays go to the sink straight from the caller's memory (no copy of a
+// multi-GB file in memory); without one everything stays in `bytes`.
 struct ByteWriter {
-  static constexpr size_t kFlushBytes = size_t(1) << 20;  // same order as the file buffer
+  // 256 KiB: a few hundred system calls for a 100 MB file, and the staging memory a small
+  // build touches stays small (a 1 MiB buffer that regrew to 2 MiB was 2 MiB of a 2.4 MB
+  // .vgeodag's write peak; docs/acceptance/issue23_rss.md).
+  static constexpr size_t kFlushBytes = size_t(256) << 10;
   std::vector<uint8_t> bytes;
   ByteSink* sink = nullptr;
 
@@ -45,10 +49,12 @@ struct ByteWriter {
     f32(s.radius);
   }
   void raw(const void* data, size_t size) {
-    if (sink && size >= kFlushBytes) {
+    if (sink && bytes.size() + size > kFlushBytes) {
       flush();
-      sink->write(data, size);
-      return;
+      if (size >= kFlushBytes) {
+        sink->write(data, size);
+        return;
+      }
     }
     const auto* p = static_cast<const uint8_t*>(data);
     bytes.insert(bytes.end(), p, p + size);

@@ -15,9 +15,12 @@
 namespace vgeo {
 namespace {
 
-// Write buffer of the atomic writer: large sequential writes without a whole-file copy;
-// writes at least this large go to the file straight from the caller's memory.
+// Write buffer of the atomic writer: many small writes become large sequential ones.
 constexpr size_t kWriteBufferBytes = size_t(1) << 20;
+// Writes at least this large go to the file straight from the caller's memory: one system call
+// per 64 KiB costs nothing next to the copy, and the buffer's pages are never touched by the
+// chunks a ByteWriter hands over (core/byte_io.h), only by small writes.
+constexpr size_t kDirectWriteBytes = size_t(64) << 10;
 // Permissions of a written file: the usual ones of a new file (mkstemp creates 0600).
 constexpr mode_t kNewFileMode = 0644;
 
@@ -85,8 +88,8 @@ class AtomicFile final : public ByteSink {
   AtomicFile& operator=(const AtomicFile&) = delete;
 
   void write(const void* data, size_t size) override {
-    if (buffer_.size() + size > kWriteBufferBytes) flush();
-    if (size >= kWriteBufferBytes) {
+    if (buffer_.size() + size > kWriteBufferBytes || size >= kDirectWriteBytes) flush();
+    if (size >= kDirectWriteBytes) {
       write_fd(data, size);
       return;
     }

@@ -447,9 +447,19 @@ void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, u
 // Every METIS call holds this lock: GKlib's random state is process-global, so concurrent
 // calls would make results depend on timing (and would race). Defined in group.cpp.
 std::mutex& metis_mutex();
+// METIS's entry points, from libmetis opened on first use, not linked: only the measuring-only
+// GroupMethod::kMetis and SplitMethod::kMetis call it, so a default build neither maps the
+// library nor resolves its symbols (docs/acceptance/issue23_rss.md). Defined in group.cpp.
+struct MetisFunctions {
+  decltype(&METIS_SetDefaultOptions) set_default_options = nullptr;
+  decltype(&METIS_PartGraphKway) part_graph_kway = nullptr;
+  decltype(&METIS_PartGraphRecursive) part_graph_recursive = nullptr;
+};
+// Loads libmetis once per process. Throws VgeoError MODULE_UNAVAILABLE when it cannot.
+const MetisFunctions& metis_functions();
 // The options of every METIS call: defaults, the fixed seed (determinism), C numbering.
 inline void set_metis_options(idx_t (&options)[METIS_NOPTIONS]) {
-  METIS_SetDefaultOptions(options);
+  metis_functions().set_default_options(options);
   options[METIS_OPTION_SEED] = kMetisSeed;
   options[METIS_OPTION_NUMBERING] = 0;
 }

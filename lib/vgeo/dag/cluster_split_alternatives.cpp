@@ -150,8 +150,8 @@ void bisect_metis(const TriangleSet& tris, const std::vector<uint32_t>& local, s
   int rc;
   {
     std::lock_guard<std::mutex> lock(metis_mutex());
-    rc = METIS_PartGraphRecursive(&nvtxs, &ncon, xadj.data(), adjncy.data(), nullptr, nullptr, nullptr, &nparts,
-                                  tpwgts, nullptr, options, &objval, part.data());
+    rc = metis_functions().part_graph_recursive(&nvtxs, &ncon, xadj.data(), adjncy.data(), nullptr, nullptr, nullptr,
+                                                &nparts, tpwgts, nullptr, options, &objval, part.data());
   }
   std::vector<uint32_t> left, right;
   if (rc == METIS_OK) {

@@ -5,6 +5,7 @@
 // Based on: Karis et al., "Nanite: A Deep Dive", SIGGRAPH 2021, §"DAG: Which clusters to group?" (a
 // minimum edge cut locks the fewest edges); Karypis, Kumar, "A Fast and High Quality Multilevel
 // Scheme for Partitioning Irregular Graphs", SIAM J. Sci. Comput. 20(1), 1998 (METIS, GroupMethod::kMetis).
+#include <dlfcn.h>
 #include <metis.h>
 
 #include <algorithm>
@@ -12,7 +13,9 @@
 #include <cassert>
 #include <cmath>
 #include <mutex>
+#include <string>
 
+#include "vgeo/core/error.h"
 #include "vgeo/dag/build_internal.h"
 #include "vgeo/dag/cluster_dag.h"
 
@@ -252,8 +255,8 @@ std::vector<uint32_t> partition_clusters_metis(const ClusterAdjacency& graph, co
   int rc;
   {
     std::lock_guard<std::mutex> lock(metis_mutex());
-    rc = METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, adjwgt.data(), &np,
-                             nullptr, nullptr, options, &objval, part.data());
+    rc = metis_functions().part_graph_kway(&nvtxs, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr,
+                                           adjwgt.data(), &np, nullptr, nullptr, options, &objval, part.data());
   }
   if (rc != METIS_OK) return {};
   std::vector<uint32_t> out(n);
@@ -298,6 +301,34 @@ std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const Triang
 std::mutex& metis_mutex() {
   static std::mutex m;
   return m;
+}
+
+const MetisFunctions& metis_functions() {
+  static constexpr const char* kMetisLibrary = "libmetis.so.5";  // METIS 5's ABI name (Debian: libmetis5)
+  static std::once_flag once;
+  static MetisFunctions functions;
+  static std::string failure;
+  std::call_once(once, [] {
+    void* library = dlopen(kMetisLibrary, RTLD_NOW | RTLD_LOCAL);  // never unloaded
+    if (!library) {
+      const char* why = dlerror();
+      failure = std::string("cannot load METIS (") + (why ? why : kMetisLibrary) + ")";
+      return;
+    }
+    MetisFunctions f;
+    f.set_default_options = reinterpret_cast<decltype(f.set_default_options)>(dlsym(library, "METIS_SetDefaultOptions"));
+    f.part_graph_kway = reinterpret_cast<decltype(f.part_graph_kway)>(dlsym(library, "METIS_PartGraphKway"));
+    f.part_graph_recursive =
+        reinterpret_cast<decltype(f.part_graph_recursive)>(dlsym(library, "METIS_PartGraphRecursive"));
+    if (!f.set_default_options || !f.part_graph_kway || !f.part_graph_recursive)
+      failure = std::string(kMetisLibrary) + " lacks a METIS 5 entry point";
+    else
+      functions = f;
+  });
+  if (!failure.empty())
+    fail("MODULE_UNAVAILABLE", "metis", failure + " (the METIS grouping and split need libmetis5; tools/setup installs it)",
+         kExitUsage);
+  return functions;
 }
 
 }  // namespace vgeo::build_detail

@@ -14,6 +14,7 @@
 #include <exception>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <numeric>
 
 #include "vgeo/core/byte_io.h"
@@ -382,24 +383,28 @@ struct PageStream {
              uint32_t m, bool report, ThreadPool& tp, CompressContexts& cc)
       : dag(d), slots(s), q(mq), o(fo), mesh(m), want_report(report), pool(tp), compressor(cc) {}
 
-  // Canonical clusters of page-order positions [window_first, window_first + window_count).
-  // The storage only grows and is reused batch after batch (canonicalize_cluster overwrites
-  // its output whole), so its pages are faulted in once, not once per batch.
+  // Canonical clusters of page-order positions [window_first, window_first + window_count),
+  // each in an allocation of its own. The storage only grows and is reused batch after batch
+  // (canonicalize_cluster overwrites its output whole; an encoded cluster's storage moves to
+  // the back for the next batch), so its pages are faulted in once, not once per batch. One
+  // array of clusters grew by doubling when a page held more clusters than it had room for
+  // (a 128 KiB page holds ~250 small clusters), copying them and leaving the smaller arrays'
+  // pages resident: ~1.6 MiB of a small mesh's page build (docs/acceptance/issue23_rss.md).
   size_t window_first = 0, window_count = 0;
-  std::vector<CanonicalCluster> window;
+  std::vector<std::unique_ptr<CanonicalCluster>> window;
   PageRange open{0, 0, kPageHeadMem, kPageHeadRaw};
   std::vector<PageRange> complete;          // closed pages not yet encoded
   std::vector<PageOut> pages;
   ClusterTotals totals;
 
-  const CanonicalCluster& at(size_t pos) const { return window[pos - window_first]; }
+  const CanonicalCluster& at(size_t pos) const { return *window[pos - window_first]; }
 
   void canonicalize_batch(size_t first, size_t count) {
     const size_t base = window_count;
-    if (window.size() < base + count) window.resize(base + count);
+    while (window.size() < base + count) window.push_back(std::make_unique<CanonicalCluster>());
     window_count = base + count;
     parallel_for_ordered_errors(pool, count, [&](size_t k) {
-      canonicalize_cluster(dag, slots[first + k], q, &window[base + k]);
+      canonicalize_cluster(dag, slots[first + k], q, window[base + k].get());
     });
   }
 
@@ -443,7 +448,7 @@ struct PageStream {
     const size_t keep_from = open.count ? open.first : window_first + window_count;
     const size_t drop = keep_from - window_first;
     if (drop == 0) return;
-    std::move(window.begin() + ptrdiff_t(drop), window.begin() + ptrdiff_t(window_count), window.begin());
+    std::rotate(window.begin(), window.begin() + ptrdiff_t(drop), window.begin() + ptrdiff_t(window_count));
     window_count -= drop;
     window_first = keep_from;
   }
@@ -451,9 +456,8 @@ struct PageStream {
   void run() {
     const size_t batch =
         pool.size() == 1 ? kCanonicalBatchClustersOneThread : kCanonicalBatchClustersPerThread * pool.size();
-    // Room for a batch plus the open page's clusters carried over (fewer than a batch unless a
-    // page holds more clusters than a batch): the window then grows without reallocating, which
-    // copied every canonical cluster held (~55 ms of memcpy and its page faults on the sphere).
+    // Room for the pointers of a batch plus the open page's clusters carried over (fewer than a
+    // batch unless a page holds more clusters than a batch).
     window.reserve(2 * batch);
     for (size_t first = 0; first < slots.size(); first += batch) {
       const size_t count = std::min(batch, slots.size() - first);

@@ -2,6 +2,8 @@
 // (lib/vgeo/gpu/context.h, spec/gpu.md).
 #include "vgeo/gpu/context.h"
 
+#include <dlfcn.h>
+
 #include <algorithm>
 #include <cassert>
 #include <cctype>
@@ -11,7 +13,41 @@
 #include "vgeo/core/error.h"
 
 namespace vgeo {
+
+#define VGEO_VULKAN_DEFINE(name) PFN_##name name = nullptr;
+VGEO_VULKAN_FUNCTIONS(VGEO_VULKAN_DEFINE)
+#undef VGEO_VULKAN_DEFINE
+
 namespace {
+
+// The Vulkan loader's ABI name (Debian: libvulkan1).
+constexpr const char* kVulkanLoader = "libvulkan.so.1";
+
+// Opens the loader and fills the function pointers, once per process; never unloaded. A
+// missing loader or function is GPU_NO_DEVICE (no usable Vulkan), as a missing driver is.
+void load_vulkan() {
+  static std::once_flag once;
+  static std::string failure;
+  std::call_once(once, [] {
+    void* loader = dlopen(kVulkanLoader, RTLD_NOW | RTLD_LOCAL);
+    if (!loader) {
+      const char* why = dlerror();
+      failure = std::string("cannot load the Vulkan loader (") + (why ? why : kVulkanLoader) + ")";
+      return;
+    }
+#define VGEO_VULKAN_LOAD(name)                                          \
+  name = reinterpret_cast<PFN_##name>(dlsym(loader, #name));            \
+  if (!name) {                                                          \
+    failure = std::string(kVulkanLoader) + " does not export " #name;   \
+    return;                                                             \
+  }
+    VGEO_VULKAN_FUNCTIONS(VGEO_VULKAN_LOAD)
+#undef VGEO_VULKAN_LOAD
+  });
+  if (!failure.empty())
+    fail("GPU_NO_DEVICE", "vulkan", failure + " (install libvulkan1 and mesa-vulkan-drivers; tools/setup does)",
+         kExitUsage);
+}
 
 constexpr const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
 // Timestamp slots per submission: two per timed pass, far more than a frame has passes.
@@ -64,6 +100,7 @@ bool layer_available(const char* name) {
 }
 
 VkInstance create_instance(bool validate, GpuContext* context) {
+  load_vulkan();  // every GPU entry point starts here
   auto app = vk_struct<VkApplicationInfo>(VK_STRUCTURE_TYPE_APPLICATION_INFO);
   app.pApplicationName = "vgeo";
   app.pEngineName = "vgeo";

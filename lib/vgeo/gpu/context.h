@@ -8,6 +8,16 @@
 // Khronos validation layer and a debug-utils messenger are on; every message the layer
 // reports is kept in GpuContext::validation_messages (never printed by the library), and
 // callers fail on a non-empty list.
+//
+// The Vulkan loader is opened on first use (create_gpu_context, list_gpu_devices), not linked:
+// a process that never uses the GPU (every `vgeo build`) neither maps libvulkan nor resolves
+// its symbols at start (~0.35 MiB resident; docs/acceptance/issue23_rss.md). vgeo calls Vulkan
+// through the pointers declared below, one per function it calls, named as the functions are
+// so call sites read as plain Vulkan: the library's one piece of process-wide state, set once
+// (from the loader's own exported symbols, the functions a link would have bound).
+#ifndef VK_NO_PROTOTYPES
+#define VK_NO_PROTOTYPES
+#endif
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
@@ -16,7 +26,32 @@
 #include <string>
 #include <vector>
 
+#define VGEO_VULKAN_FUNCTIONS(X) \
+  X(vkAllocateCommandBuffers) X(vkAllocateDescriptorSets) X(vkAllocateMemory) X(vkBeginCommandBuffer) \
+  X(vkBindBufferMemory) X(vkCmdBeginRendering) X(vkCmdBindDescriptorSets) X(vkCmdBindPipeline) \
+  X(vkCmdDispatch) X(vkCmdDispatchIndirect) X(vkCmdDraw) X(vkCmdDrawIndirectCount) X(vkCmdEndRendering) \
+  X(vkCmdFillBuffer) X(vkCmdPipelineBarrier2) X(vkCmdPushConstants) X(vkCmdResetQueryPool) \
+  X(vkCmdSetCullMode) X(vkCmdSetScissor) X(vkCmdSetViewport) X(vkCmdWriteTimestamp2) X(vkCreateBuffer) \
+  X(vkCreateCommandPool) X(vkCreateComputePipelines) X(vkCreateDescriptorPool) \
+  X(vkCreateDescriptorSetLayout) X(vkCreateDevice) X(vkCreateFence) X(vkCreateGraphicsPipelines) \
+  X(vkCreateInstance) X(vkCreatePipelineLayout) X(vkCreateQueryPool) X(vkCreateShaderModule) \
+  X(vkDestroyBuffer) X(vkDestroyCommandPool) X(vkDestroyDescriptorPool) X(vkDestroyDescriptorSetLayout) \
+  X(vkDestroyDevice) X(vkDestroyFence) X(vkDestroyInstance) X(vkDestroyPipeline) X(vkDestroyPipelineLayout) \
+  X(vkDestroyQueryPool) X(vkDestroyShaderModule) X(vkDeviceWaitIdle) X(vkEndCommandBuffer) \
+  X(vkEnumerateInstanceLayerProperties) X(vkEnumeratePhysicalDevices) X(vkFreeMemory) \
+  X(vkGetBufferMemoryRequirements) X(vkGetDeviceQueue) X(vkGetInstanceProcAddr) \
+  X(vkGetPhysicalDeviceFeatures2) X(vkGetPhysicalDeviceMemoryProperties) X(vkGetPhysicalDeviceProperties) \
+  X(vkGetPhysicalDeviceQueueFamilyProperties) X(vkGetQueryPoolResults) X(vkMapMemory) X(vkQueueSubmit) \
+  X(vkResetCommandBuffer) X(vkResetDescriptorPool) X(vkResetFences) X(vkUpdateDescriptorSets) \
+  X(vkWaitForFences)
+
 namespace vgeo {
+
+// A Vulkan function vgeo calls, or a new one: add it to VGEO_VULKAN_FUNCTIONS.
+#define VGEO_VULKAN_DECLARE(name) extern PFN_##name name;
+VGEO_VULKAN_FUNCTIONS(VGEO_VULKAN_DECLARE)
+#undef VGEO_VULKAN_DECLARE
+
 
 // Device chosen when neither GpuOptions::device nor VGEO_VK_DEVICE names one: the
 // project's reference GPU is Mesa's CPU driver (lavapipe reports "llvmpipe ...").
