@@ -19,6 +19,7 @@
 #include <initializer_list>
 #include <cmath>
 #include <cstring>
+#include <cstdlib>
 
 #include "vgeo/dag/build_internal.h"
 #include "vgeo/core/error.h"
@@ -384,16 +385,24 @@ struct BuildState {
   std::vector<WorkGroup> groups;
   LeafSurface leaf_surface;  // the original surface the stored errors are measured against
   BuildReport report;
+  // Vertex placement (vertex_placement.cpp): `vertices` holds the positions, normals and uvs of
+  // every vertex id, the mesh's and the moved ones appended level by level (combine_level);
+  // `positions` points at it once placement runs, else at `mesh`.
+  double placement_share = 0.0;  // 0: no placement
+  Mesh vertices;
+  const Mesh* positions = nullptr;
+  LeafNormals leaf_normals;
 
   BuildState(const Mesh& m, const BuildOptions& o, const InternalBuildOptions& i)
-      : mesh(m), options(o), internal(i), pool(o.threads) {}
+      : mesh(m), options(o), internal(i), pool(o.threads), positions(&m) {}
 };
 
 // One level's result of a group task (simplify, border check, split, error).
 struct GroupResult {
   bool terminal = true;
   float error = 0.0f;
-  std::vector<TriangleSet> clusters;
+  std::vector<TriangleSet> clusters;  // corners of moved vertices: their old ids until combine_level
+  VertexMoves moves;
   double seconds_simplify = 0, seconds_split = 0, seconds_error = 0;
 };
 
@@ -411,6 +420,7 @@ struct Block {
 // State of one level L (spec/dag.md §2.3).
 struct LevelState {
   uint32_t level = 0;
+  uint32_t first_fresh = 0;  // vertex count at the level's start: the groups' temporary ids of moved vertices
   std::vector<uint32_t> active;                // level-L cluster indices
   BuildLevelReport report;
   std::vector<std::vector<uint64_t>> open_keys;  // per active cluster: open welded edges (grouping)
@@ -596,6 +606,15 @@ void build_leaves(BuildState& s) {
   for (size_t i = 0; i < s.clusters.size(); ++i) leaf_sets[i] = &s.clusters[i].triangles;
   s.leaf_surface = build_leaf_surface(s.welded, leaf_sets, s.pool);
   s.report.seconds_error += steady_seconds() - te;
+  if (s.placement_share > 0) {
+    s.vertices.positions = s.mesh.positions;
+    s.vertices.normals = s.mesh.normals;
+    s.vertices.uvs = s.mesh.uvs;
+    s.positions = &s.vertices;
+    s.welded.mesh = &s.vertices;
+    const char* crease = std::getenv("VGEO_CREASE");  // PROTOTYPE
+    s.leaf_normals = compute_leaf_normals(s.welded, s.mesh, crease ? std::cos(std::atof(crease) * 3.14159265358979 / 180) : kCosPlacementCrease);
+  }
 }
 
 // ---- 3a. level edges: per-cluster open edges (grouping) and the level's report ----
@@ -799,14 +818,41 @@ bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, c
 float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, float floor, TriangleSet& triangles) {
   LatticePeak peak;
   LatticeRecord record;
-  const float error = leaf_deviation(s.leaf_surface, s.mesh, input, triangles, floor, &peak, &record);
+  const float error = leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, &peak, &record);
   std::vector<uint8_t> changed;
   TriangleSet flipped = triangles;
   if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed)) return error;
-  const float flipped_error = leaf_deviation_after_change(s.leaf_surface, s.mesh, input, flipped, changed, record, floor);
+  const float flipped_error = leaf_deviation_after_change(s.leaf_surface, *s.positions, input, flipped, changed, record, floor);
   if (!(flipped_error < error)) return error;
   triangles = std::move(flipped);
   return flipped_error;
+}
+
+// The group's error with its vertices placed (vertex_placement.cpp): moves of `triangles`'
+// movable vertices, measured with temporary ids (L.first_fresh on, in the order of their final
+// ids, so the lattice points are those of the final ids).
+float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet& input, float floor,
+                     const TriangleSet& triangles, std::vector<uint32_t>& scratch, VertexMoves& moves) {
+  PlacementContext ctx;
+  ctx.welded = &s.welded;
+  ctx.mesh = s.positions;
+  ctx.leaf_positions = s.mesh.positions.data();
+  ctx.leaves = &s.leaf_surface;
+  ctx.normals = &s.leaf_normals;
+  ctx.locked = &s.locks.locked;
+  ctx.pinned = &s.locks.pinned;
+  ctx.mesh_border = &s.locks.mesh_border;
+  moves = place_vertices(ctx, triangles, s.placement_share, scratch);
+  if (moves.vertex.empty()) return leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor);
+  TriangleSet renamed = triangles;
+  for (uint32_t& v : renamed.corners) {
+    auto it = std::lower_bound(moves.vertex.begin(), moves.vertex.end(), v);
+    if (it != moves.vertex.end() && *it == v) v = L.first_fresh + uint32_t(it - moves.vertex.begin());
+  }
+  std::vector<uint32_t> origin(moves.vertex.size());
+  for (size_t i = 0; i < origin.size(); ++i) origin[i] = s.leaf_surface.origin(moves.vertex[i]);
+  FreshVertices fresh{L.first_fresh, moves.positions.data(), origin.data()};
+  return leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, nullptr, nullptr, &fresh);
 }
 
 void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
@@ -847,7 +893,15 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   // simplified surface to the leaves, measured as verify measures it; the members' stored
   // error is a floor (the parent's error takes the max with it anyway).
   if (sealed && s.options.edge_flips) error = measure_with_edge_flips(s, merged, max_member_error, simplified.triangles);
-  else if (sealed) error = leaf_deviation(s.leaf_surface, s.mesh, merged, simplified.triangles, max_member_error);
+  if (sealed && s.placement_share > 0) {
+    static const bool compare = std::getenv("VGEO_PLACE_CMP") != nullptr;  // PROTOTYPE
+    const float unplaced = compare && !s.options.edge_flips
+        ? leaf_deviation(s.leaf_surface, *s.positions, merged, simplified.triangles, max_member_error) : error;
+    error = measure_placed(s, L, merged, max_member_error, simplified.triangles, scratch, r.moves);
+    if (compare && !(error < unplaced)) error = unplaced, r.moves = VertexMoves();
+  }
+  else if (sealed && !s.options.edge_flips)
+    error = leaf_deviation(s.leaf_surface, *s.positions, merged, simplified.triangles, max_member_error);
   seconds_error += steady_seconds() - tv0;
   if (sealed && simplified.capped) {
     // The group's own open borders moved (border_caps.cpp). A border collapse can cost more
@@ -859,11 +913,15 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     SimplifyResult locked_borders;
     if (simplify_sealed(s, blk.group_shared_edges[g], prepared, target, scratch, locked_borders)) {
       tv0 = steady_seconds();
-      const float locked_error = leaf_deviation(s.leaf_surface, s.mesh, merged, locked_borders.triangles, max_member_error);
+      VertexMoves locked_moves;
+      const float locked_error =
+          s.placement_share > 0
+              ? measure_placed(s, L, merged, max_member_error, locked_borders.triangles, scratch, locked_moves)
+              : leaf_deviation(s.leaf_surface, *s.positions, merged, locked_borders.triangles, max_member_error);
       seconds_error += steady_seconds() - tv0;
       if (double(locked_error) * double(locked_borders.triangles.triangle_count()) <
           double(error) * double(simplified.triangles.triangle_count()))
-        simplified = std::move(locked_borders), error = locked_error;
+        simplified = std::move(locked_borders), error = locked_error, r.moves = std::move(locked_moves);
     }
   }
   const double tm = steady_seconds();
@@ -969,6 +1027,43 @@ void account_level_time(BuildReport& rep, const LevelState& L, double wall) {
 }
 
 // ---- 3f. combine in group order: groups, generated clusters, retired vertices/edges ----
+// A group's moved vertices get their ids (the next free ones, in the group's order: as their
+// temporary ids were ordered) and every per-vertex array its entries; its clusters' corners
+// are renamed.
+void append_moved_vertices(BuildState& s, GroupResult& r) {
+  const VertexMoves& moves = r.moves;
+  Mesh& m = s.vertices;
+  const uint32_t first = uint32_t(m.vertex_count());
+  const size_t k = moves.vertex.size();
+  for (size_t i = 0; i < k; ++i) {
+    const uint32_t v = moves.vertex[i];
+    m.positions.insert(m.positions.end(), &moves.positions[3 * i], &moves.positions[3 * i + 3]);
+    if (!m.normals.empty()) m.normals.insert(m.normals.end(), {m.normals[3 * size_t(v)], m.normals[3 * size_t(v) + 1], m.normals[3 * size_t(v) + 2]});
+    if (!m.uvs.empty()) m.uvs.insert(m.uvs.end(), {m.uvs[2 * size_t(v)], m.uvs[2 * size_t(v) + 1]});
+    // The welded id of the new position: the first moved copy of the same old position.
+    uint32_t rep_id = first + uint32_t(i);
+    for (size_t j = 0; j < i; ++j)
+      if (s.welded.weld[moves.vertex[j]] == s.welded.weld[v]) { rep_id = first + uint32_t(j); break; }
+    s.welded.weld.push_back(rep_id);
+    s.welded.copies.push_back(0);
+    s.welded.copies[rep_id] = uint8_t(std::min(255, s.welded.copies[rep_id] + 1));
+    s.locks.retired.push_back(0);
+    s.locks.owner.push_back(kNone);
+    s.locks.locked.push_back(0);
+    s.locks.pinned.push_back(0);
+    if (!s.locks.mesh_border.empty()) s.locks.mesh_border.push_back(0);
+    s.leaf_surface.moved_origin.push_back(s.leaf_surface.origin(v));
+  }
+  s.scratch.size = m.vertex_count();
+  for (std::vector<uint32_t>& free : s.scratch.free) free.resize(s.scratch.size, kNone);
+  for (TriangleSet& t : r.clusters)
+    for (uint32_t& v : t.corners) {
+      auto it = std::lower_bound(moves.vertex.begin(), moves.vertex.end(), v);
+      if (it != moves.vertex.end() && *it == v) v = first + uint32_t(it - moves.vertex.begin());
+    }
+  r.moves = VertexMoves();
+}
+
 // Returns the next level's active clusters.
 std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   const double tc = steady_seconds();
@@ -1007,6 +1102,7 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   for (uint32_t i = 0; i < group_count; ++i) {
     GroupResult& r = results[i];
     uint32_t gi = first_group + i;
+    if (!r.terminal && !r.moves.vertex.empty()) append_moved_vertices(s, r);
     if (r.terminal) {
       groups[gi].terminal = true;
       groups[gi].parent_error = kTerminalError;
@@ -1038,7 +1134,7 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   if (!L.simplify_allowed) L.report.stuck_groups = 0;  // roots by construction, not stuck
   s.pool.parallel_for(next.size(), [&](size_t i) {
     WorkCluster& c = clusters[next[i]];
-    c.bounds = cluster_sphere(s.mesh, c.triangles);
+    c.bounds = cluster_sphere(*s.positions, c.triangles);
   });
   // Reset per-level lock state (only the touched entries; the same values from any task).
   s.pool.parallel_for(L.active.size(), [&](size_t i) {
@@ -1067,6 +1163,7 @@ void build_levels(BuildState& s) {
   for (uint32_t level = 0; !active.empty(); ++level) {
     LevelState L;
     L.level = level;
+    L.first_fresh = uint32_t(s.positions->vertex_count());
     L.active = std::move(active);
     count_level_edges(s, L);
     plan_blocks(s, L);
@@ -1099,7 +1196,7 @@ void certify_stored_errors(BuildState& s) {
       for (uint32_t m : g.members) floor = std::max(floor, clusters[m].lod_error);
       std::vector<const TriangleSet*> simplified;
       for (uint32_t c : g.generated) simplified.push_back(&clusters[c].triangles);
-      g.parent_error = certified_leaf_deviation(s.leaf_surface, twins, s.mesh, simplified, floor, g.parent_error);
+      g.parent_error = certified_leaf_deviation(s.leaf_surface, twins, *s.positions, simplified, floor, g.parent_error);
       for (uint32_t c : g.generated) clusters[c].lod_error = g.parent_error;
     });
   }
@@ -1120,7 +1217,7 @@ void release_level_state(BuildState& s) {
 // ---- 4. layout: groups in creation order (sorted by level), clusters sorted by group ----
 ClusterDag lay_out(BuildState& s) {
   const double t0 = steady_seconds();
-  const Mesh& mesh = s.mesh;
+  const Mesh& mesh = *s.positions;
   const std::vector<WorkCluster>& clusters = s.clusters;
   const std::vector<WorkGroup>& groups = s.groups;
   ThreadPool& pool = s.pool;
@@ -1182,7 +1279,7 @@ ClusterDag lay_out(BuildState& s) {
     total_triangles += clusters[order[i]].triangles.triangle_count();
   }
   if (total_vertices >= kNone || total_triangles >= kNone)
-    fail("BUILD_MESH_TOO_LARGE", mesh.name, "the DAG would exceed 2^32 vertices or triangles");
+    fail("BUILD_MESH_TOO_LARGE", s.mesh.name, "the DAG would exceed 2^32 vertices or triangles");
   // The big arrays are fresh memory: their first touch (page faults, zeroing) is most of
   // the layout's cost. They are reserved, their pages faulted in by equal chunks on every
   // thread (prefault_parallel), and only then sized (the zero fill then runs on mapped pages).
@@ -1285,6 +1382,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
                                             const InternalBuildOptions& internal, BuildReport* report) {
   const double t_start = steady_seconds();
   BuildState s(mesh, options, internal);
+  if (const char* share = std::getenv("VGEO_PLACE")) s.placement_share = std::atof(share);  // PROTOTYPE
   prepare(s);
   build_leaves(s);
   build_levels(s);

@@ -282,6 +282,21 @@ struct LeafSurface {
   // vertex_triangle[v] (v: a mesh vertex): the smallest triangle id with a corner welded to v,
   // or kNone.
   std::vector<uint32_t> vertex_triangle;
+  // Vertices placed off the leaves (vertex_placement.cpp) get ids from leaf_vertex_count on:
+  // moved_origin[v - leaf_vertex_count] is the leaf vertex each was moved from (where a walk
+  // over the leaves starts). Ids below leaf_vertex_count are the mesh's: leaf vertices.
+  uint32_t leaf_vertex_count = 0;
+  std::vector<uint32_t> moved_origin;
+  // The leaf vertex vertex `v` is (v itself) or was moved from.
+  uint32_t origin(uint32_t v) const { return v < leaf_vertex_count ? v : moved_origin[v - leaf_vertex_count]; }
+};
+// Moved vertices of one group before their ids are final (vertex_placement.cpp): ids first,
+// first + 1, ... (ordered as their final ids will be, all above every id in use) have
+// positions[3i, 3i + 3) and leaf vertex origin[i]. first = kNone: none.
+struct FreshVertices {
+  uint32_t first = kNone;
+  const float* positions = nullptr;
+  const uint32_t* origin = nullptr;
 };
 LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves,
                                ThreadPool& pool);
@@ -321,8 +336,11 @@ struct LatticeRecord {
   };
   std::vector<Place> places;
 };
+// `fresh`: corners with ids from fresh->first on are moved vertices (not leaf vertices: their
+// points are measured, corners included; their edges are no edge of the input).
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
-                     float floor, LatticePeak* peak = nullptr, LatticeRecord* record = nullptr);
+                     float floor, LatticePeak* peak = nullptr, LatticeRecord* record = nullptr,
+                     const FreshVertices* fresh = nullptr);
 // leaf_deviation(leaves, mesh, input, changed_surface, floor), bit for bit, where
 // `changed_surface` is a surface leaf_deviation measured with `record`, with the triangles
 // marked in `changed` replaced (same count; an edge of a replaced triangle that is still used
@@ -356,6 +374,49 @@ LeafTwins build_leaf_twins(const LeafSurface& leaves, const WeldedMesh& welded, 
 // leaves (their measured error) or 0, where the search for the maximum starts.
 float certified_leaf_deviation(const LeafSurface& leaves, const LeafTwins& twins, const Mesh& mesh,
                                const std::vector<const TriangleSet*>& simplified, float floor, double lower);
+
+// Vertex placement (vertex_placement.cpp, spec/dag.md §2.3 Place).
+// Leaf normals by welded id of the input: the area-weighted normal of the leaf faces at the
+// position (unit, or 0), and whether every such face lies within the crease angle of it
+// (smooth: a vertex on a crease or a CAD face edge would leave both faces along the average).
+struct LeafNormals {
+  std::vector<float> normal;
+  std::vector<uint8_t> smooth;
+};
+LeafNormals compute_leaf_normals(const WeldedMesh& welded, const Mesh& mesh, double cos_crease);
+// Offset = this × the mean estimated centroid sag of the vertex's simplified triangles: on a
+// sphere the flat triangle's deepest point (its centroid) then lies as far inside as its
+// corners lie outside (about sag / 2 each instead of the whole sag inside).
+inline constexpr double kPlacementShare = 0.5;
+// |offset| ≤ this × the vertex's shortest incident simplified edge: the sag estimate assumes
+// the surface is nearly flat over a triangle (sag ≪ edge: L/(6R) on a sphere); beyond that
+// it is no estimate, and a large move could fold a thin part.
+inline constexpr double kMaxOffsetPerEdge = 0.125;
+// A position with more attribute copies than this is per-corner (simplify.cpp: every wedge its
+// own vertex): left where it is.
+inline constexpr uint8_t kMaxMovedCopies = 2;
+// Crease angle: 30 degrees. Smooth meshes' vertex rings stay well inside it at leaf
+// resolution; CAD edges (90 degrees) and sharp features are outside.
+inline constexpr double kCosPlacementCrease = 0.8660254037844386;
+struct PlacementContext {
+  const WeldedMesh* welded = nullptr;
+  const Mesh* mesh = nullptr;            // current positions by id
+  const float* leaf_positions = nullptr;  // the input mesh's positions (leaf vertices)
+  const LeafSurface* leaves = nullptr;    // origin of moved ids
+  const LeafNormals* normals = nullptr;
+  const std::vector<uint8_t>* locked = nullptr;
+  const std::vector<uint8_t>* pinned = nullptr;
+  const std::vector<uint8_t>* mesh_border = nullptr;  // may be empty
+};
+// The vertices of `tris` to move (ascending ids) and their new positions (3 floats each; all
+// attribute copies of a welded position: the same bits). `scratch` (weld.size(), all kNone)
+// is returned in that state.
+struct VertexMoves {
+  std::vector<uint32_t> vertex;
+  std::vector<float> positions;
+};
+VertexMoves place_vertices(const PlacementContext& ctx, const TriangleSet& tris, double alpha,
+                           std::vector<uint32_t>& scratch);
 
 // How far a group is simplified: to ratio × its triangles, stopping early where the
 // backend's error estimate would pass max_error (object units; meshopt only; +inf: no bound).

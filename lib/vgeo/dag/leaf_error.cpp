@@ -115,6 +115,7 @@ LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const
     std::copy(leaves[i]->corners.begin(), leaves[i]->corners.end(), &ids[3 * first_triangle[i]]);
   });
   LeafSurface s;
+  s.leaf_vertex_count = uint32_t(welded.weld.size());
   build_adjacency(s, welded, ids, pool);
   // Leaves in cluster order: clusters of spatial chunks in Morton order, each cluster a
   // connected patch, which is the spatial coherence the order-keeping tree needs.
@@ -128,22 +129,35 @@ namespace {
 // ≤ floor² rounds to ≤ floor, so points within the floor cannot change the result.
 double floor_squared(float floor) { return std::isfinite(floor) && floor > 0 ? double(floor) * double(floor) : 0.0; }
 
-DVec3 mesh_vertex(const Mesh& mesh, uint32_t v) {
-  return DVec3{mesh.positions[3 * size_t(v)], mesh.positions[3 * size_t(v) + 1], mesh.positions[3 * size_t(v) + 2]};
-}
+// Positions and walk starts by vertex id: the mesh's (leaf and already placed vertices) and,
+// from fresh->first on, a group's moved vertices before their ids are final.
+struct VertexSource {
+  const LeafSurface& leaves;
+  const Mesh& mesh;
+  const FreshVertices* fresh;
+  bool is_fresh(uint32_t v) const { return fresh && fresh->positions && v >= fresh->first; }
+  DVec3 operator()(uint32_t v) const {
+    const float* p = is_fresh(v) ? &fresh->positions[3 * size_t(v - fresh->first)] : &mesh.positions[3 * size_t(v)];
+    return DVec3{p[0], p[1], p[2]};
+  }
+  // A leaf triangle at the vertex (or at the leaf vertex it was moved from): a walk's start.
+  uint32_t start_triangle(uint32_t v) const {
+    return leaves.vertex_triangle[is_fresh(v) ? fresh->origin[v - fresh->first] : leaves.origin(v)];
+  }
+};
 
 // Visits the lattice points of one place of triangle `tri` (corner ids): edge j's points (j <
 // 3), from corner j to corner j + 1, or its interior points (kLatticeInterior). The points of
 // for_each_lattice_point (lib/vgeo/core/surface_distance.h, which lib/vgeo/verify samples),
 // same formulas: an edge's point i/s is computed from its smaller vertex id.
 template <class Visit>
-void for_each_place_point(const Mesh& mesh, const uint32_t* tri, int place, Visit&& visit) {
+void for_each_place_point(const VertexSource& mesh_vertex, const uint32_t* tri, int place, Visit&& visit) {
   const uint32_t s = kErrorLatticeSubdivisions ? kErrorLatticeSubdivisions : 1;
   if (place != kLatticeInterior) {
     const int j = place;
     const bool forward = tri[j] < tri[(j + 1) % 3];
-    const DVec3 e0 = mesh_vertex(mesh, forward ? tri[j] : tri[(j + 1) % 3]);
-    const DVec3 e1 = mesh_vertex(mesh, forward ? tri[(j + 1) % 3] : tri[j]);
+    const DVec3 e0 = mesh_vertex(forward ? tri[j] : tri[(j + 1) % 3]);
+    const DVec3 e1 = mesh_vertex(forward ? tri[(j + 1) % 3] : tri[j]);
     for (uint32_t k = 1; k < s; ++k) {
       const uint32_t i = forward ? k : s - k;
       const double f = double(i) / s;
@@ -151,7 +165,7 @@ void for_each_place_point(const Mesh& mesh, const uint32_t* tri, int place, Visi
     }
     return;
   }
-  const DVec3 a = mesh_vertex(mesh, tri[0]), b = mesh_vertex(mesh, tri[1]), c = mesh_vertex(mesh, tri[2]);
+  const DVec3 a = mesh_vertex(tri[0]), b = mesh_vertex(tri[1]), c = mesh_vertex(tri[2]);
   for (uint32_t u = 1; u < s; ++u)
     for (uint32_t w = 1; u + w < s; ++w) {
       const double bu = double(u) / s, bw = double(w) / s, bv = 1.0 - bu - bw;
@@ -162,7 +176,7 @@ void for_each_place_point(const Mesh& mesh, const uint32_t* tri, int place, Visi
 // leaf_deviation's search (below) before the rounding: the largest squared distance of the
 // points beyond floor_d2, or 0 when none lies beyond it. `record` (optional) gets every point
 // visited.
-double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input,
+double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, const TriangleSet& input,
                          const TriangleSet& simplified, double floor_d2, LatticePeak* peak, LatticeRecord* record) {
   // Edges (by original vertex ids, smaller first: the lattice points depend on both) whose
   // points need no visit: edges of the input when the input is itself simplified (floor > 0)
@@ -170,7 +184,10 @@ double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const Tria
   // and edges already visited. Open addressing, load ≤ 1/2.
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
-  while (slots < 6 * (simplified.triangle_count() + (floor_d2 > 0 ? input.triangle_count() : 0))) slots <<= 1, --shift;
+  // Keys: ≤ 3 per triangle of each set, and with moved vertices ≤ 3 corners per simplified one.
+  const size_t keys_per_triangle = mesh.fresh ? 6 : 3;
+  while (slots < 2 * (keys_per_triangle * simplified.triangle_count() + (floor_d2 > 0 ? 3 * input.triangle_count() : 0)))
+    slots <<= 1, --shift;
   std::vector<uint64_t> edge_slot(slots, kNoEdge);
   auto insert_edge = [&](uint32_t a, uint32_t b) {  // true iff the edge was not in the set
     const uint64_t key = a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
@@ -217,8 +234,18 @@ double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const Tria
   if (record) record->places.assign(4 * simplified.triangle_count(), LatticeRecord::Place{});
   for (size_t t = 0; t < simplified.triangle_count(); ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
-    at = leaves.vertex_triangle[tri[0]];
+    at = mesh.start_triangle(tri[0]);
     here.triangle = uint32_t(t);
+    // A moved corner (fresh) is no leaf vertex: measured once, from its leaf vertex's triangle
+    // (key (v, v): no edge of two distinct ids).
+    for (int j = 0; j < 3; ++j)
+      if (mesh.is_fresh(tri[j]) && insert_edge(tri[j], tri[j])) {
+        uint32_t corner_at = mesh.start_triangle(tri[j]);
+        std::swap(at, corner_at);
+        here.place = kLatticeInterior;
+        visit(mesh(tri[j]));
+        at = corner_at;
+      }
     bool after_previous_edge = false;  // the last point visited is on edge j - 1, next to corner j
     for (int j = 0; j < 3; ++j) {
       if (!insert_edge(tri[j], tri[(j + 1) % 3])) {
@@ -228,7 +255,7 @@ double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const Tria
       // An edge whose tour predecessor was skipped (an input edge, or one visited from the
       // other side) starts from its own first corner, not from wherever the last point was
       // (sphere 1M: 11.40M -> 10.59M walk steps).
-      if (j > 0 && !after_previous_edge) at = leaves.vertex_triangle[tri[j]];
+      if (j > 0 && !after_previous_edge) at = mesh.start_triangle(tri[j]);
       after_previous_edge = true;
       here.place = j;
       for_each_place_point(mesh, tri, j, visit);
@@ -242,11 +269,12 @@ double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const Tria
 }  // namespace
 
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
-                     float floor, LatticePeak* peak, LatticeRecord* record) {
+                     float floor, LatticePeak* peak, LatticeRecord* record, const FreshVertices* fresh) {
   if (peak) *peak = LatticePeak{};
   if (record) record->places.clear();
   if (leaves.tree.empty() || simplified.triangle_count() == 0) return floor;
-  const double best2 = deviation_squared(leaves, mesh, input, simplified, floor_squared(floor), peak, record);
+  const VertexSource source{leaves, mesh, fresh};
+  const double best2 = deviation_squared(leaves, source, input, simplified, floor_squared(floor), peak, record);
   return std::max(floor, round_up_to_float(std::sqrt(best2)));
 }
 
@@ -255,6 +283,7 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
                                   const LatticeRecord& record, float floor) {
   if (leaves.tree.empty() || changed_surface.triangle_count() == 0) return floor;
   const double floor_d2 = floor_squared(floor);
+  const VertexSource source{leaves, mesh, nullptr};
   // The changed triangles' points (new, or on an edge a changed triangle shares), measured.
   TriangleSet now;
   for (size_t t = 0; t < changed_surface.triangle_count(); ++t)
@@ -262,7 +291,7 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
       now.corners.insert(now.corners.end(), &changed_surface.corners[3 * t], &changed_surface.corners[3 * t + 3]);
       now.materials.push_back(changed_surface.materials[t]);
     }
-  double best2 = now.triangle_count() ? deviation_squared(leaves, mesh, input, now, floor_d2, nullptr, nullptr) : 0.0;
+  double best2 = now.triangle_count() ? deviation_squared(leaves, source, input, now, floor_d2, nullptr, nullptr) : 0.0;
   // Every other point was visited from an unchanged triangle: its place's recorded value
   // bounds its distance, so only places recorded beyond the running maximum are searched,
   // largest first.
@@ -273,7 +302,7 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
   for (const auto& [bound, k] : open) {
     if (bound <= std::max(best2, floor_d2)) break;
     uint32_t at = record.places[k].leaf;  // where the measurement's walk or search ended
-    for_each_place_point(mesh, &changed_surface.corners[3 * size_t(k / 4)], int(k % 4), [&](DVec3 p) {
+    for_each_place_point(source, &changed_surface.corners[3 * size_t(k / 4)], int(k % 4), [&](DVec3 p) {
       const double threshold = std::max(best2, floor_d2);
       double d2;
       if (at != kNone && walk_within(leaves, p, threshold, &at, &d2)) return;  // as deviation_squared
