@@ -19,7 +19,6 @@
 #include <initializer_list>
 #include <cmath>
 #include <cstring>
-#include <cstdlib>
 
 #include "vgeo/dag/build_internal.h"
 #include "vgeo/core/error.h"
@@ -388,10 +387,9 @@ struct BuildState {
   // Vertex placement (vertex_placement.cpp): `vertices` holds the positions, normals and uvs of
   // every vertex id, the mesh's and the moved ones appended level by level (combine_level);
   // `positions` points at it once placement runs, else at `mesh`.
-  double placement_share = 0.0;  // 0: no placement
+  bool placement = false;
   Mesh vertices;
   const Mesh* positions = nullptr;
-  LeafNormals leaf_normals;
 
   BuildState(const Mesh& m, const BuildOptions& o, const InternalBuildOptions& i)
       : mesh(m), options(o), internal(i), pool(o.threads), positions(&m) {}
@@ -604,16 +602,15 @@ void build_leaves(BuildState& s) {
   const double te = steady_seconds();
   std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
   for (size_t i = 0; i < s.clusters.size(); ++i) leaf_sets[i] = &s.clusters[i].triangles;
-  s.leaf_surface = build_leaf_surface(s.welded, leaf_sets, s.pool);
+  s.leaf_surface = build_leaf_surface(s.welded, leaf_sets, s.pool, s.placement);
   s.report.seconds_error += steady_seconds() - te;
-  if (s.placement_share > 0) {
+  if (s.placement) {
+    // From here on positions are read by id through `vertices` (the leaf tree keeps the mesh's).
     s.vertices.positions = s.mesh.positions;
     s.vertices.normals = s.mesh.normals;
     s.vertices.uvs = s.mesh.uvs;
     s.positions = &s.vertices;
     s.welded.mesh = &s.vertices;
-    const char* crease = std::getenv("VGEO_CREASE");  // PROTOTYPE
-    s.leaf_normals = compute_leaf_normals(s.welded, s.mesh, crease ? std::cos(std::atof(crease) * 3.14159265358979 / 180) : kCosPlacementCrease);
   }
 }
 
@@ -763,6 +760,15 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
 }
 
 // ---- 3d. group task: simplify, check the border, split, measure the error ----
+// Corners of moved vertices (moves.vertex[i]) become first + i. `scratch` (vertex-indexed, all
+// kNone) is returned in that state.
+void rename_moved(const VertexMoves& moves, uint32_t first, std::vector<uint32_t>& scratch, std::vector<uint32_t>& corners) {
+  for (size_t i = 0; i < moves.vertex.size(); ++i) scratch[moves.vertex[i]] = first + uint32_t(i);
+  for (uint32_t& v : corners)
+    if (scratch[v] != kNone) v = scratch[v];
+  for (uint32_t v : moves.vertex) scratch[v] = kNone;
+}
+
 // At least kMinReduction of the group's triangles removed (and some left).
 bool reduces_enough(const TriangleSet& before, const TriangleSet& after) {
   return after.triangle_count() > 0 &&
@@ -828,9 +834,9 @@ float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, flo
   return flipped_error;
 }
 
-// The group's error with its vertices placed (vertex_placement.cpp): moves of `triangles`'
-// movable vertices, measured with temporary ids (L.first_fresh on, in the order of their final
-// ids, so the lattice points are those of the final ids).
+// The group's error with its vertices placed (vertex_placement.cpp): `moves` gets the moves
+// of `triangles`' movable vertices, measured with temporary ids (L.first_fresh on, in the
+// order of their final ids, combine_level's, so the lattice points are those of the final ids).
 float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet& input, float floor,
                      const TriangleSet& triangles, std::vector<uint32_t>& scratch, VertexMoves& moves) {
   PlacementContext ctx;
@@ -838,20 +844,17 @@ float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet
   ctx.mesh = s.positions;
   ctx.leaf_positions = s.mesh.positions.data();
   ctx.leaves = &s.leaf_surface;
-  ctx.normals = &s.leaf_normals;
   ctx.locked = &s.locks.locked;
   ctx.pinned = &s.locks.pinned;
   ctx.mesh_border = &s.locks.mesh_border;
-  moves = place_vertices(ctx, triangles, s.placement_share, scratch);
+  ctx.share = s.internal.placement_share;
+  moves = place_vertices(ctx, triangles, scratch);
   if (moves.vertex.empty()) return leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor);
   TriangleSet renamed = triangles;
-  for (uint32_t& v : renamed.corners) {
-    auto it = std::lower_bound(moves.vertex.begin(), moves.vertex.end(), v);
-    if (it != moves.vertex.end() && *it == v) v = L.first_fresh + uint32_t(it - moves.vertex.begin());
-  }
+  rename_moved(moves, L.first_fresh, scratch, renamed.corners);
   std::vector<uint32_t> origin(moves.vertex.size());
   for (size_t i = 0; i < origin.size(); ++i) origin[i] = s.leaf_surface.origin(moves.vertex[i]);
-  FreshVertices fresh{L.first_fresh, moves.positions.data(), origin.data()};
+  const FreshVertices fresh{L.first_fresh, moves.positions.data(), origin.data()};
   return leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, nullptr, nullptr, &fresh);
 }
 
@@ -893,13 +896,9 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   // simplified surface to the leaves, measured as verify measures it; the members' stored
   // error is a floor (the parent's error takes the max with it anyway).
   if (sealed && s.options.edge_flips) error = measure_with_edge_flips(s, merged, max_member_error, simplified.triangles);
-  if (sealed && s.placement_share > 0) {
-    static const bool compare = std::getenv("VGEO_PLACE_CMP") != nullptr;  // PROTOTYPE
-    const float unplaced = compare && !s.options.edge_flips
-        ? leaf_deviation(s.leaf_surface, *s.positions, merged, simplified.triangles, max_member_error) : error;
+  // With placement the flips are chosen on the leaf positions, then the vertices placed.
+  if (sealed && s.placement)
     error = measure_placed(s, L, merged, max_member_error, simplified.triangles, scratch, r.moves);
-    if (compare && !(error < unplaced)) error = unplaced, r.moves = VertexMoves();
-  }
   else if (sealed && !s.options.edge_flips)
     error = leaf_deviation(s.leaf_surface, *s.positions, merged, simplified.triangles, max_member_error);
   seconds_error += steady_seconds() - tv0;
@@ -915,7 +914,7 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
       tv0 = steady_seconds();
       VertexMoves locked_moves;
       const float locked_error =
-          s.placement_share > 0
+          s.placement
               ? measure_placed(s, L, merged, max_member_error, locked_borders.triangles, scratch, locked_moves)
               : leaf_deviation(s.leaf_surface, *s.positions, merged, locked_borders.triangles, max_member_error);
       seconds_error += steady_seconds() - tv0;
@@ -1030,41 +1029,52 @@ void account_level_time(BuildReport& rep, const LevelState& L, double wall) {
 // A group's moved vertices get their ids (the next free ones, in the group's order: as their
 // temporary ids were ordered) and every per-vertex array its entries; its clusters' corners
 // are renamed.
-void append_moved_vertices(BuildState& s, GroupResult& r) {
-  const VertexMoves& moves = r.moves;
+void append_moved_vertices(BuildState& s, std::vector<GroupResult>& results) {
+  size_t added = 0;
+  for (const GroupResult& r : results)
+    if (!r.terminal) added += r.moves.vertex.size();
+  if (added == 0) return;
   Mesh& m = s.vertices;
-  const uint32_t first = uint32_t(m.vertex_count());
-  const size_t k = moves.vertex.size();
-  for (size_t i = 0; i < k; ++i) {
-    const uint32_t v = moves.vertex[i];
-    m.positions.insert(m.positions.end(), &moves.positions[3 * i], &moves.positions[3 * i + 3]);
-    if (!m.normals.empty()) m.normals.insert(m.normals.end(), {m.normals[3 * size_t(v)], m.normals[3 * size_t(v) + 1], m.normals[3 * size_t(v) + 2]});
-    if (!m.uvs.empty()) m.uvs.insert(m.uvs.end(), {m.uvs[2 * size_t(v)], m.uvs[2 * size_t(v) + 1]});
-    // The welded id of the new position: the first moved copy of the same old position.
-    uint32_t rep_id = first + uint32_t(i);
-    for (size_t j = 0; j < i; ++j)
-      if (s.welded.weld[moves.vertex[j]] == s.welded.weld[v]) { rep_id = first + uint32_t(j); break; }
-    s.welded.weld.push_back(rep_id);
-    s.welded.copies.push_back(0);
-    s.welded.copies[rep_id] = uint8_t(std::min(255, s.welded.copies[rep_id] + 1));
-    s.locks.retired.push_back(0);
-    s.locks.owner.push_back(kNone);
-    s.locks.locked.push_back(0);
-    s.locks.pinned.push_back(0);
-    if (!s.locks.mesh_border.empty()) s.locks.mesh_border.push_back(0);
-    s.leaf_surface.moved_origin.push_back(s.leaf_surface.origin(v));
-  }
-  s.scratch.size = m.vertex_count();
-  for (std::vector<uint32_t>& free : s.scratch.free) free.resize(s.scratch.size, kNone);
-  for (TriangleSet& t : r.clusters)
-    for (uint32_t& v : t.corners) {
-      auto it = std::lower_bound(moves.vertex.begin(), moves.vertex.end(), v);
-      if (it != moves.vertex.end() && *it == v) v = first + uint32_t(it - moves.vertex.begin());
+  const size_t old_count = m.vertex_count(), count = old_count + added;
+  if (count >= kNone) fail("BUILD_MESH_TOO_LARGE", s.mesh.name, "more than 2^32-1 vertices with the placed ones");
+  m.positions.resize(3 * count);
+  if (!m.normals.empty()) m.normals.resize(3 * count);
+  if (!m.uvs.empty()) m.uvs.resize(2 * count);
+  s.welded.weld.resize(count);
+  s.welded.copies.resize(count, 0);
+  s.locks.retired.resize(count, 0);
+  s.locks.owner.resize(count, kNone);
+  s.locks.locked.resize(count, 0);
+  s.locks.pinned.resize(count, 0);
+  if (!s.locks.mesh_border.empty()) s.locks.mesh_border.resize(count, 0);
+  s.leaf_surface.moved_origin.resize(count - s.leaf_surface.leaf_vertex_count);
+  std::vector<uint32_t> scratch = s.scratch.take();
+  uint32_t first = uint32_t(old_count);
+  for (GroupResult& r : results) {
+    if (r.terminal || r.moves.vertex.empty()) continue;
+    const VertexMoves& moves = r.moves;
+    for (size_t i = 0; i < moves.vertex.size(); ++i) {
+      const uint32_t v = moves.vertex[i], id = first + uint32_t(i);
+      std::memcpy(&m.positions[3 * size_t(id)], &moves.positions[3 * i], 12);
+      if (!m.normals.empty()) std::memcpy(&m.normals[3 * size_t(id)], &m.normals[3 * size_t(v)], 12);
+      if (!m.uvs.empty()) std::memcpy(&m.uvs[2 * size_t(id)], &m.uvs[2 * size_t(v)], 8);
+      // Copies of one old position are consecutive in the moves (place_vertices): the first
+      // is the new position's welded id, as weld_positions picks the smallest.
+      const bool copy = i > 0 && s.welded.weld[moves.vertex[i - 1]] == s.welded.weld[v];
+      const uint32_t rep = copy ? s.welded.weld[id - 1] : id;
+      s.welded.weld[id] = rep;
+      s.welded.copies[rep] = uint8_t(s.welded.copies[rep] + 1);
+      s.leaf_surface.moved_origin[id - s.leaf_surface.leaf_vertex_count] = s.leaf_surface.origin(v);
     }
-  r.moves = VertexMoves();
+    for (TriangleSet& t : r.clusters) rename_moved(moves, first, scratch, t.corners);
+    first += uint32_t(moves.vertex.size());
+    r.moves = VertexMoves();
+  }
+  s.scratch.give(std::move(scratch));
+  s.scratch.size = count;
+  for (std::vector<uint32_t>& free : s.scratch.free) free.resize(count, kNone);
 }
 
-// Returns the next level's active clusters.
 std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   const double tc = steady_seconds();
   std::vector<GroupResult> results;
@@ -1073,6 +1083,7 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
     for (GroupResult& r : blk.results) results.push_back(std::move(r));
     for (auto& g : blk.groups) level_groups.push_back(std::move(g));
   }
+  append_moved_vertices(s, results);
   std::vector<WorkCluster>& clusters = s.clusters;
   std::vector<WorkGroup>& groups = s.groups;
   const uint32_t first_group = uint32_t(groups.size());
@@ -1102,7 +1113,6 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   for (uint32_t i = 0; i < group_count; ++i) {
     GroupResult& r = results[i];
     uint32_t gi = first_group + i;
-    if (!r.terminal && !r.moves.vertex.empty()) append_moved_vertices(s, r);
     if (r.terminal) {
       groups[gi].terminal = true;
       groups[gi].parent_error = kTerminalError;
@@ -1382,7 +1392,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
                                             const InternalBuildOptions& internal, BuildReport* report) {
   const double t_start = steady_seconds();
   BuildState s(mesh, options, internal);
-  if (const char* share = std::getenv("VGEO_PLACE")) s.placement_share = std::atof(share);  // PROTOTYPE
+  s.placement = options.vertex_placement && internal.placement_share > 0;
   prepare(s);
   build_leaves(s);
   build_levels(s);

@@ -84,6 +84,13 @@ inline constexpr double kSeamMagnitudeFraction = 0x1p-22;
 // A cell of the seam search holding more mesh-border vertices than this pins them all instead
 // of comparing every pair (bounded work on pathological inputs; pinning is always safe).
 inline constexpr size_t kSeamCellPairwiseLimit = 64;
+// Vertex placement (spec/dag.md §2.3 Place): offset = this × the mean estimated centroid sag
+// of the vertex's simplified triangles. On a sphere 1/2 would balance a flat triangle's
+// centroid (inside) against its corners (outside), but locked border corners never move and
+// the leaves' own facets add to the deviation at fine levels: measured with dagq
+// (docs/acceptance/issue23_place.md), 0.25 drew the fewest triangles at equal measured error
+// of 0.25, 0.35, 0.4 and 0.5 on the 1M sphere and the 8 CGAL meshes of the issue.
+inline constexpr double kPlacementShare = 0.25;
 // meshopt target error (relative to the sub-mesh extent): 1 = "no error bound", the
 // triangle count target drives the simplification and the error is measured.
 inline constexpr float kMeshoptTargetError = 1.0f;
@@ -214,6 +221,7 @@ struct InternalBuildOptions {
   // largest stored error of its members (0: no bound, the ratio alone decides).
   float simplify_error_budget = kSimplifyErrorBudget;
   bool simplify_open_borders = true;  // SimplifyTarget::open_borders
+  double placement_share = kPlacementShare;  // PlacementContext::share (with BuildOptions::vertex_placement)
 };
 ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, const InternalBuildOptions& internal,
                               BuildReport* report);
@@ -271,6 +279,10 @@ inline float round_up_to_float(double d) {
   return e;
 }
 
+// Vertex placement's crease angle, 30 degrees (LeafSurface::normal): a smooth mesh's leaf
+// faces around a vertex stay well within it; CAD edges (90 degrees) and sharp features do not.
+inline constexpr double kCosPlacementCrease = 0.8660254037844386;
+
 // The original surface, for measuring a simplification's deviation from it (leaf_error.cpp):
 // all leaf triangles in a distance tree, and their edge adjacency (by welded id) for walking
 // from triangle to triangle before asking the tree. Triangle ids are the tree's.
@@ -287,6 +299,11 @@ struct LeafSurface {
   // over the leaves starts). Ids below leaf_vertex_count are the mesh's: leaf vertices.
   uint32_t leaf_vertex_count = 0;
   std::vector<uint32_t> moved_origin;
+  // With vertex placement: per welded leaf vertex, 3 floats: the area-weighted normal of its
+  // leaf triangles, or 0 where some of them faces more than the crease angle away from it (a
+  // crease or a CAD face edge: moving along the average would leave both faces) or none has an
+  // area. Only these vertices move.
+  std::vector<float> normal;
   // The leaf vertex vertex `v` is (v itself) or was moved from.
   uint32_t origin(uint32_t v) const { return v < leaf_vertex_count ? v : moved_origin[v - leaf_vertex_count]; }
 };
@@ -298,8 +315,9 @@ struct FreshVertices {
   const float* positions = nullptr;
   const uint32_t* origin = nullptr;
 };
+// `normals`: also LeafSurface::normal (vertex placement).
 LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves,
-                               ThreadPool& pool);
+                               ThreadPool& pool, bool normals = false);
 // Where a visibility walk over the leaf surface ends: from triangle `start` towards p, crossing
 // the first edge p lies outside of, never straight back, at most `max_steps` triangles; in the
 // triangle p projects into (projects_inside), or where it stops: a border, a ridge (two
@@ -376,18 +394,6 @@ float certified_leaf_deviation(const LeafSurface& leaves, const LeafTwins& twins
                                const std::vector<const TriangleSet*>& simplified, float floor, double lower);
 
 // Vertex placement (vertex_placement.cpp, spec/dag.md §2.3 Place).
-// Leaf normals by welded id of the input: the area-weighted normal of the leaf faces at the
-// position (unit, or 0), and whether every such face lies within the crease angle of it
-// (smooth: a vertex on a crease or a CAD face edge would leave both faces along the average).
-struct LeafNormals {
-  std::vector<float> normal;
-  std::vector<uint8_t> smooth;
-};
-LeafNormals compute_leaf_normals(const WeldedMesh& welded, const Mesh& mesh, double cos_crease);
-// Offset = this × the mean estimated centroid sag of the vertex's simplified triangles: on a
-// sphere the flat triangle's deepest point (its centroid) then lies as far inside as its
-// corners lie outside (about sag / 2 each instead of the whole sag inside).
-inline constexpr double kPlacementShare = 0.5;
 // |offset| ≤ this × the vertex's shortest incident simplified edge: the sag estimate assumes
 // the surface is nearly flat over a triangle (sag ≪ edge: L/(6R) on a sphere); beyond that
 // it is no estimate, and a large move could fold a thin part.
@@ -395,28 +401,24 @@ inline constexpr double kMaxOffsetPerEdge = 0.125;
 // A position with more attribute copies than this is per-corner (simplify.cpp: every wedge its
 // own vertex): left where it is.
 inline constexpr uint8_t kMaxMovedCopies = 2;
-// Crease angle: 30 degrees. Smooth meshes' vertex rings stay well inside it at leaf
-// resolution; CAD edges (90 degrees) and sharp features are outside.
-inline constexpr double kCosPlacementCrease = 0.8660254037844386;
 struct PlacementContext {
   const WeldedMesh* welded = nullptr;
-  const Mesh* mesh = nullptr;            // current positions by id
+  const Mesh* mesh = nullptr;             // current positions by id (leaves and moved vertices)
   const float* leaf_positions = nullptr;  // the input mesh's positions (leaf vertices)
-  const LeafSurface* leaves = nullptr;    // origin of moved ids
-  const LeafNormals* normals = nullptr;
+  const LeafSurface* leaves = nullptr;    // origin of moved ids, leaf normals
   const std::vector<uint8_t>* locked = nullptr;
   const std::vector<uint8_t>* pinned = nullptr;
   const std::vector<uint8_t>* mesh_border = nullptr;  // may be empty
+  double share = kPlacementShare;
 };
-// The vertices of `tris` to move (ascending ids) and their new positions (3 floats each; all
-// attribute copies of a welded position: the same bits). `scratch` (weld.size(), all kNone)
-// is returned in that state.
+// The vertices of `tris` to move, in order of first use, and their new positions (3 floats
+// each; all attribute copies of a welded position: the same bits). `scratch` (weld.size(), all
+// kNone) is returned in that state.
 struct VertexMoves {
   std::vector<uint32_t> vertex;
   std::vector<float> positions;
 };
-VertexMoves place_vertices(const PlacementContext& ctx, const TriangleSet& tris, double alpha,
-                           std::vector<uint32_t>& scratch);
+VertexMoves place_vertices(const PlacementContext& ctx, const TriangleSet& tris, std::vector<uint32_t>& scratch);
 
 // How far a group is simplified: to ratio × its triangles, stopping early where the
 // backend's error estimate would pass max_error (object units; meshopt only; +inf: no bound).

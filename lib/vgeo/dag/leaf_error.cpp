@@ -41,13 +41,40 @@ constexpr size_t kAdjacencyChunk = size_t(1) << 16;
 // 0.05%; 32 keeps the cost of a hopeless walk (a fold, a hole) within a few tree searches.
 constexpr int kMaxWalkSteps = 32;
 
+// Vertex placement's leaf normal (LeafSurface::normal) of a vertex from its triangles `list`.
+void vertex_normal(const float* positions, const std::vector<uint32_t>& ids, const uint32_t* list, uint32_t count,
+                   std::vector<DVec3>& face, float* out) {
+  auto at = [&](uint32_t v) { return DVec3{positions[3 * size_t(v)], positions[3 * size_t(v) + 1], positions[3 * size_t(v) + 2]}; };
+  face.resize(count);
+  DVec3 sum{0, 0, 0};
+  for (uint32_t i = 0; i < count; ++i) {
+    const uint32_t* c = &ids[3 * size_t(list[i])];
+    const DVec3 a = at(c[0]), b = at(c[1]), d = at(c[2]);
+    const DVec3 u{b.x - a.x, b.y - a.y, b.z - a.z}, v{d.x - a.x, d.y - a.y, d.z - a.z};
+    face[i] = DVec3{u.y * v.z - u.z * v.y, u.z * v.x - u.x * v.z, u.x * v.y - u.y * v.x};  // 2 × area × unit normal
+    sum = DVec3{sum.x + face[i].x, sum.y + face[i].y, sum.z + face[i].z};
+  }
+  const double length = std::sqrt(sum.x * sum.x + sum.y * sum.y + sum.z * sum.z);
+  if (!(length > 0)) return;
+  const DVec3 n{sum.x / length, sum.y / length, sum.z / length};
+  for (uint32_t i = 0; i < count; ++i) {
+    const double f = std::sqrt(face[i].x * face[i].x + face[i].y * face[i].y + face[i].z * face[i].z);
+    if (!(f > 0) || face[i].x * n.x + face[i].y * n.y + face[i].z * n.z < kCosPlacementCrease * f) return;
+  }
+  out[0] = float(n.x), out[1] = float(n.y), out[2] = float(n.z);
+}
+
 // The walk's adjacency (LeafSurface::neighbour, vertex_triangle) from the leaf triangles'
 // corners (`ids`, 3 per triangle id), by welded id: triangles by welded vertex (counting
 // sort, each list in ascending id order), then for each edge the first other triangle of its
 // first vertex's list that has its second vertex. Vertex by vertex: a vertex's triangles'
 // welded corners are read once into a small table and every edge starting at the vertex is
 // matched against it (instead of three welded lookups per candidate and edge).
-void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector<uint32_t>& ids, ThreadPool& pool) {
+// With `normals`, also LeafSurface::normal: per welded vertex the area-weighted normal of its
+// triangles (ascending ids: the same sum on any thread count), 0 where some triangle with an
+// area faces more than the crease angle away from it (or none has an area).
+void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector<uint32_t>& ids, ThreadPool& pool,
+                     bool normals) {
   const size_t vertices = welded.weld.size();
   const std::vector<uint32_t>& weld = welded.weld;
   std::vector<uint32_t> first(vertices + 1, 0);  // then: first[w] = end of w's list while filling
@@ -58,12 +85,16 @@ void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector
   for (size_t w = vertices; w-- > 0;) first[w + 1] = first[w];  // back to starts, shifted
   first[0] = 0;
   s.neighbour.resize(ids.size());
+  if (normals) s.normal.assign(3 * vertices, 0.0f);
+  const float* positions = welded.mesh->positions.data();
   for_chunks(&pool, vertices, kAdjacencyChunk, [&](size_t begin, size_t end) {
     std::vector<uint32_t> corners;  // welded corners of the vertex's triangles, 3 per list entry
+    std::vector<DVec3> face;        // their area vectors (normals only)
     for (size_t u = begin; u < end; ++u) {
       const uint32_t* list = &triangles[first[u]];
       const uint32_t count = first[u + 1] - first[u];
       if (count == 0) continue;  // not a welded id, or no leaf triangle has it
+      if (normals) vertex_normal(positions, ids, list, count, face, &s.normal[3 * u]);
       corners.resize(3 * size_t(count));
       for (uint32_t i = 0; i < count; ++i)
         for (int j = 0; j < 3; ++j) corners[3 * i + j] = weld[ids[3 * size_t(list[i]) + j]];
@@ -107,7 +138,8 @@ bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at, 
 
 }  // namespace
 
-LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves, ThreadPool& pool) {
+LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves, ThreadPool& pool,
+                               bool normals) {
   std::vector<size_t> first_triangle(leaves.size() + 1, 0);  // per leaf set: its first triangle
   for (size_t i = 0; i < leaves.size(); ++i) first_triangle[i + 1] = first_triangle[i] + leaves[i]->triangle_count();
   std::vector<uint32_t> ids(3 * first_triangle.back());
@@ -116,7 +148,7 @@ LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const
   });
   LeafSurface s;
   s.leaf_vertex_count = uint32_t(welded.weld.size());
-  build_adjacency(s, welded, ids, pool);
+  build_adjacency(s, welded, ids, pool, normals);
   // Leaves in cluster order: clusters of spatial chunks in Morton order, each cluster a
   // connected patch, which is the spatial coherence the order-keeping tree needs.
   s.tree = TriangleDistanceTree(welded.mesh->positions.data(), std::move(ids), &pool);
