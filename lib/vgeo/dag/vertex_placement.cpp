@@ -26,14 +26,17 @@ DVec3 dvec(const float* p) { return DVec3{p[0], p[1], p[2]}; }
 double ddot(DVec3 a, DVec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 DVec3 dsub(DVec3 a, DVec3 b) { return DVec3{a.x - b.x, a.y - b.y, a.z - b.z}; }
 
-// Per welded position of the group's triangles (in order of first use): the summed centroid
-// sag estimates of its triangles, their count, its shortest incident edge (squared), and its
-// corner vertices (at most kMaxMovedCopies are kept: a position with more never moves).
-struct PositionSums {
-  uint32_t welded;
+// Per welded position of the group's triangles (in order of first use): its leaf position and
+// leaf normal, whether it may move, the summed centroid sag estimates of its triangles, their
+// count, its shortest incident edge (squared), and its corner vertices (at most
+// kMaxMovedCopies are kept: a position with more never moves).
+struct Position {
+  uint32_t welded = kNone, leaf = kNone;
+  bool movable = false;
+  DVec3 p, n;
   uint32_t triangles = 0;
   double sag = 0.0, shortest_edge2 = std::numeric_limits<double>::infinity();
-  std::array<uint32_t, kMaxMovedCopies> vertex;
+  std::array<uint32_t, kMaxMovedCopies> vertex{};
   uint32_t vertex_count = 0;
 };
 
@@ -47,62 +50,63 @@ struct PositionSums {
 VertexMoves place_vertices(const PlacementContext& ctx, const TriangleSet& tris, std::vector<uint32_t>& scratch) {
   const WeldedMesh& welded = *ctx.welded;
   const LeafSurface& leaves = *ctx.leaves;
-  std::vector<PositionSums> sums;
-  sums.reserve(tris.triangle_count() / 2 + 3);
-  auto sums_of = [&](uint32_t w) -> PositionSums& {
+  // The positions, each read once (the leaf arrays are large: one cache miss per position, not
+  // per corner), and each corner's position.
+  std::vector<Position> at;
+  at.reserve(tris.triangle_count() / 2 + 3);
+  std::vector<uint32_t> corner_position(tris.corners.size());
+  bool any_movable = false;
+  for (size_t i = 0; i < tris.corners.size(); ++i) {
+    const uint32_t v = tris.corners[i], w = welded.weld[v];
     if (scratch[w] == kNone) {
-      scratch[w] = uint32_t(sums.size());
-      sums.push_back(PositionSums{w});
+      scratch[w] = uint32_t(at.size());
+      Position q;
+      q.welded = w;
+      q.leaf = welded.weld[leaves.origin(w)];
+      q.n = dvec(&leaves.normal[3 * size_t(q.leaf)]);
+      q.movable = !(*ctx.locked)[w] && !(*ctx.pinned)[w] && !(!ctx.mesh_border->empty() && (*ctx.mesh_border)[w]) &&
+                  welded.copies[w] <= kMaxMovedCopies && !(q.n.x == 0 && q.n.y == 0 && q.n.z == 0);
+      q.p = dvec(&ctx.leaf_positions[3 * size_t(q.leaf)]);
+      any_movable |= q.movable;
+      at.push_back(q);
     }
-    return sums[scratch[w]];
-  };
+    Position& q = at[scratch[w]];
+    corner_position[i] = scratch[w];
+    bool known = false;
+    for (uint32_t k = 0; k < std::min<uint32_t>(q.vertex_count, kMaxMovedCopies); ++k) known |= q.vertex[k] == v;
+    if (!known) {
+      if (q.vertex_count < kMaxMovedCopies) q.vertex[q.vertex_count] = v;
+      ++q.vertex_count;
+    }
+  }
+  for (const Position& q : at) scratch[q.welded] = kNone;
+  VertexMoves out;
+  if (!any_movable) return out;
   for (size_t t = 0; t < tris.triangle_count(); ++t) {
-    const uint32_t* c = &tris.corners[3 * t];
-    const uint32_t w[3] = {welded.weld[c[0]], welded.weld[c[1]], welded.weld[c[2]]};
-    if (w[0] == w[1] || w[1] == w[2] || w[2] == w[0]) continue;  // no area, no sag
-    DVec3 p[3], n[3];
-    for (int k = 0; k < 3; ++k) {
-      const uint32_t leaf = welded.weld[leaves.origin(c[k])];
-      p[k] = dvec(&ctx.leaf_positions[3 * size_t(leaf)]);
-      n[k] = dvec(&leaves.normal[3 * size_t(leaf)]);
-    }
+    Position* q[3] = {&at[corner_position[3 * t]], &at[corner_position[3 * t + 1]], &at[corner_position[3 * t + 2]]};
+    if (q[0] == q[1] || q[1] == q[2] || q[2] == q[0]) continue;  // no area, no sag
+    if (!q[0]->movable && !q[1]->movable && !q[2]->movable) continue;
     double bulge = 0.0, e2[3];
     for (int k = 0; k < 3; ++k) {
       const int j = k == 2 ? 0 : k + 1;
-      const DVec3 d = dsub(p[k], p[j]);
+      const DVec3 d = dsub(q[k]->p, q[j]->p);
       e2[k] = ddot(d, d);
-      bulge += ddot(dsub(n[k], n[j]), d) / 8.0;
+      bulge += ddot(dsub(q[k]->n, q[j]->n), d) / 8.0;
     }
     const double sag = bulge * (4.0 / 9.0);
     for (int k = 0; k < 3; ++k) {
-      PositionSums& q = sums_of(w[k]);
-      q.sag += sag;
-      ++q.triangles;
-      q.shortest_edge2 = std::min({q.shortest_edge2, e2[k], e2[k == 0 ? 2 : k - 1]});
-      bool known = false;
-      for (uint32_t i = 0; i < std::min<uint32_t>(q.vertex_count, kMaxMovedCopies); ++i) known |= q.vertex[i] == c[k];
-      if (!known) {
-        if (q.vertex_count < kMaxMovedCopies) q.vertex[q.vertex_count] = c[k];
-        ++q.vertex_count;
-      }
+      q[k]->sag += sag;
+      ++q[k]->triangles;
+      q[k]->shortest_edge2 = std::min({q[k]->shortest_edge2, e2[k], e2[k == 0 ? 2 : k - 1]});
     }
   }
-  VertexMoves out;
-  for (const PositionSums& q : sums) {
-    const uint32_t w = q.welded;
-    scratch[w] = kNone;
-    if ((*ctx.locked)[w] || (*ctx.pinned)[w] || (!ctx.mesh_border->empty() && (*ctx.mesh_border)[w]) ||
-        q.vertex_count > kMaxMovedCopies || welded.copies[w] > kMaxMovedCopies || q.triangles == 0)
-      continue;
-    const uint32_t leaf = welded.weld[leaves.origin(w)];
-    const DVec3 n = dvec(&leaves.normal[3 * size_t(leaf)]);
-    if (n.x == 0 && n.y == 0 && n.z == 0) continue;  // a crease (or no area): stays
+  for (const Position& q : at) {
+    if (!q.movable || q.vertex_count > kMaxMovedCopies || q.triangles == 0) continue;
     const double limit = kMaxOffsetPerEdge * std::sqrt(q.shortest_edge2);
     const double offset = std::clamp(ctx.share * q.sag / q.triangles, -limit, limit);
     if (!(offset != 0.0)) continue;
-    const DVec3 p = dvec(&ctx.leaf_positions[3 * size_t(leaf)]);
-    const float moved[3] = {float(p.x + offset * n.x), float(p.y + offset * n.y), float(p.z + offset * n.z)};
-    const float* now = &ctx.mesh->positions[3 * size_t(w)];
+    const float moved[3] = {float(q.p.x + offset * q.n.x), float(q.p.y + offset * q.n.y), float(q.p.z + offset * q.n.z)};
+    const float* now = &ctx.mesh->positions[3 * size_t(q.welded)];
     if (moved[0] == now[0] && moved[1] == now[1] && moved[2] == now[2]) continue;
     for (uint32_t i = 0; i < q.vertex_count; ++i) {
       out.vertex.push_back(q.vertex[i]);
