@@ -197,6 +197,32 @@ TEST(VertexPlacement, LeavesMeshBordersCreasesAndPerCornerPositionsWhereTheyAre)
   }
 }
 
+// A placed corner is measured: on a flat grid, one interior vertex lifted by h (as a fresh id,
+// the way a group measures its moves) lies h from the leaves, and no other lattice point of its
+// triangles is as far (the nearest edge points lie 2h/3 away).
+TEST(VertexPlacement, PlacedCornerIsMeasured) {
+  const Mesh m = make_grid(8);
+  GroupSetup s(m);
+  uint32_t lifted = kNone;
+  for (uint32_t v = 0; v < m.vertex_count() && lifted == kNone; ++v)
+    if (std::fabs(m.positions[3 * v] - 0.5f) < 1e-6f && std::fabs(m.positions[3 * v + 1] - 0.5f) < 1e-6f) lifted = v;
+  ASSERT_NE(lifted, kNone);
+  const float h = 0.01f;
+  const float moved[3] = {m.positions[3 * lifted], m.positions[3 * lifted + 1], m.positions[3 * lifted + 2] + h};
+  const uint32_t origin[1] = {lifted};
+  const FreshVertices fresh{uint32_t(m.vertex_count()), moved, origin};
+  TriangleSet placed = s.tris;
+  for (uint32_t& v : placed.corners)
+    if (v == lifted) v = fresh.first;
+  for (float floor : {0.0f, 0.5f * h}) {
+    const float d = leaf_deviation(s.leaves, m, s.tris, placed, floor, nullptr, nullptr, &fresh);
+    EXPECT_GE(d, h) << "floor " << floor;
+    EXPECT_LE(d, std::nextafter(h, 1.0f) * 1.0001f) << "floor " << floor;
+  }
+  // Without the lift the placed surface is the leaves: the floor.
+  EXPECT_EQ(leaf_deviation(s.leaves, m, s.tris, s.tris, 0.0f), 0.0f);
+}
+
 ClusterDag build_with(const Mesh& m, unsigned threads, bool placement, ErrorBound bound = ErrorBound::kMeasured) {
   BuildOptions o;
   o.threads = threads;
