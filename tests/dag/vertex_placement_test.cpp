@@ -210,7 +210,7 @@ TEST(VertexPlacement, PlacedCornerIsMeasured) {
   const float h = 0.01f;
   const float moved[3] = {m.positions[3 * lifted], m.positions[3 * lifted + 1], m.positions[3 * lifted + 2] + h};
   const uint32_t origin[1] = {lifted};
-  const FreshVertices fresh{uint32_t(m.vertex_count()), moved, origin};
+  const FreshVertices fresh{uint32_t(m.vertex_count()), 1, moved, origin, origin};
   TriangleSet placed = s.tris;
   for (uint32_t& v : placed.corners)
     if (v == lifted) v = fresh.first;

@@ -882,7 +882,8 @@ float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet
   rename_moved(moves, L.first_fresh, scratch, renamed.corners);
   std::vector<uint32_t> origin(moves.vertex.size());
   for (size_t i = 0; i < origin.size(); ++i) origin[i] = s.leaf_surface.origin(moves.vertex[i]);
-  const FreshVertices fresh{L.first_fresh, moves.positions.data(), origin.data()};
+  const FreshVertices fresh{L.first_fresh, uint32_t(moves.vertex.size()), moves.positions.data(), origin.data(),
+                            moves.vertex.data()};
   return leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, nullptr, nullptr, &fresh);
 }
 

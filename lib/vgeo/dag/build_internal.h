@@ -309,11 +309,13 @@ struct LeafSurface {
 };
 // Moved vertices of one group before their ids are final (vertex_placement.cpp): ids first,
 // first + 1, ... (ordered as their final ids will be, all above every id in use) have
-// positions[3i, 3i + 3) and leaf vertex origin[i]. first = kNone: none.
+// positions[3i, 3i + 3), leaf vertex origin[i] and replace vertex previous[i] (an input
+// vertex of the group), i < count. first = kNone: none.
 struct FreshVertices {
-  uint32_t first = kNone;
+  uint32_t first = kNone, count = 0;
   const float* positions = nullptr;
   const uint32_t* origin = nullptr;
+  const uint32_t* previous = nullptr;
 };
 // `normals`: also LeafSurface::normal (vertex placement).
 LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves,

@@ -40,6 +40,10 @@ constexpr size_t kAdjacencyChunk = size_t(1) << 16;
 // limit of 8 stopped 4.4% of the walks (each then a tree search, over 10× a walk), 64 stopped
 // 0.05%; 32 keeps the cost of a hopeless walk (a fold, a hole) within a few tree searches.
 constexpr int kMaxWalkSteps = 32;
+// Relative margin of the displacement bound (deviation_squared): lattice points are computed
+// in double from float corners, a few ulps (2^-52) of the coordinates; 1e-9 is far above that
+// and far below any displacement that matters.
+constexpr double kDisplacedBoundMargin = 1e-9;
 
 // Vertex placement's leaf normal (LeafSurface::normal) of a vertex from its triangles `list`.
 void vertex_normal(const float* positions, const std::vector<uint32_t>& ids, const uint32_t* list, uint32_t count,
@@ -173,6 +177,14 @@ struct VertexSource {
     return DVec3{p[0], p[1], p[2]};
   }
   // A leaf triangle at the vertex (or at the leaf vertex it was moved from): a walk's start.
+  // The id a moved vertex had before this group placed it (its own id when not moved here).
+  uint32_t previous(uint32_t v) const { return is_fresh(v) ? fresh->previous[v - fresh->first] : v; }
+  // How far this group moved vertex v (0 when it did not).
+  double displacement(uint32_t v) const {
+    if (!is_fresh(v)) return 0.0;
+    const DVec3 a = (*this)(v), b = (*this)(previous(v));
+    return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z));
+  }
   uint32_t start_triangle(uint32_t v) const {
     return leaves.vertex_triangle[is_fresh(v) ? fresh->origin[v - fresh->first] : leaves.origin(v)];
   }
@@ -216,9 +228,9 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   // and edges already visited. Open addressing, load ≤ 1/2.
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
-  // Keys: ≤ 3 per triangle of each set, and with moved vertices ≤ 3 corners per simplified one.
-  const size_t keys_per_triangle = mesh.fresh ? 6 : 3;
-  while (slots < 2 * (keys_per_triangle * simplified.triangle_count() + (floor_d2 > 0 ? 3 * input.triangle_count() : 0)))
+  // Keys: ≤ 3 per triangle of each set, and one per moved vertex (its corner).
+  const size_t fresh_keys = mesh.fresh ? mesh.fresh->count : 0;
+  while (slots < 2 * (3 * simplified.triangle_count() + fresh_keys + (floor_d2 > 0 ? 3 * input.triangle_count() : 0)))
     slots <<= 1, --shift;
   std::vector<uint64_t> edge_slot(slots, kNoEdge);
   auto insert_edge = [&](uint32_t a, uint32_t b) {  // true iff the edge was not in the set
@@ -231,6 +243,12 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     edge_slot[h] = key;
     return true;
   };
+  auto has_edge = [&](uint32_t a, uint32_t b) {
+    const uint64_t key = a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
+    for (size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift); edge_slot[h] != kNoEdge; h = (h + 1) & (slots - 1))
+      if (edge_slot[h] == key) return true;
+    return false;
+  };
   if (floor_d2 > 0)
     for (size_t t = 0; t < input.triangle_count(); ++t)
       for (int j = 0; j < 3; ++j) insert_edge(input.corners[3 * t + j], input.corners[3 * t + (j + 1) % 3]);
@@ -242,6 +260,16 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   // triangle at the first corner of an edge whose tour predecessor was skipped.
   uint32_t at = kNone;
   LatticePeak here;  // the place of the points being visited (for `peak`)
+  // Points of a placed vertex (its corner; the points of an input edge it ends) lie within its
+  // displacement of the points the members measured (within the floor; a leaf vertex at 0): they
+  // cannot raise the maximum while floor + displacement is within it. The margin covers the
+  // rounding of the lattice points (ulps of the coordinates, far below any displacement).
+  const double floor_distance = std::sqrt(floor_d2);
+  auto cannot_raise = [&](double displacement, DVec3 p) {
+    const double scale = std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+    const double bound = (floor_distance + displacement) * (1.0 + kDisplacedBoundMargin) + kDisplacedBoundMargin * scale;
+    return bound * bound <= std::max(best2, floor_d2);
+  };
   auto visit = [&](DVec3 p) {
     const double threshold = std::max(best2, floor_d2);
     double d2;
@@ -264,6 +292,9 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   // decides the result, not the order: edge points go from corner j to corner j + 1, so
   // consecutive points are a short walk apart.
   if (record) record->places.assign(4 * simplified.triangle_count(), LatticeRecord::Place{});
+  // Placed corners and input edges with a placed end are visited last, when the running maximum
+  // is near its final value, so that most of them need no visit (cannot_raise).
+  std::vector<std::pair<uint32_t, int>> displaced;  // (triangle, place: an edge j, or 3 + corner j)
   for (size_t t = 0; t < simplified.triangle_count(); ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
     at = mesh.start_triangle(tri[0]);
@@ -271,16 +302,16 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     // A moved corner (fresh) is no leaf vertex: measured once, from its leaf vertex's triangle
     // (key (v, v): no edge of two distinct ids).
     for (int j = 0; j < 3; ++j)
-      if (mesh.is_fresh(tri[j]) && insert_edge(tri[j], tri[j])) {
-        uint32_t corner_at = mesh.start_triangle(tri[j]);
-        std::swap(at, corner_at);
-        here.place = kLatticeInterior;
-        visit(mesh(tri[j]));
-        at = corner_at;
-      }
+      if (mesh.is_fresh(tri[j]) && insert_edge(tri[j], tri[j])) displaced.push_back({uint32_t(t), 3 + j});
     bool after_previous_edge = false;  // the last point visited is on edge j - 1, next to corner j
     for (int j = 0; j < 3; ++j) {
-      if (!insert_edge(tri[j], tri[(j + 1) % 3])) {
+      const uint32_t a = tri[j], b = tri[(j + 1) % 3];
+      if (!insert_edge(a, b)) {
+        after_previous_edge = false;
+        continue;
+      }
+      if (floor_d2 > 0 && (mesh.is_fresh(a) || mesh.is_fresh(b)) && has_edge(mesh.previous(a), mesh.previous(b))) {
+        displaced.push_back({uint32_t(t), j});
         after_previous_edge = false;
         continue;
       }
@@ -294,6 +325,24 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     }
     here.place = kLatticeInterior;
     for_each_place_point(mesh, tri, kLatticeInterior, visit);
+  }
+  for (const auto& [t, place] : displaced) {
+    const uint32_t* tri = &simplified.corners[3 * size_t(t)];
+    here.triangle = t;
+    if (place >= 3) {  // a placed corner: no leaf vertex, measured from its leaf vertex's triangle
+      const uint32_t v = tri[place - 3];
+      if (cannot_raise(mesh.displacement(v), mesh(v))) continue;
+      at = mesh.start_triangle(v);
+      here.place = kLatticeInterior;
+      visit(mesh(v));
+      continue;
+    }
+    const uint32_t a = tri[place], b = tri[(place + 1) % 3];
+    const double moved = std::max(mesh.displacement(a), mesh.displacement(b));
+    if (cannot_raise(moved, mesh(a)) && cannot_raise(moved, mesh(b))) continue;
+    at = mesh.start_triangle(a);
+    here.place = place;
+    for_each_place_point(mesh, tri, place, visit);
   }
   return best2;
 }
