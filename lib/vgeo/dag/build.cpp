@@ -342,12 +342,17 @@ namespace {
 // Per-task scratch arrays (vertex_count entries, kept all-kNone between uses) from a small
 // locked free list: parallel_for does not tell a task which worker runs it.
 struct ScratchPool {
-  size_t size = 0;
+  size_t size = 0, capacity = 0;  // capacity: reserved for vertices placed later (placement_capacity)
   std::mutex mutex;
   std::vector<std::vector<uint32_t>> free;
   std::vector<uint32_t> take() {
     std::lock_guard<std::mutex> lock(mutex);
-    if (free.empty()) return std::vector<uint32_t>(size, kNone);
+    if (free.empty()) {
+      std::vector<uint32_t> s;
+      s.reserve(std::max(size, capacity));
+      s.assign(size, kNone);
+      return s;
+    }
     std::vector<uint32_t> s = std::move(free.back());
     free.pop_back();
     return s;
@@ -384,16 +389,23 @@ struct BuildState {
   std::vector<WorkGroup> groups;
   LeafSurface leaf_surface;  // the original surface the stored errors are measured against
   BuildReport report;
+  // Vertex placement (vertex_placement.cpp): `vertices` holds the positions, normals and uvs of
+  // every vertex id, the mesh's and the moved ones appended level by level (combine_level);
+  // `positions` points at it once placement runs, else at `mesh`.
+  bool placement = false;
+  Mesh vertices;
+  const Mesh* positions = nullptr;
 
   BuildState(const Mesh& m, const BuildOptions& o, const InternalBuildOptions& i)
-      : mesh(m), options(o), internal(i), pool(o.threads) {}
+      : mesh(m), options(o), internal(i), pool(o.threads), positions(&m) {}
 };
 
 // One level's result of a group task (simplify, border check, split, error).
 struct GroupResult {
   bool terminal = true;
   float error = 0.0f;
-  std::vector<TriangleSet> clusters;
+  std::vector<TriangleSet> clusters;  // corners of moved vertices: their old ids until combine_level
+  VertexMoves moves;
   double seconds_simplify = 0, seconds_split = 0, seconds_error = 0;
 };
 
@@ -411,6 +423,7 @@ struct Block {
 // State of one level L (spec/dag.md §2.3).
 struct LevelState {
   uint32_t level = 0;
+  uint32_t first_fresh = 0;  // vertex count at the level's start: the groups' temporary ids of moved vertices
   std::vector<uint32_t> active;                // level-L cluster indices
   BuildLevelReport report;
   std::vector<std::vector<uint64_t>> open_keys;  // per active cluster: open welded edges (grouping)
@@ -545,6 +558,16 @@ void pin_seam_vertices(BuildState& s) {
 }
 
 // ---- 1. validate, weld ----
+// With vertex placement the per-vertex arrays grow level by level (append_moved_vertices):
+// they reserve this many vertices up front, so a level's growth copies nothing (reserved pages
+// are not resident until used: the 1M sphere's levels peaked 30 MB higher with growing arrays).
+// Placed vertices were 0.78 of the mesh's on the 1M sphere; beyond the reserve they grow as
+// vectors do.
+inline constexpr double kPlacedVertexReserve = 1.0;
+size_t placement_capacity(const BuildState& s) {
+  return s.placement ? s.mesh.vertex_count() + size_t(kPlacedVertexReserve * double(s.mesh.vertex_count())) : 0;
+}
+
 void prepare(BuildState& s) {
   const double t0 = steady_seconds();
   validate_mesh(s.mesh);
@@ -552,6 +575,13 @@ void prepare(BuildState& s) {
   s.welded = weld_positions(s.mesh);
   s.mesh_box = indexed_bounds(s.mesh, s.pool);
   const size_t vertex_count = s.mesh.vertex_count();
+  if (const size_t capacity = placement_capacity(s)) {
+    s.welded.weld.reserve(capacity);
+    s.welded.copies.reserve(capacity);
+    for (std::vector<uint8_t>* a : {&s.locks.retired, &s.locks.locked, &s.locks.pinned}) a->reserve(capacity);
+    s.locks.owner.reserve(capacity);
+    s.scratch.capacity = capacity;
+  }
   s.scratch.size = vertex_count;
   s.locks.retired.assign(vertex_count, 0);
   s.locks.owner.assign(vertex_count, kNone);
@@ -594,8 +624,22 @@ void build_leaves(BuildState& s) {
   const double te = steady_seconds();
   std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
   for (size_t i = 0; i < s.clusters.size(); ++i) leaf_sets[i] = &s.clusters[i].triangles;
-  s.leaf_surface = build_leaf_surface(s.welded, leaf_sets, s.pool);
+  s.leaf_surface = build_leaf_surface(s.welded, leaf_sets, s.pool, s.placement);
   s.report.seconds_error += steady_seconds() - te;
+  if (s.placement) {
+    // From here on positions are read by id through `vertices` (the leaf tree keeps the mesh's).
+    const size_t capacity = placement_capacity(s);
+    s.vertices.positions.reserve(3 * capacity);
+    s.vertices.positions = s.mesh.positions;
+    if (!s.mesh.normals.empty()) s.vertices.normals.reserve(3 * capacity);
+    s.vertices.normals = s.mesh.normals;
+    if (!s.mesh.uvs.empty()) s.vertices.uvs.reserve(2 * capacity);
+    s.vertices.uvs = s.mesh.uvs;
+    if (!s.locks.mesh_border.empty()) s.locks.mesh_border.reserve(capacity);
+    s.leaf_surface.moved_origin.reserve(capacity - s.mesh.vertex_count());
+    s.positions = &s.vertices;
+    s.welded.mesh = &s.vertices;
+  }
 }
 
 // ---- 3a. level edges: per-cluster open edges (grouping) and the level's report ----
@@ -744,6 +788,15 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
 }
 
 // ---- 3d. group task: simplify, check the border, split, measure the error ----
+// Corners of moved vertices (moves.vertex[i]) become first + i. `scratch` (vertex-indexed, all
+// kNone) is returned in that state.
+void rename_moved(const VertexMoves& moves, uint32_t first, std::vector<uint32_t>& scratch, std::vector<uint32_t>& corners) {
+  for (size_t i = 0; i < moves.vertex.size(); ++i) scratch[moves.vertex[i]] = first + uint32_t(i);
+  for (uint32_t& v : corners)
+    if (scratch[v] != kNone) v = scratch[v];
+  for (uint32_t v : moves.vertex) scratch[v] = kNone;
+}
+
 // At least kMinReduction of the group's triangles removed (and some left).
 bool reduces_enough(const TriangleSet& before, const TriangleSet& after) {
   return after.triangle_count() > 0 &&
@@ -799,14 +852,39 @@ bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, c
 float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, float floor, TriangleSet& triangles) {
   LatticePeak peak;
   LatticeRecord record;
-  const float error = leaf_deviation(s.leaf_surface, s.mesh, input, triangles, floor, &peak, &record);
+  const float error = leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, &peak, &record);
   std::vector<uint8_t> changed;
   TriangleSet flipped = triangles;
   if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed)) return error;
-  const float flipped_error = leaf_deviation_after_change(s.leaf_surface, s.mesh, input, flipped, changed, record, floor);
+  const float flipped_error = leaf_deviation_after_change(s.leaf_surface, *s.positions, input, flipped, changed, record, floor);
   if (!(flipped_error < error)) return error;
   triangles = std::move(flipped);
   return flipped_error;
+}
+
+// The group's error with its vertices placed (vertex_placement.cpp): `moves` gets the moves
+// of `triangles`' movable vertices, measured with temporary ids (L.first_fresh on, in the
+// order of their final ids, combine_level's, so the lattice points are those of the final ids).
+float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet& input, float floor,
+                     const TriangleSet& triangles, std::vector<uint32_t>& scratch, VertexMoves& moves) {
+  PlacementContext ctx;
+  ctx.welded = &s.welded;
+  ctx.mesh = s.positions;
+  ctx.leaf_positions = s.mesh.positions.data();
+  ctx.leaves = &s.leaf_surface;
+  ctx.locked = &s.locks.locked;
+  ctx.pinned = &s.locks.pinned;
+  ctx.mesh_border = &s.locks.mesh_border;
+  ctx.share = s.internal.placement_share;
+  moves = place_vertices(ctx, triangles, scratch);
+  if (moves.vertex.empty()) return leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor);
+  TriangleSet renamed = triangles;
+  rename_moved(moves, L.first_fresh, scratch, renamed.corners);
+  std::vector<uint32_t> origin(moves.vertex.size());
+  for (size_t i = 0; i < origin.size(); ++i) origin[i] = s.leaf_surface.origin(moves.vertex[i]);
+  const FreshVertices fresh{L.first_fresh, uint32_t(moves.vertex.size()), moves.positions.data(), origin.data(),
+                            moves.vertex.data()};
+  return leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, nullptr, nullptr, &fresh);
 }
 
 void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
@@ -847,7 +925,11 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   // simplified surface to the leaves, measured as verify measures it; the members' stored
   // error is a floor (the parent's error takes the max with it anyway).
   if (sealed && s.options.edge_flips) error = measure_with_edge_flips(s, merged, max_member_error, simplified.triangles);
-  else if (sealed) error = leaf_deviation(s.leaf_surface, s.mesh, merged, simplified.triangles, max_member_error);
+  // With placement the flips are chosen on the leaf positions, then the vertices placed.
+  if (sealed && s.placement)
+    error = measure_placed(s, L, merged, max_member_error, simplified.triangles, scratch, r.moves);
+  else if (sealed && !s.options.edge_flips)
+    error = leaf_deviation(s.leaf_surface, *s.positions, merged, simplified.triangles, max_member_error);
   seconds_error += steady_seconds() - tv0;
   if (sealed && simplified.capped) {
     // The group's own open borders moved (border_caps.cpp). A border collapse can cost more
@@ -859,11 +941,15 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     SimplifyResult locked_borders;
     if (simplify_sealed(s, blk.group_shared_edges[g], prepared, target, scratch, locked_borders)) {
       tv0 = steady_seconds();
-      const float locked_error = leaf_deviation(s.leaf_surface, s.mesh, merged, locked_borders.triangles, max_member_error);
+      VertexMoves locked_moves;
+      const float locked_error =
+          s.placement
+              ? measure_placed(s, L, merged, max_member_error, locked_borders.triangles, scratch, locked_moves)
+              : leaf_deviation(s.leaf_surface, *s.positions, merged, locked_borders.triangles, max_member_error);
       seconds_error += steady_seconds() - tv0;
       if (double(locked_error) * double(locked_borders.triangles.triangle_count()) <
           double(error) * double(simplified.triangles.triangle_count()))
-        simplified = std::move(locked_borders), error = locked_error;
+        simplified = std::move(locked_borders), error = locked_error, r.moves = std::move(locked_moves);
     }
   }
   const double tm = steady_seconds();
@@ -969,7 +1055,55 @@ void account_level_time(BuildReport& rep, const LevelState& L, double wall) {
 }
 
 // ---- 3f. combine in group order: groups, generated clusters, retired vertices/edges ----
-// Returns the next level's active clusters.
+// A group's moved vertices get their ids (the next free ones, in the group's order: as their
+// temporary ids were ordered) and every per-vertex array its entries; its clusters' corners
+// are renamed.
+void append_moved_vertices(BuildState& s, std::vector<GroupResult>& results) {
+  size_t added = 0;
+  for (const GroupResult& r : results)
+    if (!r.terminal) added += r.moves.vertex.size();
+  if (added == 0) return;
+  Mesh& m = s.vertices;
+  const size_t old_count = m.vertex_count(), count = old_count + added;
+  if (count >= kNone) fail("BUILD_MESH_TOO_LARGE", s.mesh.name, "more than 2^32-1 vertices with the placed ones");
+  m.positions.resize(3 * count);
+  if (!m.normals.empty()) m.normals.resize(3 * count);
+  if (!m.uvs.empty()) m.uvs.resize(2 * count);
+  s.welded.weld.resize(count);
+  s.welded.copies.resize(count, 0);
+  s.locks.retired.resize(count, 0);
+  s.locks.owner.resize(count, kNone);
+  s.locks.locked.resize(count, 0);
+  s.locks.pinned.resize(count, 0);
+  if (!s.locks.mesh_border.empty()) s.locks.mesh_border.resize(count, 0);
+  s.leaf_surface.moved_origin.resize(count - s.leaf_surface.leaf_vertex_count);
+  std::vector<uint32_t> scratch = s.scratch.take();
+  uint32_t first = uint32_t(old_count);
+  for (GroupResult& r : results) {
+    if (r.terminal || r.moves.vertex.empty()) continue;
+    const VertexMoves& moves = r.moves;
+    for (size_t i = 0; i < moves.vertex.size(); ++i) {
+      const uint32_t v = moves.vertex[i], id = first + uint32_t(i);
+      std::memcpy(&m.positions[3 * size_t(id)], &moves.positions[3 * i], 12);
+      if (!m.normals.empty()) std::memcpy(&m.normals[3 * size_t(id)], &m.normals[3 * size_t(v)], 12);
+      if (!m.uvs.empty()) std::memcpy(&m.uvs[2 * size_t(id)], &m.uvs[2 * size_t(v)], 8);
+      // Copies of one old position are consecutive in the moves (place_vertices): the first
+      // is the new position's welded id, as weld_positions picks the smallest.
+      const bool copy = i > 0 && s.welded.weld[moves.vertex[i - 1]] == s.welded.weld[v];
+      const uint32_t rep = copy ? s.welded.weld[id - 1] : id;
+      s.welded.weld[id] = rep;
+      s.welded.copies[rep] = uint8_t(s.welded.copies[rep] + 1);
+      s.leaf_surface.moved_origin[id - s.leaf_surface.leaf_vertex_count] = s.leaf_surface.origin(v);
+    }
+    for (TriangleSet& t : r.clusters) rename_moved(moves, first, scratch, t.corners);
+    first += uint32_t(moves.vertex.size());
+    r.moves = VertexMoves();
+  }
+  s.scratch.give(std::move(scratch));
+  s.scratch.size = count;
+  for (std::vector<uint32_t>& free : s.scratch.free) free.resize(count, kNone);
+}
+
 std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   const double tc = steady_seconds();
   std::vector<GroupResult> results;
@@ -978,6 +1112,7 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
     for (GroupResult& r : blk.results) results.push_back(std::move(r));
     for (auto& g : blk.groups) level_groups.push_back(std::move(g));
   }
+  append_moved_vertices(s, results);
   std::vector<WorkCluster>& clusters = s.clusters;
   std::vector<WorkGroup>& groups = s.groups;
   const uint32_t first_group = uint32_t(groups.size());
@@ -1038,7 +1173,7 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   if (!L.simplify_allowed) L.report.stuck_groups = 0;  // roots by construction, not stuck
   s.pool.parallel_for(next.size(), [&](size_t i) {
     WorkCluster& c = clusters[next[i]];
-    c.bounds = cluster_sphere(s.mesh, c.triangles);
+    c.bounds = cluster_sphere(*s.positions, c.triangles);
   });
   // Reset per-level lock state (only the touched entries; the same values from any task).
   s.pool.parallel_for(L.active.size(), [&](size_t i) {
@@ -1067,6 +1202,7 @@ void build_levels(BuildState& s) {
   for (uint32_t level = 0; !active.empty(); ++level) {
     LevelState L;
     L.level = level;
+    L.first_fresh = uint32_t(s.positions->vertex_count());
     L.active = std::move(active);
     count_level_edges(s, L);
     plan_blocks(s, L);
@@ -1099,7 +1235,7 @@ void certify_stored_errors(BuildState& s) {
       for (uint32_t m : g.members) floor = std::max(floor, clusters[m].lod_error);
       std::vector<const TriangleSet*> simplified;
       for (uint32_t c : g.generated) simplified.push_back(&clusters[c].triangles);
-      g.parent_error = certified_leaf_deviation(s.leaf_surface, twins, s.mesh, simplified, floor, g.parent_error);
+      g.parent_error = certified_leaf_deviation(s.leaf_surface, twins, *s.positions, simplified, floor, g.parent_error);
       for (uint32_t c : g.generated) clusters[c].lod_error = g.parent_error;
     });
   }
@@ -1120,7 +1256,7 @@ void release_level_state(BuildState& s) {
 // ---- 4. layout: groups in creation order (sorted by level), clusters sorted by group ----
 ClusterDag lay_out(BuildState& s) {
   const double t0 = steady_seconds();
-  const Mesh& mesh = s.mesh;
+  const Mesh& mesh = *s.positions;
   const std::vector<WorkCluster>& clusters = s.clusters;
   const std::vector<WorkGroup>& groups = s.groups;
   ThreadPool& pool = s.pool;
@@ -1182,7 +1318,7 @@ ClusterDag lay_out(BuildState& s) {
     total_triangles += clusters[order[i]].triangles.triangle_count();
   }
   if (total_vertices >= kNone || total_triangles >= kNone)
-    fail("BUILD_MESH_TOO_LARGE", mesh.name, "the DAG would exceed 2^32 vertices or triangles");
+    fail("BUILD_MESH_TOO_LARGE", s.mesh.name, "the DAG would exceed 2^32 vertices or triangles");
   // The big arrays are fresh memory: their first touch (page faults, zeroing) is most of
   // the layout's cost. They are reserved, their pages faulted in by equal chunks on every
   // thread (prefault_parallel), and only then sized (the zero fill then runs on mapped pages).
@@ -1285,6 +1421,7 @@ ClusterDag build_detail::build_dag_internal(const Mesh& mesh, const BuildOptions
                                             const InternalBuildOptions& internal, BuildReport* report) {
   const double t_start = steady_seconds();
   BuildState s(mesh, options, internal);
+  s.placement = options.vertex_placement && internal.placement_share > 0;
   prepare(s);
   build_leaves(s);
   build_levels(s);

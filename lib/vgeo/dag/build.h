@@ -28,6 +28,11 @@ struct BuildOptions {
   // sphere's page build measured 1.28x the peer's CPU (goal <= 1.25x), without 1.11-1.16x
   // (docs/acceptance/issue23_stop32.md).
   bool edge_flips = false;
+  // Vertex placement after each group's simplification (spec/dag.md §2.3 Place): movable
+  // vertices move off the leaves along their leaf normal, so the simplified surface lies on
+  // both sides of curved leaves: fewer triangles at equal measured error
+  // (docs/acceptance/issue23_place.md). Either simplifier.
+  bool vertex_placement = true;
 };
 
 struct BuildLevelReport {

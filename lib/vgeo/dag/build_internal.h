@@ -84,6 +84,13 @@ inline constexpr double kSeamMagnitudeFraction = 0x1p-22;
 // A cell of the seam search holding more mesh-border vertices than this pins them all instead
 // of comparing every pair (bounded work on pathological inputs; pinning is always safe).
 inline constexpr size_t kSeamCellPairwiseLimit = 64;
+// Vertex placement (spec/dag.md §2.3 Place): offset = this × the mean estimated centroid sag
+// of the vertex's simplified triangles. On a sphere 1/2 would balance a flat triangle's
+// centroid (inside) against its corners (outside), but locked border corners never move and
+// the leaves' own facets add to the deviation at fine levels: measured with dagq
+// (docs/acceptance/issue23_place.md), 0.25 drew the fewest triangles at equal measured error
+// of 0.25, 0.35, 0.4 and 0.5 on the 1M sphere and the 8 CGAL meshes of the issue.
+inline constexpr double kPlacementShare = 0.25;
 // meshopt target error (relative to the sub-mesh extent): 1 = "no error bound", the
 // triangle count target drives the simplification and the error is measured.
 inline constexpr float kMeshoptTargetError = 1.0f;
@@ -214,6 +221,7 @@ struct InternalBuildOptions {
   // largest stored error of its members (0: no bound, the ratio alone decides).
   float simplify_error_budget = kSimplifyErrorBudget;
   bool simplify_open_borders = true;  // SimplifyTarget::open_borders
+  double placement_share = kPlacementShare;  // PlacementContext::share (with BuildOptions::vertex_placement)
 };
 ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, const InternalBuildOptions& internal,
                               BuildReport* report);
@@ -271,6 +279,10 @@ inline float round_up_to_float(double d) {
   return e;
 }
 
+// Vertex placement's crease angle, 30 degrees (LeafSurface::normal): a smooth mesh's leaf
+// faces around a vertex stay well within it; CAD edges (90 degrees) and sharp features do not.
+inline constexpr double kCosPlacementCrease = 0.8660254037844386;
+
 // The original surface, for measuring a simplification's deviation from it (leaf_error.cpp):
 // all leaf triangles in a distance tree, and their edge adjacency (by welded id) for walking
 // from triangle to triangle before asking the tree. Triangle ids are the tree's.
@@ -282,9 +294,32 @@ struct LeafSurface {
   // vertex_triangle[v] (v: a mesh vertex): the smallest triangle id with a corner welded to v,
   // or kNone.
   std::vector<uint32_t> vertex_triangle;
+  // Vertices placed off the leaves (vertex_placement.cpp) get ids from leaf_vertex_count on:
+  // moved_origin[v - leaf_vertex_count] is the leaf vertex each was moved from (where a walk
+  // over the leaves starts). Ids below leaf_vertex_count are the mesh's: leaf vertices.
+  uint32_t leaf_vertex_count = 0;
+  std::vector<uint32_t> moved_origin;
+  // With vertex placement: per welded leaf vertex, 3 floats: the area-weighted normal of its
+  // leaf triangles, or 0 where some of them faces more than the crease angle away from it (a
+  // crease or a CAD face edge: moving along the average would leave both faces) or none has an
+  // area. Only these vertices move.
+  std::vector<float> normal;
+  // The leaf vertex vertex `v` is (v itself) or was moved from.
+  uint32_t origin(uint32_t v) const { return v < leaf_vertex_count ? v : moved_origin[v - leaf_vertex_count]; }
 };
+// Moved vertices of one group before their ids are final (vertex_placement.cpp): ids first,
+// first + 1, ... (ordered as their final ids will be, all above every id in use) have
+// positions[3i, 3i + 3), leaf vertex origin[i] and replace vertex previous[i] (an input
+// vertex of the group), i < count. first = kNone: none.
+struct FreshVertices {
+  uint32_t first = kNone, count = 0;
+  const float* positions = nullptr;
+  const uint32_t* origin = nullptr;
+  const uint32_t* previous = nullptr;
+};
+// `normals`: also LeafSurface::normal (vertex placement).
 LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves,
-                               ThreadPool& pool);
+                               ThreadPool& pool, bool normals = false);
 // Where a visibility walk over the leaf surface ends: from triangle `start` towards p, crossing
 // the first edge p lies outside of, never straight back, at most `max_steps` triangles; in the
 // triangle p projects into (projects_inside), or where it stops: a border, a ridge (two
@@ -321,8 +356,11 @@ struct LatticeRecord {
   };
   std::vector<Place> places;
 };
+// `fresh`: corners with ids from fresh->first on are moved vertices (not leaf vertices: their
+// points are measured, corners included; their edges are no edge of the input).
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
-                     float floor, LatticePeak* peak = nullptr, LatticeRecord* record = nullptr);
+                     float floor, LatticePeak* peak = nullptr, LatticeRecord* record = nullptr,
+                     const FreshVertices* fresh = nullptr);
 // leaf_deviation(leaves, mesh, input, changed_surface, floor), bit for bit, where
 // `changed_surface` is a surface leaf_deviation measured with `record`, with the triangles
 // marked in `changed` replaced (same count; an edge of a replaced triangle that is still used
@@ -356,6 +394,33 @@ LeafTwins build_leaf_twins(const LeafSurface& leaves, const WeldedMesh& welded, 
 // leaves (their measured error) or 0, where the search for the maximum starts.
 float certified_leaf_deviation(const LeafSurface& leaves, const LeafTwins& twins, const Mesh& mesh,
                                const std::vector<const TriangleSet*>& simplified, float floor, double lower);
+
+// Vertex placement (vertex_placement.cpp, spec/dag.md §2.3 Place).
+// |offset| ≤ this × the vertex's shortest incident simplified edge: the sag estimate assumes
+// the surface is nearly flat over a triangle (sag ≪ edge: L/(6R) on a sphere); beyond that
+// it is no estimate, and a large move could fold a thin part.
+inline constexpr double kMaxOffsetPerEdge = 0.125;
+// A position with more attribute copies than this is per-corner (simplify.cpp: every wedge its
+// own vertex): left where it is.
+inline constexpr uint8_t kMaxMovedCopies = 2;
+struct PlacementContext {
+  const WeldedMesh* welded = nullptr;
+  const Mesh* mesh = nullptr;             // current positions by id (leaves and moved vertices)
+  const float* leaf_positions = nullptr;  // the input mesh's positions (leaf vertices)
+  const LeafSurface* leaves = nullptr;    // origin of moved ids, leaf normals
+  const std::vector<uint8_t>* locked = nullptr;
+  const std::vector<uint8_t>* pinned = nullptr;
+  const std::vector<uint8_t>* mesh_border = nullptr;  // may be empty
+  double share = kPlacementShare;
+};
+// The vertices of `tris` to move, in order of first use, and their new positions (3 floats
+// each; all attribute copies of a welded position: the same bits). `scratch` (weld.size(), all
+// kNone) is returned in that state.
+struct VertexMoves {
+  std::vector<uint32_t> vertex;
+  std::vector<float> positions;
+};
+VertexMoves place_vertices(const PlacementContext& ctx, const TriangleSet& tris, std::vector<uint32_t>& scratch);
 
 // How far a group is simplified: to ratio × its triangles, stopping early where the
 // backend's error estimate would pass max_error (object units; meshopt only; +inf: no bound).

@@ -174,7 +174,7 @@ bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leav
     // points lie next to the old pair's (the new diagonal's thirds by the old interiors, its
     // interiors by the old diagonal's thirds), so the walks start where the measurement's
     // walks for those ended.
-    uint32_t at = diagonal.leaf != kNone ? diagonal.leaf : leaves.vertex_triangle[corners[ia]];
+    uint32_t at = diagonal.leaf != kNone ? diagonal.leaf : leaves.vertex_triangle[leaves.origin(corners[ia])];
     if (at == kNone) return false;
     if (!walked_within(leaves, midpoint(pc, pd), kFlipGain * before, &at)) return false;
     if (inside.leaf != kNone) at = inside.leaf;

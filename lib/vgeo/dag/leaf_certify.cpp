@@ -486,10 +486,12 @@ float certified_leaf_deviation(const LeafSurface& leaves, const LeafTwins& twins
     for (size_t t = 0; t < set->triangle_count(); ++t) {
       const uint32_t* tri = &set->corners[3 * t];
       const DVec3 c[3] = {vertex(tri[0]), vertex(tri[1]), vertex(tri[2])};
-      // A simplified corner is a leaf vertex (distance 0; its leaf triangle starts the overlay).
+      // A simplified corner that was not moved (vertex_placement.cpp) is a leaf vertex (distance
+      // 0; its leaf triangle starts the overlay); a moved one is measured.
+      auto leaf_triangle = [&](uint32_t v) { return v < leaves.leaf_vertex_count ? leaves.vertex_triangle[v] : kNone; };
       double d[3];
-      for (int j = 0; j < 3; ++j) d[j] = leaves.vertex_triangle[tri[j]] != kNone ? 0.0 : cert.distance(c[j], nullptr);
-      uint32_t start = leaves.vertex_triangle[tri[0]];
+      for (int j = 0; j < 3; ++j) d[j] = leaf_triangle(tri[j]) != kNone ? 0.0 : cert.distance(c[j], nullptr);
+      uint32_t start = leaf_triangle(tri[0]);
       if (start == kNone) cert.distance(c[0], &start);
       bound = std::max(bound, cert.certify(c, d, start, 0));
     }

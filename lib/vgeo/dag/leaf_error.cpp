@@ -40,6 +40,33 @@ constexpr size_t kAdjacencyChunk = size_t(1) << 16;
 // limit of 8 stopped 4.4% of the walks (each then a tree search, over 10× a walk), 64 stopped
 // 0.05%; 32 keeps the cost of a hopeless walk (a fold, a hole) within a few tree searches.
 constexpr int kMaxWalkSteps = 32;
+// Relative margin of the displacement bound (deviation_squared): lattice points are computed
+// in double from float corners, a few ulps (2^-52) of the coordinates; 1e-9 is far above that
+// and far below any displacement that matters.
+constexpr double kDisplacedBoundMargin = 1e-9;
+
+// Vertex placement's leaf normal (LeafSurface::normal) of a vertex from its triangles `list`.
+void vertex_normal(const float* positions, const std::vector<uint32_t>& ids, const uint32_t* list, uint32_t count,
+                   std::vector<DVec3>& face, float* out) {
+  auto at = [&](uint32_t v) { return DVec3{positions[3 * size_t(v)], positions[3 * size_t(v) + 1], positions[3 * size_t(v) + 2]}; };
+  face.resize(count);
+  DVec3 sum{0, 0, 0};
+  for (uint32_t i = 0; i < count; ++i) {
+    const uint32_t* c = &ids[3 * size_t(list[i])];
+    const DVec3 a = at(c[0]), b = at(c[1]), d = at(c[2]);
+    const DVec3 u{b.x - a.x, b.y - a.y, b.z - a.z}, v{d.x - a.x, d.y - a.y, d.z - a.z};
+    face[i] = DVec3{u.y * v.z - u.z * v.y, u.z * v.x - u.x * v.z, u.x * v.y - u.y * v.x};  // 2 × area × unit normal
+    sum = DVec3{sum.x + face[i].x, sum.y + face[i].y, sum.z + face[i].z};
+  }
+  const double length = std::sqrt(sum.x * sum.x + sum.y * sum.y + sum.z * sum.z);
+  if (!(length > 0)) return;
+  const DVec3 n{sum.x / length, sum.y / length, sum.z / length};
+  for (uint32_t i = 0; i < count; ++i) {
+    const double f = std::sqrt(face[i].x * face[i].x + face[i].y * face[i].y + face[i].z * face[i].z);
+    if (!(f > 0) || face[i].x * n.x + face[i].y * n.y + face[i].z * n.z < kCosPlacementCrease * f) return;
+  }
+  out[0] = float(n.x), out[1] = float(n.y), out[2] = float(n.z);
+}
 
 // The walk's adjacency (LeafSurface::neighbour, vertex_triangle) from the leaf triangles'
 // corners (`ids`, 3 per triangle id), by welded id: triangles by welded vertex (counting
@@ -47,7 +74,11 @@ constexpr int kMaxWalkSteps = 32;
 // first vertex's list that has its second vertex. Vertex by vertex: a vertex's triangles'
 // welded corners are read once into a small table and every edge starting at the vertex is
 // matched against it (instead of three welded lookups per candidate and edge).
-void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector<uint32_t>& ids, ThreadPool& pool) {
+// With `normals`, also LeafSurface::normal: per welded vertex the area-weighted normal of its
+// triangles (ascending ids: the same sum on any thread count), 0 where some triangle with an
+// area faces more than the crease angle away from it (or none has an area).
+void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector<uint32_t>& ids, ThreadPool& pool,
+                     bool normals) {
   const size_t vertices = welded.weld.size();
   const std::vector<uint32_t>& weld = welded.weld;
   std::vector<uint32_t> first(vertices + 1, 0);  // then: first[w] = end of w's list while filling
@@ -58,12 +89,16 @@ void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector
   for (size_t w = vertices; w-- > 0;) first[w + 1] = first[w];  // back to starts, shifted
   first[0] = 0;
   s.neighbour.resize(ids.size());
+  if (normals) s.normal.assign(3 * vertices, 0.0f);
+  const float* positions = welded.mesh->positions.data();
   for_chunks(&pool, vertices, kAdjacencyChunk, [&](size_t begin, size_t end) {
     std::vector<uint32_t> corners;  // welded corners of the vertex's triangles, 3 per list entry
+    std::vector<DVec3> face;        // their area vectors (normals only)
     for (size_t u = begin; u < end; ++u) {
       const uint32_t* list = &triangles[first[u]];
       const uint32_t count = first[u + 1] - first[u];
       if (count == 0) continue;  // not a welded id, or no leaf triangle has it
+      if (normals) vertex_normal(positions, ids, list, count, face, &s.normal[3 * u]);
       corners.resize(3 * size_t(count));
       for (uint32_t i = 0; i < count; ++i)
         for (int j = 0; j < 3; ++j) corners[3 * i + j] = weld[ids[3 * size_t(list[i]) + j]];
@@ -107,7 +142,8 @@ bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at, 
 
 }  // namespace
 
-LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves, ThreadPool& pool) {
+LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves, ThreadPool& pool,
+                               bool normals) {
   std::vector<size_t> first_triangle(leaves.size() + 1, 0);  // per leaf set: its first triangle
   for (size_t i = 0; i < leaves.size(); ++i) first_triangle[i + 1] = first_triangle[i] + leaves[i]->triangle_count();
   std::vector<uint32_t> ids(3 * first_triangle.back());
@@ -115,7 +151,8 @@ LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const
     std::copy(leaves[i]->corners.begin(), leaves[i]->corners.end(), &ids[3 * first_triangle[i]]);
   });
   LeafSurface s;
-  build_adjacency(s, welded, ids, pool);
+  s.leaf_vertex_count = uint32_t(welded.weld.size());
+  build_adjacency(s, welded, ids, pool, normals);
   // Leaves in cluster order: clusters of spatial chunks in Morton order, each cluster a
   // connected patch, which is the spatial coherence the order-keeping tree needs.
   s.tree = TriangleDistanceTree(welded.mesh->positions.data(), std::move(ids), &pool);
@@ -128,22 +165,43 @@ namespace {
 // ≤ floor² rounds to ≤ floor, so points within the floor cannot change the result.
 double floor_squared(float floor) { return std::isfinite(floor) && floor > 0 ? double(floor) * double(floor) : 0.0; }
 
-DVec3 mesh_vertex(const Mesh& mesh, uint32_t v) {
-  return DVec3{mesh.positions[3 * size_t(v)], mesh.positions[3 * size_t(v) + 1], mesh.positions[3 * size_t(v) + 2]};
-}
+// Positions and walk starts by vertex id: the mesh's (leaf and already placed vertices) and,
+// from fresh->first on, a group's moved vertices before their ids are final.
+struct VertexSource {
+  const LeafSurface& leaves;
+  const Mesh& mesh;
+  const FreshVertices* fresh;
+  bool is_fresh(uint32_t v) const { return fresh && fresh->positions && v >= fresh->first; }
+  DVec3 operator()(uint32_t v) const {
+    const float* p = is_fresh(v) ? &fresh->positions[3 * size_t(v - fresh->first)] : &mesh.positions[3 * size_t(v)];
+    return DVec3{p[0], p[1], p[2]};
+  }
+  // A leaf triangle at the vertex (or at the leaf vertex it was moved from): a walk's start.
+  // The id a moved vertex had before this group placed it (its own id when not moved here).
+  uint32_t previous(uint32_t v) const { return is_fresh(v) ? fresh->previous[v - fresh->first] : v; }
+  // How far this group moved vertex v (0 when it did not).
+  double displacement(uint32_t v) const {
+    if (!is_fresh(v)) return 0.0;
+    const DVec3 a = (*this)(v), b = (*this)(previous(v));
+    return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z));
+  }
+  uint32_t start_triangle(uint32_t v) const {
+    return leaves.vertex_triangle[is_fresh(v) ? fresh->origin[v - fresh->first] : leaves.origin(v)];
+  }
+};
 
 // Visits the lattice points of one place of triangle `tri` (corner ids): edge j's points (j <
 // 3), from corner j to corner j + 1, or its interior points (kLatticeInterior). The points of
 // for_each_lattice_point (lib/vgeo/core/surface_distance.h, which lib/vgeo/verify samples),
 // same formulas: an edge's point i/s is computed from its smaller vertex id.
 template <class Visit>
-void for_each_place_point(const Mesh& mesh, const uint32_t* tri, int place, Visit&& visit) {
+void for_each_place_point(const VertexSource& mesh_vertex, const uint32_t* tri, int place, Visit&& visit) {
   const uint32_t s = kErrorLatticeSubdivisions ? kErrorLatticeSubdivisions : 1;
   if (place != kLatticeInterior) {
     const int j = place;
     const bool forward = tri[j] < tri[(j + 1) % 3];
-    const DVec3 e0 = mesh_vertex(mesh, forward ? tri[j] : tri[(j + 1) % 3]);
-    const DVec3 e1 = mesh_vertex(mesh, forward ? tri[(j + 1) % 3] : tri[j]);
+    const DVec3 e0 = mesh_vertex(forward ? tri[j] : tri[(j + 1) % 3]);
+    const DVec3 e1 = mesh_vertex(forward ? tri[(j + 1) % 3] : tri[j]);
     for (uint32_t k = 1; k < s; ++k) {
       const uint32_t i = forward ? k : s - k;
       const double f = double(i) / s;
@@ -151,7 +209,7 @@ void for_each_place_point(const Mesh& mesh, const uint32_t* tri, int place, Visi
     }
     return;
   }
-  const DVec3 a = mesh_vertex(mesh, tri[0]), b = mesh_vertex(mesh, tri[1]), c = mesh_vertex(mesh, tri[2]);
+  const DVec3 a = mesh_vertex(tri[0]), b = mesh_vertex(tri[1]), c = mesh_vertex(tri[2]);
   for (uint32_t u = 1; u < s; ++u)
     for (uint32_t w = 1; u + w < s; ++w) {
       const double bu = double(u) / s, bw = double(w) / s, bv = 1.0 - bu - bw;
@@ -162,7 +220,7 @@ void for_each_place_point(const Mesh& mesh, const uint32_t* tri, int place, Visi
 // leaf_deviation's search (below) before the rounding: the largest squared distance of the
 // points beyond floor_d2, or 0 when none lies beyond it. `record` (optional) gets every point
 // visited.
-double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input,
+double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, const TriangleSet& input,
                          const TriangleSet& simplified, double floor_d2, LatticePeak* peak, LatticeRecord* record) {
   // Edges (by original vertex ids, smaller first: the lattice points depend on both) whose
   // points need no visit: edges of the input when the input is itself simplified (floor > 0)
@@ -170,7 +228,10 @@ double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const Tria
   // and edges already visited. Open addressing, load ≤ 1/2.
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
-  while (slots < 6 * (simplified.triangle_count() + (floor_d2 > 0 ? input.triangle_count() : 0))) slots <<= 1, --shift;
+  // Keys: ≤ 3 per triangle of each set, and one per moved vertex (its corner).
+  const size_t fresh_keys = mesh.fresh ? mesh.fresh->count : 0;
+  while (slots < 2 * (3 * simplified.triangle_count() + fresh_keys + (floor_d2 > 0 ? 3 * input.triangle_count() : 0)))
+    slots <<= 1, --shift;
   std::vector<uint64_t> edge_slot(slots, kNoEdge);
   auto insert_edge = [&](uint32_t a, uint32_t b) {  // true iff the edge was not in the set
     const uint64_t key = a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
@@ -181,6 +242,12 @@ double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const Tria
     }
     edge_slot[h] = key;
     return true;
+  };
+  auto has_edge = [&](uint32_t a, uint32_t b) {
+    const uint64_t key = a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
+    for (size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift); edge_slot[h] != kNoEdge; h = (h + 1) & (slots - 1))
+      if (edge_slot[h] == key) return true;
+    return false;
   };
   if (floor_d2 > 0)
     for (size_t t = 0; t < input.triangle_count(); ++t)
@@ -193,6 +260,16 @@ double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const Tria
   // triangle at the first corner of an edge whose tour predecessor was skipped.
   uint32_t at = kNone;
   LatticePeak here;  // the place of the points being visited (for `peak`)
+  // Points of a placed vertex (its corner; the points of an input edge it ends) lie within its
+  // displacement of the points the members measured (within the floor; a leaf vertex at 0): they
+  // cannot raise the maximum while floor + displacement is within it. The margin covers the
+  // rounding of the lattice points (ulps of the coordinates, far below any displacement).
+  const double floor_distance = std::sqrt(floor_d2);
+  auto cannot_raise = [&](double displacement, DVec3 p) {
+    const double scale = std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+    const double bound = (floor_distance + displacement) * (1.0 + kDisplacedBoundMargin) + kDisplacedBoundMargin * scale;
+    return bound * bound <= std::max(best2, floor_d2);
+  };
   auto visit = [&](DVec3 p) {
     const double threshold = std::max(best2, floor_d2);
     double d2;
@@ -215,20 +292,33 @@ double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const Tria
   // decides the result, not the order: edge points go from corner j to corner j + 1, so
   // consecutive points are a short walk apart.
   if (record) record->places.assign(4 * simplified.triangle_count(), LatticeRecord::Place{});
+  // Placed corners and input edges with a placed end are visited last, when the running maximum
+  // is near its final value, so that most of them need no visit (cannot_raise).
+  std::vector<std::pair<uint32_t, int>> displaced;  // (triangle, place: an edge j, or 3 + corner j)
   for (size_t t = 0; t < simplified.triangle_count(); ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
-    at = leaves.vertex_triangle[tri[0]];
+    at = mesh.start_triangle(tri[0]);
     here.triangle = uint32_t(t);
+    // A moved corner (fresh) is no leaf vertex: measured once, from its leaf vertex's triangle
+    // (key (v, v): no edge of two distinct ids).
+    for (int j = 0; j < 3; ++j)
+      if (mesh.is_fresh(tri[j]) && insert_edge(tri[j], tri[j])) displaced.push_back({uint32_t(t), 3 + j});
     bool after_previous_edge = false;  // the last point visited is on edge j - 1, next to corner j
     for (int j = 0; j < 3; ++j) {
-      if (!insert_edge(tri[j], tri[(j + 1) % 3])) {
+      const uint32_t a = tri[j], b = tri[(j + 1) % 3];
+      if (!insert_edge(a, b)) {
+        after_previous_edge = false;
+        continue;
+      }
+      if (floor_d2 > 0 && (mesh.is_fresh(a) || mesh.is_fresh(b)) && has_edge(mesh.previous(a), mesh.previous(b))) {
+        displaced.push_back({uint32_t(t), j});
         after_previous_edge = false;
         continue;
       }
       // An edge whose tour predecessor was skipped (an input edge, or one visited from the
       // other side) starts from its own first corner, not from wherever the last point was
       // (sphere 1M: 11.40M -> 10.59M walk steps).
-      if (j > 0 && !after_previous_edge) at = leaves.vertex_triangle[tri[j]];
+      if (j > 0 && !after_previous_edge) at = mesh.start_triangle(tri[j]);
       after_previous_edge = true;
       here.place = j;
       for_each_place_point(mesh, tri, j, visit);
@@ -236,17 +326,36 @@ double deviation_squared(const LeafSurface& leaves, const Mesh& mesh, const Tria
     here.place = kLatticeInterior;
     for_each_place_point(mesh, tri, kLatticeInterior, visit);
   }
+  for (const auto& [t, place] : displaced) {
+    const uint32_t* tri = &simplified.corners[3 * size_t(t)];
+    here.triangle = t;
+    if (place >= 3) {  // a placed corner: no leaf vertex, measured from its leaf vertex's triangle
+      const uint32_t v = tri[place - 3];
+      if (cannot_raise(mesh.displacement(v), mesh(v))) continue;
+      at = mesh.start_triangle(v);
+      here.place = kLatticeInterior;
+      visit(mesh(v));
+      continue;
+    }
+    const uint32_t a = tri[place], b = tri[(place + 1) % 3];
+    const double moved = std::max(mesh.displacement(a), mesh.displacement(b));
+    if (cannot_raise(moved, mesh(a)) && cannot_raise(moved, mesh(b))) continue;
+    at = mesh.start_triangle(a);
+    here.place = place;
+    for_each_place_point(mesh, tri, place, visit);
+  }
   return best2;
 }
 
 }  // namespace
 
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
-                     float floor, LatticePeak* peak, LatticeRecord* record) {
+                     float floor, LatticePeak* peak, LatticeRecord* record, const FreshVertices* fresh) {
   if (peak) *peak = LatticePeak{};
   if (record) record->places.clear();
   if (leaves.tree.empty() || simplified.triangle_count() == 0) return floor;
-  const double best2 = deviation_squared(leaves, mesh, input, simplified, floor_squared(floor), peak, record);
+  const VertexSource source{leaves, mesh, fresh};
+  const double best2 = deviation_squared(leaves, source, input, simplified, floor_squared(floor), peak, record);
   return std::max(floor, round_up_to_float(std::sqrt(best2)));
 }
 
@@ -255,6 +364,7 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
                                   const LatticeRecord& record, float floor) {
   if (leaves.tree.empty() || changed_surface.triangle_count() == 0) return floor;
   const double floor_d2 = floor_squared(floor);
+  const VertexSource source{leaves, mesh, nullptr};
   // The changed triangles' points (new, or on an edge a changed triangle shares), measured.
   TriangleSet now;
   for (size_t t = 0; t < changed_surface.triangle_count(); ++t)
@@ -262,7 +372,7 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
       now.corners.insert(now.corners.end(), &changed_surface.corners[3 * t], &changed_surface.corners[3 * t + 3]);
       now.materials.push_back(changed_surface.materials[t]);
     }
-  double best2 = now.triangle_count() ? deviation_squared(leaves, mesh, input, now, floor_d2, nullptr, nullptr) : 0.0;
+  double best2 = now.triangle_count() ? deviation_squared(leaves, source, input, now, floor_d2, nullptr, nullptr) : 0.0;
   // Every other point was visited from an unchanged triangle: its place's recorded value
   // bounds its distance, so only places recorded beyond the running maximum are searched,
   // largest first.
@@ -273,7 +383,7 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
   for (const auto& [bound, k] : open) {
     if (bound <= std::max(best2, floor_d2)) break;
     uint32_t at = record.places[k].leaf;  // where the measurement's walk or search ended
-    for_each_place_point(mesh, &changed_surface.corners[3 * size_t(k / 4)], int(k % 4), [&](DVec3 p) {
+    for_each_place_point(source, &changed_surface.corners[3 * size_t(k / 4)], int(k % 4), [&](DVec3 p) {
       const double threshold = std::max(best2, floor_d2);
       double d2;
       if (at != kNone && walk_within(leaves, p, threshold, &at, &d2)) return;  // as deviation_squared

@@ -22,10 +22,10 @@ constexpr size_t kRasterChunk = 32;
 
 bool dag_is_convex(const ClusterDag& dag) {
   if (dag.positions.empty()) return false;  // metadata only (streamed): unknown, assume not
-  uint64_t leaf_tris = 0;
+  uint64_t leaf_tris = 0, leaf_vertices = 0;
   for (const DagCluster& c : dag.clusters)
-    if (c.level == 0) leaf_tris += c.triangle_count;
-  if (leaf_tris * dag.vertex_count() > kConvexCheckBudget || leaf_tris == 0) return false;
+    if (c.level == 0) leaf_tris += c.triangle_count, leaf_vertices += c.vertex_count;
+  if (leaf_tris * leaf_vertices > kConvexCheckBudget || leaf_tris == 0) return false;
   double extent = distance_d(dag.bounds.min, dag.bounds.max);
   // Tolerance: a vertex may sit this far outside a face plane (float rounding of positions).
   double tolerance = extent * 1e-5;
@@ -40,10 +40,16 @@ bool dag_is_convex(const ClusterDag& dag) {
       double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
       double nl = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
       if (!(nl > 0)) continue;
-      for (size_t v = 0; v < dag.vertex_count(); ++v) {
-        Vec3 p = dag.position(v);
-        double s = (n[0] * (p.x - a.x) + n[1] * (p.y - a.y) + n[2] * (p.z - a.z)) / nl;
-        if (s > tolerance) return false;
+      // The object is its leaves: coarser clusters' vertices are leaf vertices or placed ones
+      // (spec/dag.md §2.3 Place), which lie outside the leaf faces' planes by design. Skipping
+      // the occlusion passes is conservative anyway (it only draws what they would have culled).
+      for (const DagCluster& leaf : dag.clusters) {
+        if (leaf.level != 0) continue;
+        for (uint32_t v = leaf.vertex_offset; v < leaf.vertex_offset + leaf.vertex_count; ++v) {
+          Vec3 p = dag.position(v);
+          double s = (n[0] * (p.x - a.x) + n[1] * (p.y - a.y) + n[2] * (p.z - a.z)) / nl;
+          if (s > tolerance) return false;
+        }
       }
     }
   }
