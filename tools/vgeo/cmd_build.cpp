@@ -30,7 +30,7 @@ namespace {
 struct BuildArgs {
   std::string input, output, report, simplifier = "meshopt", page_size, zstd_level, error_bound = "measured";
   bool edge_flips = false;
-  bool no_vertex_placement = false;
+  bool vertex_placement = false;
   unsigned threads = 0;
 };
 
@@ -192,8 +192,9 @@ void add_build_command(CLI::App& app, Context& ctx) {
   cmd->add_flag("--edge-flips", args->edge_flips,
                 "flip edges towards the leaves after each simplification: fewer triangles at equal measured error "
                 "(~6% fewer) for ~6% more build CPU (spec/dag.md, Edge flips)");
-  cmd->add_flag("--no-vertex-placement", args->no_vertex_placement,
-                "keep every simplified vertex on a leaf vertex (no vertex placement; spec/dag.md, Place)");
+  cmd->add_flag("--vertex-placement", args->vertex_placement,
+                "move simplified vertices off the leaves along their normal: fewer triangles at equal measured error "
+                "(~4% fewer) for ~11-16% more build CPU and memory (spec/dag.md, Place)");
   cmd->add_option("--error-bound", args->error_bound,
                   "what the stored errors promise: measured (default; the verify lattice's maximum, ERROR_BOUND) or "
                   "certified (an upper bound of the continuous deviation, ERROR_CERTIFIED; the same clusters, more build "
@@ -219,7 +220,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
     options.threads = args->threads;
     if (args->error_bound == "certified") options.error_bound = ErrorBound::kCertified;
     options.edge_flips = args->edge_flips;
-    options.vertex_placement = !args->no_vertex_placement;
+    options.vertex_placement = args->vertex_placement;
     options.progress = progress_wanted();
     std::vector<BuildReport> reports;
     const clock::time_point t_build = clock::now();
@@ -274,7 +275,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
       j["simplifier"] = args->simplifier;
       j["error_bound"] = args->error_bound;
       j["edge_flips"] = args->edge_flips;
-      j["vertex_placement"] = !args->no_vertex_placement;
+      j["vertex_placement"] = args->vertex_placement;
       if (kind == AssetFileKind::kPages) j["format"] = format_report_json(format_report, format_options);
       j["meshes"] = nlohmann::json::array();
       for (size_t i = 0; i < reports.size(); ++i) {
