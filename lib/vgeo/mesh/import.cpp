@@ -83,7 +83,7 @@ ImportResult import_scene(const std::string& path, const ImportOptions& options)
     std::string base_dir = std::filesystem::path(path).parent_path().string();
     detail::import_gltf(bytes.data(), bytes.size(), &bytes, ext == "glb", path, base_dir, true, r);
   } else if (is_mesh_file_format(ext)) {
-    const FileBytes bytes = read_file_bytes(path);
+    const FileBytes bytes = read_file_bytes(path, kMaxReadBytes, options.threads);  // by pieces when threads != 1
     import_mesh_file(bytes.data.get(), bytes.size, ext, path, r, options.threads);
   } else {
     fail("MESH_FORMAT_UNSUPPORTED", path, "unknown extension '." + ext + "' (expected .gltf .glb .obj .ply .off .stl)");
