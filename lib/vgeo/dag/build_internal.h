@@ -6,7 +6,6 @@
 #include <cmath>
 #include <array>
 #include <cstdint>
-#include <initializer_list>
 #include <limits>
 #include <mutex>
 #include <vector>
@@ -271,10 +270,6 @@ inline float round_up_to_float(double d) {
   if (double(e) < d) e = std::nextafter(e, std::numeric_limits<float>::infinity());
   return e;
 }
-
-// Faults in the pages of fresh allocations (reserved, not yet sized) in equal chunks on every
-// pool thread, so a large array's first touch is not one thread's (build.cpp).
-void prefault_parallel(std::initializer_list<std::pair<void*, size_t>> ranges, ThreadPool& pool);
 
 // The original surface, for measuring a simplification's deviation from it (leaf_error.cpp):
 // all leaf triangles in a distance tree, and their edge adjacency (by welded id) for walking
