@@ -238,6 +238,9 @@ bool read_plain_body_in_parallel(const TextCursor& body, int64_t nv, int64_t nf,
     if (r.first_record >= records) return;
     TextCursor in(reinterpret_cast<const uint8_t*>(r.begin), size_t(body.end - r.begin));  // the file's end, as serially
     Mesh faces;
+    // A triangle per face line of the range (grown past it only by polygons): no regrowth copies.
+    const uint64_t range_end = std::min(records, r.first_record + lines[i]);
+    if (range_end > uint64_t(nv)) faces.indices.reserve(3 * size_t(range_end - std::max(uint64_t(nv), r.first_record)));
     PolygonSink sink(faces);
     std::vector<uint32_t> ring;
     float values[8];
