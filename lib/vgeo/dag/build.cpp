@@ -48,7 +48,9 @@ struct WorkGroup {
 };
 
 // spec/dag.md §6, with lib/vgeo/mesh's checks (the importers raise their own codes for them).
-void validate_mesh(const Mesh& mesh) {
+// The array sizes (checked before anything reads the arrays), then the values (a scan of
+// every position and index).
+void validate_mesh_sizes(const Mesh& mesh) {
   const std::string where = mesh.name.empty() ? "<mesh>" : mesh.name;
   if (mesh.positions.size() % 3 != 0 || mesh.indices.size() % 3 != 0)
     fail("BUILD_BAD_MESH", where, mesh_array_size_defect(mesh));
@@ -57,6 +59,9 @@ void validate_mesh(const Mesh& mesh) {
   if (mesh.triangle_count() > (size_t(1) << 30) || mesh.vertex_count() >= kNone)
     fail("BUILD_MESH_TOO_LARGE", where, "more than 2^30 triangles or 2^32-1 vertices");
   if (std::string defect = mesh_array_size_defect(mesh); !defect.empty()) fail("BUILD_BAD_MESH", where, defect);
+}
+void validate_mesh_values(const Mesh& mesh) {
+  const std::string where = mesh.name.empty() ? "<mesh>" : mesh.name;
   if (first_non_finite(mesh.positions) < mesh.positions.size())
     fail("BUILD_NONFINITE_POSITION", where, "a vertex position is NaN or infinite");
   if (size_t i = first_index_out_of_range(mesh); i < mesh.indices.size())
@@ -520,15 +525,24 @@ void pin_seam_vertices(BuildState& s) {
 // ---- 1. validate, weld ----
 void prepare(BuildState& s) {
   const double t0 = steady_seconds();
-  validate_mesh(s.mesh);
+  validate_mesh_sizes(s.mesh);
   s.report.input_triangles = s.mesh.triangle_count();
-  s.welded = weld_positions(s.mesh);
-  s.mesh_box = indexed_bounds(s.mesh, s.pool);
   const size_t vertex_count = s.mesh.vertex_count();
+  // The position weld (one thread: first come in vertex order) runs beside the value checks and
+  // the lock arrays' first touch, which do not depend on it (in this order on one thread). A
+  // check that fails is raised once the weld is done: the same error on any thread count.
+  s.pool.parallel_for(2, [&](size_t task) {
+    if (task == 1) {
+      s.welded = weld_positions(s.mesh);
+      return;
+    }
+    validate_mesh_values(s.mesh);
+    s.locks.retired.assign(vertex_count, 0);
+    s.locks.owner.assign(vertex_count, kNone);
+    s.locks.locked.assign(vertex_count, 0);
+  });
+  s.mesh_box = indexed_bounds(s.mesh, s.pool);
   s.scratch.size = vertex_count;
-  s.locks.retired.assign(vertex_count, 0);
-  s.locks.owner.assign(vertex_count, kNone);
-  s.locks.locked.assign(vertex_count, 0);
   pin_seam_vertices(s);
   s.fins = find_fins(s.welded, s.pool, &s.leaf_degenerate);
   s.report.seconds_prepare = steady_seconds() - t0;
