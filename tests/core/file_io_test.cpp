@@ -94,6 +94,22 @@ TEST(ReadFile, ReadsTheWholeFileAndCodesEveryFailure) {
   EXPECT_EQ(error_of([&] { f.read_exact(bytes.size() - 2, head, 4); }).code, kErrFileRead);
 }
 
+// A file of several read pieces (and a last partial one) read on 1, 2, 3 and all threads: the
+// same bytes; and the same codes for a missing file and a directory.
+TEST(ReadFile, ByPiecesOnThreadsReadsTheSameBytes) {
+  ScratchDir dir("pieces");
+  std::string bytes((size_t(9) << 20) + 4321, '\0');
+  for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = char((i * 2654435761u) >> 13);
+  write_file_atomic(dir.file("p.bin"), bytes);
+  for (unsigned threads : {1u, 2u, 3u, 0u}) {
+    const FileBytes got = read_file_bytes(dir.file("p.bin"), kMaxReadBytes, threads);
+    ASSERT_EQ(got.size, bytes.size()) << threads;
+    EXPECT_EQ(std::memcmp(got.data.get(), bytes.data(), bytes.size()), 0) << threads;
+    EXPECT_EQ(error_of([&] { read_file_bytes(dir.file("missing.bin"), kMaxReadBytes, threads); }).code, kErrFileNotFound);
+    EXPECT_EQ(error_of([&] { read_file_bytes(dir.path.string(), kMaxReadBytes, threads); }).code, kErrFileRead);
+  }
+}
+
 // Every step of the writer failing, with and without a previous file: before the rename the
 // previous file (or no file) remains; after it the complete new file; never a temporary.
 TEST(AtomicWrite, AFaultAtEveryStepLeavesTheOldFileOrTheNewOne) {

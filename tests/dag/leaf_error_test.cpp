@@ -153,3 +153,42 @@ RC_GTEST_PROP(LeafError, ConnectedSheetWithSeamBitIdentical, ()) {
 
 }  // namespace
 }  // namespace vgeo::test
+
+namespace vgeo::test {
+namespace {
+
+// The walk's adjacency (neighbour, vertex_triangle) does not depend on the pool: the counting
+// sort by welded vertex in parallel parts (sort_triangles_by_vertex) lists each vertex's
+// triangles as the one-pass sort does. A grid whose rows repeat their first vertex's position
+// (welded copies), with triangles in a scrambled order, a repeated-corner one and a fin.
+TEST(LeafSurface, AdjacencyIsTheSameOnAnyPool) {
+  constexpr uint32_t kSide = 40;
+  Mesh mesh;
+  for (uint32_t y = 0; y <= kSide; ++y)
+    for (uint32_t x = 0; x <= kSide; ++x) mesh.positions.insert(mesh.positions.end(), {float(x), float(y), 0.0f});
+  for (uint32_t y = 0; y <= kSide; ++y)  // a welded copy of each row's first vertex
+    mesh.positions.insert(mesh.positions.end(), {0.0f, float(y), 0.0f});
+  const uint32_t copies = (kSide + 1) * (kSide + 1);
+  auto at = [&](uint32_t x, uint32_t y) { return x == 0 && y % 2 ? copies + y : y * (kSide + 1) + x; };
+  TriangleSet leaves;
+  for (uint32_t k = 0; k < kSide * kSide; ++k) {
+    const uint32_t cell = (k * 769u) % (kSide * kSide), x = cell % kSide, y = cell / kSide;
+    leaves.corners.insert(leaves.corners.end(), {at(x, y), at(x + 1, y), at(x + 1, y + 1)});
+    leaves.corners.insert(leaves.corners.end(), {at(x, y), at(x + 1, y + 1), at(x, y + 1)});
+  }
+  leaves.corners.insert(leaves.corners.end(), {at(3, 3), at(3, 3), at(4, 3)});  // repeated corner
+  leaves.corners.insert(leaves.corners.end(), {at(5, 5), at(6, 5), at(6, 6)});  // a third triangle on an edge
+  leaves.materials.assign(leaves.corners.size() / 3, 0);
+  const build_detail::WeldedMesh welded = build_detail::weld_positions(mesh);
+  ThreadPool one(1);
+  const build_detail::LeafSurface serial = build_detail::build_leaf_surface(welded, {&leaves}, one);
+  for (unsigned threads : {2u, 3u, 5u}) {
+    ThreadPool pool(threads);
+    const build_detail::LeafSurface pooled = build_detail::build_leaf_surface(welded, {&leaves}, pool);
+    EXPECT_EQ(pooled.neighbour, serial.neighbour) << threads;
+    EXPECT_EQ(pooled.vertex_triangle, serial.vertex_triangle) << threads;
+  }
+}
+
+}  // namespace
+}  // namespace vgeo::test

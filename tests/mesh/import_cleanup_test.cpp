@@ -59,6 +59,31 @@ TEST(ImportCleanup, DegenerateRemovalDropsRepeatedIndexAndZeroAreaOnly) {
   EXPECT_EQ(m.materials, (std::vector<uint32_t>{7, 9}));
 }
 
+TEST(ImportCleanup, DegenerateRemovalOnAPoolEqualsOneThread) {
+  // More triangles than one task of the pool's test: the square's two triangles repeated, with
+  // a repeated-index, a collinear and a coincident-corner triangle every 1,000; and once clean.
+  const size_t triangles = 3 * vgeo::kDegenerateTestTriangles + 123;
+  for (bool with_degenerates : {true, false}) {
+    auto base = mesh_of({0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0.5f, 0, 0, 0, 0, 0}, {});
+    const uint32_t degenerate[3][3] = {{0, 0, 3}, {0, 4, 1}, {5, 0, 2}}, kept[2][3] = {{0, 1, 2}, {2, 1, 3}};
+    for (size_t t = 0; t < triangles; ++t) {
+      const uint32_t* tri = with_degenerates && t % 1000 == 999 ? degenerate[t / 1000 % 3] : kept[t % 2];
+      base.indices.insert(base.indices.end(), tri, tri + 3);
+      base.materials.push_back(uint32_t(t % 7));
+    }
+    vgeo::Mesh serial = base;
+    const size_t removed = vgeo::remove_degenerate_triangles(serial);
+    EXPECT_EQ(removed, with_degenerates ? triangles / 1000 : 0u);
+    for (unsigned threads : {2u, 3u, 0u}) {
+      vgeo::ThreadPool pool(threads);
+      vgeo::Mesh pooled = base;
+      EXPECT_EQ(vgeo::remove_degenerate_triangles(pooled, &pool), removed) << threads;
+      EXPECT_EQ(pooled.indices, serial.indices) << threads;
+      EXPECT_EQ(pooled.materials, serial.materials) << threads;
+    }
+  }
+}
+
 TEST(ImportCleanup, TinyButNonZeroAreaIsKept) {
   // Area ~1e-14: below float epsilon squared, still not exactly zero in double.
   auto m = mesh_of({0, 0, 0, 1e-7f, 0, 0, 0, 1e-7f, 0}, {0, 1, 2});

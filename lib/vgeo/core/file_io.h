@@ -39,12 +39,13 @@ inline constexpr uint64_t kAnyFileSize = UINT64_MAX;
 // when it is not a regular file, cannot be opened or read, or changed size while being read.
 std::vector<uint8_t> read_file(const std::string& path, uint64_t max_bytes = kMaxReadBytes);
 // The same in a buffer that is not zero-filled before the read (mesh inputs of tens of MB, where
-// the fill cost as much as the read itself).
+// the fill cost as much as the read itself). `threads` != 1 (0 = all cores): a file of several
+// MiB is read by pieces on that many threads (the same bytes, codes and messages).
 struct FileBytes {
   std::unique_ptr<uint8_t[]> data;
   size_t size = 0;
 };
-FileBytes read_file_bytes(const std::string& path, uint64_t max_bytes = kMaxReadBytes);
+FileBytes read_file_bytes(const std::string& path, uint64_t max_bytes = kMaxReadBytes, unsigned threads = 1);
 // The same, as text (no transcoding).
 std::string read_text_file(const std::string& path, uint64_t max_bytes = kMaxReadBytes);
 

@@ -6,8 +6,10 @@
 #include <condition_variable>
 #include <cstddef>
 #include <functional>
+#include <initializer_list>
 #include <mutex>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace vgeo {
@@ -53,5 +55,10 @@ void for_chunks(ThreadPool* pool, size_t n, size_t chunk, Fn&& fn) {
 }
 
 unsigned default_thread_count();
+
+// Faults in the pages of fresh allocations (reserved, not yet sized: `ranges` of (data, bytes))
+// in equal chunks on every pool thread, so a large array's first touch is not one thread's;
+// the zero fill of the resize that follows then runs on mapped pages (thread_pool.cpp).
+void prefault_parallel(std::initializer_list<std::pair<void*, size_t>> ranges, ThreadPool& pool);
 
 }  // namespace vgeo

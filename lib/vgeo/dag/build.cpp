@@ -6,8 +6,6 @@
 #include "vgeo/dag/build.h"
 #include "vgeo/core/process_memory.h"
 
-#include <sys/mman.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -16,7 +14,6 @@
 #include <chrono>
 #include <condition_variable>
 #include <exception>
-#include <initializer_list>
 #include <cmath>
 #include <cstring>
 
@@ -51,7 +48,9 @@ struct WorkGroup {
 };
 
 // spec/dag.md §6, with lib/vgeo/mesh's checks (the importers raise their own codes for them).
-void validate_mesh(const Mesh& mesh) {
+// The array sizes (checked before anything reads the arrays), then the values (a scan of
+// every position and index).
+void validate_mesh_sizes(const Mesh& mesh) {
   const std::string where = mesh.name.empty() ? "<mesh>" : mesh.name;
   if (mesh.positions.size() % 3 != 0 || mesh.indices.size() % 3 != 0)
     fail("BUILD_BAD_MESH", where, mesh_array_size_defect(mesh));
@@ -60,6 +59,9 @@ void validate_mesh(const Mesh& mesh) {
   if (mesh.triangle_count() > (size_t(1) << 30) || mesh.vertex_count() >= kNone)
     fail("BUILD_MESH_TOO_LARGE", where, "more than 2^30 triangles or 2^32-1 vertices");
   if (std::string defect = mesh_array_size_defect(mesh); !defect.empty()) fail("BUILD_BAD_MESH", where, defect);
+}
+void validate_mesh_values(const Mesh& mesh) {
+  const std::string where = mesh.name.empty() ? "<mesh>" : mesh.name;
   if (first_non_finite(mesh.positions) < mesh.positions.size())
     fail("BUILD_NONFINITE_POSITION", where, "a vertex position is NaN or infinite");
   if (size_t i = first_index_out_of_range(mesh); i < mesh.indices.size())
@@ -171,30 +173,6 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
     }
   });
   return chunks;
-}
-
-// Faults in the pages of fresh allocations in equal chunks on every pool thread
-// (MADV_POPULATE_WRITE, Linux ≥ 5.14). On a virtual machine a first touch costs several µs
-// per 4 KiB page, so spreading it evenly beats one task per array; where the advice is not
-// supported this does nothing and the first writes fault as before.
-void prefault_parallel(std::initializer_list<std::pair<void*, size_t>> ranges, ThreadPool& pool) {
-#ifdef MADV_POPULATE_WRITE
-  constexpr size_t kChunk = size_t(8) << 20;  // 8 MiB: a few hundred tasks for a 10M-triangle DAG
-  const size_t page = size_t(sysconf(_SC_PAGESIZE));
-  std::vector<std::pair<uintptr_t, size_t>> chunks;
-  for (auto [data, bytes] : ranges) {
-    if (!data || bytes < kChunk) continue;  // small arrays: not worth a system call
-    uintptr_t begin = (reinterpret_cast<uintptr_t>(data) + page - 1) & ~uintptr_t(page - 1);
-    uintptr_t end = (reinterpret_cast<uintptr_t>(data) + bytes) & ~uintptr_t(page - 1);
-    for (uintptr_t at = begin; at < end; at += kChunk) chunks.push_back({at, std::min<size_t>(kChunk, end - at)});
-  }
-  pool.parallel_for(chunks.size(), [&](size_t i) {
-    (void)madvise(reinterpret_cast<void*>(chunks[i].first), chunks[i].second, MADV_POPULATE_WRITE);
-  });
-#else
-  (void)ranges;
-  (void)pool;
-#endif
 }
 
 // ---- BVH8 over groups: top-down, split at the median of the largest centre extent ----
@@ -570,11 +548,23 @@ size_t placement_capacity(const BuildState& s) {
 
 void prepare(BuildState& s) {
   const double t0 = steady_seconds();
-  validate_mesh(s.mesh);
+  validate_mesh_sizes(s.mesh);
   s.report.input_triangles = s.mesh.triangle_count();
-  s.welded = weld_positions(s.mesh);
-  s.mesh_box = indexed_bounds(s.mesh, s.pool);
   const size_t vertex_count = s.mesh.vertex_count();
+  // The position weld (one thread: first come in vertex order) runs beside the value checks and
+  // the lock arrays' first touch, which do not depend on it (in this order on one thread). A
+  // check that fails is raised once the weld is done: the same error on any thread count.
+  s.pool.parallel_for(2, [&](size_t task) {
+    if (task == 1) {
+      s.welded = weld_positions(s.mesh);
+      return;
+    }
+    validate_mesh_values(s.mesh);
+    s.locks.retired.assign(vertex_count, 0);
+    s.locks.owner.assign(vertex_count, kNone);
+    s.locks.locked.assign(vertex_count, 0);
+  });
+  s.mesh_box = indexed_bounds(s.mesh, s.pool);
   if (const size_t capacity = placement_capacity(s)) {
     s.welded.weld.reserve(capacity);
     s.welded.copies.reserve(capacity);
@@ -583,9 +573,6 @@ void prepare(BuildState& s) {
     s.scratch.capacity = capacity;
   }
   s.scratch.size = vertex_count;
-  s.locks.retired.assign(vertex_count, 0);
-  s.locks.owner.assign(vertex_count, kNone);
-  s.locks.locked.assign(vertex_count, 0);
   pin_seam_vertices(s);
   s.fins = find_fins(s.welded, s.pool, &s.leaf_degenerate);
   s.report.seconds_prepare = steady_seconds() - t0;

@@ -68,9 +68,77 @@ void vertex_normal(const float* positions, const std::vector<uint32_t>& ids, con
   out[0] = float(n.x), out[1] = float(n.y), out[2] = float(n.z);
 }
 
+// Parts of the parallel counting sort of sort_triangles_by_vertex: each part counts its
+// corners per welded vertex (4 bytes per vertex and part), so at most 4 parts keep that
+// transient memory below the leaf surface's own (12 bytes per triangle for `neighbour`); 2
+// parts already split the sort evenly on 2 threads, 4 on 4.
+constexpr size_t kAdjacencySortParts = 4;
+
+// Triangles by welded vertex (a counting sort of the corners `ids`, 3 per triangle id): the
+// list of welded vertex w is triangles[first[w] .. first[w + 1]), in ascending id order. With
+// a pool of more than one thread the corners are cut into parts (consecutive triangle ranges)
+// that count, and then place, their corners in parallel, each part's entries of a vertex after
+// the earlier parts' entries of it: the lists of the one-pass sort, on any thread count. One
+// thread keeps the one pass (no per-part counts to allocate and add up).
+void sort_triangles_by_vertex(const std::vector<uint32_t>& weld, const std::vector<uint32_t>& ids, ThreadPool& pool,
+                              std::vector<uint32_t>& first, std::vector<uint32_t>& triangles) {
+  const size_t vertices = weld.size();
+  first.assign(vertices + 1, 0);
+  triangles.reserve(ids.size());
+  prefault_parallel({{triangles.data(), 4 * ids.size()}}, pool);  // (as build_adjacency's arrays)
+  triangles.resize(ids.size());
+  const size_t parts = std::min<size_t>({size_t(pool.size()), kAdjacencySortParts, ids.size() / 3});
+  if (parts <= 1) {
+    for (uint32_t v : ids) ++first[weld[v] + 1];
+    for (size_t w = 0; w < vertices; ++w) first[w + 1] += first[w];
+    for (size_t k = 0; k < ids.size(); ++k) triangles[first[weld[ids[k]]]++] = uint32_t(k / 3);
+    for (size_t w = vertices; w-- > 0;) first[w + 1] = first[w];  // back to starts, shifted
+    first[0] = 0;
+    return;
+  }
+  auto part_corners = [&](size_t p) {  // [begin, end) of part p's corners: whole triangles
+    const size_t triangle_count = ids.size() / 3;
+    return std::pair<size_t, size_t>{3 * (triangle_count * p / parts), 3 * (triangle_count * (p + 1) / parts)};
+  };
+  std::vector<std::vector<uint32_t>> next(parts);  // per part and welded vertex: its count, then its next slot
+  pool.parallel_for(parts, [&](size_t p) {
+    next[p].assign(vertices, 0);
+    const auto [begin, end] = part_corners(p);
+    for (size_t k = begin; k < end; ++k) ++next[p][weld[ids[k]]];
+  });
+  // Starts: an exclusive prefix sum over (vertex, part), by chunks of vertices (their totals
+  // first, then each chunk from its start).
+  const size_t chunks = (vertices + kAdjacencyChunk - 1) / kAdjacencyChunk;
+  std::vector<uint32_t> chunk_start(chunks + 1, 0);
+  for_chunks(&pool, vertices, kAdjacencyChunk, [&](size_t begin, size_t end) {
+    uint32_t total = 0;
+    for (size_t w = begin; w < end; ++w)
+      for (size_t p = 0; p < parts; ++p) total += next[p][w];
+    chunk_start[begin / kAdjacencyChunk + 1] = total;
+  });
+  for (size_t c = 0; c < chunks; ++c) chunk_start[c + 1] += chunk_start[c];
+  for_chunks(&pool, vertices, kAdjacencyChunk, [&](size_t begin, size_t end) {
+    uint32_t at = chunk_start[begin / kAdjacencyChunk];
+    for (size_t w = begin; w < end; ++w) {
+      first[w] = at;
+      for (size_t p = 0; p < parts; ++p) {
+        const uint32_t count = next[p][w];
+        next[p][w] = at;
+        at += count;
+      }
+    }
+  });
+  first[vertices] = uint32_t(ids.size());
+  pool.parallel_for(parts, [&](size_t p) {
+    const auto [begin, end] = part_corners(p);
+    uint32_t* slot = next[p].data();
+    for (size_t k = begin; k < end; ++k) triangles[slot[weld[ids[k]]]++] = uint32_t(k / 3);
+  });
+}
+
 // The walk's adjacency (LeafSurface::neighbour, vertex_triangle) from the leaf triangles'
-// corners (`ids`, 3 per triangle id), by welded id: triangles by welded vertex (counting
-// sort, each list in ascending id order), then for each edge the first other triangle of its
+// corners (`ids`, 3 per triangle id), by welded id: triangles by welded vertex
+// (sort_triangles_by_vertex), then for each edge the first other triangle of its
 // first vertex's list that has its second vertex. Vertex by vertex: a vertex's triangles'
 // welded corners are read once into a small table and every edge starting at the vertex is
 // matched against it (instead of three welded lookups per candidate and edge).
@@ -81,13 +149,13 @@ void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector
                      bool normals) {
   const size_t vertices = welded.weld.size();
   const std::vector<uint32_t>& weld = welded.weld;
-  std::vector<uint32_t> first(vertices + 1, 0);  // then: first[w] = end of w's list while filling
-  for (uint32_t v : ids) ++first[weld[v] + 1];
-  for (size_t w = 0; w < vertices; ++w) first[w + 1] += first[w];
-  std::vector<uint32_t> triangles(ids.size());
-  for (size_t k = 0; k < ids.size(); ++k) triangles[first[weld[ids[k]]]++] = uint32_t(k / 3);
-  for (size_t w = vertices; w-- > 0;) first[w + 1] = first[w];  // back to starts, shifted
-  first[0] = 0;
+  std::vector<uint32_t> first, triangles;
+  sort_triangles_by_vertex(weld, ids, pool, first, triangles);
+  // Fresh arrays (12 bytes per triangle, 4 per vertex): faulted in on every thread first, so
+  // their zero fill below runs on mapped pages.
+  s.neighbour.reserve(ids.size());
+  s.vertex_triangle.reserve(welded.weld.size());
+  prefault_parallel({{s.neighbour.data(), 4 * ids.size()}, {s.vertex_triangle.data(), 4 * welded.weld.size()}}, pool);
   s.neighbour.resize(ids.size());
   if (normals) s.normal.assign(3 * vertices, 0.0f);
   const float* positions = welded.mesh->positions.data();

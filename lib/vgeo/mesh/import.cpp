@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <memory>
 
 #include "vgeo/mesh/import_text.h"
 #include "vgeo/mesh/validate.h"
@@ -26,6 +27,8 @@ std::string lower_extension(const std::string& path) {
 // Shared post-processing: validate, remove degenerates, weld, drop meshes left empty.
 void finish(ImportResult& r, const ImportOptions& options, const std::string& where) {
   Scene& scene = r.scene;
+  // The degenerate-triangle test on the import's threads (a large mesh's last serial pass here).
+  std::unique_ptr<ThreadPool> pool;
   std::vector<int> new_slot(scene.meshes.size(), -1);
   std::vector<Mesh> kept;
   kept.reserve(scene.meshes.size());
@@ -36,7 +39,9 @@ void finish(ImportResult& r, const ImportOptions& options, const std::string& wh
     for (uint32_t mat : mesh.materials)
       if (mat >= scene.materials.size())
         fail("MATERIAL_INDEX_OUT_OF_RANGE", where, "mesh '" + mesh.name + "' uses material " + std::to_string(mat));
-    r.stats.degenerate_removed += remove_degenerate_triangles(mesh);
+    if (options.threads != 1 && !pool && mesh.triangle_count() > kDegenerateTestTriangles)
+      pool = std::make_unique<ThreadPool>(options.threads);
+    r.stats.degenerate_removed += remove_degenerate_triangles(mesh, pool.get());
     if (mesh.triangle_count() == 0) {
       r.warnings.push_back({"MESH_EMPTY", "mesh '" + mesh.name + "' has only degenerate triangles; dropped"});
       continue;
@@ -83,7 +88,7 @@ ImportResult import_scene(const std::string& path, const ImportOptions& options)
     std::string base_dir = std::filesystem::path(path).parent_path().string();
     detail::import_gltf(bytes.data(), bytes.size(), &bytes, ext == "glb", path, base_dir, true, r);
   } else if (is_mesh_file_format(ext)) {
-    const FileBytes bytes = read_file_bytes(path);
+    const FileBytes bytes = read_file_bytes(path, kMaxReadBytes, options.threads);  // by pieces when threads != 1
     import_mesh_file(bytes.data.get(), bytes.size, ext, path, r, options.threads);
   } else {
     fail("MESH_FORMAT_UNSUPPORTED", path, "unknown extension '." + ext + "' (expected .gltf .glb .obj .ply .off .stl)");

@@ -52,7 +52,8 @@ struct ImportOptions {
   // Merge vertices whose position, normal and uv are exactly equal (value comparison, so
   // -0 == +0). Also drops vertices no triangle references.
   bool weld = false;
-  // Threads of the OFF reader (0 = all cores): the same scene for any count (import_off.cpp).
+  // Threads of the file read and the OFF reader (0 = all cores): the same scene for any count
+  // (read_file_bytes, import_off.cpp).
   unsigned threads = 1;
 };
 

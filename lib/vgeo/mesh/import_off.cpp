@@ -220,6 +220,15 @@ bool read_plain_body_in_parallel(const TextCursor& body, int64_t nv, int64_t nf,
   const uint64_t total_lines = first + (body.end > body.p && body.end[-1] != '\n' ? 1 : 0);
   const uint64_t records = uint64_t(nv) + uint64_t(nf);
   if (total_lines < records) return false;
+  // Fresh arrays: their pages faulted in on every thread first, so the zero fill runs on
+  // mapped pages (on a VM a first touch costs microseconds per page).
+  mesh.positions.reserve(size_t(nv) * 3);
+  if (normals) mesh.normals.reserve(size_t(nv) * 3);
+  if (uvs) mesh.uvs.reserve(size_t(nv) * 2);
+  prefault_parallel({{mesh.positions.data(), 4 * mesh.positions.capacity()},
+                     {mesh.normals.data(), 4 * mesh.normals.capacity()},
+                     {mesh.uvs.data(), 4 * mesh.uvs.capacity()}},
+                    pool);
   mesh.positions.resize(size_t(nv) * 3);
   if (normals) mesh.normals.resize(size_t(nv) * 3);
   if (uvs) mesh.uvs.resize(size_t(nv) * 2);
@@ -229,6 +238,9 @@ bool read_plain_body_in_parallel(const TextCursor& body, int64_t nv, int64_t nf,
     if (r.first_record >= records) return;
     TextCursor in(reinterpret_cast<const uint8_t*>(r.begin), size_t(body.end - r.begin));  // the file's end, as serially
     Mesh faces;
+    // A triangle per face line of the range (grown past it only by polygons): no regrowth copies.
+    const uint64_t range_end = std::min(records, r.first_record + lines[i]);
+    if (range_end > uint64_t(nv)) faces.indices.reserve(3 * size_t(range_end - std::max(uint64_t(nv), r.first_record)));
     PolygonSink sink(faces);
     std::vector<uint32_t> ring;
     float values[8];
@@ -257,13 +269,19 @@ bool read_plain_body_in_parallel(const TextCursor& body, int64_t nv, int64_t nf,
     mesh.positions.clear(), mesh.normals.clear(), mesh.uvs.clear();
     return false;
   }
-  size_t index_count = 0;
-  for (const BodyRange& r : ranges) index_count += r.indices.size();
-  mesh.indices.reserve(index_count);
-  for (BodyRange& r : ranges) {
-    mesh.indices.insert(mesh.indices.end(), r.indices.begin(), r.indices.end());
-    repeated_vertex_faces += r.repeated_vertex_faces;
+  // The ranges' indices joined in range order, each range copied on the pool to its offset.
+  std::vector<size_t> offset(ranges.size() + 1, 0);
+  for (size_t i = 0; i < ranges.size(); ++i) {
+    offset[i + 1] = offset[i] + ranges[i].indices.size();
+    repeated_vertex_faces += ranges[i].repeated_vertex_faces;
   }
+  mesh.indices.reserve(offset.back());
+  prefault_parallel({{mesh.indices.data(), 4 * mesh.indices.capacity()}}, pool);
+  mesh.indices.resize(offset.back());
+  pool.parallel_for(ranges.size(), [&](size_t i) {
+    std::copy(ranges[i].indices.begin(), ranges[i].indices.end(), mesh.indices.begin() + ptrdiff_t(offset[i]));
+    ranges[i].indices = {};
+  });
   return true;
 }
 

@@ -1,6 +1,7 @@
 #include "vgeo/mesh/validate.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 namespace vgeo {
@@ -89,13 +90,33 @@ bool triangle_has_zero_area(const Mesh& mesh, uint32_t a, uint32_t b, uint32_t c
   return cx == 0.0 && cy == 0.0 && cz == 0.0;
 }
 
-size_t remove_degenerate_triangles(Mesh& mesh) {
+namespace {
+
+bool triangle_is_degenerate(const Mesh& mesh, size_t t) {
+  const uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], c = mesh.indices[3 * t + 2];
+  return a == b || b == c || a == c || triangle_has_zero_area(mesh, a, b, c);
+}
+
+}  // namespace
+
+size_t remove_degenerate_triangles(Mesh& mesh, ThreadPool* pool) {
   const size_t tris = mesh.triangle_count();
   const bool has_materials = !mesh.materials.empty();
+  std::vector<uint8_t> degenerate;  // per triangle, when tested on the pool
+  if (pool && pool->size() > 1 && tris > kDegenerateTestTriangles) {
+    degenerate.resize(tris);
+    std::atomic<size_t> found{0};
+    for_chunks(pool, tris, kDegenerateTestTriangles, [&](size_t begin, size_t end) {
+      size_t n = 0;
+      for (size_t t = begin; t < end; ++t) n += degenerate[t] = triangle_is_degenerate(mesh, t);
+      found.fetch_add(n, std::memory_order_relaxed);
+    });
+    if (found.load() == 0) return 0;  // the usual case: nothing to move
+  }
   size_t kept = 0;
   for (size_t t = 0; t < tris; ++t) {
-    uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], c = mesh.indices[3 * t + 2];
-    if (a == b || b == c || a == c || triangle_has_zero_area(mesh, a, b, c)) continue;
+    if (degenerate.empty() ? triangle_is_degenerate(mesh, t) : degenerate[t] != 0) continue;
+    const uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], c = mesh.indices[3 * t + 2];
     mesh.indices[3 * kept] = a;
     mesh.indices[3 * kept + 1] = b;
     mesh.indices[3 * kept + 2] = c;
