@@ -14,6 +14,7 @@
 
 #include "../modules/extras_module.h"
 #include "vgeo/core/error.h"
+#include "vgeo/core/shared_library.h"
 
 namespace vgeo {
 namespace {
@@ -44,12 +45,12 @@ const ExtrasModule& load_extras_module() {
   static std::string failure;
   static const std::string path = module_path();
   std::call_once(once, [] {
-    void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!handle) {
-      const char* why = dlerror();
-      failure = std::string("cannot load the vgeo_extras module (") + (why ? why : "unknown reason") + ")";
+    const OpenedLibrary opened = open_shared_library(path, "the vgeo_extras module");
+    if (!opened.handle) {
+      failure = opened.failure;
       return;
     }
+    void* handle = opened.handle;
     using Entry = const ExtrasModule* (*)();
     auto entry = reinterpret_cast<Entry>(dlsym(handle, "vgeo_extras_module"));
     const ExtrasModule* t = entry ? entry() : nullptr;

@@ -16,6 +16,7 @@
 #include <string>
 
 #include "vgeo/core/error.h"
+#include "vgeo/core/shared_library.h"
 #include "vgeo/dag/build_internal.h"
 #include "vgeo/dag/cluster_dag.h"
 
@@ -309,12 +310,12 @@ const MetisFunctions& metis_functions() {
   static MetisFunctions functions;
   static std::string failure;
   std::call_once(once, [] {
-    void* library = dlopen(kMetisLibrary, RTLD_NOW | RTLD_LOCAL);  // never unloaded
-    if (!library) {
-      const char* why = dlerror();
-      failure = std::string("cannot load METIS (") + (why ? why : kMetisLibrary) + ")";
+    const OpenedLibrary opened = open_shared_library(kMetisLibrary, "METIS");
+    if (!opened.handle) {
+      failure = opened.failure;
       return;
     }
+    void* library = opened.handle;
     MetisFunctions f;
     f.set_default_options = reinterpret_cast<decltype(f.set_default_options)>(dlsym(library, "METIS_SetDefaultOptions"));
     f.part_graph_kway = reinterpret_cast<decltype(f.part_graph_kway)>(dlsym(library, "METIS_PartGraphKway"));

@@ -11,6 +11,7 @@
 #include <cstring>
 
 #include "vgeo/core/error.h"
+#include "vgeo/core/shared_library.h"
 
 namespace vgeo {
 
@@ -29,12 +30,12 @@ void load_vulkan() {
   static std::once_flag once;
   static std::string failure;
   std::call_once(once, [] {
-    void* loader = dlopen(kVulkanLoader, RTLD_NOW | RTLD_LOCAL);
-    if (!loader) {
-      const char* why = dlerror();
-      failure = std::string("cannot load the Vulkan loader (") + (why ? why : kVulkanLoader) + ")";
+    const OpenedLibrary opened = open_shared_library(kVulkanLoader, "the Vulkan loader");
+    if (!opened.handle) {
+      failure = opened.failure;
       return;
     }
+    void* loader = opened.handle;
 #define VGEO_VULKAN_LOAD(name)                                          \
   name = reinterpret_cast<PFN_##name>(dlsym(loader, #name));            \
   if (!name) {                                                          \
