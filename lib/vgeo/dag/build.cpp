@@ -29,6 +29,17 @@ using namespace build_detail;
 
 namespace {
 
+// What the next level needs of a new cluster, computed by the task that made it, right after
+// the split, while its corners, welded ids and positions are still in cache (a later pass
+// over all clusters missed the cache on each: count_cluster_edges and the spheres were 5% of a
+// 1M-triangle build). Not with vertex placement: there a group's clusters are renamed in
+// combine_level (moved vertices get their ids there), so their edges and spheres come after.
+struct ClusterEdges {
+  bool counted = false;
+  uint64_t open = 0, all = 0;       // count_cluster_edges
+  std::vector<uint64_t> open_keys;  // sorted open welded edges (grouping)
+};
+
 struct WorkCluster {
   TriangleSet triangles;
   uint32_t level = 0;
@@ -36,6 +47,7 @@ struct WorkCluster {
   uint32_t generating_group = kNone;  // work group index
   Sphere bounds, lod_bounds;
   float lod_error = 0.0f;
+  ClusterEdges edges;  // counted at creation, consumed by count_level_edges
 };
 
 struct WorkGroup {
@@ -71,6 +83,13 @@ void validate_mesh_values(const Mesh& mesh) {
 
 Sphere cluster_sphere(const Mesh& mesh, const TriangleSet& t) {
   return sphere_of_points(mesh, t.corners.data(), t.corners.size());
+}
+
+ClusterEdges cluster_edges(const WeldedMesh& welded, const TriangleSet& t) {
+  ClusterEdges e;
+  e.counted = true;
+  count_cluster_edges(welded, t, &e.open, &e.all, &e.open_keys);
+  return e;
 }
 
 // Leaf clustering input, cut into chunks of about kLeafChunkTriangles (see build_dag).
@@ -383,6 +402,9 @@ struct GroupResult {
   bool terminal = true;
   float error = 0.0f;
   std::vector<TriangleSet> clusters;  // corners of moved vertices: their old ids until combine_level
+  // Per cluster, when counted in the task (no vertex placement): its sphere and edges.
+  std::vector<Sphere> bounds;
+  std::vector<ClusterEdges> edges;
   VertexMoves moves;
   double seconds_simplify = 0, seconds_split = 0, seconds_error = 0;
 };
@@ -587,26 +609,30 @@ void build_leaves(BuildState& s) {
   std::vector<std::vector<uint8_t>> chunk_degenerate;
   std::vector<TriangleSet> chunks = leaf_chunks(s.mesh, s.mesh_box, s.pool, s.leaf_degenerate, chunk_degenerate);
   s.leaf_degenerate = {};
-  std::vector<std::vector<TriangleSet>> chunk_leaves(chunks.size());
+  // Each chunk's task also gives its leaves their spheres and level-0 edges (ClusterEdges).
+  std::vector<std::vector<WorkCluster>> chunk_leaves(chunks.size());
   s.pool.parallel_for(chunks.size(), [&](size_t i) {
     std::vector<uint32_t> scratch = s.scratch.take();
-    chunk_leaves[i] =
+    std::vector<TriangleSet> split =
         split_into_clusters(s.welded, chunks[i], scratch, s.internal.leaf_split, chunk_degenerate[i].data());
     s.scratch.give(std::move(scratch));
     chunks[i] = TriangleSet();
     chunk_degenerate[i] = {};
+    chunk_leaves[i].resize(split.size());
+    for (size_t k = 0; k < split.size(); ++k) {
+      WorkCluster& c = chunk_leaves[i][k];
+      c.triangles = std::move(split[k]);
+      c.bounds = cluster_sphere(s.mesh, c.triangles);
+      c.lod_bounds = c.bounds;
+      c.edges = cluster_edges(s.welded, c.triangles);
+    }
   });
-  std::vector<TriangleSet> leaves;
+  size_t leaf_count = 0;
+  for (const auto& cl : chunk_leaves) leaf_count += cl.size();
+  s.clusters.reserve(leaf_count);
   for (auto& cl : chunk_leaves)
-    for (TriangleSet& t : cl) leaves.push_back(std::move(t));
+    for (WorkCluster& c : cl) s.clusters.push_back(std::move(c));
   chunk_leaves.clear();
-  s.clusters.resize(leaves.size());
-  s.pool.parallel_for(leaves.size(), [&](size_t i) {
-    WorkCluster& c = s.clusters[i];
-    c.triangles = std::move(leaves[i]);
-    c.bounds = cluster_sphere(s.mesh, c.triangles);
-    c.lod_bounds = c.bounds;
-  });
   s.report.seconds_cluster = steady_seconds() - t0;
   const double te = steady_seconds();
   std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
@@ -638,7 +664,11 @@ void count_level_edges(BuildState& s, LevelState& L) {
   std::vector<uint64_t> open(active.size()), all(active.size());
   L.open_keys.assign(active.size(), {});
   s.pool.parallel_for(active.size(), [&](size_t i) {
-    count_cluster_edges(s.welded, s.clusters[active[i]].triangles, &open[i], &all[i], &L.open_keys[i]);
+    ClusterEdges& e = s.clusters[active[i]].edges;
+    if (!e.counted) e = cluster_edges(s.welded, s.clusters[active[i]].triangles);
+    open[i] = e.open, all[i] = e.all;
+    L.open_keys[i] = std::move(e.open_keys);
+    e = ClusterEdges();
   });
   uint64_t so = 0, sa = 0;
   for (size_t i = 0; i < active.size(); ++i) {
@@ -948,6 +978,14 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   }
   r.clusters = split_into_clusters(s.welded, simplified.triangles, scratch, s.internal.group_split);
   s.scratch.give(std::move(scratch));
+  if (!s.placement) {
+    r.bounds.resize(r.clusters.size());
+    r.edges.resize(r.clusters.size());
+    for (size_t i = 0; i < r.clusters.size(); ++i) {
+      r.bounds[i] = cluster_sphere(*s.positions, r.clusters[i]);
+      r.edges[i] = cluster_edges(s.welded, r.clusters[i]);
+    }
+  }
   r.seconds_split = steady_seconds() - tm;
   r.terminal = false;
   r.error = error;
@@ -1145,9 +1183,10 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
     // parent_error = max(member lod_error, measured deviation from the leaves): monotonic
     // exactly, and tight (no per-level sum).
     if (std::isfinite(r.error)) groups[gi].parent_error = std::max(groups[gi].parent_error, r.error);
-    for (TriangleSet& t : r.clusters) {
+    for (size_t k = 0; k < r.clusters.size(); ++k) {
       WorkCluster c;
-      c.triangles = std::move(t);
+      c.triangles = std::move(r.clusters[k]);
+      if (!r.edges.empty()) c.bounds = r.bounds[k], c.edges = std::move(r.edges[k]);
       c.level = L.level + 1;
       c.generating_group = gi;
       c.lod_bounds = groups[gi].parent_bounds;
@@ -1160,7 +1199,7 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   if (!L.simplify_allowed) L.report.stuck_groups = 0;  // roots by construction, not stuck
   s.pool.parallel_for(next.size(), [&](size_t i) {
     WorkCluster& c = clusters[next[i]];
-    c.bounds = cluster_sphere(*s.positions, c.triangles);
+    if (!c.edges.counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
   });
   // Reset per-level lock state (only the touched entries; the same values from any task).
   s.pool.parallel_for(L.active.size(), [&](size_t i) {
