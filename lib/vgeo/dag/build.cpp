@@ -85,6 +85,25 @@ Sphere cluster_sphere(const Mesh& mesh, const TriangleSet& t) {
   return sphere_of_points(mesh, t.corners.data(), t.corners.size());
 }
 
+// A new cluster's sphere from its distinct welded positions in order of first use (marked in
+// the task's scratch array, all kNone, returned so): a copy sits exactly at its
+// representative's position, and sphere_of_points' box and farthest point are the same when
+// later repeats of a point are left out (a tie keeps the first), so this is cluster_sphere's
+// value bit for bit from about a third of the points.
+Sphere cluster_sphere_welded(const Mesh& mesh, const WeldedMesh& welded, const TriangleSet& t,
+                             std::vector<uint32_t>& scratch) {
+  constexpr size_t kMaxCorners = 3 * size_t(kMaxClusterTriangles);
+  if (t.corners.size() > kMaxCorners) return cluster_sphere(mesh, t);
+  uint32_t points[kMaxCorners];
+  size_t count = 0;
+  for (uint32_t v : t.corners) {
+    const uint32_t w = welded.weld[v];
+    if (scratch[w] == kNone) scratch[w] = 0, points[count++] = w;
+  }
+  for (size_t i = 0; i < count; ++i) scratch[points[i]] = kNone;
+  return sphere_of_points(mesh, points, count);
+}
+
 ClusterEdges cluster_edges(const WeldedMesh& welded, const TriangleSet& t) {
   ClusterEdges e;
   e.counted = true;
@@ -361,7 +380,8 @@ struct ScratchPool {
 };
 
 // Lock state by welded id (spec/dag.md §2.3 Locks). `retired`/`retired_edges` persist across
-// levels; `owner`/`locked` are per level and reset to kNone/0 after it.
+// levels; `owner`/`locked` are per level, all kNone/0 between levels (cleared by the passes that
+// read the claims, and by combine_level).
 struct LockState {
   std::vector<uint8_t> retired;         // welded vertex of a terminal group's member
   std::vector<uint64_t> retired_edges;  // sorted welded edge keys of terminal groups' members
@@ -615,17 +635,17 @@ void build_leaves(BuildState& s) {
     std::vector<uint32_t> scratch = s.scratch.take();
     std::vector<TriangleSet> split =
         split_into_clusters(s.welded, chunks[i], scratch, s.internal.leaf_split, chunk_degenerate[i].data());
-    s.scratch.give(std::move(scratch));
     chunks[i] = TriangleSet();
     chunk_degenerate[i] = {};
     chunk_leaves[i].resize(split.size());
     for (size_t k = 0; k < split.size(); ++k) {
       WorkCluster& c = chunk_leaves[i][k];
       c.triangles = std::move(split[k]);
-      c.bounds = cluster_sphere(s.mesh, c.triangles);
+      c.bounds = cluster_sphere_welded(s.mesh, s.welded, c.triangles, scratch);
       c.lod_bounds = c.bounds;
       c.edges = cluster_edges(s.welded, c.triangles);
     }
+    s.scratch.give(std::move(scratch));
   });
   size_t leaf_count = 0;
   for (const auto& cl : chunk_leaves) leaf_count += cl.size();
@@ -772,14 +792,29 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
   // triangle of the group), so the border check needs no search of the block's edges; the
   // locks of this block's vertices are final here (other blocks lock only their own).
   // Collected per group (in parallel with `inner`), then joined in group order: the list the
-  // sort gets is the same for any thread count.
+  // sort gets is the same for any thread count. The same pass clears the block's claims (owner:
+  // only the locks above read them, and every vertex they claimed is a corner here), while
+  // their cache lines are fresh; combine_level then clears only `locked`.
   std::vector<std::vector<std::pair<uint64_t, uint32_t>>> group_candidates(group_count);
   for_chunks(inner, group_count, kLockGroupsPerTask, [&](size_t begin, size_t end) {
     for (size_t g = begin; g < end; ++g)
-      for (uint32_t m : blk.groups[g])
-        for_each_welded_edge(s.welded, s.clusters[m].triangles.corners, [&](uint32_t a, uint32_t c) {
-          if (a != c && locked[a] && locked[c]) group_candidates[g].push_back({edge_key(a, c), uint32_t(g)});
-        });
+      for (uint32_t m : blk.groups[g]) {
+        const std::vector<uint32_t>& corners = s.clusters[m].triangles.corners;
+        // for_each_welded_edge's edges, each corner's weld and lock read once.
+        for (size_t c = 0; c + 3 <= corners.size(); c += 3) {
+          const uint32_t w[3] = {s.welded.weld[corners[c]], s.welded.weld[corners[c + 1]],
+                                 s.welded.weld[corners[c + 2]]};
+          for (uint32_t x : w) {
+            std::atomic_ref<uint32_t> claim(owner[x]);
+            if (claim.load(std::memory_order_relaxed) != kNone) claim.store(kNone, std::memory_order_relaxed);
+          }
+          const bool l[3] = {locked[w[0]] != 0, locked[w[1]] != 0, locked[w[2]] != 0};
+          for (int k = 0; k < 3; ++k) {
+            const int next = k == 2 ? 0 : k + 1;
+            if (l[k] && l[next] && w[k] != w[next]) group_candidates[g].push_back({edge_key(w[k], w[next]), uint32_t(g)});
+          }
+        }
+      }
   });
   size_t candidate_count = 0;
   for (const auto& gc : group_candidates) candidate_count += gc.size();
@@ -977,15 +1012,15 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     return;
   }
   r.clusters = split_into_clusters(s.welded, simplified.triangles, scratch, s.internal.group_split);
-  s.scratch.give(std::move(scratch));
   if (!s.placement) {
     r.bounds.resize(r.clusters.size());
     r.edges.resize(r.clusters.size());
     for (size_t i = 0; i < r.clusters.size(); ++i) {
-      r.bounds[i] = cluster_sphere(*s.positions, r.clusters[i]);
+      r.bounds[i] = cluster_sphere_welded(*s.positions, s.welded, r.clusters[i], scratch);
       r.edges[i] = cluster_edges(s.welded, r.clusters[i]);
     }
   }
+  s.scratch.give(std::move(scratch));
   r.seconds_split = steady_seconds() - tm;
   r.terminal = false;
   r.error = error;
@@ -1201,11 +1236,12 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
     WorkCluster& c = clusters[next[i]];
     if (!c.edges.counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
   });
-  // Reset per-level lock state (only the touched entries; the same values from any task).
+  // Reset per-level lock state (only the touched entries; the same values from any task). The
+  // claims (owner) were cleared by the passes that read them (lock_cross_block_vertices,
+  // group_and_lock_block).
   s.pool.parallel_for(L.active.size(), [&](size_t i) {
     for (uint32_t v : clusters[L.active[i]].triangles.corners) {
       uint32_t w = s.welded.weld[v];
-      std::atomic_ref<uint32_t>(s.locks.owner[w]).store(kNone, std::memory_order_relaxed);
       std::atomic_ref<uint8_t>(s.locks.locked[w]).store(0, std::memory_order_relaxed);
     }
   });
