@@ -773,14 +773,17 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
           const uint32_t w = s.welded.weld[v];
           std::atomic_ref<uint8_t> lock(locked[w]);
           if (lock.load(std::memory_order_relaxed)) continue;
+          // A plain read decides once the vertex is claimed (a vertex's corners mostly follow
+          // its first claim in the same group): the compare-exchange runs once per vertex. A
+          // vertex this group claimed was neither retired nor pinned (those are locked, never
+          // claimed, and neither changes during the pass), so its later corners stop here.
+          std::atomic_ref<uint32_t> claim(owner[w]);
+          uint32_t expected = claim.load(std::memory_order_relaxed);
+          if (expected == tag) continue;
           if (s.locks.retired[w] || s.locks.pinned[w]) {
             lock.store(1, std::memory_order_relaxed);
             continue;
           }
-          // A plain read decides once the vertex is claimed (a vertex's corners mostly follow
-          // its first claim in the same group): the compare-exchange runs once per vertex.
-          std::atomic_ref<uint32_t> claim(owner[w]);
-          uint32_t expected = claim.load(std::memory_order_relaxed);
           if (expected == kNone && claim.compare_exchange_strong(expected, tag, std::memory_order_relaxed)) continue;
           if (expected != tag) lock.store(1, std::memory_order_relaxed);
         }
@@ -1358,13 +1361,15 @@ ClusterDag lay_out(BuildState& s) {
     std::vector<uint32_t>& verts = cluster_vertices[i];
     std::vector<uint8_t>& local = cluster_local[i];
     local.resize(t.corners.size());
-    // Open addressing over ≤ 384 corners: 1024 slots keep probes short.
-    constexpr size_t kSlots = 1024;
+    // Open addressing over ≤ 384 corners, ≤ 255 distinct (kMaxClusterVertices): 512 slots, a
+    // load ≤ 1/2 (1024 slots cost more to clear per cluster than their shorter probes saved).
+    constexpr size_t kSlots = 512;
+    constexpr int kSlotShift = 32 - 9;  // top log2(kSlots) bits of the hash
     uint32_t key[kSlots], val[kSlots];
     std::fill(key, key + kSlots, kNone);
     for (size_t k = 0; k < t.corners.size(); ++k) {
       uint32_t v = t.corners[k];
-      size_t h = (v * 0x9E3779B1u) >> 22;
+      size_t h = (v * 0x9E3779B1u) >> kSlotShift;
       while (key[h] != kNone && key[h] != v) h = (h + 1) & (kSlots - 1);
       if (key[h] == kNone) {
         key[h] = v;
