@@ -380,8 +380,7 @@ struct ScratchPool {
 };
 
 // Lock state by welded id (spec/dag.md §2.3 Locks). `retired`/`retired_edges` persist across
-// levels; `owner`/`locked` are per level, all kNone/0 between levels (cleared by the passes that
-// read the claims, and by combine_level).
+// levels; `owner`/`locked` are per level and reset to kNone/0 after it.
 struct LockState {
   std::vector<uint8_t> retired;         // welded vertex of a terminal group's member
   std::vector<uint64_t> retired_edges;  // sorted welded edge keys of terminal groups' members
@@ -795,9 +794,7 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
   // triangle of the group), so the border check needs no search of the block's edges; the
   // locks of this block's vertices are final here (other blocks lock only their own).
   // Collected per group (in parallel with `inner`), then joined in group order: the list the
-  // sort gets is the same for any thread count. The same pass clears the block's claims (owner:
-  // only the locks above read them, and every vertex they claimed is a corner here), while
-  // their cache lines are fresh; combine_level then clears only `locked`.
+  // sort gets is the same for any thread count.
   std::vector<std::vector<std::pair<uint64_t, uint32_t>>> group_candidates(group_count);
   for_chunks(inner, group_count, kLockGroupsPerTask, [&](size_t begin, size_t end) {
     for (size_t g = begin; g < end; ++g)
@@ -807,10 +804,6 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
         for (size_t c = 0; c + 3 <= corners.size(); c += 3) {
           const uint32_t w[3] = {s.welded.weld[corners[c]], s.welded.weld[corners[c + 1]],
                                  s.welded.weld[corners[c + 2]]};
-          for (uint32_t x : w) {
-            std::atomic_ref<uint32_t> claim(owner[x]);
-            if (claim.load(std::memory_order_relaxed) != kNone) claim.store(kNone, std::memory_order_relaxed);
-          }
           const bool l[3] = {locked[w[0]] != 0, locked[w[1]] != 0, locked[w[2]] != 0};
           for (int k = 0; k < 3; ++k) {
             const int next = k == 2 ? 0 : k + 1;
@@ -1239,12 +1232,11 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
     WorkCluster& c = clusters[next[i]];
     if (!c.edges.counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
   });
-  // Reset per-level lock state (only the touched entries; the same values from any task). The
-  // claims (owner) were cleared by the passes that read them (lock_cross_block_vertices,
-  // group_and_lock_block).
+  // Reset per-level lock state (only the touched entries; the same values from any task).
   s.pool.parallel_for(L.active.size(), [&](size_t i) {
     for (uint32_t v : clusters[L.active[i]].triangles.corners) {
       uint32_t w = s.welded.weld[v];
+      std::atomic_ref<uint32_t>(s.locks.owner[w]).store(kNone, std::memory_order_relaxed);
       std::atomic_ref<uint8_t>(s.locks.locked[w]).store(0, std::memory_order_relaxed);
     }
   });
