@@ -569,10 +569,7 @@ namespace {
 // 2-manifold allows (once each).
 EdgeUses count_edge_uses(const WeldedMesh& welded, const TriangleSet& after, std::vector<uint64_t>& folded) {
   constexpr uint32_t kManifoldUses = 2;  // an edge of a 2-manifold is used by at most 2 triangles
-  // Sized for 2 edges per triangle (a surface's ~1.5, each inner edge used twice): a load ≤ 3/8
-  // there and ≤ 3/4 even if no edge were shared; the table's clearing was most of this pass's
-  // memory traffic at 3 edges per triangle.
-  EdgeUses out(after.corners.size() / 3 * 2);
+  EdgeUses out(after.corners.size());
   for_each_welded_edge(welded, after.corners, [&](uint32_t a, uint32_t b) {
     if (a != b && out.add(edge_key(a, b)) == kManifoldUses + 1) folded.push_back(edge_key(a, b));
   });
