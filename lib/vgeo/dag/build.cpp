@@ -34,10 +34,15 @@ namespace {
 // over all clusters missed the cache on each: count_cluster_edges and the spheres were 5% of a
 // 1M-triangle build). Not with vertex placement: there a group's clusters are renamed in
 // combine_level (moved vertices get their ids there), so their edges and spheres come after.
-struct ClusterEdges {
+struct ClusterFacts {
   bool counted = false;
   uint64_t open = 0, all = 0;       // count_cluster_edges
-  std::vector<uint64_t> open_keys;  // sorted open welded edges (grouping)
+  std::vector<uint64_t> open_keys;  // sorted open welded edges (grouping; moved out by count_level_edges)
+  // Distinct welded ids of its corners in order of first use (empty: not listed). The lock
+  // passes decide per vertex, and a vertex's later corners in one cluster change nothing (the
+  // first one locked or claimed it for the same group), so they walk this list, a third of the
+  // corners, without the weld lookups; freed when the cluster's level is combined.
+  std::vector<uint32_t> welded;
 };
 
 struct WorkCluster {
@@ -47,7 +52,7 @@ struct WorkCluster {
   uint32_t generating_group = kNone;  // work group index
   Sphere bounds, lod_bounds;
   float lod_error = 0.0f;
-  ClusterEdges edges;  // counted at creation, consumed by count_level_edges
+  ClusterFacts facts;  // found at creation, consumed by the cluster's level
 };
 
 struct WorkGroup {
@@ -89,26 +94,39 @@ Sphere cluster_sphere(const Mesh& mesh, const TriangleSet& t) {
 // the task's scratch array, all kNone, returned so): a copy sits exactly at its
 // representative's position, and sphere_of_points' box and farthest point are the same when
 // later repeats of a point are left out (a tie keeps the first), so this is cluster_sphere's
-// value bit for bit from about a third of the points.
+// value bit for bit from about a third of the points. `points` gets that list.
 Sphere cluster_sphere_welded(const Mesh& mesh, const WeldedMesh& welded, const TriangleSet& t,
-                             std::vector<uint32_t>& scratch) {
-  constexpr size_t kMaxCorners = 3 * size_t(kMaxClusterTriangles);
-  if (t.corners.size() > kMaxCorners) return cluster_sphere(mesh, t);
-  uint32_t points[kMaxCorners];
-  size_t count = 0;
+                             std::vector<uint32_t>& scratch, std::vector<uint32_t>& points) {
+  points.clear();
+  points.reserve(t.corners.size());
   for (uint32_t v : t.corners) {
     const uint32_t w = welded.weld[v];
-    if (scratch[w] == kNone) scratch[w] = 0, points[count++] = w;
+    if (scratch[w] == kNone) scratch[w] = 0, points.push_back(w);
   }
-  for (size_t i = 0; i < count; ++i) scratch[points[i]] = kNone;
-  return sphere_of_points(mesh, points, count);
+  for (uint32_t w : points) scratch[w] = kNone;
+  points.shrink_to_fit();
+  return sphere_of_points(mesh, points.data(), points.size());
 }
 
-ClusterEdges cluster_edges(const WeldedMesh& welded, const TriangleSet& t) {
-  ClusterEdges e;
-  e.counted = true;
-  count_cluster_edges(welded, t, &e.open, &e.all, &e.open_keys);
-  return e;
+// A new cluster's facts (ClusterFacts) and sphere.
+ClusterFacts cluster_facts(const Mesh& mesh, const WeldedMesh& welded, const TriangleSet& t,
+                           std::vector<uint32_t>& scratch, Sphere& bounds) {
+  ClusterFacts f;
+  f.counted = true;
+  count_cluster_edges(welded, t, &f.open, &f.all, &f.open_keys);
+  bounds = cluster_sphere_welded(mesh, welded, t, scratch, f.welded);
+  return f;
+}
+
+// Calls fn(w) for each distinct welded id of cluster c's corners (ClusterFacts::welded), or
+// for each corner's welded id where they are not listed.
+template <class Fn>
+void for_each_cluster_vertex(const WeldedMesh& welded, const WorkCluster& c, Fn&& fn) {
+  if (!c.facts.welded.empty()) {
+    for (uint32_t w : c.facts.welded) fn(w);
+  } else {
+    for (uint32_t v : c.triangles.corners) fn(welded.weld[v]);
+  }
 }
 
 // Leaf clustering input, cut into chunks of about kLeafChunkTriangles (see build_dag).
@@ -304,34 +322,43 @@ std::vector<uint64_t> build_detail::lock_cross_block_vertices(const WeldedMesh& 
                                                               const std::vector<const TriangleSet*>& clusters,
                                                               const std::vector<uint32_t>& block_of, ThreadPool& pool,
                                                               std::vector<uint32_t>& owner,
-                                                              std::vector<uint8_t>& locked) {
+                                                              std::vector<uint8_t>& locked,
+                                                              const std::vector<const std::vector<uint32_t>*>* vertices) {
+  // fn(w) per distinct welded id of cluster i (a vertex's later corners in one cluster decide
+  // nothing: its first one claimed or locked it for the same block), else per corner.
+  auto for_each_vertex = [&](size_t i, auto&& fn) {
+    if (vertices && (*vertices)[i]) {
+      for (uint32_t w : *(*vertices)[i]) fn(w);
+    } else {
+      for (uint32_t v : clusters[i]->corners) fn(welded.weld[v]);
+    }
+  };
   pool.parallel_for(clusters.size(), [&](size_t i) {
     const uint32_t block = block_of[i];
-    for (uint32_t v : clusters[i]->corners) {
-      const uint32_t w = welded.weld[v];
+    for_each_vertex(i, [&](uint32_t w) {
       // An owner, once claimed, never changes: a plain read that finds one decides without the
       // compare-exchange (a locked instruction per corner was most of this pass; a vertex's
       // corners mostly follow its first claim in the same cluster).
       std::atomic_ref<uint32_t> claim(owner[w]);
       uint32_t expected = claim.load(std::memory_order_relaxed);
-      if (expected == kNone && claim.compare_exchange_strong(expected, block, std::memory_order_relaxed)) continue;
+      if (expected == kNone && claim.compare_exchange_strong(expected, block, std::memory_order_relaxed)) return;
       if (expected != block) {
         std::atomic_ref<uint8_t> lock(locked[w]);
         if (!lock.load(std::memory_order_relaxed)) lock.store(1, std::memory_order_relaxed);
       }
-    }
+    });
   });
   std::vector<std::vector<uint64_t>> per_cluster(clusters.size());
   pool.parallel_for(clusters.size(), [&](size_t i) {
     const TriangleSet& t = *clusters[i];
-    // One pass over the corners: the claims reset, and for_each_welded_edge's edges with both
-    // ends locked (each corner's weld and lock read once).
+    // The claims reset, then for_each_welded_edge's edges with both ends locked (each corner's
+    // weld and lock read once).
+    for_each_vertex(i, [&](uint32_t x) {
+      std::atomic_ref<uint32_t> claim(owner[x]);
+      if (claim.load(std::memory_order_relaxed) != kNone) claim.store(kNone, std::memory_order_relaxed);
+    });
     for (size_t c = 0; c + 3 <= t.corners.size(); c += 3) {
       const uint32_t w[3] = {welded.weld[t.corners[c]], welded.weld[t.corners[c + 1]], welded.weld[t.corners[c + 2]]};
-      for (uint32_t x : w) {
-        std::atomic_ref<uint32_t> claim(owner[x]);
-        if (claim.load(std::memory_order_relaxed) != kNone) claim.store(kNone, std::memory_order_relaxed);
-      }
       const bool l[3] = {locked[w[0]] != 0, locked[w[1]] != 0, locked[w[2]] != 0};
       for (int k = 0; k < 3; ++k) {
         const int next = k == 2 ? 0 : k + 1;
@@ -421,9 +448,9 @@ struct GroupResult {
   bool terminal = true;
   float error = 0.0f;
   std::vector<TriangleSet> clusters;  // corners of moved vertices: their old ids until combine_level
-  // Per cluster, when counted in the task (no vertex placement): its sphere and edges.
+  // Per cluster, when found in the task (no vertex placement): its sphere and facts.
   std::vector<Sphere> bounds;
-  std::vector<ClusterEdges> edges;
+  std::vector<ClusterFacts> facts;
   VertexMoves moves;
   double seconds_simplify = 0, seconds_split = 0, seconds_error = 0;
 };
@@ -628,7 +655,7 @@ void build_leaves(BuildState& s) {
   std::vector<std::vector<uint8_t>> chunk_degenerate;
   std::vector<TriangleSet> chunks = leaf_chunks(s.mesh, s.mesh_box, s.pool, s.leaf_degenerate, chunk_degenerate);
   s.leaf_degenerate = {};
-  // Each chunk's task also gives its leaves their spheres and level-0 edges (ClusterEdges).
+  // Each chunk's task also gives its leaves their spheres and facts (ClusterFacts).
   std::vector<std::vector<WorkCluster>> chunk_leaves(chunks.size());
   s.pool.parallel_for(chunks.size(), [&](size_t i) {
     std::vector<uint32_t> scratch = s.scratch.take();
@@ -640,9 +667,8 @@ void build_leaves(BuildState& s) {
     for (size_t k = 0; k < split.size(); ++k) {
       WorkCluster& c = chunk_leaves[i][k];
       c.triangles = std::move(split[k]);
-      c.bounds = cluster_sphere_welded(s.mesh, s.welded, c.triangles, scratch);
+      c.facts = cluster_facts(s.mesh, s.welded, c.triangles, scratch, c.bounds);
       c.lod_bounds = c.bounds;
-      c.edges = cluster_edges(s.welded, c.triangles);
     }
     s.scratch.give(std::move(scratch));
   });
@@ -683,11 +709,12 @@ void count_level_edges(BuildState& s, LevelState& L) {
   std::vector<uint64_t> open(active.size()), all(active.size());
   L.open_keys.assign(active.size(), {});
   s.pool.parallel_for(active.size(), [&](size_t i) {
-    ClusterEdges& e = s.clusters[active[i]].edges;
-    if (!e.counted) e = cluster_edges(s.welded, s.clusters[active[i]].triangles);
-    open[i] = e.open, all[i] = e.all;
-    L.open_keys[i] = std::move(e.open_keys);
-    e = ClusterEdges();
+    ClusterFacts& f = s.clusters[active[i]].facts;
+    if (!f.counted) count_cluster_edges(s.welded, s.clusters[active[i]].triangles, &f.open, &f.all, &f.open_keys);
+    open[i] = f.open, all[i] = f.all;
+    L.open_keys[i] = std::move(f.open_keys);
+    f.open_keys = {};
+    f.counted = false;
   });
   uint64_t so = 0, sa = 0;
   for (size_t i = 0; i < active.size(); ++i) {
@@ -727,8 +754,14 @@ void plan_blocks(BuildState& s, LevelState& L) {
     for (size_t b = 0; b < block_count; ++b)
       for (uint32_t i : L.blocks[b].items) block_of[i] = uint32_t(b);
     std::vector<const TriangleSet*> sets(active.size());
-    for (size_t i = 0; i < active.size(); ++i) sets[i] = &s.clusters[active[i]].triangles;
-    L.cross_edges = lock_cross_block_vertices(s.welded, sets, block_of, s.pool, s.locks.owner, s.locks.locked);
+    std::vector<const std::vector<uint32_t>*> vertices(active.size());
+    for (size_t i = 0; i < active.size(); ++i) {
+      const WorkCluster& c = s.clusters[active[i]];
+      sets[i] = &c.triangles;
+      vertices[i] = c.facts.welded.empty() ? nullptr : &c.facts.welded;
+    }
+    L.cross_edges =
+        lock_cross_block_vertices(s.welded, sets, block_of, s.pool, s.locks.owner, s.locks.locked, &vertices);
   }
   L.seconds_cross = steady_seconds() - t0;
 }
@@ -768,24 +801,23 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
     for (size_t g = begin; g < end; ++g) {
       const uint32_t tag = uint32_t(b << 16 | g);
       for (uint32_t m : blk.groups[g])
-        for (uint32_t v : s.clusters[m].triangles.corners) {
-          const uint32_t w = s.welded.weld[v];
+        for_each_cluster_vertex(s.welded, s.clusters[m], [&](uint32_t w) {
           std::atomic_ref<uint8_t> lock(locked[w]);
-          if (lock.load(std::memory_order_relaxed)) continue;
-          // A plain read decides once the vertex is claimed (a vertex's corners mostly follow
-          // its first claim in the same group): the compare-exchange runs once per vertex. A
-          // vertex this group claimed was neither retired nor pinned (those are locked, never
-          // claimed, and neither changes during the pass), so its later corners stop here.
+          if (lock.load(std::memory_order_relaxed)) return;
+          // A plain read decides once the vertex is claimed (a vertex of the group's clusters
+          // mostly follows its first claim in the same group): the compare-exchange runs once
+          // per vertex. A vertex this group claimed was neither retired nor pinned (those are
+          // locked, never claimed, and neither changes during the pass), so it stops here.
           std::atomic_ref<uint32_t> claim(owner[w]);
           uint32_t expected = claim.load(std::memory_order_relaxed);
-          if (expected == tag) continue;
+          if (expected == tag) return;
           if (s.locks.retired[w] || s.locks.pinned[w]) {
             lock.store(1, std::memory_order_relaxed);
-            continue;
+            return;
           }
-          if (expected == kNone && claim.compare_exchange_strong(expected, tag, std::memory_order_relaxed)) continue;
+          if (expected == kNone && claim.compare_exchange_strong(expected, tag, std::memory_order_relaxed)) return;
           if (expected != tag) lock.store(1, std::memory_order_relaxed);
-        }
+        });
     }
   });
   // Shared edges: welded edges with both ends locked used by two groups of this level, by
@@ -1010,11 +1042,9 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   r.clusters = split_into_clusters(s.welded, simplified.triangles, scratch, s.internal.group_split);
   if (!s.placement) {
     r.bounds.resize(r.clusters.size());
-    r.edges.resize(r.clusters.size());
-    for (size_t i = 0; i < r.clusters.size(); ++i) {
-      r.bounds[i] = cluster_sphere_welded(*s.positions, s.welded, r.clusters[i], scratch);
-      r.edges[i] = cluster_edges(s.welded, r.clusters[i]);
-    }
+    r.facts.resize(r.clusters.size());
+    for (size_t i = 0; i < r.clusters.size(); ++i)
+      r.facts[i] = cluster_facts(*s.positions, s.welded, r.clusters[i], scratch, r.bounds[i]);
   }
   s.scratch.give(std::move(scratch));
   r.seconds_split = steady_seconds() - tm;
@@ -1217,7 +1247,7 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
     for (size_t k = 0; k < r.clusters.size(); ++k) {
       WorkCluster c;
       c.triangles = std::move(r.clusters[k]);
-      if (!r.edges.empty()) c.bounds = r.bounds[k], c.edges = std::move(r.edges[k]);
+      if (!r.facts.empty()) c.bounds = r.bounds[k], c.facts = std::move(r.facts[k]);
       c.level = L.level + 1;
       c.generating_group = gi;
       c.lod_bounds = groups[gi].parent_bounds;
@@ -1230,15 +1260,17 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   if (!L.simplify_allowed) L.report.stuck_groups = 0;  // roots by construction, not stuck
   s.pool.parallel_for(next.size(), [&](size_t i) {
     WorkCluster& c = clusters[next[i]];
-    if (!c.edges.counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
+    if (!c.facts.counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
   });
-  // Reset per-level lock state (only the touched entries; the same values from any task).
+  // Reset per-level lock state (only the touched entries; the same values from any task); the
+  // level's clusters' vertex lists are done with.
   s.pool.parallel_for(L.active.size(), [&](size_t i) {
-    for (uint32_t v : clusters[L.active[i]].triangles.corners) {
-      uint32_t w = s.welded.weld[v];
+    WorkCluster& c = clusters[L.active[i]];
+    for_each_cluster_vertex(s.welded, c, [&](uint32_t w) {
       std::atomic_ref<uint32_t>(s.locks.owner[w]).store(kNone, std::memory_order_relaxed);
       std::atomic_ref<uint8_t>(s.locks.locked[w]).store(0, std::memory_order_relaxed);
-    }
+    });
+    c.facts = ClusterFacts();
   });
   std::vector<uint64_t>& retired_edges = s.locks.retired_edges;
   if (!new_retired_edges.empty()) {

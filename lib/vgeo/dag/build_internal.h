@@ -205,9 +205,12 @@ std::vector<std::vector<uint32_t>> spatial_blocks(const std::vector<Vec3>& centr
 // (locked[w] = 1) every welded vertex used by clusters of two blocks (block_of[i] = block of
 // clusters[i]) and returns the sorted welded edges used by two blocks. `owner` (weld.size()
 // entries, all kNone) is scratch, returned all kNone. Same result for any thread count.
+// `vertices` (optional, per cluster, null where unknown): the distinct welded ids of its
+// corners; the claims then walk those instead of the corners (the same locks).
 std::vector<uint64_t> lock_cross_block_vertices(const WeldedMesh& welded, const std::vector<const TriangleSet*>& clusters,
                                                 const std::vector<uint32_t>& block_of, ThreadPool& pool,
-                                                std::vector<uint32_t>& owner, std::vector<uint8_t>& locked);
+                                                std::vector<uint32_t>& owner, std::vector<uint8_t>& locked,
+                                                const std::vector<const std::vector<uint32_t>*>* vertices = nullptr);
 
 // Knobs for measuring alternatives (benchmarks, tests); build_dag uses the defaults.
 struct InternalBuildOptions {
