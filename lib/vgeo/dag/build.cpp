@@ -90,31 +90,36 @@ Sphere cluster_sphere(const Mesh& mesh, const TriangleSet& t) {
   return sphere_of_points(mesh, t.corners.data(), t.corners.size());
 }
 
-// A new cluster's sphere from its distinct welded positions in order of first use (marked in
-// the task's scratch array, all kNone, returned so): a copy sits exactly at its
-// representative's position, and sphere_of_points' box and farthest point are the same when
-// later repeats of a point are left out (a tie keeps the first), so this is cluster_sphere's
-// value bit for bit from about a third of the points. `points` gets that list.
-Sphere cluster_sphere_welded(const Mesh& mesh, const WeldedMesh& welded, const TriangleSet& t,
-                             std::vector<uint32_t>& scratch, std::vector<uint32_t>& points) {
-  points.clear();
-  points.reserve(t.corners.size());
-  for (uint32_t v : t.corners) {
-    const uint32_t w = welded.weld[v];
-    if (scratch[w] == kNone) scratch[w] = 0, points.push_back(w);
-  }
-  for (uint32_t w : points) scratch[w] = kNone;
-  points.shrink_to_fit();
-  return sphere_of_points(mesh, points.data(), points.size());
-}
-
-// A new cluster's facts (ClusterFacts) and sphere.
+// A new cluster's facts (ClusterFacts) and sphere, from one pass that lists its distinct
+// welded ids in order of first use (marked in the task's scratch array, all kNone, returned
+// so) and gives each corner its local id:
+// - the sphere from those points: a copy sits exactly at its representative's position, and
+//   sphere_of_points' box and farthest point are the same when later repeats of a point are
+//   left out (a tie keeps the first), so this is cluster_sphere's value bit for bit from about
+//   a third of the points;
+// - the edges in local ids (count_local_edges: count_cluster_edges' counts and keys).
 ClusterFacts cluster_facts(const Mesh& mesh, const WeldedMesh& welded, const TriangleSet& t,
                            std::vector<uint32_t>& scratch, Sphere& bounds) {
   ClusterFacts f;
   f.counted = true;
-  count_cluster_edges(welded, t, &f.open, &f.all, &f.open_keys);
-  bounds = cluster_sphere_welded(mesh, welded, t, scratch, f.welded);
+  constexpr size_t kMaxCorners = 3 * size_t(kMaxClusterTriangles);
+  if (t.corners.size() > kMaxCorners) {  // not a cluster of the build (kept for safety)
+    count_cluster_edges(welded, t, &f.open, &f.all, &f.open_keys);
+    bounds = cluster_sphere(mesh, t);
+    return f;
+  }
+  uint16_t local[kMaxCorners];
+  std::vector<uint32_t>& points = f.welded;
+  points.reserve(t.corners.size());
+  for (size_t i = 0; i < t.corners.size(); ++i) {
+    const uint32_t w = welded.weld[t.corners[i]];
+    if (scratch[w] == kNone) scratch[w] = uint32_t(points.size()), points.push_back(w);
+    local[i] = uint16_t(scratch[w]);
+  }
+  for (uint32_t w : points) scratch[w] = kNone;
+  points.shrink_to_fit();
+  bounds = sphere_of_points(mesh, points.data(), points.size());
+  count_local_edges(points.data(), points.size(), local, t.triangle_count(), &f.open, &f.all, &f.open_keys);
   return f;
 }
 

@@ -511,6 +511,11 @@ Sphere enclose_spheres(const Sphere* spheres, size_t count);
 // all distinct welded edges (for BuildLevelReport::boundary_edge_fraction; welded_mesh.cpp).
 void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
                          uint64_t* all_edges, std::vector<uint64_t>* open_keys = nullptr);
+// The same counts and keys from the cluster in local ids: `vertices` = its distinct welded ids,
+// `local` = 3 indices into them per triangle (count_cluster_edges finds them itself; the build
+// has them from the pass that lists a new cluster's vertices).
+void count_local_edges(const uint32_t* vertices, size_t vertex_count, const uint16_t* local, size_t triangles,
+                       uint64_t* open_edges, uint64_t* all_edges, std::vector<uint64_t>* open_keys);
 
 // Every METIS call holds this lock: GKlib's random state is process-global, so concurrent
 // calls would make results depend on timing (and would race). Defined in group.cpp.

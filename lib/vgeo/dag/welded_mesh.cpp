@@ -2,6 +2,8 @@
 // welding, degenerate triangles and fins, the open and distinct edges of a cluster.
 #include <algorithm>
 #include <array>
+#include <bit>
+#include <cassert>
 #include <cstring>
 
 #include "vgeo/dag/build_internal.h"
@@ -58,71 +60,88 @@ WeldedMesh weld_positions(const Mesh& mesh) {
   return w;
 }
 
-void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
-                         uint64_t* all_edges, std::vector<uint64_t>* open_keys) {
-  // Uses per distinct welded edge in an open addressing table instead of a sort of all keys:
-  // only the open keys (a minority) are sorted. The table and the list of filled slots live on
-  // the stack up to kStackSlots (every cluster: 4 × 128 triangles fit), so the per-cluster pass
-  // allocates nothing and visits only the filled slots. At least 4 slots per triangle: a load
-  // ≤ 3/4 if all 3n edges were distinct, about 0.4 on a surface (each inner edge is used
-  // twice); an empty slot is one with no use, so only the use counts are cleared (the
-  // clearing was a third of this pass at 6 slots per triangle, keys and counts).
-  constexpr size_t kStackSlots = 512;
-  constexpr size_t kSlotsPerTriangle = 4;
-  const size_t n = cluster.triangle_count();
-  size_t slots = 16;
-  int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
-  while (slots < kSlotsPerTriangle * n) slots <<= 1, --shift;
-  uint64_t stack_table[kStackSlots];
-  uint32_t stack_uses[kStackSlots], stack_filled[kStackSlots];
-  std::vector<uint64_t> heap_table;
-  std::vector<uint32_t> heap_uses, heap_filled;
-  uint64_t* table = stack_table;
-  uint32_t *uses = stack_uses, *filled = stack_filled;
-  if (slots > kStackSlots) {
-    heap_table.resize(slots);
-    heap_uses.resize(slots);
-    heap_filled.resize(slots);
-    table = heap_table.data(), uses = heap_uses.data(), filled = heap_filled.data();
+void count_local_edges(const uint32_t* vertices, size_t vertex_count, const uint16_t* local, size_t triangles,
+                       uint64_t* open_edges, uint64_t* all_edges, std::vector<uint64_t>* open_keys) {
+  // Uses per edge in two bit matrices over (lower, higher) local id: `once` (used), `more`
+  // (used again). No hashing, no probing, no branch on first or later use: an open addressing
+  // table of the welded keys cost a multiply and an unpredictable probe per edge. A cluster's
+  // ≤ 255 positions (kMaxClusterVertices) need ≤ 65,025 bits per matrix, on the stack; only
+  // the vertex_count² bits in use are cleared (~800 bytes each for a closed surface's ~80).
+  constexpr size_t kStackWords = (size_t(kMaxClusterVertices) * kMaxClusterVertices + 63) / 64;
+  const size_t bits = vertex_count * vertex_count, words = (bits + 63) / 64;
+  uint64_t stack_once[kStackWords], stack_more[kStackWords];
+  std::vector<uint64_t> heap;
+  uint64_t *once = stack_once, *more = stack_more;
+  if (words > kStackWords) {
+    heap.assign(2 * words, 0);
+    once = heap.data(), more = heap.data() + words;
+  } else {
+    std::fill(once, once + words, uint64_t(0));
+    std::fill(more, more + words, uint64_t(0));
   }
-  std::fill(uses, uses + slots, 0u);
-  size_t all = 0;
-  const uint32_t* weld = welded.weld.data();
-  const uint32_t* corners = cluster.corners.data();
-  for (size_t t = 0; t < n; ++t) {
-    // Each corner's welded id read once (for_each_welded_edge reads each twice).
-    const uint32_t w[3] = {weld[corners[3 * t]], weld[corners[3 * t + 1]], weld[corners[3 * t + 2]]};
+  auto bit_of = [vertex_count](uint32_t a, uint32_t b) { return a < b ? a * vertex_count + b : b * vertex_count + a; };
+  uint64_t all = 0;
+  for (size_t t = 0; t < triangles; ++t)
     for (int k = 0; k < 3; ++k) {
-      const uint32_t a = w[k], b = w[k == 2 ? 0 : k + 1];
+      const uint32_t a = local[3 * t + k], b = local[3 * t + (k == 2 ? 0 : k + 1)];
       if (a == b) continue;
-      const uint64_t key = edge_key(a, b);
-      size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> shift);
-      while (uses[h] != 0 && table[h] != key) h = (h + 1) & (slots - 1);
-      // A first use or a second one, about evenly mixed: written without a branch on which.
-      const bool first_use = uses[h] == 0;
-      table[h] = key;
-      ++uses[h];
-      filled[all] = uint32_t(h);
-      all += first_use;
+      const size_t i = bit_of(a, b);
+      const uint64_t mask = uint64_t(1) << (i & 63), seen = once[i >> 6] & mask;
+      more[i >> 6] |= seen;
+      once[i >> 6] |= mask;
+      all += seen == 0;
     }
-  }
   uint64_t open = 0;
-  for (size_t i = 0; i < all; ++i) open += uses[filled[i]] == 1;
-  if (open_keys) {
-    // Sized once (the list grew by doubling, several allocations per cluster).
-    // One slot more: every key is written, and the last ones (not open) land past the list.
+  for (size_t w = 0; w < words; ++w) open += uint64_t(std::popcount(once[w] & ~more[w]));
+  if (open_keys && open > 0) {
+    // An open edge is used once: one visit of the corners finds each once.
     const size_t first_open = open_keys->size();
-    open_keys->resize(first_open + open + 1);
-    uint64_t* out = open_keys->data() + first_open;
-    for (size_t i = 0; i < all; ++i) {
-      *out = table[filled[i]];
-      out += uses[filled[i]] == 1;
-    }
-    open_keys->pop_back();
+    open_keys->reserve(first_open + open);
+    for (size_t t = 0; t < triangles; ++t)
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t a = local[3 * t + k], b = local[3 * t + (k == 2 ? 0 : k + 1)];
+        if (a == b) continue;
+        const size_t i = bit_of(a, b);
+        if ((more[i >> 6] >> (i & 63) & 1) == 0) open_keys->push_back(edge_key(vertices[a], vertices[b]));
+      }
     std::sort(open_keys->begin() + ptrdiff_t(first_open), open_keys->end());
   }
   *open_edges = open;
   *all_edges = all;
+}
+
+void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
+                         uint64_t* all_edges, std::vector<uint64_t>* open_keys) {
+  // Local ids of the welded positions through an open addressing table (≥ 2 slots per corner:
+  // a load ≤ 1/2), on the stack. A cluster has ≤ 384 corners: 16-bit local ids, and bit
+  // matrices of ≤ 384² bits (count_local_edges).
+  constexpr size_t kStackSlots = 1024;
+  const size_t corners = cluster.corners.size();
+  assert(cluster.triangle_count() <= kMaxClusterTriangles);
+  size_t slots = 16;
+  int shift = 32 - 4;  // hash = top log2(slots) bits of a 32-bit multiplicative hash
+  while (slots < 2 * corners) slots <<= 1, --shift;
+  uint32_t stack_key[kStackSlots];
+  uint16_t stack_id[kStackSlots];
+  std::vector<uint32_t> heap_key, vertices;
+  std::vector<uint16_t> heap_id, local(corners);
+  uint32_t* key = stack_key;
+  uint16_t* id = stack_id;
+  if (slots > kStackSlots) {
+    heap_key.resize(slots), heap_id.resize(slots);
+    key = heap_key.data(), id = heap_id.data();
+  }
+  std::fill(key, key + slots, kNone);
+  vertices.reserve(corners);
+  for (size_t i = 0; i < corners; ++i) {
+    const uint32_t w = welded.weld[cluster.corners[i]];
+    size_t h = size_t((w * 0x9E3779B1u) >> shift);
+    while (key[h] != kNone && key[h] != w) h = (h + 1) & (slots - 1);
+    if (key[h] == kNone) key[h] = w, id[h] = uint16_t(vertices.size()), vertices.push_back(w);
+    local[i] = id[h];
+  }
+  count_local_edges(vertices.data(), vertices.size(), local.data(), cluster.triangle_count(), open_edges, all_edges,
+                    open_keys);
 }
 
 bool is_degenerate(const WeldedMesh& welded, const uint32_t* corners) {
