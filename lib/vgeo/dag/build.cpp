@@ -41,9 +41,11 @@ struct ClusterFacts {
   // Distinct welded ids of its corners in order of first use (empty: not listed). The lock
   // passes decide per vertex, and a vertex's later corners in one cluster change nothing (the
   // first one locked or claimed it for the same group), so they walk this list, a third of the
-  // corners, without the weld lookups; freed when the cluster's level is combined.
+  // corners, without the weld lookups.
   std::vector<uint32_t> welded;
 };
+// (Kept per level, LevelState::facts, not in WorkCluster: every cluster's record lives until
+// the layout, whose arrays are the build's peak memory.)
 
 struct WorkCluster {
   TriangleSet triangles;
@@ -52,7 +54,6 @@ struct WorkCluster {
   uint32_t generating_group = kNone;  // work group index
   Sphere bounds, lod_bounds;
   float lod_error = 0.0f;
-  ClusterFacts facts;  // found at creation, consumed by the cluster's level
 };
 
 struct WorkGroup {
@@ -109,26 +110,26 @@ ClusterFacts cluster_facts(const Mesh& mesh, const WeldedMesh& welded, const Tri
     return f;
   }
   uint16_t local[kMaxCorners];
-  std::vector<uint32_t>& points = f.welded;
-  points.reserve(t.corners.size());
+  uint32_t points[kMaxCorners];
+  size_t count = 0;
   for (size_t i = 0; i < t.corners.size(); ++i) {
     const uint32_t w = welded.weld[t.corners[i]];
-    if (scratch[w] == kNone) scratch[w] = uint32_t(points.size()), points.push_back(w);
+    if (scratch[w] == kNone) scratch[w] = uint32_t(count), points[count++] = w;
     local[i] = uint16_t(scratch[w]);
   }
-  for (uint32_t w : points) scratch[w] = kNone;
-  points.shrink_to_fit();
-  bounds = sphere_of_points(mesh, points.data(), points.size());
-  count_local_edges(points.data(), points.size(), local, t.triangle_count(), &f.open, &f.all, &f.open_keys);
+  for (size_t i = 0; i < count; ++i) scratch[points[i]] = kNone;
+  f.welded.assign(points, points + count);  // one allocation of the exact size
+  bounds = sphere_of_points(mesh, points, count);
+  count_local_edges(points, count, local, t.triangle_count(), &f.open, &f.all, &f.open_keys);
   return f;
 }
 
-// Calls fn(w) for each distinct welded id of cluster c's corners (ClusterFacts::welded), or
-// for each corner's welded id where they are not listed.
+// Calls fn(w) for each distinct welded id of cluster c's corners (`facts`, when it lists
+// them), or for each corner's welded id.
 template <class Fn>
-void for_each_cluster_vertex(const WeldedMesh& welded, const WorkCluster& c, Fn&& fn) {
-  if (!c.facts.welded.empty()) {
-    for (uint32_t w : c.facts.welded) fn(w);
+void for_each_cluster_vertex(const WeldedMesh& welded, const WorkCluster& c, const ClusterFacts* facts, Fn&& fn) {
+  if (facts && !facts->welded.empty()) {
+    for (uint32_t w : facts->welded) fn(w);
   } else {
     for (uint32_t v : c.triangles.corners) fn(welded.weld[v]);
   }
@@ -434,6 +435,7 @@ struct BuildState {
   FinSet fins;  // left out of every simplifier input (find_fins)
   std::vector<uint8_t> leaf_degenerate;  // is_degenerate per mesh triangle (find_fins; freed after the leaves)
   std::vector<WorkCluster> clusters;
+  std::vector<ClusterFacts> next_facts;  // of the next level's clusters, in their order (empty: none)
   std::vector<WorkGroup> groups;
   LeafSurface leaf_surface;  // the original surface the stored errors are measured against
   BuildReport report;
@@ -476,6 +478,9 @@ struct LevelState {
   uint32_t level = 0;
   uint32_t first_fresh = 0;  // vertex count at the level's start: the groups' temporary ids of moved vertices
   std::vector<uint32_t> active;                // level-L cluster indices
+  // Per active cluster (empty: none): ClusterFacts. The active clusters are consecutive
+  // indices (the leaves, then each level's new ones), so cluster m's are facts[m - active[0]].
+  std::vector<ClusterFacts> facts;
   BuildLevelReport report;
   std::vector<std::vector<uint64_t>> open_keys;  // per active cluster: open welded edges (grouping)
   bool simplify_allowed = false;               // false: one terminal group (root or kMaxLevels)
@@ -483,6 +488,10 @@ struct LevelState {
   std::vector<uint64_t> cross_edges;  // sorted welded edges used by clusters of two blocks
   double seconds_cross = 0;
 };
+
+const ClusterFacts* facts_of(const LevelState& L, uint32_t m) {
+  return L.facts.empty() ? nullptr : &L.facts[m - L.active.front()];
+}
 
 // ---- 1b. seams (spec/dag.md §2.3 Seams) ----
 // A seam edge is a mesh-border edge whose two ends each lie within kSeamExtentFraction of the
@@ -662,6 +671,7 @@ void build_leaves(BuildState& s) {
   s.leaf_degenerate = {};
   // Each chunk's task also gives its leaves their spheres and facts (ClusterFacts).
   std::vector<std::vector<WorkCluster>> chunk_leaves(chunks.size());
+  std::vector<std::vector<ClusterFacts>> chunk_facts(chunks.size());
   s.pool.parallel_for(chunks.size(), [&](size_t i) {
     std::vector<uint32_t> scratch = s.scratch.take();
     std::vector<TriangleSet> split =
@@ -669,10 +679,11 @@ void build_leaves(BuildState& s) {
     chunks[i] = TriangleSet();
     chunk_degenerate[i] = {};
     chunk_leaves[i].resize(split.size());
+    chunk_facts[i].resize(split.size());
     for (size_t k = 0; k < split.size(); ++k) {
       WorkCluster& c = chunk_leaves[i][k];
       c.triangles = std::move(split[k]);
-      c.facts = cluster_facts(s.mesh, s.welded, c.triangles, scratch, c.bounds);
+      chunk_facts[i][k] = cluster_facts(s.mesh, s.welded, c.triangles, scratch, c.bounds);
       c.lod_bounds = c.bounds;
     }
     s.scratch.give(std::move(scratch));
@@ -680,9 +691,14 @@ void build_leaves(BuildState& s) {
   size_t leaf_count = 0;
   for (const auto& cl : chunk_leaves) leaf_count += cl.size();
   s.clusters.reserve(leaf_count);
-  for (auto& cl : chunk_leaves)
-    for (WorkCluster& c : cl) s.clusters.push_back(std::move(c));
+  s.next_facts.reserve(leaf_count);
+  for (size_t i = 0; i < chunks.size(); ++i)
+    for (size_t k = 0; k < chunk_leaves[i].size(); ++k) {
+      s.clusters.push_back(std::move(chunk_leaves[i][k]));
+      s.next_facts.push_back(std::move(chunk_facts[i][k]));
+    }
   chunk_leaves.clear();
+  chunk_facts.clear();
   s.report.seconds_cluster = steady_seconds() - t0;
   const double te = steady_seconds();
   std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
@@ -714,12 +730,14 @@ void count_level_edges(BuildState& s, LevelState& L) {
   std::vector<uint64_t> open(active.size()), all(active.size());
   L.open_keys.assign(active.size(), {});
   s.pool.parallel_for(active.size(), [&](size_t i) {
-    ClusterFacts& f = s.clusters[active[i]].facts;
-    if (!f.counted) count_cluster_edges(s.welded, s.clusters[active[i]].triangles, &f.open, &f.all, &f.open_keys);
+    if (L.facts.empty() || !L.facts[i].counted) {
+      count_cluster_edges(s.welded, s.clusters[active[i]].triangles, &open[i], &all[i], &L.open_keys[i]);
+      return;
+    }
+    ClusterFacts& f = L.facts[i];
     open[i] = f.open, all[i] = f.all;
     L.open_keys[i] = std::move(f.open_keys);
     f.open_keys = {};
-    f.counted = false;
   });
   uint64_t so = 0, sa = 0;
   for (size_t i = 0; i < active.size(); ++i) {
@@ -761,9 +779,8 @@ void plan_blocks(BuildState& s, LevelState& L) {
     std::vector<const TriangleSet*> sets(active.size());
     std::vector<const std::vector<uint32_t>*> vertices(active.size());
     for (size_t i = 0; i < active.size(); ++i) {
-      const WorkCluster& c = s.clusters[active[i]];
-      sets[i] = &c.triangles;
-      vertices[i] = c.facts.welded.empty() ? nullptr : &c.facts.welded;
+      sets[i] = &s.clusters[active[i]].triangles;
+      vertices[i] = L.facts.empty() || L.facts[i].welded.empty() ? nullptr : &L.facts[i].welded;
     }
     L.cross_edges =
         lock_cross_block_vertices(s.welded, sets, block_of, s.pool, s.locks.owner, s.locks.locked, &vertices);
@@ -806,7 +823,7 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
     for (size_t g = begin; g < end; ++g) {
       const uint32_t tag = uint32_t(b << 16 | g);
       for (uint32_t m : blk.groups[g])
-        for_each_cluster_vertex(s.welded, s.clusters[m], [&](uint32_t w) {
+        for_each_cluster_vertex(s.welded, s.clusters[m], facts_of(L, m), [&](uint32_t w) {
           std::atomic_ref<uint8_t> lock(locked[w]);
           if (lock.load(std::memory_order_relaxed)) return;
           // A plain read decides once the vertex is claimed (a vertex of the group's clusters
@@ -1229,6 +1246,7 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   L.report.groups = group_count;
 
   std::vector<uint32_t> next;
+  std::vector<ClusterFacts> next_facts;  // (s.next_facts)
   std::vector<uint64_t> new_retired_edges;
   for (uint32_t i = 0; i < group_count; ++i) {
     GroupResult& r = results[i];
@@ -1252,7 +1270,8 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
     for (size_t k = 0; k < r.clusters.size(); ++k) {
       WorkCluster c;
       c.triangles = std::move(r.clusters[k]);
-      if (!r.facts.empty()) c.bounds = r.bounds[k], c.facts = std::move(r.facts[k]);
+      next_facts.emplace_back();
+      if (!r.facts.empty()) c.bounds = r.bounds[k], next_facts.back() = std::move(r.facts[k]);
       c.level = L.level + 1;
       c.generating_group = gi;
       c.lod_bounds = groups[gi].parent_bounds;
@@ -1265,18 +1284,18 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   if (!L.simplify_allowed) L.report.stuck_groups = 0;  // roots by construction, not stuck
   s.pool.parallel_for(next.size(), [&](size_t i) {
     WorkCluster& c = clusters[next[i]];
-    if (!c.facts.counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
+    if (!next_facts[i].counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
   });
-  // Reset per-level lock state (only the touched entries; the same values from any task); the
-  // level's clusters' vertex lists are done with.
+  // Reset per-level lock state (only the touched entries; the same values from any task).
   s.pool.parallel_for(L.active.size(), [&](size_t i) {
-    WorkCluster& c = clusters[L.active[i]];
-    for_each_cluster_vertex(s.welded, c, [&](uint32_t w) {
+    const ClusterFacts* f = L.facts.empty() ? nullptr : &L.facts[i];
+    for_each_cluster_vertex(s.welded, clusters[L.active[i]], f, [&](uint32_t w) {
       std::atomic_ref<uint32_t>(s.locks.owner[w]).store(kNone, std::memory_order_relaxed);
       std::atomic_ref<uint8_t>(s.locks.locked[w]).store(0, std::memory_order_relaxed);
     });
-    c.facts = ClusterFacts();
   });
+  L.facts = {};
+  s.next_facts = std::move(next_facts);
   std::vector<uint64_t>& retired_edges = s.locks.retired_edges;
   if (!new_retired_edges.empty()) {
     retired_edges.insert(retired_edges.end(), new_retired_edges.begin(), new_retired_edges.end());
@@ -1298,6 +1317,12 @@ void build_levels(BuildState& s) {
     L.level = level;
     L.first_fresh = uint32_t(s.positions->vertex_count());
     L.active = std::move(active);
+    // The facts found for these clusters when they were made (ClusterFacts); their indices
+    // are consecutive by construction (facts_of).
+    L.facts = std::move(s.next_facts);
+    s.next_facts = {};
+    const bool consecutive = L.active.empty() || L.active.back() - L.active.front() + 1 == L.active.size();
+    if (L.facts.size() != L.active.size() || !consecutive) L.facts.clear();
     count_level_edges(s, L);
     plan_blocks(s, L);
     const double region_start = steady_seconds();
