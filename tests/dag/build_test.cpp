@@ -355,6 +355,36 @@ Mesh random_soup(const std::vector<int>& coords, const std::vector<int>& tris) {
   return m;
 }
 
+// count_cluster_edges (local ids, two bit matrices) against a count of every welded edge in a
+// map: a cluster of up to 128 triangles over few positions (welded copies, triangles with a
+// repeated position, edges used 1 to many times).
+RC_GTEST_PROP(BuildProperty, ClusterEdgeCountsMatchAMapOfUses, ()) {
+  auto coords = *rc::gen::container<std::vector<int>>(*rc::gen::inRange(9, 120), rc::gen::inRange(0, 6));
+  auto tris = *rc::gen::container<std::vector<int>>(*rc::gen::inRange(3, 385), rc::gen::inRange(0, 100000));
+  Mesh m = random_soup(coords, tris);
+  RC_PRE(m.triangle_count() > 0);
+  const build_detail::WeldedMesh welded = build_detail::weld_positions(m);
+  build_detail::TriangleSet cluster;
+  cluster.corners = m.indices;
+  cluster.materials.assign(m.triangle_count(), 0);
+  std::map<uint64_t, int> uses;
+  for (size_t t = 0; t < cluster.triangle_count(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = welded.weld[cluster.corners[3 * t + k]], b = welded.weld[cluster.corners[3 * t + (k + 1) % 3]];
+      if (a != b) ++uses[build_detail::edge_key(a, b)];
+    }
+  std::vector<uint64_t> expected_open;
+  for (const auto& [key, count] : uses)
+    if (count == 1) expected_open.push_back(key);
+  uint64_t open = 0, all = 0;
+  std::vector<uint64_t> open_keys = {7};  // appended after what the list holds
+  build_detail::count_cluster_edges(welded, cluster, &open, &all, &open_keys);
+  RC_ASSERT(all == uses.size());
+  RC_ASSERT(open == expected_open.size());
+  expected_open.insert(expected_open.begin(), 7);
+  RC_ASSERT(open_keys == expected_open);
+}
+
 RC_GTEST_PROP(BuildProperty, RandomSoupsKeepDagProperties, ()) {
   auto coords = *rc::gen::container<std::vector<int>>(*rc::gen::inRange(9, 300), rc::gen::inRange(0, 1000));
   auto tris = *rc::gen::container<std::vector<int>>(*rc::gen::inRange(3, 1500), rc::gen::inRange(0, 100000));
