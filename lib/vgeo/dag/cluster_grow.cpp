@@ -354,12 +354,14 @@ void add_triangle(Grower& g, uint32_t t) {
     if (g.in_cluster[v] != g.stamp) {
       g.in_cluster[v] = g.stamp;
       g.joined[v] = g.cluster_vertices++;
-      for (; list != end; ++list)
-        if (!g.clustered[*list]) file_candidate(g, *list);
     } else if (g.live[v] == 1) {
       while (g.clustered[*list]) ++list;
-      file_candidate(g, *list);
+      end = list + 1;
+    } else {
+      continue;
     }
+    for (; list != end; ++list)
+      if (!g.clustered[*list]) file_candidate(g, *list);
   }
 }
 
