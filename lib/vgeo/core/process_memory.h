@@ -11,4 +11,12 @@ namespace vgeo {
 // 39 MiB for bunny00 against 20 MiB measured by /usr/bin/time).
 uint64_t peak_rss_bytes();
 
+// Hands the heap's free pages back to the kernel (glibc's malloc_trim: the free space at the
+// heap's top and the whole pages inside free chunks; a no-op elsewhere). Called where a phase has
+// freed most of what it allocated and the next phase allocates less: the freed pages then stop
+// counting towards the resident set while the next phase faults in its code and arrays, which
+// would otherwise add to the earlier phase's high-water mark. Costs one page fault per returned
+// page that is used again (docs/acceptance/issue23_smallrss.md).
+void release_free_heap();
+
 }  // namespace vgeo
