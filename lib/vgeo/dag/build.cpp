@@ -600,11 +600,12 @@ void build_leaves(BuildState& s) {
   for (auto& cl : chunk_leaves)
     for (TriangleSet& t : cl) leaves.push_back(std::move(t));
   chunk_leaves.clear();
-  // A mesh of one chunk peaks here (its grower's per-triangle arrays); the later phases allocate
-  // less but fault in their code: returning the freed pages keeps that code off this peak
-  // (armadillo -0.1 MiB). Several chunks reuse each other's memory, and the levels reuse it: no
-  // gain there, only page faults (1M sphere: same peak, +2,900 faults).
-  if (chunks.size() == 1) release_free_heap();
+  // A mesh of one chunk (or none: split in place) peaks here, in its grower's per-triangle
+  // arrays; the later phases allocate less but fault in their code: returning the freed pages
+  // keeps that code off this peak (armadillo -0.4 MiB, +800 page faults). Several chunks reuse
+  // each other's memory, and the levels reuse it: no gain there, only page faults (1M sphere:
+  // same peak, +2,900 faults).
+  if (chunks.size() <= 1) release_free_heap();
   s.clusters.resize(leaves.size());
   s.pool.parallel_for(leaves.size(), [&](size_t i) {
     WorkCluster& c = s.clusters[i];
