@@ -46,6 +46,8 @@ bool look_up(void* library, const char* name, F& f) {
 
 const MeshoptFunctions& meshopt() {
   static constexpr const char* kLibrary = VGEO_MESHOPT_SONAME;  // the soname the build linked against
+  // An empty name would open the executable itself, whose forwarders these are.
+  static_assert(sizeof(VGEO_MESHOPT_SONAME) > 1, "meshoptimizer's soname is unknown (tools/CMakeLists.txt)");
   static std::once_flag once;
   static MeshoptFunctions functions;
   static std::string failure;
