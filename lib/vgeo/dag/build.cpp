@@ -600,12 +600,6 @@ void build_leaves(BuildState& s) {
   for (auto& cl : chunk_leaves)
     for (TriangleSet& t : cl) leaves.push_back(std::move(t));
   chunk_leaves.clear();
-  // A mesh of one chunk (or none: split in place) peaks here, in its grower's per-triangle
-  // arrays; the later phases allocate less but fault in their code: returning the freed pages
-  // keeps that code off this peak (armadillo -0.4 MiB, +800 page faults). Several chunks reuse
-  // each other's memory, and the levels reuse it: no gain there, only page faults (1M sphere:
-  // same peak, +2,900 faults).
-  if (chunks.size() <= 1) release_free_heap();
   s.clusters.resize(leaves.size());
   s.pool.parallel_for(leaves.size(), [&](size_t i) {
     WorkCluster& c = s.clusters[i];
@@ -614,6 +608,12 @@ void build_leaves(BuildState& s) {
     c.lod_bounds = c.bounds;
   });
   s.report.seconds_cluster = steady_seconds() - t0;
+  // A mesh of one chunk (or none: split in place) peaked just now, in its grower's per-triangle
+  // arrays; the later phases allocate less but fault in their code: returning the freed pages
+  // keeps that code off this peak (armadillo -0.4 MiB, +800 page faults). Several chunks reuse
+  // each other's memory, and the levels reuse it: no gain there, only page faults (1M sphere:
+  // same peak, +2,900 faults).
+  if (chunks.size() <= 1) release_free_heap();
   const double te = steady_seconds();
   std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
   for (size_t i = 0; i < s.clusters.size(); ++i) leaf_sets[i] = &s.clusters[i].triangles;
@@ -1239,8 +1239,8 @@ void certify_stored_errors(BuildState& s) {
 // the layout allocates the DAG's arrays, which then reuse that memory: the build's peak was
 // the layout's, with both alive (1M sphere: 146 MiB). The freed pages go back to the kernel
 // (release_free_heap): the layout's arrays are smaller than the levels' state, and the layout's
-// and the write's code then no longer add to the levels' high-water mark (1M sphere 106.6 ->
-// 102.4 MiB, armadillo -0.3 MiB; docs/acceptance/issue23_smallrss.md).
+// and the write's code then no longer add to the levels' high-water mark (1M sphere 106.7 ->
+// 102.3 MiB, armadillo -0.3 MiB; docs/acceptance/issue23_smallrss.md).
 void release_level_state(BuildState& s) {
   s.leaf_surface = LeafSurface();
   s.welded = WeldedMesh();
