@@ -11,4 +11,23 @@ namespace vgeo {
 // 39 MiB for bunny00 against 20 MiB measured by /usr/bin/time).
 uint64_t peak_rss_bytes();
 
+// Hands the heap's free pages back to the kernel (glibc's malloc_trim: the free space at the
+// heap's top and the whole pages inside free chunks; a no-op elsewhere). Called where a phase has
+// freed most of what it allocated and the next phase allocates less: the freed pages then stop
+// counting towards the resident set while the next phase faults in its code and arrays, which
+// would otherwise add to the earlier phase's high-water mark. Costs one page fault per returned
+// page that is used again (docs/acceptance/issue23_smallrss.md).
+void release_free_heap();
+
+// Drops this process's mapping of the pages of its executable's and shared libraries' read-only
+// segments (code, read-only data, symbol tables: the loadable segments without write permission;
+// madvise MADV_DONTNEED; Linux, glibc). What runs next faults back in only the pages it uses,
+// from the page cache, which keeps them: the system's memory is unchanged, the process's resident
+// set is not charged for the code that only starting the process ran (the dynamic loader's
+// relocation of libc and libstdc++, their IFUNC resolvers, the command line's parsing and locale
+// set-up, static initializers). Safe for those segments only: they are never written (an object
+// with text relocations is skipped); relocated read-only data (RELRO) lies in the writable
+// segments and is left alone. docs/acceptance/issue23_smallrss.md.
+void release_read_only_pages();
+
 }  // namespace vgeo
