@@ -204,10 +204,6 @@ void add_build_command(CLI::App& app, Context& ctx) {
   cmd->callback([args, &ctx] {
     mallopt(M_MMAP_THRESHOLD, kBuildMmapThresholdBytes);  // before the first large allocation
     mallopt(M_TRIM_THRESHOLD, kBuildTrimThresholdBytes);
-    // What only starting the process ran (loading and relocating the libraries, parsing the
-    // command line) is not run again: its pages leave the resident set before the build's peaks
-    // (armadillo .vgeodag -0.7 MiB; process_memory.h).
-    release_read_only_pages();
     FormatOptions format_options;
     if (!args->page_size.empty()) format_options.page_size = parse_page_size(args->page_size);  // before the build
     if (!args->zstd_level.empty()) format_options.zstd_level = parse_zstd_level(args->zstd_level);
@@ -237,12 +233,10 @@ void add_build_command(CLI::App& app, Context& ctx) {
     std::vector<std::string> mesh_names;
     for (const Mesh& m : scene.meshes) mesh_names.push_back(m.name);
     scene = Scene();
-    // The freed geometry and the build's freed state go back to the kernel, and the build's code
-    // leaves the resident set: the write's buffers and code (the page format's zstd tables, ~3.7 MB
-    // for a 128 KiB page) then start from the live DAG instead of the build's high-water mark
-    // (armadillo page format -0.9 MiB for the heap, -0.7 MiB for the code; process_memory.h).
+    // The freed geometry and the build's freed state go back to the kernel: the write's buffers
+    // and code (the page format's zstd tables, ~3.7 MB for a 128 KiB page) then start from the
+    // live DAG instead of the build's high-water mark (armadillo page format -0.9 MiB).
     release_free_heap();
-    release_read_only_pages();
     AssetFileKind kind = asset_file_kind_for_path(args->output);
     FormatReport format_report;
     const clock::time_point t_write = clock::now();

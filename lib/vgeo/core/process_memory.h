@@ -19,15 +19,4 @@ uint64_t peak_rss_bytes();
 // page that is used again (docs/acceptance/issue23_smallrss.md).
 void release_free_heap();
 
-// Drops this process's mapping of the pages of its executable's and shared libraries' read-only
-// segments (code, read-only data, symbol tables: the loadable segments without write permission;
-// madvise MADV_DONTNEED; Linux, glibc). What runs next faults back in only the pages it uses,
-// from the page cache, which keeps them: the system's memory is unchanged, the process's resident
-// set is not charged for the code that only starting the process ran (the dynamic loader's
-// relocation of libc and libstdc++, their IFUNC resolvers, the command line's parsing and locale
-// set-up, static initializers). Safe for those segments only: they are never written (an object
-// with text relocations is skipped); relocated read-only data (RELRO) lies in the writable
-// segments and is left alone. docs/acceptance/issue23_smallrss.md.
-void release_read_only_pages();
-
 }  // namespace vgeo
