@@ -61,9 +61,11 @@ void vertex_normal(const float* positions, const std::vector<uint32_t>& ids, con
   const double length = std::sqrt(sum.x * sum.x + sum.y * sum.y + sum.z * sum.z);
   if (!(length > 0)) return;
   const DVec3 n{sum.x / length, sum.y / length, sum.z / length};
+  // Triangles without an area (degenerate, fins) face nowhere: they neither count nor veto (they
+  // used to veto, and a mesh with a degenerate triangle every few placed no vertex at all).
   for (uint32_t i = 0; i < count; ++i) {
     const double f = std::sqrt(face[i].x * face[i].x + face[i].y * face[i].y + face[i].z * face[i].z);
-    if (!(f > 0) || face[i].x * n.x + face[i].y * n.y + face[i].z * n.z < kCosPlacementCrease * f) return;
+    if (f > 0 && face[i].x * n.x + face[i].y * n.y + face[i].z * n.z < kCosPlacementCrease * f) return;
   }
   out[0] = float(n.x), out[1] = float(n.y), out[2] = float(n.z);
 }
