@@ -837,6 +837,9 @@ bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, c
 // flips are kept when it is lower. Either way the stored error is the measured one of the
 // triangles kept: stored ≥ measured exactly.
 float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, float floor, TriangleSet& triangles) {
+  // The first simplification of the leaves (floor 0) is never flipped (flip_edges_towards_leaves):
+  // no peak or record to keep (half the groups).
+  if (!(floor > 0)) return leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor);
   LatticePeak peak;
   LatticeRecord record;
   const float error = leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, &peak, &record);
@@ -876,10 +879,13 @@ float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet
   for (size_t i = 0; i < origin.size(); ++i) origin[i] = s.leaf_surface.origin(moves.vertex[i]);
   const FreshVertices fresh{L.first_fresh, uint32_t(moves.vertex.size()), moves.positions.data(), origin.data(),
                             moves.vertex.data()};
-  if (!flips) return leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, nullptr, nullptr, &fresh);
+  // No flips at floor 0, as measure_with_edge_flips.
+  if (!flips || !(floor > 0))
+    return leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, nullptr, nullptr, &fresh);
   LatticePeak peak;
   LatticeRecord record;
   const float error = leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, &peak, &record, &fresh);
+  if (peak.triangle == kNone || peak.corner) return error;  // nothing a flip can lower (flip_edges_towards_leaves)
   std::vector<uint8_t> changed;
   TriangleSet flipped = renamed;
   if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed, &fresh))

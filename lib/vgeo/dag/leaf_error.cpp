@@ -374,6 +374,14 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   // Placed corners and input edges with a placed end are visited last, when the running maximum
   // is near its final value, so that most of them need no visit (cannot_raise).
   std::vector<std::pair<uint32_t, int>> displaced;  // (triangle, place: an edge j, or 3 + corner j)
+  // Each moved vertex's displacement, once (a vertex ends ~6 of the edges).
+  std::vector<double> moved_by(fresh_keys, -1.0);
+  auto displacement = [&](uint32_t v) {
+    if (!mesh.is_fresh(v)) return 0.0;
+    double& d = moved_by[v - mesh.fresh->first];
+    if (d < 0) d = mesh.displacement(v);
+    return d;
+  };
   for (size_t t = 0; t < simplified.triangle_count(); ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
     at = mesh.start_triangle(tri[0]);
@@ -415,7 +423,7 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
       const uint32_t v = tri[place - 3];
       here.corner = true;
       here.place = int(v - mesh.fresh->first);
-      const double bound2 = displaced_bound2(mesh.displacement(v), mesh(v));
+      const double bound2 = displaced_bound2(displacement(v), mesh(v));
       if (cannot_raise(bound2)) {
         if (record) note(bound2, mesh.start_triangle(v));
         continue;
@@ -427,7 +435,7 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     here.corner = false;
     here.place = place;
     const uint32_t a = tri[place], b = tri[(place + 1) % 3];
-    const double moved = std::max(mesh.displacement(a), mesh.displacement(b));
+    const double moved = std::max(displacement(a), displacement(b));
     const double bound2 = std::max(displaced_bound2(moved, mesh(a)), displaced_bound2(moved, mesh(b)));
     if (cannot_raise(bound2)) {
       if (record) note(bound2, mesh.start_triangle(a));
