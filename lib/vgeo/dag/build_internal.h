@@ -299,14 +299,11 @@ struct LeafSurface {
   // over the leaves starts). Ids below leaf_vertex_count are the mesh's: leaf vertices.
   uint32_t leaf_vertex_count = 0;
   std::vector<uint32_t> moved_origin;
-  // With vertex placement: per welded leaf vertex, the area-weighted normal of its leaf
-  // triangles (leaf_normal), or none where some of them faces more than the crease angle away
-  // from it (a crease or a CAD face edge: moving along the average would leave both faces) or
-  // none has an area. Only these vertices move. Stored octahedral, 2 int16 per vertex
-  // (encode_leaf_normal: within ~5e-5 rad; 4 bytes where 3 floats took 12: -4 MB on the 1M
-  // sphere's peak).
-  std::vector<int16_t> normal;
-  DVec3 leaf_normal(uint32_t w) const;
+  // With vertex placement: per welded leaf vertex, 3 floats: the area-weighted normal of its
+  // leaf triangles, or 0 where some of them faces more than the crease angle away from it (a
+  // crease or a CAD face edge: moving along the average would leave both faces) or none has an
+  // area. Only these vertices move.
+  std::vector<float> normal;
   // The leaf vertex vertex `v` is (v itself) or was moved from.
   uint32_t origin(uint32_t v) const { return v < leaf_vertex_count ? v : moved_origin[v - leaf_vertex_count]; }
 };

@@ -45,28 +45,9 @@ constexpr int kMaxWalkSteps = 32;
 // and far below any displacement that matters.
 constexpr double kDisplacedBoundMargin = 1e-9;
 
-// The octahedral form of LeafSurface::normal (Meyer et al., "On Floating-Point Normal Vectors",
-// EGSR 2010; Cigolle et al., "A Survey of Efficient Representations for Independent Unit
-// Vectors", JCGT 3(2), 2014): the unit normal projected onto the octahedron |x| + |y| + |z| = 1,
-// its lower half folded over the upper, x and y in [-1, 1] as int16 steps of 1/32767;
-// kNoLeafNormal (no int16 step reaches it) marks a vertex without one.
-constexpr double kOctahedralSteps = 32767.0;
-constexpr int16_t kNoLeafNormal = std::numeric_limits<int16_t>::min();
-double sign_of(double v) { return v < 0 ? -1.0 : 1.0; }
-void encode_leaf_normal(DVec3 n, int16_t* out) {
-  const double l1 = std::fabs(n.x) + std::fabs(n.y) + std::fabs(n.z);
-  double x = n.x / l1, y = n.y / l1;
-  if (n.z < 0) {
-    const double fx = (1.0 - std::fabs(y)) * sign_of(x), fy = (1.0 - std::fabs(x)) * sign_of(y);
-    x = fx, y = fy;
-  }
-  out[0] = int16_t(std::lround(std::clamp(x, -1.0, 1.0) * kOctahedralSteps));
-  out[1] = int16_t(std::lround(std::clamp(y, -1.0, 1.0) * kOctahedralSteps));
-}
-
 // Vertex placement's leaf normal (LeafSurface::normal) of a vertex from its triangles `list`.
 void vertex_normal(const float* positions, const std::vector<uint32_t>& ids, const uint32_t* list, uint32_t count,
-                   std::vector<DVec3>& face, int16_t* out) {
+                   std::vector<DVec3>& face, float* out) {
   auto at = [&](uint32_t v) { return DVec3{positions[3 * size_t(v)], positions[3 * size_t(v) + 1], positions[3 * size_t(v) + 2]}; };
   face.resize(count);
   DVec3 sum{0, 0, 0};
@@ -86,7 +67,7 @@ void vertex_normal(const float* positions, const std::vector<uint32_t>& ids, con
     const double f = std::sqrt(face[i].x * face[i].x + face[i].y * face[i].y + face[i].z * face[i].z);
     if (f > 0 && face[i].x * n.x + face[i].y * n.y + face[i].z * n.z < kCosPlacementCrease * f) return;
   }
-  encode_leaf_normal(n, out);
+  out[0] = float(n.x), out[1] = float(n.y), out[2] = float(n.z);
 }
 
 // Parts of the parallel counting sort of sort_triangles_by_vertex: each part counts its
@@ -178,7 +159,7 @@ void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector
   s.vertex_triangle.reserve(welded.weld.size());
   prefault_parallel({{s.neighbour.data(), 4 * ids.size()}, {s.vertex_triangle.data(), 4 * welded.weld.size()}}, pool);
   s.neighbour.resize(ids.size());
-  if (normals) s.normal.assign(2 * vertices, kNoLeafNormal);
+  if (normals) s.normal.assign(3 * vertices, 0.0f);
   const float* positions = welded.mesh->positions.data();
   for_chunks(&pool, vertices, kAdjacencyChunk, [&](size_t begin, size_t end) {
     std::vector<uint32_t> corners;  // welded corners of the vertex's triangles, 3 per list entry
@@ -187,7 +168,7 @@ void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector
       const uint32_t* list = &triangles[first[u]];
       const uint32_t count = first[u + 1] - first[u];
       if (count == 0) continue;  // not a welded id, or no leaf triangle has it
-      if (normals) vertex_normal(positions, ids, list, count, face, &s.normal[2 * u]);
+      if (normals) vertex_normal(positions, ids, list, count, face, &s.normal[3 * u]);
       corners.resize(3 * size_t(count));
       for (uint32_t i = 0; i < count; ++i)
         for (int j = 0; j < 3; ++j) corners[3 * i + j] = weld[ids[3 * size_t(list[i]) + j]];
@@ -230,19 +211,6 @@ bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at, 
 }
 
 }  // namespace
-
-DVec3 LeafSurface::leaf_normal(uint32_t w) const {
-  const int16_t* q = &normal[2 * size_t(w)];
-  if (q[0] == kNoLeafNormal) return DVec3{0, 0, 0};
-  double x = q[0] / kOctahedralSteps, y = q[1] / kOctahedralSteps;
-  const double z = 1.0 - std::fabs(x) - std::fabs(y);
-  if (z < 0) {
-    const double ux = (1.0 - std::fabs(y)) * sign_of(x), uy = (1.0 - std::fabs(x)) * sign_of(y);
-    x = ux, y = uy;
-  }
-  const double length = std::sqrt(x * x + y * y + z * z);
-  return DVec3{x / length, y / length, z / length};
-}
 
 LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves, ThreadPool& pool,
                                bool normals) {

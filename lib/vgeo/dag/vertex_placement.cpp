@@ -80,7 +80,7 @@ VertexMoves place_vertices(const PlacementContext& ctx, const TriangleSet& tris,
   bool any_movable = false;
   for (Position& q : at) {
     const uint32_t w = q.welded;
-    q.n = leaves.leaf_normal(q.leaf);
+    q.n = dvec(&leaves.normal[3 * size_t(q.leaf)]);
     q.smooth = !(q.n.x == 0 && q.n.y == 0 && q.n.z == 0);
     q.movable = !(*ctx.locked)[w] && !(*ctx.pinned)[w] && !(!ctx.mesh_border->empty() && (*ctx.mesh_border)[w]) &&
                 welded.copies[w] <= kMaxMovedCopies && q.smooth;
