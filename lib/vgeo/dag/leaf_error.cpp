@@ -298,9 +298,9 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   // and edges already visited. Open addressing, load ≤ 1/2.
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
-  // Keys: ≤ 3 per triangle of each set, and one per moved vertex (its corner).
+  // Keys: ≤ 3 per triangle of each set (moved corners are kept apart: corner_seen).
   const size_t fresh_keys = mesh.fresh ? mesh.fresh->count : 0;
-  while (slots < 2 * (3 * simplified.triangle_count() + fresh_keys + (floor_d2 > 0 ? 3 * input.triangle_count() : 0)))
+  while (slots < 2 * (3 * simplified.triangle_count() + (floor_d2 > 0 ? 3 * input.triangle_count() : 0)))
     slots <<= 1, --shift;
   std::vector<uint64_t> edge_slot(slots, kNoEdge);
   auto insert_edge = [&](uint32_t a, uint32_t b) {  // true iff the edge was not in the set
@@ -376,6 +376,10 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   std::vector<std::pair<uint32_t, int>> displaced;  // (triangle, place: an edge j, or 3 + corner j)
   // Each moved vertex's displacement, once (a vertex ends ~6 of the edges).
   std::vector<double> moved_by(fresh_keys, -1.0);
+  // Whether a moved vertex's corner is queued already (moved ids are consecutive from
+  // fresh->first: indexed directly, where a key in the edge set cost a probe per corner).
+  std::vector<uint8_t> corner_seen(fresh_keys, 0);
+  auto first_corner_use = [&](uint32_t v) { return !corner_seen[v - mesh.fresh->first]++; };
   auto displacement = [&](uint32_t v) {
     if (!mesh.is_fresh(v)) return 0.0;
     double& d = moved_by[v - mesh.fresh->first];
@@ -387,10 +391,9 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     at = mesh.start_triangle(tri[0]);
     here.triangle = uint32_t(t);
     here.corner = false;
-    // A moved corner (fresh) is no leaf vertex: measured once, from its leaf vertex's triangle
-    // (key (v, v): no edge of two distinct ids).
+    // A moved corner (fresh) is no leaf vertex: measured once, from its leaf vertex's triangle.
     for (int j = 0; j < 3; ++j)
-      if (mesh.is_fresh(tri[j]) && insert_edge(tri[j], tri[j])) displaced.push_back({uint32_t(t), 3 + j});
+      if (mesh.is_fresh(tri[j]) && first_corner_use(tri[j])) displaced.push_back({uint32_t(t), 3 + j});
     bool after_previous_edge = false;  // the last point visited is on edge j - 1, next to corner j
     for (int j = 0; j < 3; ++j) {
       const uint32_t a = tri[j], b = tri[(j + 1) % 3];
