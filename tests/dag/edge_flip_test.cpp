@@ -1,7 +1,8 @@
-// Edge flips (opt-in, BuildOptions::edge_flips; lib/vgeo/dag/edge_flip.cpp, spec/dag.md Edge
-// flips): on a noisy surface they change the DAG (flips happen), every invariant still holds
-// (verify: stored error >= measured deviation, crack-free cuts, D2's input corners), the output
-// does not depend on the thread count, and the default build is untouched by them.
+// Edge flips (BuildOptions::edge_flips, on by default; lib/vgeo/dag/edge_flip.cpp, spec/dag.md
+// Edge flips): on a noisy surface they change the DAG (flips happen), every invariant still holds
+// (verify: stored error >= measured deviation, crack-free cuts, D2's corners), the output does
+// not depend on the thread count; with vertex placement (the default: flipped on the placed
+// surface) and without.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -35,19 +36,23 @@ std::vector<uint8_t> bytes_of(const ClusterDag& dag) {
 
 TEST(EdgeFlips, KeepEveryInvariantAndTheThreadCountDoesNotMatter) {
   const Mesh mesh = noisy_sphere();
-  BuildOptions plain, flips;
-  plain.threads = flips.threads = 1;
-  plain.edge_flips = false;
-  flips.edge_flips = true;
-  const ClusterDag base = build_dag(mesh, plain);
-  const ClusterDag flipped = build_dag(mesh, flips);
-  EXPECT_NE(bytes_of(base), bytes_of(flipped));  // some edge flipped
-  flips.threads = 2;
-  EXPECT_EQ(bytes_of(build_dag(mesh, flips)), bytes_of(flipped));
-  VerifyOptions vo;
-  vo.threads = 2;
-  const VerifyReport r = verify_dag(flipped, vo);
-  EXPECT_TRUE(r.ok()) << r.total_violations() << " violations, ERROR_BOUND " << r.count("ERROR_BOUND");
+  for (const bool placement : {true, false}) {
+    BuildOptions plain, flips;
+    plain.threads = flips.threads = 1;
+    plain.vertex_placement = flips.vertex_placement = placement;
+    plain.edge_flips = false;
+    flips.edge_flips = true;
+    const ClusterDag base = build_dag(mesh, plain);
+    const ClusterDag flipped = build_dag(mesh, flips);
+    EXPECT_NE(bytes_of(base), bytes_of(flipped)) << "placement " << placement;  // some edge flipped
+    flips.threads = 2;
+    EXPECT_EQ(bytes_of(build_dag(mesh, flips)), bytes_of(flipped)) << "placement " << placement;
+    VerifyOptions vo;
+    vo.threads = 2;
+    const VerifyReport r = verify_dag(flipped, vo);
+    EXPECT_TRUE(r.ok()) << "placement " << placement << ": " << r.total_violations() << " violations, ERROR_BOUND "
+                        << r.count("ERROR_BOUND");
+  }
 }
 
 }  // namespace

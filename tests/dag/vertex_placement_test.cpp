@@ -42,8 +42,9 @@ struct GroupSetup {
     locked.assign(mesh.vertex_count(), 0);
     pinned.assign(mesh.vertex_count(), 0);
   }
-  VertexMoves place() {
+  VertexMoves place(double share = kPlacementShare) {
     PlacementContext ctx;
+    ctx.share = share;
     ctx.welded = &welded;
     ctx.mesh = &mesh;
     ctx.leaf_positions = mesh.positions.data();
@@ -221,6 +222,87 @@ TEST(VertexPlacement, PlacedCornerIsMeasured) {
   }
   // Without the lift the placed surface is the leaves: the floor.
   EXPECT_EQ(leaf_deviation(s.leaves, m, s.tris, s.tris, 0.0f), 0.0f);
+}
+
+// Flips on the placed surface (spec/dag.md §3, Edge flips, with placement) are measured from
+// the placed surface's record: the changed triangles' points, and the recorded places (moved
+// corners and skipped input edges with a moved end at their bound) beyond the running maximum.
+// That must give what measuring the whole flipped surface gives, bit for bit, at any floor.
+TEST(VertexPlacement, FlipsOnThePlacedSurfaceMeasureAsTheWholeSurfaceDoes) {
+  Mesh m = make_sphere(16, 32);
+  for (size_t v = 0; v < m.vertex_count(); ++v) {  // bumps: the moves are not all alike
+    float* p = &m.positions[3 * v];
+    const double bump = 1.0 + 0.05 * std::sin(5.0 * p[0]) * std::sin(4.0 * p[1] + 1.0);
+    for (int k = 0; k < 3; ++k) p[k] = float(p[k] * bump);
+  }
+  GroupSetup s(m);
+  // The default share (small moves: with a floor most moved points are skipped, recorded at
+  // their bound) and 8x it (most at the edge limit: the moved corners are the farthest points);
+  // few pairs flipped (most corners stay in unchanged triangles, where only the record knows
+  // them) and many (the maximum falls below skipped places' bounds).
+  const double kFarShare = 8 * kPlacementShare;
+  size_t corner_peaks = 0;
+  for (const double share : {kPlacementShare, kFarShare})
+    for (const uint32_t stride : {3u, 41u}) {  // triangles between the pairs flipped
+      const VertexMoves moves = s.place(share);
+      ASSERT_FALSE(moves.vertex.empty());
+      const uint32_t first = uint32_t(m.vertex_count());
+      std::vector<uint32_t> origin(moves.vertex.size()), fresh_id(m.vertex_count(), kNone);
+      for (size_t i = 0; i < moves.vertex.size(); ++i) {
+        origin[i] = s.leaves.origin(moves.vertex[i]);
+        fresh_id[moves.vertex[i]] = first + uint32_t(i);
+      }
+      const FreshVertices fresh{first, uint32_t(moves.vertex.size()), moves.positions.data(), origin.data(),
+                                moves.vertex.data()};
+      TriangleSet placed = s.tris;
+      for (uint32_t& v : placed.corners)
+        if (fresh_id[v] != kNone) v = fresh_id[v];
+      // (a, b, c), (b, a, d) become (c, a, d), (d, b, c).
+      TriangleSet flipped = placed;
+      std::vector<uint8_t> changed(placed.triangle_count(), 0);
+      std::map<std::pair<uint32_t, uint32_t>, uint32_t> use;  // directed welded edge -> 3t + j
+      auto w = [&](uint32_t v) { return s.welded.weld[v < first ? v : moves.vertex[v - first]]; };
+      for (uint32_t t = 0; t < placed.triangle_count(); ++t)
+        for (uint32_t j = 0; j < 3; ++j)
+          use[{w(placed.corners[3 * t + j]), w(placed.corners[3 * t + (j + 1) % 3])}] = 3 * t + j;
+      size_t flips = 0;
+      for (uint32_t t1 = 0; t1 < placed.triangle_count(); t1 += stride) {
+        if (changed[t1]) continue;
+        const uint32_t a = placed.corners[3 * t1], b = placed.corners[3 * t1 + 1], c = placed.corners[3 * t1 + 2];
+        const auto other = use.find({w(b), w(a)});
+        if (other == use.end()) continue;
+        const uint32_t t2 = other->second / 3, j2 = other->second % 3;
+        if (changed[t2] || t2 == t1) continue;
+        const uint32_t d = placed.corners[3 * t2 + (j2 + 2) % 3];
+        if (w(c) == w(d)) continue;
+        flipped.corners[3 * t1] = c, flipped.corners[3 * t1 + 1] = a, flipped.corners[3 * t1 + 2] = d;
+        flipped.corners[3 * t2] = d, flipped.corners[3 * t2 + 1] = b, flipped.corners[3 * t2 + 2] = c;
+        changed[t1] = changed[t2] = 1;
+        ++flips;
+      }
+      ASSERT_GE(flips, 5u);
+      const float whole = leaf_deviation(s.leaves, m, s.tris, placed, 0.0f, nullptr, nullptr, &fresh);
+      ASSERT_GT(whole, 0.0f);
+      for (const double at : {0.0, 0.2, 0.5, 0.8, 0.95}) {
+        const float floor = float(at * whole);
+        LatticePeak peak;
+        LatticeRecord record;
+        const float error = leaf_deviation(s.leaves, m, s.tris, placed, floor, &peak, &record, &fresh);
+        EXPECT_EQ(error, leaf_deviation(s.leaves, m, s.tris, placed, floor, nullptr, nullptr, &fresh)) << floor;
+        // Every moved corner is recorded (visited, or skipped at its bound) at or above its distance.
+        ASSERT_EQ(record.fresh.size(), moves.vertex.size());
+        for (size_t i = 0; i < moves.vertex.size(); ++i) {
+          uint32_t hint = kNone;
+          const float* p = &moves.positions[3 * i];
+          EXPECT_GE(record.fresh[i].d2, s.leaves.tree.nearest_distance_squared(DVec3{p[0], p[1], p[2]}, &hint)) << i;
+        }
+        corner_peaks += peak.corner;
+        EXPECT_EQ(leaf_deviation_after_change(s.leaves, m, s.tris, flipped, changed, record, floor, &fresh),
+                  leaf_deviation(s.leaves, m, s.tris, flipped, floor, nullptr, nullptr, &fresh))
+            << "share " << share << " stride " << stride << " floor " << floor;
+      }
+    }
+  EXPECT_GT(corner_peaks, 0u) << "a moved corner is the farthest point";
 }
 
 ClusterDag build_with(const Mesh& m, unsigned threads, bool placement, ErrorBound bound = ErrorBound::kMeasured) {

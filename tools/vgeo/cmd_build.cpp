@@ -29,8 +29,8 @@ namespace {
 
 struct BuildArgs {
   std::string input, output, report, simplifier = "meshopt", page_size, zstd_level, error_bound = "measured";
-  bool edge_flips = false;
-  bool vertex_placement = false;
+  bool edge_flips = true;
+  bool vertex_placement = true;
   unsigned threads = 0;
 };
 
@@ -189,12 +189,12 @@ void add_build_command(CLI::App& app, Context& ctx) {
                   "zstd level of the page format's pages and metadata: " + std::to_string(kMinZstdLevel) + ".." +
                       std::to_string(kMaxZstdLevel) + " (default " + std::to_string(kDefaultZstdLevel) +
                       "; `vgeo bench compression` measures size against CPU); ignored for .vgeodag");
-  cmd->add_flag("--edge-flips", args->edge_flips,
-                "flip edges towards the leaves after each simplification: fewer triangles at equal measured error "
-                "(~6% fewer) for ~6% more build CPU (spec/dag.md, Edge flips)");
-  cmd->add_flag("--vertex-placement", args->vertex_placement,
-                "move simplified vertices off the leaves along their normal: fewer triangles at equal measured error "
-                "(~4% fewer) for ~11-16% more build CPU and memory (spec/dag.md, Place)");
+  cmd->add_flag("!--no-edge-flips,--edge-flips", args->edge_flips,
+                "--no-edge-flips: no edge flips towards the leaves after each simplification (on by default: fewer "
+                "triangles at equal measured error; spec/dag.md, Edge flips)");
+  cmd->add_flag("!--no-vertex-placement,--vertex-placement", args->vertex_placement,
+                "--no-vertex-placement: simplified vertices stay on the leaves (by default they move off them along "
+                "their normal: fewer triangles at equal measured error; spec/dag.md, Place)");
   cmd->add_option("--error-bound", args->error_bound,
                   "what the stored errors promise: measured (default; the verify lattice's maximum, ERROR_BOUND) or "
                   "certified (an upper bound of the continuous deviation, ERROR_CERTIFIED; the same clusters, more build "

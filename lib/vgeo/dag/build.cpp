@@ -958,6 +958,9 @@ bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, c
 // flips are kept when it is lower. Either way the stored error is the measured one of the
 // triangles kept: stored ≥ measured exactly.
 float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, float floor, TriangleSet& triangles) {
+  // The first simplification of the leaves (floor 0) is never flipped (flip_edges_towards_leaves):
+  // no peak or record to keep (half the groups).
+  if (!(floor > 0)) return leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor);
   LatticePeak peak;
   LatticeRecord record;
   const float error = leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, &peak, &record);
@@ -973,8 +976,11 @@ float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, flo
 // The group's error with its vertices placed (vertex_placement.cpp): `moves` gets the moves
 // of `triangles`' movable vertices, measured with temporary ids (L.first_fresh on, in the
 // order of their final ids, combine_level's, so the lattice points are those of the final ids).
+// With `flips`, edges are then flipped on the placed surface as measure_with_edge_flips does on
+// the collapsed one, from the one measurement of the placed surface (its peak and record), and
+// kept where they lower its error; `triangles` gets the flips kept (old ids).
 float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet& input, float floor,
-                     const TriangleSet& triangles, std::vector<uint32_t>& scratch, VertexMoves& moves) {
+                     TriangleSet& triangles, bool flips, std::vector<uint32_t>& scratch, VertexMoves& moves) {
   PlacementContext ctx;
   ctx.welded = &s.welded;
   ctx.mesh = s.positions;
@@ -985,14 +991,34 @@ float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet
   ctx.mesh_border = &s.locks.mesh_border;
   ctx.share = s.internal.placement_share;
   moves = place_vertices(ctx, triangles, scratch);
-  if (moves.vertex.empty()) return leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor);
+  if (moves.vertex.empty())
+    return flips ? measure_with_edge_flips(s, input, floor, triangles)
+                 : leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor);
   TriangleSet renamed = triangles;
   rename_moved(moves, L.first_fresh, scratch, renamed.corners);
   std::vector<uint32_t> origin(moves.vertex.size());
   for (size_t i = 0; i < origin.size(); ++i) origin[i] = s.leaf_surface.origin(moves.vertex[i]);
   const FreshVertices fresh{L.first_fresh, uint32_t(moves.vertex.size()), moves.positions.data(), origin.data(),
                             moves.vertex.data()};
-  return leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, nullptr, nullptr, &fresh);
+  // No flips at floor 0, as measure_with_edge_flips.
+  if (!flips || !(floor > 0))
+    return leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, nullptr, nullptr, &fresh);
+  LatticePeak peak;
+  LatticeRecord record;
+  const float error = leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, &peak, &record, &fresh);
+  if (peak.triangle == kNone || peak.corner) return error;  // nothing a flip can lower (flip_edges_towards_leaves)
+  std::vector<uint8_t> changed;
+  TriangleSet flipped = renamed;
+  if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed, &fresh))
+    return error;
+  const float flipped_error =
+      leaf_deviation_after_change(s.leaf_surface, *s.positions, input, flipped, changed, record, floor, &fresh);
+  if (!(flipped_error < error)) return error;
+  for (size_t k = 0; k < flipped.corners.size(); ++k) {
+    const uint32_t v = flipped.corners[k];
+    triangles.corners[k] = v >= L.first_fresh ? moves.vertex[v - L.first_fresh] : v;
+  }
+  return flipped_error;
 }
 
 void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
@@ -1032,11 +1058,12 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the distance from the
   // simplified surface to the leaves, measured as verify measures it; the members' stored
   // error is a floor (the parent's error takes the max with it anyway).
-  if (sealed && s.options.edge_flips) error = measure_with_edge_flips(s, merged, max_member_error, simplified.triangles);
-  // With placement the flips are chosen on the leaf positions, then the vertices placed.
+  // With placement the vertices are placed first, then the flips chosen on the placed surface.
   if (sealed && s.placement)
-    error = measure_placed(s, L, merged, max_member_error, simplified.triangles, scratch, r.moves);
-  else if (sealed && !s.options.edge_flips)
+    error = measure_placed(s, L, merged, max_member_error, simplified.triangles, s.options.edge_flips, scratch, r.moves);
+  else if (sealed && s.options.edge_flips)
+    error = measure_with_edge_flips(s, merged, max_member_error, simplified.triangles);
+  else if (sealed)
     error = leaf_deviation(s.leaf_surface, *s.positions, merged, simplified.triangles, max_member_error);
   seconds_error += steady_seconds() - tv0;
   if (sealed && simplified.capped) {
@@ -1052,7 +1079,7 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
       VertexMoves locked_moves;
       const float locked_error =
           s.placement
-              ? measure_placed(s, L, merged, max_member_error, locked_borders.triangles, scratch, locked_moves)
+              ? measure_placed(s, L, merged, max_member_error, locked_borders.triangles, false, scratch, locked_moves)
               : leaf_deviation(s.leaf_surface, *s.positions, merged, locked_borders.triangles, max_member_error);
       seconds_error += steady_seconds() - tv0;
       if (double(locked_error) * double(locked_borders.triangles.triangle_count()) <

@@ -23,19 +23,16 @@ struct BuildOptions {
   // (ERROR_CERTIFIED), for the same clusters, at some build time.
   ErrorBound error_bound = ErrorBound::kMeasured;
   // Edge flips towards the leaves after each group's simplification (spec/dag.md §3, Edge
-  // flips): fewer triangles at equal measured error (gmean over 9 meshes 0.922 of the peer's
-  // against 0.951 without) for ~6% more DAG CPU on the 1M sphere. Off by default: with them the
-  // sphere's page build measured 1.28x the peer's CPU (goal <= 1.25x), without 1.11-1.16x
-  // (docs/acceptance/issue23_stop32.md).
-  bool edge_flips = false;
+  // flips), on the placed surface when vertex_placement is on: fewer triangles at equal
+  // measured error. On by default (docs/acceptance/issue23_modes.md: with vertex placement,
+  // gmean over qual.sh's 9 meshes 0.898 of the peer's against 0.951 with neither).
+  bool edge_flips = true;
   // Vertex placement after each group's simplification (spec/dag.md §2.3 Place): movable
   // vertices move off the leaves along their leaf normal, so the simplified surface lies on
   // both sides of curved leaves: fewer triangles at equal measured error
-  // (docs/acceptance/issue23_place.md: gmean over the issue's 6 meshes 0.954 of the peer's
-  // against 0.997 without; 0.911 with edge flips too). Either simplifier. Off by default: it costs
-  // 11-16% more DAG CPU on the 1M sphere (1.18x the peer's against 1.08x in the same run) and
-  // peak RSS 112 -> 133 MB (1.33x the peer's; goal 2: <= 1.2x) (docs/acceptance/issue23_stop33.md).
-  bool vertex_placement = false;
+  // (docs/acceptance/issue23_place.md, docs/acceptance/issue23_modes.md). Either simplifier.
+  // On by default; off keeps every coarse vertex a leaf vertex (spec/dag.md D2).
+  bool vertex_placement = true;
 };
 
 struct BuildLevelReport {

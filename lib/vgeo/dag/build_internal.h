@@ -343,21 +343,27 @@ LeafWalkEnd walk_leaf_surface(const LeafSurface& s, DVec3 p, uint32_t start, int
 // there (0..2: a point of edge j, corners j and j + 1; kLatticeInterior: an interior point).
 // triangle = kNone when no point lies beyond the floor (the result is the floor).
 inline constexpr int kLatticeInterior = 3;
+// corner: the point is a moved vertex (FreshVertices), a corner no flip changes.
 struct LatticePeak {
   uint32_t triangle = kNone;
   int place = kLatticeInterior;
+  bool corner = false;
 };
 // What leaf_deviation found at each place of `simplified` (places[4t + place], place as in
 // LatticePeak): the largest upper bound of its points' squared distances to the leaves (the
 // walk's or the tree's triangle that decided each; exact for a point that raised the
 // maximum) and the leaf triangle where that point's walk or search ended; d2 < 0: no point
-// visited there (an edge of the input, or one visited from its other triangle).
+// visited there (an edge of the input, or one visited from its other triangle). With moved
+// vertices (FreshVertices), fresh[i] is moved vertex first + i's corner point; a point the
+// search skipped as unable to raise the maximum (a moved corner, an input edge with a moved
+// end) is recorded with that bound, floor + displacement.
 struct LatticeRecord {
   struct Place {
     double d2 = -1;
     uint32_t leaf = kNone;
   };
   std::vector<Place> places;
+  std::vector<Place> fresh;
 };
 // `fresh`: corners with ids from fresh->first on are moved vertices (not leaf vertices: their
 // points are measured, corners included; their edges are no edge of the input).
@@ -369,18 +375,21 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
 // marked in `changed` replaced (same count; an edge of a replaced triangle that is still used
 // is used by a replaced one): only the replaced triangles' points are visited, and the
 // others' recorded bounds decide which of them need a search.
+// `fresh`: as leaf_deviation's, the same as the measurement that recorded `record`.
 float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input,
                                   const TriangleSet& changed_surface, const std::vector<uint8_t>& changed,
-                                  const LatticeRecord& record, float floor);
+                                  const LatticeRecord& record, float floor, const FreshVertices* fresh = nullptr);
 // Flips edges inside a simplified group where the other diagonal lies clearly closer to the
 // leaves; never an edge with both ends locked, never onto an existing edge (edge_flip.cpp).
 // Only flips that can lower the group's measured error are wanted (spec/dag.md §3, edge
 // flips): the edges that change the lattice point at `peak` (leaf_deviation's) are tried
 // first, and when none of them flips, nothing is flipped. Returns whether any edge flipped.
-// `flipped` gets, per triangle, whether a flip replaced it.
+// `flipped` gets, per triangle, whether a flip replaced it. `fresh`: corners from fresh->first
+// on are moved vertices (their positions are fresh's; welded and locked as the vertex they
+// replace), as in the measurement that found `peak` and `record`.
 bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
                                float floor, const LatticePeak& peak, const LatticeRecord& record, TriangleSet& triangles,
-                               std::vector<uint8_t>& flipped);
+                               std::vector<uint8_t>& flipped, const FreshVertices* fresh = nullptr);
 
 // Certified mode (BuildOptions::error_bound = ErrorBound::kCertified; leaf_certify.cpp,
 // spec/dag.md §Error "Certified bound"). twin[3t + j]: the edge k of g = neighbour[3t + j]

@@ -44,10 +44,20 @@ constexpr double kFlatDeviation = 1e-4;
 // leaf triangles of the previous one).
 constexpr int kFlipMaxWalkSteps = 32;
 
-DVec3 flip_position(const Mesh& mesh, uint32_t v) {
-  const float* p = &mesh.positions[3 * size_t(v)];
-  return {p[0], p[1], p[2]};
-}
+// Positions, welded ids and leaf origins by vertex id: the mesh's, and a group's moved vertices
+// (fresh) before their ids are final, welded and locked as the vertex each replaces.
+struct FlipVertices {
+  const WeldedMesh& welded;
+  const LeafSurface& leaves;
+  const FreshVertices* fresh;
+  bool is_fresh(uint32_t v) const { return fresh && fresh->positions && v >= fresh->first; }
+  DVec3 position(uint32_t v) const {
+    const float* p = is_fresh(v) ? &fresh->positions[3 * size_t(v - fresh->first)] : &welded.mesh->positions[3 * size_t(v)];
+    return {p[0], p[1], p[2]};
+  }
+  uint32_t weld(uint32_t v) const { return welded.weld[is_fresh(v) ? fresh->previous[v - fresh->first] : v]; }
+  uint32_t origin(uint32_t v) const { return is_fresh(v) ? fresh->origin[v - fresh->first] : leaves.origin(v); }
+};
 
 // Whether p lies within sqrt(threshold) of the leaves: a visibility walk from *at (*at gets
 // where it ended), decided by the triangle p projects into; a walk that stops (a border, a
@@ -84,8 +94,8 @@ bool pair_within(const LeafSurface& leaves, DVec3 p, DVec3 q, DVec3 r, DVec3 s, 
 
 bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
                                float floor, const LatticePeak& peak, const LatticeRecord& record, TriangleSet& triangles,
-                               std::vector<uint8_t>& flipped) {
-  const Mesh& mesh = *welded.mesh;
+                               std::vector<uint8_t>& flipped, const FreshVertices* fresh) {
+  const FlipVertices vertex{welded, leaves, fresh};
   const size_t n = triangles.triangle_count();
   flipped.assign(n, 0);
   // The first simplification of the leaves (floor 0) is left as collapsed: it lies a few
@@ -93,11 +103,12 @@ bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leav
   // any error a cut is asked for, and it is half the candidates (flipping there too: dagq's
   // ratio to the peer within noise, geometric mean 0.91 both, over three spheres, armadillo
   // and bunny00). A group whose error is its floor (no peak) cannot get below it.
-  if (n < 2 || leaves.tree.empty() || !(floor > 0) || peak.triangle == kNone || peak.triangle >= n ||
+  // A peak at a moved vertex is a point of every flipped surface.
+  if (n < 2 || leaves.tree.empty() || !(floor > 0) || peak.triangle == kNone || peak.corner || peak.triangle >= n ||
       record.places.size() != 4 * n)
     return false;
   std::vector<uint32_t>& corners = triangles.corners;
-  auto w = [&](size_t corner) { return welded.weld[corners[corner]]; };
+  auto w = [&](size_t corner) { return vertex.weld(corners[corner]); };
   // The measurement's values (the old pair's side of each decision). A diagonal without
   // points was skipped by it: an input edge, within the floor.
   const std::vector<LatticeRecord::Place>& known = record.places;
@@ -160,8 +171,8 @@ bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leav
     // Group-border edges are never removed or made (another group may use them).
     if ((locked[a] && locked[b]) || (locked[c] && locked[d])) return false;
     if (keys[slot(edge_key(c, d))] != kNoEdgeKey) return false;  // would be used more than twice
-    const DVec3 pa = flip_position(mesh, corners[ia]), pb = flip_position(mesh, corners[ib]);
-    const DVec3 pc = flip_position(mesh, corners[ic]), pd = flip_position(mesh, corners[jd]);
+    const DVec3 pa = vertex.position(corners[ia]), pb = vertex.position(corners[ib]);
+    const DVec3 pc = vertex.position(corners[ic]), pd = vertex.position(corners[jd]);
     using surface_distance_detail::cross, surface_distance_detail::dot, surface_distance_detail::sub;
     const DVec3 ab = sub(pb, pa);
     if (before <= kFlatDeviation * kFlatDeviation * dot(ab, ab)) return false;
@@ -174,7 +185,7 @@ bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leav
     // points lie next to the old pair's (the new diagonal's thirds by the old interiors, its
     // interiors by the old diagonal's thirds), so the walks start where the measurement's
     // walks for those ended.
-    uint32_t at = diagonal.leaf != kNone ? diagonal.leaf : leaves.vertex_triangle[leaves.origin(corners[ia])];
+    uint32_t at = diagonal.leaf != kNone ? diagonal.leaf : leaves.vertex_triangle[vertex.origin(corners[ia])];
     if (at == kNone) return false;
     if (!walked_within(leaves, midpoint(pc, pd), kFlipGain * before, &at)) return false;
     if (inside.leaf != kNone) at = inside.leaf;

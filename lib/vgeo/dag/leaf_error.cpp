@@ -61,9 +61,11 @@ void vertex_normal(const float* positions, const std::vector<uint32_t>& ids, con
   const double length = std::sqrt(sum.x * sum.x + sum.y * sum.y + sum.z * sum.z);
   if (!(length > 0)) return;
   const DVec3 n{sum.x / length, sum.y / length, sum.z / length};
+  // Triangles without an area (degenerate, fins) face nowhere: they neither count nor veto (they
+  // used to veto, and a mesh with a degenerate triangle every few placed no vertex at all).
   for (uint32_t i = 0; i < count; ++i) {
     const double f = std::sqrt(face[i].x * face[i].x + face[i].y * face[i].y + face[i].z * face[i].z);
-    if (!(f > 0) || face[i].x * n.x + face[i].y * n.y + face[i].z * n.z < kCosPlacementCrease * f) return;
+    if (f > 0 && face[i].x * n.x + face[i].y * n.y + face[i].z * n.z < kCosPlacementCrease * f) return;
   }
   out[0] = float(n.x), out[1] = float(n.y), out[2] = float(n.z);
 }
@@ -296,9 +298,9 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   // and edges already visited. Open addressing, load ≤ 1/2.
   size_t slots = 16;
   int shift = 60;  // hash = top log2(slots) bits of a multiplicative hash
-  // Keys: ≤ 3 per triangle of each set, and one per moved vertex (its corner).
+  // Keys: ≤ 3 per triangle of each set (moved corners are kept apart: corner_seen).
   const size_t fresh_keys = mesh.fresh ? mesh.fresh->count : 0;
-  while (slots < 2 * (3 * simplified.triangle_count() + fresh_keys + (floor_d2 > 0 ? 3 * input.triangle_count() : 0)))
+  while (slots < 2 * (3 * simplified.triangle_count() + (floor_d2 > 0 ? 3 * input.triangle_count() : 0)))
     slots <<= 1, --shift;
   std::vector<uint64_t> edge_slot(slots, kNoEdge);
   auto insert_edge = [&](uint32_t a, uint32_t b) {  // true iff the edge was not in the set
@@ -333,10 +335,19 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   // cannot raise the maximum while floor + displacement is within it. The margin covers the
   // rounding of the lattice points (ulps of the coordinates, far below any displacement).
   const double floor_distance = std::sqrt(floor_d2);
-  auto cannot_raise = [&](double displacement, DVec3 p) {
+  auto displaced_bound2 = [&](double displacement, DVec3 p) {
     const double scale = std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
     const double bound = (floor_distance + displacement) * (1.0 + kDisplacedBoundMargin) + kDisplacedBoundMargin * scale;
-    return bound * bound <= std::max(best2, floor_d2);
+    return bound * bound;
+  };
+  auto cannot_raise = [&](double bound2) { return bound2 <= std::max(best2, floor_d2); };
+  // The record's entry for the points being visited: a moved corner's own, else its place's.
+  auto record_place = [&]() -> LatticeRecord::Place& {
+    return here.corner ? record->fresh[size_t(here.place)] : record->places[4 * size_t(here.triangle) + size_t(here.place)];
+  };
+  auto note = [&](double d2, uint32_t leaf) {
+    LatticeRecord::Place& r = record_place();
+    if (d2 > r.d2) r.d2 = d2, r.leaf = leaf;
   };
   auto visit = [&](DVec3 p) {
     const double threshold = std::max(best2, floor_d2);
@@ -349,28 +360,40 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
         if (peak) *peak = here;
       }
     }
-    if (record) {
-      LatticeRecord::Place& r = record->places[4 * size_t(here.triangle) + size_t(here.place)];
-      if (d2 > r.d2) r.d2 = d2, r.leaf = at;
-    }
+    if (record) note(d2, at);
   };
   // The points of for_each_lattice_point, triangle by triangle (for_each_place_point).
   // Corners are skipped: a simplified corner is an input vertex (both backends only remove
   // vertices), a corner of a leaf triangle, at distance exactly 0. Which points are visited
   // decides the result, not the order: edge points go from corner j to corner j + 1, so
   // consecutive points are a short walk apart.
-  if (record) record->places.assign(4 * simplified.triangle_count(), LatticeRecord::Place{});
+  if (record) {
+    record->places.assign(4 * simplified.triangle_count(), LatticeRecord::Place{});
+    record->fresh.assign(fresh_keys, LatticeRecord::Place{});
+  }
   // Placed corners and input edges with a placed end are visited last, when the running maximum
   // is near its final value, so that most of them need no visit (cannot_raise).
   std::vector<std::pair<uint32_t, int>> displaced;  // (triangle, place: an edge j, or 3 + corner j)
+  // Each moved vertex's displacement, once (a vertex ends ~6 of the edges).
+  std::vector<double> moved_by(fresh_keys, -1.0);
+  // Whether a moved vertex's corner is queued already (moved ids are consecutive from
+  // fresh->first: indexed directly, where a key in the edge set cost a probe per corner).
+  std::vector<uint8_t> corner_seen(fresh_keys, 0);
+  auto first_corner_use = [&](uint32_t v) { return !corner_seen[v - mesh.fresh->first]++; };
+  auto displacement = [&](uint32_t v) {
+    if (!mesh.is_fresh(v)) return 0.0;
+    double& d = moved_by[v - mesh.fresh->first];
+    if (d < 0) d = mesh.displacement(v);
+    return d;
+  };
   for (size_t t = 0; t < simplified.triangle_count(); ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
     at = mesh.start_triangle(tri[0]);
     here.triangle = uint32_t(t);
-    // A moved corner (fresh) is no leaf vertex: measured once, from its leaf vertex's triangle
-    // (key (v, v): no edge of two distinct ids).
+    here.corner = false;
+    // A moved corner (fresh) is no leaf vertex: measured once, from its leaf vertex's triangle.
     for (int j = 0; j < 3; ++j)
-      if (mesh.is_fresh(tri[j]) && insert_edge(tri[j], tri[j])) displaced.push_back({uint32_t(t), 3 + j});
+      if (mesh.is_fresh(tri[j]) && first_corner_use(tri[j])) displaced.push_back({uint32_t(t), 3 + j});
     bool after_previous_edge = false;  // the last point visited is on edge j - 1, next to corner j
     for (int j = 0; j < 3; ++j) {
       const uint32_t a = tri[j], b = tri[(j + 1) % 3];
@@ -394,22 +417,34 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     here.place = kLatticeInterior;
     for_each_place_point(mesh, tri, kLatticeInterior, visit);
   }
+  // A skipped place is recorded with its bound (the walk of a later search starts at its first
+  // vertex's leaf triangle).
   for (const auto& [t, place] : displaced) {
     const uint32_t* tri = &simplified.corners[3 * size_t(t)];
     here.triangle = t;
     if (place >= 3) {  // a placed corner: no leaf vertex, measured from its leaf vertex's triangle
       const uint32_t v = tri[place - 3];
-      if (cannot_raise(mesh.displacement(v), mesh(v))) continue;
+      here.corner = true;
+      here.place = int(v - mesh.fresh->first);
+      const double bound2 = displaced_bound2(displacement(v), mesh(v));
+      if (cannot_raise(bound2)) {
+        if (record) note(bound2, mesh.start_triangle(v));
+        continue;
+      }
       at = mesh.start_triangle(v);
-      here.place = kLatticeInterior;
       visit(mesh(v));
       continue;
     }
-    const uint32_t a = tri[place], b = tri[(place + 1) % 3];
-    const double moved = std::max(mesh.displacement(a), mesh.displacement(b));
-    if (cannot_raise(moved, mesh(a)) && cannot_raise(moved, mesh(b))) continue;
-    at = mesh.start_triangle(a);
+    here.corner = false;
     here.place = place;
+    const uint32_t a = tri[place], b = tri[(place + 1) % 3];
+    const double moved = std::max(displacement(a), displacement(b));
+    const double bound2 = std::max(displaced_bound2(moved, mesh(a)), displaced_bound2(moved, mesh(b)));
+    if (cannot_raise(bound2)) {
+      if (record) note(bound2, mesh.start_triangle(a));
+      continue;
+    }
+    at = mesh.start_triangle(a);
     for_each_place_point(mesh, tri, place, visit);
   }
   return best2;
@@ -429,10 +464,10 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
 
 float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input,
                                   const TriangleSet& changed_surface, const std::vector<uint8_t>& changed,
-                                  const LatticeRecord& record, float floor) {
+                                  const LatticeRecord& record, float floor, const FreshVertices* fresh) {
   if (leaves.tree.empty() || changed_surface.triangle_count() == 0) return floor;
   const double floor_d2 = floor_squared(floor);
-  const VertexSource source{leaves, mesh, nullptr};
+  const VertexSource source{leaves, mesh, fresh};
   // The changed triangles' points (new, or on an edge a changed triangle shares), measured.
   TriangleSet now;
   for (size_t t = 0; t < changed_surface.triangle_count(); ++t)
@@ -441,23 +476,31 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
       now.materials.push_back(changed_surface.materials[t]);
     }
   double best2 = now.triangle_count() ? deviation_squared(leaves, source, input, now, floor_d2, nullptr, nullptr) : 0.0;
-  // Every other point was visited from an unchanged triangle: its place's recorded value
-  // bounds its distance, so only places recorded beyond the running maximum are searched,
-  // largest first.
-  std::vector<std::pair<double, uint32_t>> open;  // (recorded value, 4t + place)
+  // Every other point was visited from an unchanged triangle (or is a moved corner): its
+  // place's recorded value bounds its distance, so only places recorded beyond the running
+  // maximum are searched, largest first.
+  std::vector<std::pair<double, uint32_t>> open;  // (recorded value, 4t + place, or the places' count + moved vertex)
   for (size_t k = 0; k < record.places.size() && k / 4 < changed.size(); ++k)
     if (!changed[k / 4] && record.places[k].d2 > std::max(best2, floor_d2)) open.push_back({record.places[k].d2, uint32_t(k)});
+  const size_t moved_base = record.places.size();
+  for (size_t i = 0; i < record.fresh.size(); ++i)
+    if (record.fresh[i].d2 > std::max(best2, floor_d2)) open.push_back({record.fresh[i].d2, uint32_t(moved_base + i)});
   std::sort(open.begin(), open.end(), [](const auto& x, const auto& y) { return x.first > y.first || (x.first == y.first && x.second < y.second); });
   for (const auto& [bound, k] : open) {
     if (bound <= std::max(best2, floor_d2)) break;
-    uint32_t at = record.places[k].leaf;  // where the measurement's walk or search ended
-    for_each_place_point(source, &changed_surface.corners[3 * size_t(k / 4)], int(k % 4), [&](DVec3 p) {
+    const bool corner = k >= moved_base;
+    uint32_t at = corner ? record.fresh[k - moved_base].leaf : record.places[k].leaf;  // where the measurement's walk or search ended
+    auto search = [&](DVec3 p) {
       const double threshold = std::max(best2, floor_d2);
       double d2;
       if (at != kNone && walk_within(leaves, p, threshold, &at, &d2)) return;  // as deviation_squared
       d2 = leaves.tree.nearest_or_within_squared(p, threshold, &at);
       if (d2 > threshold) best2 = d2;
-    });
+    };
+    if (corner)
+      search(source(fresh->first + uint32_t(k - moved_base)));
+    else
+      for_each_place_point(source, &changed_surface.corners[3 * size_t(k / 4)], int(k % 4), search);
   }
   return std::max(floor, round_up_to_float(std::sqrt(best2)));
 }
