@@ -338,7 +338,16 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const PreparedGroup& p
     r.capped = false;
     // Caps need a chain of the group's own open edges (most groups have none: their open edges
     // are group borders, both ends locked).
-    if (target.open_borders && target.mesh_border && !p.open_border.chain_corners.empty()) {
+    if (target.open_borders && target.mesh_border && p.input_locked.empty()) {
+      // Nothing of the group is shared with another group (the last levels of a mesh with
+      // holes): no vertex needs LockBorder, and meshopt moves the mesh's own border vertices
+      // only along their border. Compared with the locked-border result as a capped one is.
+      out.resize(sub_indices.size());
+      out_count = meshopt_simplify(out.data(), sub_indices.data(), sub_indices.size(), sub_positions.data(),
+                                   sub_vertices, sizeof(float) * 3, 3 * target_triangles(n, target.ratio), target_error,
+                                   0, nullptr);
+      r.capped = out_count > 0;
+    } else if (target.open_borders && target.mesh_border && !p.open_border.chain_corners.empty()) {
       std::vector<uint32_t> welded_of_sub(sub_vertices);
       for (size_t v = 0; v < sub_vertices; ++v) welded_of_sub[v] = welded.weld[uint32_t(key_of(unsigned(v)) >> 32)];
       out_count = simplify_with_open_border_caps(p.open_border, sub_indices, sub_positions, welded_of_sub, locked,
@@ -479,7 +488,7 @@ SimplifyResult simplify_prepared(const WeldedMesh& welded, const PreparedGroup& 
   SimplifyResult r = simplifier == Simplifier::kOpenMesh ? simplify_openmesh(welded, input, locked, target)
                                                          : simplify_meshopt(welded, prepared, locked, target, scratch);
   drop_reversed_pairs(welded, r.triangles);
-return r;
+  return r;
 }
 
 SimplifyResult simplify_group(const WeldedMesh& welded, const TriangleSet& group,
