@@ -338,7 +338,7 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const PreparedGroup& p
     r.capped = false;
     // Caps need a chain of the group's own open edges (most groups have none: their open edges
     // are group borders, both ends locked).
-    if (target.open_borders && target.mesh_border && p.input_locked.empty()) {
+    if (target.open_borders && target.mesh_border && target.lone_unlocked && p.input_locked.empty()) {
       // Nothing of the group is shared with another group (the last levels of a mesh with
       // holes): no vertex needs LockBorder, and meshopt moves the mesh's own border vertices
       // only along their border. Compared with the locked-border result as a capped one is.
