@@ -1072,19 +1072,29 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     // simplified with those borders locked too, and the result with the smaller product of
     // measured error and triangles is kept (on a surface the error falls about as 1/triangles,
     // so the product compares the two at equal error).
-    target.open_borders = false;
-    SimplifyResult locked_borders;
-    if (simplify_sealed(s, blk.group_shared_edges[g], prepared, target, scratch, locked_borders)) {
+    auto keep_if_better = [&](const SimplifyTarget& other) {
+      SimplifyResult alternative;
+      if (!simplify_sealed(s, blk.group_shared_edges[g], prepared, other, scratch, alternative)) return;
       tv0 = steady_seconds();
-      VertexMoves locked_moves;
-      const float locked_error =
+      VertexMoves moves;
+      const float alternative_error =
           s.placement
-              ? measure_placed(s, L, merged, max_member_error, locked_borders.triangles, false, scratch, locked_moves)
-              : leaf_deviation(s.leaf_surface, *s.positions, merged, locked_borders.triangles, max_member_error);
+              ? measure_placed(s, L, merged, max_member_error, alternative.triangles, false, scratch, moves)
+              : leaf_deviation(s.leaf_surface, *s.positions, merged, alternative.triangles, max_member_error);
       seconds_error += steady_seconds() - tv0;
-      if (double(locked_error) * double(locked_borders.triangles.triangle_count()) <
+      if (double(alternative_error) * double(alternative.triangles.triangle_count()) <
           double(error) * double(simplified.triangles.triangle_count()))
-        simplified = std::move(locked_borders), error = locked_error, r.moves = std::move(locked_moves);
+        simplified = std::move(alternative), error = alternative_error, r.moves = std::move(moves);
+    };
+    SimplifyTarget locked_target = target;
+    locked_target.open_borders = false;
+    keep_if_better(locked_target);
+    // A lone group was simplified without LockBorder: its capped simplification competes too
+    // (lion's coarsest levels: the capped one had the smaller product).
+    if (target.lone_unlocked && prepared.input_locked.empty() && !prepared.open_border.chain_corners.empty()) {
+      SimplifyTarget capped_target = target;
+      capped_target.lone_unlocked = false;
+      keep_if_better(capped_target);
     }
   }
   const double tm = steady_seconds();

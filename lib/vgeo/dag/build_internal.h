@@ -442,6 +442,9 @@ struct SimplifyTarget {
   // meshopt: the group's own open borders simplify (add_open_border_caps); false: LockBorder
   // keeps them as it keeps the group border.
   bool open_borders = true;
+  // meshopt, open_borders: a group sharing no vertex with another group is simplified without
+  // LockBorder (false: with caps, as other groups are).
+  bool lone_unlocked = true;
   // Welded ids on the mesh's own open edges (1), the only ends a new open edge may have;
   // null: no caps (open_borders is then ignored).
   const std::vector<uint8_t>* mesh_border = nullptr;

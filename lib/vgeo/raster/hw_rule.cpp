@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "vgeo/core/vis_key.h"
 #include "vgeo/raster/raster.h"
@@ -46,10 +47,29 @@ ModelTriangle model_triangle(const Vec3 (&object)[3], const Mat4& m, double z_ne
     t.gy = (z2 * x1 - z1 * x2) / area;
   }
   t.depth_tolerance = kDepthRelativeTolerance * z_max + (std::abs(t.gx) + std::abs(t.gy)) * kDepthSnapPixels;
+  t.area = std::abs(area) / 2;
+  for (uint32_t i = 0; i < p.count; ++i)
+    t.longest_edge = std::max(t.longest_edge, std::hypot(p.x[(i + 1) % p.count] - p.x[i], p.y[(i + 1) % p.count] - p.y[i]));
+  t.vertex_shift = std::sqrt(2.0) * model_transform_shift(p);
   return t;
 }
 
 double model_depth_at(const ModelTriangle& t, double x, double y) { return t.z0 + t.gx * (x - t.x0) + t.gy * (y - t.y0); }
+
+double model_depth_tolerance_at(const ModelTriangle& t, double x, double y) {
+  if (t.polygon.count != 3) return t.depth_tolerance;
+  // spec/raster.md §10: the hardware's plane interpolates its vertices' depths, each within
+  // depth_tolerance of the exact plane at its rounded position; at a sample its barycentrics
+  // weigh those residuals by Σ|λ| ≤ 1 + 2 d' L' / A' (d' the sample's distance outside its
+  // triangle, L' ≥ its longest edge, A' ≤ its area, all within e of the exact triangle's).
+  const double e = t.vertex_shift;
+  const double area_low = t.area - 2 * t.longest_edge * e;
+  if (!(area_low > 0)) return std::numeric_limits<double>::infinity();
+  bool inside = false;
+  const double outside = model_outline_distance(t.polygon, x, y, &inside);
+  const double d = (inside ? 0.0 : outside) + e;
+  return t.depth_tolerance * (1 + 2 * d * (t.longest_edge + 2 * e) / area_low);
+}
 
 const char* hw_pixel_name(HwPixel p) {
   switch (p) {
@@ -70,11 +90,12 @@ HwPixel classify_hw_pixel(uint64_t ref_key, uint64_t hw_key, bool same_triangle,
   const double x = px + 0.5, y = py + 0.5;
   if (same_triangle && ref) {
     const double dz = std::abs(double(vis_key_depth(ref_key)) - double(vis_key_depth(hw_key)));
-    return dz <= 2 * ref->depth_tolerance ? HwPixel::kDepthOnly : HwPixel::kDepthBeyondTolerance;
+    return dz <= 2 * model_depth_tolerance_at(*ref, x, y) ? HwPixel::kDepthOnly : HwPixel::kDepthBeyondTolerance;
   }
   if (ref && hw && model_coverage(hw->polygon, x, y, hw->margin) != ModelCoverage::kOutside &&
       model_coverage(ref->polygon, x, y, ref->margin) != ModelCoverage::kOutside &&
-      std::abs(model_depth_at(*hw, x, y) - model_depth_at(*ref, x, y)) <= hw->depth_tolerance + ref->depth_tolerance)
+      std::abs(model_depth_at(*hw, x, y) - model_depth_at(*ref, x, y)) <=
+          model_depth_tolerance_at(*hw, x, y) + model_depth_tolerance_at(*ref, x, y))
     return HwPixel::kAmbiguousDepth;
   for (const ModelTriangle* t : {ref, hw})
     if (t && t->clipped && model_coverage(t->polygon, x, y, t->margin) == ModelCoverage::kAmbiguous)

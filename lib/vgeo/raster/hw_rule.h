@@ -20,10 +20,22 @@ struct ModelTriangle {
   double z0 = 0, x0 = 0, y0 = 0, gx = 0, gy = 0;  // z(x, y) = z0 + gx (x − x0) + gy (y − y0), pixels
   double depth_tolerance = 0;                     // 10^-6 z_max + (|gx| + |gy|) · 2/256
   bool clipped = false;
+  // The plane's conditioning (unclipped triangles): exact area (px²), longest edge (px), and
+  // how far a conforming float32 transform may move a vertex (Euclidean, px).
+  double area = 0, longest_edge = 0, vertex_shift = 0;
 };
 ModelTriangle model_triangle(const Vec3 (&object)[3], const Mat4& object_to_clip, double z_near, uint32_t width,
                              uint32_t height);
 double model_depth_at(const ModelTriangle& t, double x, double y);
+
+// The §10 depth tolerance at the point (x, y) (spec/raster.md §10, "plane conditioning"):
+// depth_tolerance × (1 + 2 (d + e)(L + 2e) / (A − 2 L e)), d the point's distance outside
+// the exact triangle, e = vertex_shift, L = longest_edge, A = area. A float implementation
+// sets its depth plane up from its own rounded vertices; the factor bounds how far that plane
+// can be from the exact one at a sample it covers. Infinite when A ≤ 2 L e (the triangle is
+// degenerate within the transform's rounding: its float plane is rounding noise). Clipped
+// polygons: depth_tolerance.
+double model_depth_tolerance_at(const ModelTriangle& t, double x, double y);
 
 enum class HwPixel : uint8_t {
   kIdentical = 0,           // same key

@@ -50,14 +50,15 @@ ModelPolygon model_polygon(const Vec3 (&object)[3], const Mat4& m, double z_near
   return out;
 }
 
-double unambiguous_margin(const ModelPolygon& p) {
+double model_transform_shift(const ModelPolygon& p) {
   double largest = 0;
   for (uint32_t i = 0; i < p.count; ++i) largest = std::max({largest, std::abs(p.x[i]), std::abs(p.y[i])});
-  return kMarginPixels + kMarginRelative * largest;
+  return kMarginRelative * largest;
 }
 
-ModelCoverage model_coverage(const ModelPolygon& p, double x, double y, double margin) {
-  if (p.count < 3) return ModelCoverage::kOutside;
+double unambiguous_margin(const ModelPolygon& p) { return kMarginPixels + model_transform_shift(p); }
+
+double model_outline_distance(const ModelPolygon& p, double x, double y, bool* inside) {
   // Euclidean distance to the outline segments (no edge orientation needed, so slivers
   // and zero-area polygons are handled) and the winding number for inside/outside.
   double min_dist = std::numeric_limits<double>::infinity();
@@ -73,8 +74,16 @@ ModelCoverage model_coverage(const ModelPolygon& p, double x, double y, double m
       if (crossing > x) winding += dy > 0 ? 1 : -1;
     }
   }
+  *inside = winding != 0;
+  return min_dist;
+}
+
+ModelCoverage model_coverage(const ModelPolygon& p, double x, double y, double margin) {
+  if (p.count < 3) return ModelCoverage::kOutside;
+  bool inside = false;
+  const double min_dist = model_outline_distance(p, x, y, &inside);
   if (min_dist < margin) return ModelCoverage::kAmbiguous;
-  return winding != 0 ? ModelCoverage::kInside : ModelCoverage::kOutside;
+  return inside ? ModelCoverage::kInside : ModelCoverage::kOutside;
 }
 
 }  // namespace vgeo

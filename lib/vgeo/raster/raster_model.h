@@ -26,6 +26,14 @@ ModelPolygon model_polygon(const Vec3 (&object)[3], const Mat4& object_to_clip, 
 // δ = 2^-6 px + 2^-18 · (largest |screen coordinate| of the polygon, px).
 double unambiguous_margin(const ModelPolygon& polygon);
 
+// The M term of δ alone: 2^-18 · M, how far (per coordinate, px) a conforming float32
+// transform may put a vertex from the exact one.
+double model_transform_shift(const ModelPolygon& polygon);
+
+// Euclidean distance from (x, y) to the polygon's outline; *inside: whether the point is
+// inside (nonzero winding).
+double model_outline_distance(const ModelPolygon& polygon, double x, double y, bool* inside);
+
 // Coverage class of the point (x, y) in screen pixels (pixel centres are at +0.5):
 // inside/outside when at distance ≥ `margin` from the outline, else ambiguous.
 ModelCoverage model_coverage(const ModelPolygon& polygon, double x, double y, double margin);

@@ -75,9 +75,9 @@ HwRasterAgreement compare_hw_frame(const RenderScene& scene, const std::vector<C
                                   : classify_hw_pixel(cpu.vis.keys[p], gpu.vis.keys[p], same, models.of(a), models.of(b), x, y);
       ++agreement.pixels[int(kind)];
       if (same && kind != HwPixel::kIdentical) {
-        const double tol = models.of(a)->depth_tolerance;
+        const double tol = model_depth_tolerance_at(*models.of(a), x + 0.5, y + 0.5);
         const double dz = std::abs(double(vis_key_depth(cpu.vis.keys[p])) - double(vis_key_depth(gpu.vis.keys[p])));
-        if (tol > 0) agreement.max_depth_error_ratio = std::max(agreement.max_depth_error_ratio, dz / tol);
+        if (tol > 0 && !std::isinf(tol)) agreement.max_depth_error_ratio = std::max(agreement.max_depth_error_ratio, dz / tol);
       }
     }
   return agreement;

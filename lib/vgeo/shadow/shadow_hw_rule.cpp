@@ -103,8 +103,12 @@ void classify_shadow_page_hw(const std::vector<ClusterDag>& meshes, const std::v
         for (int side = 0; side < 2; ++side) {
           if (stored[side] == 0.0f) continue;
           const double error = std::abs(double(stored[side]) - z);
-          const double score = m.depth_tolerance > 0 ? error / m.depth_tolerance
-                                                     : (error == 0 ? 0 : std::numeric_limits<double>::infinity());
+          // A triangle degenerate within rounding (infinite tolerance: no depth plane) explains
+          // any depth, but only where no triangle with a plane explains it.
+          const double tol = model_depth_tolerance_at(m, cx, cy);
+          const double score = std::isinf(tol) ? kExplainedTolerances
+                               : tol > 0       ? error / tol
+                                               : (error == 0 ? 0 : std::numeric_limits<double>::infinity());
           if (score <= kExplainedTolerances && score < match.score[side]) {
             match.score[side] = score;
             match.tri[side] = int32_t(t);
@@ -132,10 +136,10 @@ void classify_shadow_page_hw(const std::vector<ClusterDag>& meshes, const std::v
       const uint64_t hw_key = hw ? pack_vis_key(stored[1], 0, 0) | (uint64_t(match.tri[1]) + 1) : 0;
       const uint32_t x = p.raster.window_x + uint32_t(i % kPageSide), y = p.raster.window_y + uint32_t(i / kPageSide);
       kind = classify_hw_pixel(ref_key, hw_key, same, ref, hw, x, y);
-      if (same && ref->depth_tolerance > 0)
+      const double tol = same ? model_depth_tolerance_at(*ref, x + 0.5, y + 0.5) : 0;
+      if (same && tol > 0 && !std::isinf(tol))
         agreement->max_depth_error_ratio =
-            std::max(agreement->max_depth_error_ratio,
-                     std::abs(double(stored[0]) - double(stored[1])) / ref->depth_tolerance);
+            std::max(agreement->max_depth_error_ratio, std::abs(double(stored[0]) - double(stored[1])) / tol);
     }
     ++agreement->pixels[int(kind)];
   }

@@ -4,7 +4,8 @@
 // classifier (classify_hw_pixel, raster/hw_rule.h) applied per texel. A texel keeps only a
 // depth, not the key's triangle, so each side's texel is first *explained*: the triangle of
 // the page's elements whose exact model covers the texel centre (not outside, margin δ) and
-// whose model depth there is nearest the stored depth, within 2 · its tolerance. An
+// whose model depth there is nearest the stored depth, within 2 · its tolerance at the centre
+// (model_depth_tolerance_at; a triangle degenerate within rounding explains any depth, last). An
 // unexplained nonzero depth fails; explained ones are classified as §13.3 classifies keys.
 #include <cstdint>
 #include <vector>
