@@ -37,7 +37,7 @@ namespace {
 struct ClusterFacts {
   bool counted = false;
   uint64_t open = 0, all = 0;       // count_cluster_edges
-  std::vector<uint64_t> open_keys;  // sorted open welded edges (grouping; moved out by count_level_edges)
+  std::vector<uint64_t> open_keys;  // open welded edges (grouping; moved out by count_level_edges)
   // Distinct welded ids of its corners in order of first use (empty: not listed). The lock
   // passes decide per vertex, and a vertex's later corners in one cluster change nothing (the
   // first one locked or claimed it for the same group), so they walk this list, a third of the

@@ -178,7 +178,8 @@ enum class GroupMethod { kGreedy, kMetis };
 
 // Clusters → groups: returns, per group, its member indices into `clusters` (ascending).
 // Deterministic (kGreedy: serial, ties broken by index; kMetis: fixed seed, single call).
-// `open_edges[i]`: sorted welded edge keys used once inside cluster i (count_cluster_edges).
+// `open_edges[i]`: the welded edge keys used once inside cluster i, in any order
+// (count_cluster_edges; the graph is built from all of them sorted together).
 std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const TriangleSet*>& clusters,
                                                   const std::vector<std::vector<uint64_t>>& open_edges,
                                                   const std::vector<Sphere>& bounds,
@@ -520,7 +521,8 @@ Sphere sphere_of_points(const Mesh& mesh, const uint32_t* vertices, size_t count
 Sphere enclose_spheres(const Sphere* spheres, size_t count);
 
 // Per-cluster count of welded edges used by exactly one triangle of the cluster, and of
-// all distinct welded edges (for BuildLevelReport::boundary_edge_fraction; welded_mesh.cpp).
+// all distinct welded edges (for BuildLevelReport::boundary_edge_fraction; welded_mesh.cpp);
+// `open_keys` gets the former's keys appended, in the order of their corners.
 void count_cluster_edges(const WeldedMesh& welded, const TriangleSet& cluster, uint64_t* open_edges,
                          uint64_t* all_edges, std::vector<uint64_t>* open_keys = nullptr);
 // The same counts and keys from the cluster in local ids: `vertices` = its distinct welded ids,
