@@ -24,15 +24,17 @@ struct BuildOptions {
   ErrorBound error_bound = ErrorBound::kMeasured;
   // Edge flips towards the leaves after each group's simplification (spec/dag.md §3, Edge
   // flips), on the placed surface when vertex_placement is on: fewer triangles at equal
-  // measured error. On by default (docs/acceptance/issue23_modes.md: with vertex placement,
-  // gmean over qual.sh's 9 meshes 0.898 of the peer's against 0.951 with neither).
+  // measured error. On by default (docs/acceptance/issue23_stop34.md: gmean over the issue's
+  // 6 meshes 0.945 of the peer's against 0.993 without, ~10% more DAG CPU, no more memory).
   bool edge_flips = true;
   // Vertex placement after each group's simplification (spec/dag.md §2.3 Place): movable
   // vertices move off the leaves along their leaf normal, so the simplified surface lies on
   // both sides of curved leaves: fewer triangles at equal measured error
   // (docs/acceptance/issue23_place.md, docs/acceptance/issue23_modes.md). Either simplifier.
-  // On by default; off keeps every coarse vertex a leaf vertex (spec/dag.md D2).
-  bool vertex_placement = true;
+  // Off by default: on the 1M sphere it costs ~12% more DAG CPU than flips alone and peak RSS
+  // 105 -> 132 MiB (1.31x the peer's; goal 2: <= 1.2x) (docs/acceptance/issue23_stop34.md);
+  // off keeps every coarse vertex a leaf vertex (spec/dag.md D2).
+  bool vertex_placement = false;
 };
 
 struct BuildLevelReport {
