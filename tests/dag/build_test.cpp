@@ -1,5 +1,6 @@
 // Builder properties on small synthetic meshes (spec/dag.md).
 #include <gtest/gtest.h>
+#include <meshoptimizer.h>
 
 #include <algorithm>
 #include <array>
@@ -192,6 +193,90 @@ TEST(Build, MeshoptSimplifiesTheMeshsOwnOpenBorders) {
   a.meshes.push_back(build_detail::build_dag_internal(sphere, o, open, nullptr));
   b.meshes.push_back(build_detail::build_dag_internal(sphere, o, locked, nullptr));
   EXPECT_EQ(encode_dag_file(a), encode_dag_file(b));
+}
+
+// Loop-keeping caps (spec/dag.md §3): a curved sheet whose outline is the locked group
+// border, with holes of three, four and six edges. With keep_loops the three-edge hole gets no
+// apex, the others leave two edges each uncapped (plain caps leave one per loop: 2 + 3 + 5
+// caps), and a hard simplification through the caps is accepted with every hole still open by
+// at least three edges.
+TEST(Build, LoopKeepingCapsLeaveEveryHoleOpen) {
+  constexpr uint32_t kSide = 16;  // vertices per grid side
+  // A curved sheet (every collapse costs some error), except that the four corners of the hole
+  // at cell (10, 3) are pulled to 1% of a cell apart: collapsing along that hole costs nearly
+  // nothing, so meshopt shrinks it first.
+  std::vector<float> positions;
+  for (uint32_t y = 0; y < kSide; ++y)
+    for (uint32_t x = 0; x < kSide; ++x) {
+      float px = float(x), py = float(y);
+      if ((x == 10 || x == 11) && (y == 3 || y == 4)) px = 10.5f + 0.01f * (px - 10.5f), py = 3.5f + 0.01f * (py - 3.5f);
+      positions.insert(positions.end(), {px, py, 0.05f * ((px - 7.5f) * (px - 7.5f) + (py - 7.5f) * (py - 7.5f))});
+    }
+  auto v = [&](uint32_t x, uint32_t y) { return y * kSide + x; };
+  // Holes: one triangle at (3, 3); the two triangles of the cell at (10, 3); both cells at
+  // (6, 10) and (7, 10) (a loop of six edges).
+  std::vector<unsigned int> indices;
+  for (uint32_t y = 0; y + 1 < kSide; ++y)
+    for (uint32_t x = 0; x + 1 < kSide; ++x) {
+      const bool tri_hole = x == 3 && y == 3, quad_hole = x == 10 && y == 3;
+      const bool wide_hole = (x == 6 || x == 7) && y == 10;
+      const std::array<unsigned int, 3> lower{v(x, y), v(x + 1, y), v(x + 1, y + 1)};
+      const std::array<unsigned int, 3> upper{v(x, y), v(x + 1, y + 1), v(x, y + 1)};
+      if (!tri_hole && !quad_hole && !wide_hole) indices.insert(indices.end(), lower.begin(), lower.end());
+      if (!quad_hole && !wide_hole) indices.insert(indices.end(), upper.begin(), upper.end());
+    }
+  const size_t real_vertices = positions.size() / 3;
+  std::vector<uint32_t> welded_of_sub(real_vertices);
+  for (size_t i = 0; i < real_vertices; ++i) welded_of_sub[i] = uint32_t(i);
+  std::vector<uint8_t> locked(real_vertices, 0), mesh_border(real_vertices, 0);
+  for (uint32_t i = 0; i < kSide; ++i) locked[v(i, 0)] = locked[v(i, kSide - 1)] = locked[v(0, i)] = locked[v(kSide - 1, i)] = 1;
+  // Open edges (used once) and the chain corners (an open edge with an unlocked end).
+  std::map<uint64_t, int> uses;
+  auto next_corner = [](size_t i) { return i - i % 3 + (i + 1) % 3; };
+  for (size_t i = 0; i < indices.size(); ++i) ++uses[build_detail::edge_key(indices[i], indices[next_corner(i)])];
+  std::vector<uint64_t> open_edges;
+  std::vector<uint32_t> chain_corners;
+  for (size_t i = 0; i < indices.size(); ++i) {
+    const uint32_t a = indices[i], b = indices[next_corner(i)];
+    if (uses[build_detail::edge_key(a, b)] != 1) continue;
+    open_edges.push_back(build_detail::edge_key(a, b));
+    mesh_border[a] = mesh_border[b] = 1;
+    if (!(locked[a] && locked[b])) chain_corners.push_back(uint32_t(i));
+  }
+  std::sort(open_edges.begin(), open_edges.end());
+  ASSERT_EQ(chain_corners.size(), 3u + 4u + 6u);
+  const size_t real_triangles = indices.size() / 3;
+
+  auto simplify = [&](bool keep_loops, size_t& hole_edges, size_t& apexes) {
+    std::vector<unsigned int> capped = indices;
+    std::vector<float> capped_positions = positions;
+    const build_detail::BorderCaps caps = build_detail::add_open_border_caps(
+        chain_corners, welded_of_sub, locked, capped, capped_positions, keep_loops);
+    apexes = caps.apex_count;
+    std::vector<unsigned int> out(capped.size());
+    size_t count = meshopt_simplify(out.data(), capped.data(), capped.size(), capped_positions.data(),
+                                    capped_positions.size() / 3, sizeof(float) * 3, 3 * (real_triangles / 20 + caps.cap_triangles / 20),
+                                    1.0f, meshopt_SimplifyLockBorder, nullptr);
+    const bool accepted = build_detail::remove_open_border_caps(caps, welded_of_sub, mesh_border, open_edges, out, count);
+    std::map<uint64_t, int> out_uses;
+    for (size_t i = 0; i < count; ++i) ++out_uses[build_detail::edge_key(out[i], out[next_corner(i)])];
+    hole_edges = 0;
+    for (const auto& [key, n] : out_uses)
+      if (n == 1 && !(locked[uint32_t(key >> 32)] && locked[uint32_t(key)])) ++hole_edges;
+    return accepted;
+  };
+  size_t hole_edges = 0, apexes = 0;
+  EXPECT_TRUE(simplify(true, hole_edges, apexes));
+  EXPECT_EQ(apexes, 2u) << "the three-edge hole stays locked: no apex";
+  EXPECT_GE(hole_edges, 3u + 3u + 3u) << "every hole keeps three open edges";
+  std::vector<unsigned int> capped = indices;
+  std::vector<float> capped_positions = positions;
+  EXPECT_EQ(build_detail::add_open_border_caps(chain_corners, welded_of_sub, locked, capped, capped_positions, true).cap_triangles,
+            2u + 4u);
+  capped = indices;
+  capped_positions = positions;
+  EXPECT_EQ(build_detail::add_open_border_caps(chain_corners, welded_of_sub, locked, capped, capped_positions, false).cap_triangles,
+            2u + 3u + 5u);
 }
 
 TEST(Build, IdenticalBytesForAnyThreadCount) {

@@ -44,6 +44,70 @@ size_t find_root(std::vector<uint32_t>& parent, uint32_t x) {
   return x;
 }
 
+// SimplifyTarget::keep_loops: which chain edges of one chain (`edges`, corners whose edge runs
+// corner -> next corner) get no cap, so that every loop of the chain keeps three vertices
+// meshopt cannot move. To meshopt 0.18 a chain vertex is a seam, which collapses only onto a
+// neighbouring seam, so a loop with two fixed vertices keeps a third; but a chain that passes
+// one welded position twice (a pinch: two sub-mesh vertices there) can shrink between the two
+// passes to one vertex, a slit that closes in welded space (a cap base used twice):
+// remove_open_border_caps then refuses the whole group's caps, and the group falls back to
+// locked borders (elephant-with-holes' two level-1 groups kept 70% of their triangles;
+// docs/acceptance/issue23_quality35.md). Fixed are the ends of an uncapped edge (their copies'
+// cap edges no longer mirror their open edges: meshopt locks them) and every branch vertex (a
+// welded position not on exactly one incoming and one outgoing chain edge: several open edges
+// or several vertices at one position, which meshopt locks too; open chains end at one). The
+// chain's edges split into maximal paths between branch vertices: a path of two or more edges
+// leaves its middle edge uncapped (an inner vertex fixed: a loop through branch vertices then
+// holds three), a loop without a branch vertex two edges that share no end (four fixed), one
+// of three edges all of them (it stays locked). Fixing more than needed only simplifies less.
+std::vector<uint8_t> uncapped_keeping_loops(const std::vector<uint32_t>& edges, const std::vector<unsigned int>& indices,
+                                            const std::vector<uint32_t>& welded_of_sub) {
+  auto next_corner = [](uint32_t i) { return i - i % 3 + (i + 1) % 3; };
+  const uint32_t n = uint32_t(edges.size());
+  std::vector<std::pair<uint32_t, uint32_t>> starts, stops;  // (welded vertex, edge)
+  for (uint32_t k = 0; k < n; ++k) {
+    starts.push_back({welded_of_sub[indices[edges[k]]], k});
+    stops.push_back({welded_of_sub[indices[next_corner(edges[k])]], k});
+  }
+  std::sort(starts.begin(), starts.end());
+  std::sort(stops.begin(), stops.end());
+  auto first = [](const std::vector<std::pair<uint32_t, uint32_t>>& v, uint32_t x) {
+    return std::lower_bound(v.begin(), v.end(), std::pair<uint32_t, uint32_t>{x, 0});
+  };
+  auto degree = [&](const std::vector<std::pair<uint32_t, uint32_t>>& v, uint32_t x) {
+    auto it = first(v, x);
+    size_t d = 0;
+    while (it != v.end() && it->first == x && d < 2) ++it, ++d;
+    return d;
+  };
+  auto branch = [&](uint32_t x) { return degree(starts, x) != 1 || degree(stops, x) != 1; };
+  std::vector<uint8_t> uncapped(n, 0), seen(n, 0);
+  std::vector<uint32_t> path;
+  // Paths from a branch vertex first, then the loops that have none.
+  for (int pure_loops = 0; pure_loops < 2; ++pure_loops) {
+    for (uint32_t k0 = 0; k0 < n; ++k0) {
+      if (seen[k0] || (!pure_loops && !branch(welded_of_sub[indices[edges[k0]]]))) continue;
+      path.clear();
+      for (uint32_t k = k0;;) {
+        path.push_back(k);
+        seen[k] = 1;
+        const uint32_t v = welded_of_sub[indices[next_corner(edges[k])]];
+        if (branch(v)) break;
+        k = first(starts, v)->second;
+        if (seen[k]) break;
+      }
+      if (pure_loops && path.size() <= 3) {
+        for (uint32_t k : path) uncapped[k] = 1;
+      } else if (pure_loops) {
+        uncapped[path[0]] = uncapped[path[path.size() / 2]] = 1;
+      } else if (path.size() >= 2) {
+        uncapped[path[path.size() / 2]] = 1;
+      }
+    }
+  }
+  return uncapped;
+}
+
 }  // namespace
 
 OpenBorder find_open_border(const WeldedMesh& welded, const TriangleSet& input, const std::vector<uint8_t>& locked) {
@@ -64,7 +128,7 @@ OpenBorder find_open_border(const WeldedMesh& welded, const TriangleSet& input, 
 
 BorderCaps add_open_border_caps(const std::vector<uint32_t>& chain_corners, const std::vector<uint32_t>& welded_of_sub,
                                 const std::vector<uint8_t>& locked, std::vector<unsigned int>& indices,
-                                std::vector<float>& positions) {
+                                std::vector<float>& positions, bool keep_loops) {
   BorderCaps caps;
   const size_t real_vertices = positions.size() / 3;
   caps.first_apex = real_vertices;
@@ -108,9 +172,6 @@ BorderCaps add_open_border_caps(const std::vector<uint32_t>& chain_corners, cons
       continue;
     }
     const double count = double(e - c), height = kCapApexHeightPerExtent * extent;
-    const unsigned int apex = unsigned(positions.size() / 3);
-    caps.origin.push_back(kApex);
-    for (int a = 0; a < 3; ++a) positions.push_back(float(sum[a] / count + normal[a] / len * height));
     // A closed chain would make the apex interior (free to move): leave out the cap of its
     // first edge, so the apex and that edge's ends stay on the border (locked).
     std::vector<uint32_t> ends;
@@ -124,6 +185,22 @@ BorderCaps add_open_border_caps(const std::vector<uint32_t>& chain_corners, cons
       open_end = (m - k) % 2 == 1;
       k = m;
     }
+    // Chain edges left without a cap: with keep_loops, those of uncapped_keeping_loops; a
+    // closed chain with none (as without keep_loops) leaves out its first edge's.
+    std::vector<uint8_t> uncapped(e - c, 0);
+    if (keep_loops) {
+      std::vector<uint32_t> edges(e - c);
+      for (size_t k = c; k < e; ++k) edges[k - c] = by_chain[k].second;
+      uncapped = uncapped_keeping_loops(edges, indices, welded_of_sub);
+    }
+    if (!open_end && std::find(uncapped.begin(), uncapped.end(), 1) == uncapped.end()) uncapped[0] = 1;
+    if (std::find(uncapped.begin(), uncapped.end(), 0) == uncapped.end()) {  // nothing capped: the chain stays locked
+      c = e;
+      continue;
+    }
+    const unsigned int apex = unsigned(positions.size() / 3);
+    caps.origin.push_back(kApex);
+    for (int a = 0; a < 3; ++a) positions.push_back(float(sum[a] / count + normal[a] / len * height));
     // Copies of the chain's vertices (sorted `ends` holds each twice or more): bit-equal for
     // unlocked ones (a seam wedge), a few ulps off for locked ones (their own locked vertex).
     ends.erase(std::unique(ends.begin(), ends.end()), ends.end());
@@ -139,7 +216,8 @@ BorderCaps add_open_border_caps(const std::vector<uint32_t>& chain_corners, cons
     auto copy = [&](unsigned int v) {
       return copy_of[std::lower_bound(ends.begin(), ends.end(), v) - ends.begin()];
     };
-    for (size_t k = open_end ? c : c + 1; k < e; ++k) {
+    for (size_t k = c; k < e; ++k) {
+      if (uncapped[k - c]) continue;
       const uint32_t i = by_chain[k].second;
       // The real triangle has a -> b; the cap has b' -> a' (consistent orientation).
       indices.insert(indices.end(), {copy(indices[next_corner(i)]), copy(indices[i]), apex});

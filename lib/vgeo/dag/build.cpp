@@ -1066,26 +1066,29 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   else if (sealed)
     error = leaf_deviation(s.leaf_surface, *s.positions, merged, simplified.triangles, max_member_error);
   seconds_error += steady_seconds() - tv0;
+  // A candidate simplification of the group (simplify_sealed with `other`) replaces the kept
+  // one when its product of measured error and triangles is smaller (on a surface the error
+  // falls about as 1/triangles, so the product compares the two at equal error).
+  auto keep_if_better = [&](const SimplifyTarget& other) {
+    SimplifyResult alternative;
+    if (!simplify_sealed(s, blk.group_shared_edges[g], prepared, other, scratch, alternative)) return;
+    tv0 = steady_seconds();
+    VertexMoves moves;
+    const float alternative_error =
+        s.placement
+            ? measure_placed(s, L, merged, max_member_error, alternative.triangles, false, scratch, moves)
+            : leaf_deviation(s.leaf_surface, *s.positions, merged, alternative.triangles, max_member_error);
+    seconds_error += steady_seconds() - tv0;
+    if (double(alternative_error) * double(alternative.triangles.triangle_count()) <
+        double(error) * double(simplified.triangles.triangle_count()))
+      simplified = std::move(alternative), error = alternative_error, r.moves = std::move(moves);
+  };
   if (sealed && simplified.capped) {
     // The group's own open borders moved (border_caps.cpp). A border collapse can cost more
     // measured error than it saves triangles (a chord across a curved hole): the group is
     // simplified with those borders locked too, and the result with the smaller product of
     // measured error and triangles is kept (on a surface the error falls about as 1/triangles,
     // so the product compares the two at equal error).
-    auto keep_if_better = [&](const SimplifyTarget& other) {
-      SimplifyResult alternative;
-      if (!simplify_sealed(s, blk.group_shared_edges[g], prepared, other, scratch, alternative)) return;
-      tv0 = steady_seconds();
-      VertexMoves moves;
-      const float alternative_error =
-          s.placement
-              ? measure_placed(s, L, merged, max_member_error, alternative.triangles, false, scratch, moves)
-              : leaf_deviation(s.leaf_surface, *s.positions, merged, alternative.triangles, max_member_error);
-      seconds_error += steady_seconds() - tv0;
-      if (double(alternative_error) * double(alternative.triangles.triangle_count()) <
-          double(error) * double(simplified.triangles.triangle_count()))
-        simplified = std::move(alternative), error = alternative_error, r.moves = std::move(moves);
-    };
     SimplifyTarget locked_target = target;
     locked_target.open_borders = false;
     keep_if_better(locked_target);
@@ -1096,6 +1099,17 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
       capped_target.lone_unlocked = false;
       keep_if_better(capped_target);
     }
+  }
+  // Caps that keep every loop of the group's own open edges from closing (keep_loops) compete
+  // too, whether the plain caps were kept, lost or refused: a hole that closes refuses the
+  // group's caps (elephant-with-holes' level-1 groups then kept 70% of their triangles), and
+  // where none closes they still place the collapses elsewhere (docs/acceptance/issue23_quality35.md).
+  if (sealed && target.open_borders && target.mesh_border && s.options.simplifier == Simplifier::kMeshopt &&
+      !prepared.open_border.chain_corners.empty()) {
+    SimplifyTarget loops_target = target;
+    loops_target.keep_loops = true;
+    loops_target.lone_unlocked = false;
+    keep_if_better(loops_target);
   }
   const double tm = steady_seconds();
   r.seconds_simplify = tm - ts - seconds_error;

@@ -261,7 +261,7 @@ OpenBorder find_open_border(const WeldedMesh& welded, const TriangleSet& input, 
 // input corner, in order).
 BorderCaps add_open_border_caps(const std::vector<uint32_t>& chain_corners, const std::vector<uint32_t>& welded_of_sub,
                                 const std::vector<uint8_t>& locked, std::vector<unsigned int>& indices,
-                                std::vector<float>& positions);
+                                std::vector<float>& positions, bool keep_loops = false);
 // Removes the cap triangles from a simplification `out` (out_count indices) of the capped
 // sub-mesh. False when the result is not a simplification of the real surface alone (an apex
 // lost, a real vertex moved onto an apex, a cap base not a single border edge of the real
@@ -446,6 +446,9 @@ struct SimplifyTarget {
   // meshopt, open_borders: a group sharing no vertex with another group is simplified without
   // LockBorder (false: with caps, as other groups are).
   bool lone_unlocked = true;
+  // meshopt, caps: every loop of the group's own open edges keeps three vertices fixed, so no
+  // hole closes (uncapped_keeping_loops, border_caps.cpp).
+  bool keep_loops = false;
   // Welded ids on the mesh's own open edges (1), the only ends a new open edge may have;
   // null: no caps (open_borders is then ignored).
   const std::vector<uint8_t>* mesh_border = nullptr;

@@ -157,7 +157,8 @@ size_t simplify_with_open_border_caps(const OpenBorder& border, const std::vecto
                                       std::vector<unsigned int>& out) {
   std::vector<unsigned int> indices = sub_indices;
   std::vector<float> positions = sub_positions;
-  const BorderCaps caps = add_open_border_caps(border.chain_corners, welded_of_sub, locked, indices, positions);
+  const BorderCaps caps =
+      add_open_border_caps(border.chain_corners, welded_of_sub, locked, indices, positions, target.keep_loops);
   if (caps.apex_count == 0) return 0;
   const size_t vertices = positions.size() / 3;
   // meshopt's error bound is relative to the extent of every vertex it is given (apexes too).
