@@ -905,7 +905,8 @@ int64_t channel_hi(const CanonicalCluster& c, uint32_t k) { return int64_t(c.min
 }  // namespace
 
 std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>& clusters,
-                                      const MeshQuantization& q, uint32_t version, DiskStreams* streams) {
+                                      const MeshQuantization& q, uint32_t version, DiskStreams* streams,
+                                      DiskSections* sections) {
   assert(version == 1 || version == 2);
   const uint32_t channels = q.channel_count();
   std::vector<uint8_t> b;
@@ -924,8 +925,10 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
     for (uint32_t k = 0; k < channels; ++k) append_le32(b, uint32_t(c->min[k]));
   size_t mark = b.size();
   if (streams) streams->headers.insert(streams->headers.end(), b.begin(), b.end());
-  auto section = [&](std::vector<uint8_t> DiskStreams::*s) {
+  if (sections) sections->headers += b.size();
+  auto section = [&](std::vector<uint8_t> DiskStreams::*s, uint64_t DiskSections::*n) {
     if (streams) (streams->*s).insert((streams->*s).end(), b.begin() + long(mark), b.end());
+    if (sections) sections->*n += b.size() - mark;
     mark = b.size();
   };
   // Topology: one control byte per triangle, then the explicit references.
@@ -936,11 +939,11 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
   }
   append_le32(b, refs);
   for (const auto* c : clusters) b.insert(b.end(), c->refs, c->refs + c->ref_count);
-  section(&DiskStreams::topology);
+  section(&DiskStreams::topology, &DiskSections::topology);
   for (const auto* c : clusters) b.insert(b.end(), c->run_start, c->run_start + c->run_count);
   for (const auto* c : clusters)
     for (uint32_t r = 0; r < c->run_count; ++r) append_le32(b, c->run_material[r]);
-  section(&DiskStreams::materials);
+  section(&DiskStreams::materials, &DiskSections::materials);
   if (version == 1) {
     // Vertices: per channel, per cluster, byte planes of zigzag deltas along first-use order.
     for (uint32_t k = 0; k < channels; ++k) {
@@ -954,7 +957,8 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
           }
         }
       }
-      section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs);
+      section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs,
+              k < 3 ? &DiskSections::positions : channel_is_normal(q, k) ? &DiskSections::normals : &DiskSections::uvs);
     }
     return b;
   }
@@ -1001,10 +1005,11 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
       expected = int64_t(copy_of[v]) + 1;
     }
   if (streams) streams->copies += copy_refs.size();
+  if (sections) sections->copies += copy_refs.size();
   b.insert(b.end(), mask.begin(), mask.end());
   for (uint32_t plane = 0; plane < kCopyRefBytes; ++plane)
     for (uint32_t z : copy_refs) b.push_back(uint8_t(z >> (8 * plane)));
-  section(&DiskStreams::vertex_refs);
+  section(&DiskStreams::vertex_refs, &DiskSections::vertex_refs);
   // Residuals against the parallelogram / previous-vertex prediction, non-copies only.
   // Predictors per page vertex (strip_predictors fills each cluster's first vertex_count
   // entries), found once for every channel.
@@ -1038,7 +1043,8 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
         for (uint32_t j = 0; j < zn; ++j) b[at++] = uint8_t(z[j] >> (8 * plane));
       base += c.vertex_count;
     }
-    section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs);
+    section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs,
+              k < 3 ? &DiskSections::positions : channel_is_normal(q, k) ? &DiskSections::normals : &DiskSections::uvs);
   }
   return b;
 }

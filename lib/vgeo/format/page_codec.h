@@ -81,18 +81,21 @@ class MemoryPageBuilder {
 std::vector<uint32_t> encode_memory_page(const std::vector<const CanonicalCluster*>& clusters,
                                          const MeshQuantization& q);
 
-struct DiskSections {  // raw byte counts per component (size report)
-  uint64_t headers = 0, topology = 0, materials = 0, positions = 0, normals = 0, uvs = 0;
+struct DiskSections {  // raw byte counts per component and vertex copies (size report)
+  uint64_t headers = 0, topology = 0, materials = 0, positions = 0, normals = 0, uvs = 0, vertex_refs = 0;
+  uint64_t copies = 0;
 };
-// Appends the raw disk form. Component byte ranges go to `sections` if given, and the
-// concatenated bytes of each component to `streams` (size report compression estimate).
+// The concatenated bytes of each component (the stream measure compresses them one by one).
 struct DiskStreams {
   std::vector<uint8_t> headers, topology, materials, positions, normals, uvs, vertex_refs;
   uint64_t copies = 0;
 };
+// Returns the raw disk form. The byte count of each component is added to `sections` if given
+// (the build report: counts only, no copy of the page's bytes), and its bytes are appended to
+// `streams` if given (the stream measure).
 std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>& clusters,
                                       const MeshQuantization& q, uint32_t version,
-                                      DiskStreams* streams = nullptr);
+                                      DiskStreams* streams = nullptr, DiskSections* sections = nullptr);
 // Upper bound of a cluster's raw disk bytes (exact for version 1).
 uint32_t disk_cluster_bytes(const CanonicalCluster& c, uint32_t channel_count, uint32_t version);
 // Version 2 parallelogram predictor of every vertex a strip continuation introduced:
@@ -131,8 +134,17 @@ class CompressContexts {
   std::vector<uint8_t> compress(const std::vector<uint8_t>& raw, Compression c, int level);
 
  private:
+  // A context and its output buffer: zstd writes into the buffer (sized to the largest
+  // ZSTD_compressBound seen, kept), and the result is copied out at its exact size. A
+  // ZSTD_compressBound-sized vector per call, shrunk only logically, kept every page's output
+  // at ~its raw size until the file was assembled (10.5 MB instead of 5.4 MB on a 1M-triangle
+  // sphere: ~2,600 page faults more; docs/acceptance/issue23_write.md).
+  struct Context {
+    ZSTD_CCtx_s* ctx = nullptr;
+    std::vector<uint8_t> out;
+  };
   std::mutex mutex_;
-  std::vector<ZSTD_CCtx_s*> idle_;
+  std::vector<Context> idle_;
 };
 void decompress(const uint8_t* src, size_t src_size, Compression c, uint8_t* dst, size_t raw_size,
                 const std::string& where);
