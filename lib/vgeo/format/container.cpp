@@ -229,7 +229,7 @@ void write_node(ByteWriter& w, const BvhNode& n) {
   for (uint32_t k = 0; k < kBvhMaxChildren; ++k) w.u32(n.children[k]);
 }
 
-void add_memory_sizes(const CanonicalCluster& c, const MeshQuantization& q, ComponentBytes* m) {
+void add_memory_sizes(const ClusterView& c, const MeshQuantization& q, ComponentBytes* m) {
   const uint32_t ob = index_offset_bits(c);
   auto channel_bytes = [&](uint32_t k0, uint32_t k1) {
     double b = 0;
@@ -333,9 +333,41 @@ constexpr size_t kCanonicalBatchClustersPerThread = 512;
 constexpr size_t kCanonicalBatchClustersOneThread = 32;
 constexpr uint64_t kPageHeadMem = 4, kPageHeadRaw = 12;  // cluster count; magic, count, ref total
 
+// A canonical cluster packed to its counts: the view's arrays point into `bytes` (values of
+// the mesh's channels, run materials, strip, control bytes, references, run starts).
+struct PackedCluster {
+  ClusterView view;
+  std::unique_ptr<uint8_t[]> bytes;
+};
+void pack_cluster(const CanonicalCluster& c, uint32_t channels, PackedCluster* out) {
+  const size_t value_bytes = sizeof(int32_t) * c.vertex_count, run_material_bytes = sizeof(uint32_t) * c.run_count,
+               strip_bytes = 3 * size_t(c.triangle_count);
+  const size_t size = channels * value_bytes + run_material_bytes + strip_bytes + c.triangle_count + c.ref_count +
+                      c.run_count;
+  out->bytes.reset(new uint8_t[size]);  // int32 first: malloc's alignment holds them
+  uint8_t* at = out->bytes.get();
+  auto put = [&](const void* from, size_t n) {
+    std::memcpy(at, from, n);
+    at += n;
+    return at - n;
+  };
+  ClusterView& v = out->view;
+  v = ClusterView();
+  v.vertex_count = c.vertex_count, v.triangle_count = c.triangle_count;
+  v.ref_count = c.ref_count, v.run_count = c.run_count;
+  for (uint32_t k = 0; k < kMaxChannels; ++k) v.min[k] = c.min[k], v.bits[k] = c.bits[k];
+  for (uint32_t k = 0; k < channels; ++k) v.values[k] = reinterpret_cast<const int32_t*>(put(c.values[k], value_bytes));
+  v.run_material = reinterpret_cast<const uint32_t*>(put(c.run_material, run_material_bytes));
+  v.strip = reinterpret_cast<const uint8_t(*)[3]>(put(c.strip, strip_bytes));
+  v.ctl = put(c.ctl, c.triangle_count);
+  v.refs = put(c.refs, c.ref_count);
+  v.run_start = put(c.run_start, c.run_count);
+  assert(at == out->bytes.get() + size);
+}
+
 // One page: disk form, memory form (its size goes to the page table), compression, CRC.
 // `clusters` are the page's canonical clusters in page order.
-PageOut encode_page(const std::vector<const CanonicalCluster*>& clusters, const PageRange& range,
+PageOut encode_page(const std::vector<const ClusterView*>& clusters, const PageRange& range,
                     const MeshQuantization& q, uint32_t mesh, const FormatOptions& o, bool want_report,
                     CompressContexts& compressor) {
   PageOut p;
@@ -361,7 +393,7 @@ PageOut encode_page(const std::vector<const CanonicalCluster*>& clusters, const 
     p.disk_raw.uvs = double(sections.uvs);
     p.disk_raw.vertex_refs = double(sections.vertex_refs);
     p.copies = sections.copies;
-    for (const CanonicalCluster* c : clusters) add_memory_sizes(*c, q, &p.memory_sizes);
+    for (const ClusterView* c : clusters) add_memory_sizes(*c, q, &p.memory_sizes);
     p.memory_sizes.cluster_headers += 4;  // the page's cluster count
   }
   return p;
@@ -390,35 +422,37 @@ struct PageStream {
              uint32_t m, bool report, ThreadPool& tp, CompressContexts& cc)
       : dag(d), slots(s), q(mq), o(fo), mesh(m), want_report(report), pool(tp), compressor(cc) {}
 
-  // Canonical clusters of page-order positions [window_first, window_first + window_count),
-  // each in an allocation of its own. The storage only grows and is reused batch after batch
-  // (canonicalize_cluster overwrites its output whole; an encoded cluster's storage moves to
-  // the back for the next batch), so its pages are faulted in once, not once per batch. One
-  // array of clusters grew by doubling when a page held more clusters than it had room for
-  // (a 128 KiB page holds ~250 small clusters), copying them and leaving the smaller arrays'
-  // pages resident: ~1.6 MiB of a small mesh's page build (docs/acceptance/issue23_rss.md).
-  size_t window_first = 0, window_count = 0;
-  std::vector<std::unique_ptr<CanonicalCluster>> window;
+  // Canonical clusters of page-order positions [window_first, window_first + window.size()),
+  // each packed to its counts (PackedCluster). A CanonicalCluster is a fixed ~8.8 KB (255
+  // vertices of 7 channels); held for a whole open page (~200 clusters) that was ~430 page
+  // faults and ~1.7 MB of peak memory on armadillo, where a packed cluster of positions only
+  // takes ~1 KB (docs/acceptance/issue23_write.md). Each cluster is canonicalized into its
+  // thread's CanonicalCluster, then packed.
+  size_t window_first = 0;
+  std::vector<PackedCluster> window;
   PageRange open{0, 0, kPageHeadMem, kPageHeadRaw};
   std::vector<PageRange> complete;          // closed pages not yet encoded
   std::vector<PageOut> pages;
   ClusterTotals totals;
 
-  const CanonicalCluster& at(size_t pos) const { return *window[pos - window_first]; }
+  const ClusterView& at(size_t pos) const { return window[pos - window_first].view; }
 
   void canonicalize_batch(size_t first, size_t count) {
-    const size_t base = window_count;
-    while (window.size() < base + count) window.push_back(std::make_unique<CanonicalCluster>());
-    window_count = base + count;
+    const size_t base = window.size();
+    window.resize(base + count);
+    const uint32_t channels = q.channel_count();
     parallel_for_ordered_errors(pool, count, [&](size_t k) {
-      canonicalize_cluster(dag, slots[first + k], q, window[base + k].get());
+      thread_local std::unique_ptr<CanonicalCluster> scratch;
+      if (!scratch) scratch = std::make_unique<CanonicalCluster>();
+      canonicalize_cluster(dag, slots[first + k], q, scratch.get());
+      pack_cluster(*scratch, channels, &window[base + k]);
     });
   }
 
   void break_batch(size_t first, size_t count) {
     const uint32_t max_raw = max_raw_page_size(o.page_size);
     for (size_t i = first; i < first + count; ++i) {
-      const CanonicalCluster& c = at(i);
+      const ClusterView& c = at(i);
       totals.clusters += 1;
       totals.triangles += c.triangle_count;
       totals.vertices += c.vertex_count;
@@ -442,7 +476,7 @@ struct PageStream {
     pages.resize(base + complete.size());
     parallel_for_ordered_errors(pool, complete.size(), [&](size_t i) {
       const PageRange& range = complete[i];
-      std::vector<const CanonicalCluster*> clusters;
+      std::vector<const ClusterView*> clusters;
       clusters.reserve(range.count);
       for (size_t k = 0; k < range.count; ++k) clusters.push_back(&at(range.first + k));
       pages[base + i] = encode_page(clusters, range, q, mesh, o, want_report, compressor);
@@ -452,20 +486,16 @@ struct PageStream {
 
   // Keeps only the open page's clusters.
   void drop_encoded() {
-    const size_t keep_from = open.count ? open.first : window_first + window_count;
+    const size_t keep_from = open.count ? open.first : window_first + window.size();
     const size_t drop = keep_from - window_first;
     if (drop == 0) return;
-    std::rotate(window.begin(), window.begin() + ptrdiff_t(drop), window.begin() + ptrdiff_t(window_count));
-    window_count -= drop;
+    window.erase(window.begin(), window.begin() + ptrdiff_t(drop));
     window_first = keep_from;
   }
 
   void run() {
     const size_t batch =
         pool.size() == 1 ? kCanonicalBatchClustersOneThread : kCanonicalBatchClustersPerThread * pool.size();
-    // Room for the pointers of a batch plus the open page's clusters carried over (fewer than a
-    // batch unless a page holds more clusters than a batch).
-    window.reserve(2 * batch);
     for (size_t first = 0; first < slots.size(); first += batch) {
       const size_t count = std::min(batch, slots.size() - first);
       canonicalize_batch(first, count);
