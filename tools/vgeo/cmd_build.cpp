@@ -235,8 +235,10 @@ void add_build_command(CLI::App& app, Context& ctx) {
     for (const Mesh& m : scene.meshes) mesh_names.push_back(m.name);
     scene = Scene();
     // The freed geometry and the build's freed state go back to the kernel: the write's buffers
-    // and code (the page format's zstd tables, ~3.7 MB for a 128 KiB page) then start from the
-    // live DAG instead of the build's high-water mark (armadillo page format -0.9 MiB).
+    // and code then start from the live DAG instead of the build's high-water mark (armadillo
+    // page format -0.9 MiB). (zstd's tables, 1.3-3.7 MB, have a huge-page mapping of their own:
+    // lib/vgeo/format/container.cpp. Not trimming saved page faults but raised armadillo's
+    // peak by ~2 MiB; docs/acceptance/issue23_write.md.)
     release_free_heap();
     AssetFileKind kind = asset_file_kind_for_path(args->output);
     FormatReport format_report;

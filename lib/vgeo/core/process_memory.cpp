@@ -1,11 +1,13 @@
 #include "vgeo/core/process_memory.h"
 
+#include <sys/mman.h>
 #include <sys/resource.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
 
 #include <cstdio>
+#include <cstdint>
 #include <cstring>
 
 namespace vgeo {
@@ -28,6 +30,44 @@ void release_free_heap() {
 #if defined(__GLIBC__)
   malloc_trim(0);
 #endif
+}
+
+namespace {
+// The transparent huge page size of x86-64 and arm64 (4 KiB base pages).
+constexpr size_t kHugePageBytes = size_t(2) << 20;
+// Where free_huge_pages finds the mapping: a header in front of the returned block (which
+// stays aligned to max_align_t; the mapping starts on a huge-page boundary).
+struct HugeHeader {
+  void* base;
+  size_t length;
+};
+constexpr size_t kHugeHeaderBytes = alignof(std::max_align_t) > sizeof(HugeHeader) ? alignof(std::max_align_t)
+                                                                                   : sizeof(HugeHeader);
+}  // namespace
+
+void* allocate_huge_pages(size_t bytes) {
+  const size_t length = (bytes + kHugeHeaderBytes + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes;
+  if (length < bytes) return nullptr;  // overflow
+  // Mapped one huge page longer, then cut to a huge-page boundary at both ends.
+  void* raw = ::mmap(nullptr, length + kHugePageBytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (raw == MAP_FAILED) return nullptr;
+  const uintptr_t start = reinterpret_cast<uintptr_t>(raw);
+  const uintptr_t aligned = (start + kHugePageBytes - 1) & ~uintptr_t(kHugePageBytes - 1);
+  if (aligned > start) ::munmap(raw, aligned - start);
+  if (start + kHugePageBytes > aligned) ::munmap(reinterpret_cast<void*>(aligned + length), start + kHugePageBytes - aligned);
+  void* base = reinterpret_cast<void*>(aligned);
+#ifdef MADV_HUGEPAGE
+  ::madvise(base, length, MADV_HUGEPAGE);  // advice only: small pages where it is refused
+#endif
+  auto* header = static_cast<HugeHeader*>(base);
+  header->base = base, header->length = length;
+  return static_cast<char*>(base) + kHugeHeaderBytes;
+}
+
+void free_huge_pages(void* p) {
+  if (!p) return;
+  const auto* header = reinterpret_cast<const HugeHeader*>(static_cast<char*>(p) - kHugeHeaderBytes);
+  ::munmap(header->base, header->length);
 }
 
 }  // namespace vgeo

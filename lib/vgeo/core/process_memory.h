@@ -1,5 +1,6 @@
 #pragma once
 // The process's peak memory, as the builder's report and `vgeo bench build` state it.
+#include <cstddef>
 #include <cstdint>
 
 namespace vgeo {
@@ -18,5 +19,15 @@ uint64_t peak_rss_bytes();
 // would otherwise add to the earlier phase's high-water mark. Costs one page fault per returned
 // page that is used again (docs/acceptance/issue23_smallrss.md).
 void release_free_heap();
+
+// Memory for a large table that is written whole and probed at random (zstd's match-finder
+// tables, which it clears at every reset): its own mapping, aligned to and advised for 2 MiB
+// transparent huge pages (Linux MADV_HUGEPAGE, where the kernel allows them; small pages
+// otherwise). One fault then maps 2 MiB instead of 4 KiB: on a machine whose page faults are
+// slow (~11 us each on the virtual machine of docs/acceptance/issue23_write.md) zstd's 3.7 MB
+// workspace cost ~750 faults; and random probes miss the TLB less. The resident size rounds up
+// to whole huge pages. Returns null when no mapping can be made; free with free_huge_pages.
+void* allocate_huge_pages(size_t bytes);
+void free_huge_pages(void* p);
 
 }  // namespace vgeo

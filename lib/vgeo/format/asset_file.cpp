@@ -38,8 +38,8 @@ void write_asset_file(const std::string& path, const BuiltScene& scene, AssetFil
     write_dag_file(path, scene);  // streamed: no in-memory copy of a multi-GB DAG
     return;
   }
-  std::vector<uint8_t> bytes = encode_format(scene, options, report);
-  write_file_atomic(path, bytes.data(), bytes.size());
+  // Streamed: the pages go to the file as they are, never copied into one buffer first.
+  write_file_atomic(path, [&](ByteSink& sink) { encode_format(scene, options, sink, report); });
 }
 
 }  // namespace vgeo

@@ -24,6 +24,8 @@
 
 namespace vgeo {
 
+struct ByteSink;  // vgeo/core/file_io.h
+
 // ---- stable error codes (never change meaning) ----
 inline constexpr const char* kErrBadMagic = "FORMAT_BAD_MAGIC";
 inline constexpr const char* kErrBadVersion = "FORMAT_BAD_VERSION";
@@ -195,6 +197,11 @@ struct FormatReport {
 // coordinate beyond kMaxQuantized grid steps, > 255 vertices in a cluster, ...).
 std::vector<uint8_t> encode_format(const BuiltScene& scene, const FormatOptions& options,
                                    FormatReport* report = nullptr);
+// The same bytes, handed to `sink` in order (header and metadata, then each page) instead of
+// assembled in one buffer: the file is never held whole in memory on top of its pages
+// (write_asset_file).
+void encode_format(const BuiltScene& scene, const FormatOptions& options, ByteSink& sink,
+                   FormatReport* report = nullptr);
 // Decodes every page into a BuiltScene with quantized attributes; see spec/format.md
 // §Decoded scene for the canonical vertex/triangle order within each cluster.
 BuiltScene decode_format(const uint8_t* data, size_t size, const std::string& where);

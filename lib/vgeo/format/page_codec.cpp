@@ -529,7 +529,30 @@ struct SequentialBitWriter {
 
 void min_first(const uint8_t in[3], uint8_t out[3]) { rotate_min_first(in, out); }
 
-uint32_t index_offset_bits(const CanonicalCluster& c) {
+ClusterView view_of(const CanonicalCluster& c) {
+  ClusterView v;
+  v.vertex_count = c.vertex_count, v.triangle_count = c.triangle_count;
+  v.ref_count = c.ref_count, v.run_count = c.run_count;
+  for (uint32_t k = 0; k < kMaxChannels; ++k) v.min[k] = c.min[k], v.bits[k] = c.bits[k], v.values[k] = c.values[k];
+  v.strip = c.strip, v.ctl = c.ctl, v.refs = c.refs, v.run_start = c.run_start, v.run_material = c.run_material;
+  return v;
+}
+
+namespace {
+// Views of `clusters`, in order (held by `views`).
+std::vector<const ClusterView*> views_of(const std::vector<const CanonicalCluster*>& clusters,
+                                         std::vector<ClusterView>* views) {
+  views->clear();
+  views->reserve(clusters.size());
+  for (const CanonicalCluster* c : clusters) views->push_back(view_of(*c));
+  std::vector<const ClusterView*> ptrs;
+  for (const ClusterView& v : *views) ptrs.push_back(&v);
+  return ptrs;
+}
+}  // namespace
+
+uint32_t index_offset_bits(const CanonicalCluster& c) { return index_offset_bits(view_of(c)); }
+uint32_t index_offset_bits(const ClusterView& c) {
   // After min_first the first index is the smallest, so a triangle's span
   // max(i1 − i0, i2 − i0) is its largest index minus its smallest.
   uint32_t span = 0;
@@ -665,14 +688,15 @@ void canonicalize_cluster(const ClusterDag& dag, uint32_t ci, const MeshQuantiza
 // ---------------------------------------------------------------- memory form
 
 namespace {
-uint32_t vertex_bits(const CanonicalCluster& c) {
+uint32_t vertex_bits(const ClusterView& c) {
   uint32_t b = 0;
   for (uint32_t k = 0; k < kMaxChannels; ++k) b += c.bits[k];
   return b;
 }
 }  // namespace
 
-uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t ob) {
+uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t ob) { return memory_cluster_words(view_of(c), ob); }
+uint32_t memory_cluster_words(const ClusterView& c, uint32_t ob) {
   return kDescriptorWords + words_for_bits(uint64_t(c.vertex_count) * vertex_bits(c)) +
          words_for_bits(uint64_t(c.triangle_count) * memory_triangle_bits(c.vertex_count, ob)) + c.run_count;
 }
@@ -685,7 +709,7 @@ MemoryPageBuilder::MemoryPageBuilder(uint32_t cluster_count, uint64_t max_words,
   w_[0] = cluster_count;
 }
 
-void MemoryPageBuilder::add(const CanonicalCluster& c) {
+void MemoryPageBuilder::add(const ClusterView& c) {
   assert(next_ < n_);
   const uint32_t ob = index_offset_bits(c);
   const uint32_t vb = vertex_bits(c), tb = memory_triangle_bits(c.vertex_count, ob), bb = tb - 2 * ob;
@@ -729,12 +753,16 @@ std::vector<uint32_t> MemoryPageBuilder::finish() {
   return std::move(w_);
 }
 
-std::vector<uint32_t> encode_memory_page(const std::vector<const CanonicalCluster*>& clusters,
-                                         const MeshQuantization&) {
+std::vector<uint32_t> encode_memory_page(const std::vector<const ClusterView*>& clusters, const MeshQuantization&) {
   static const std::string where = "<encoder>";
   MemoryPageBuilder b(uint32_t(clusters.size()), UINT64_MAX, where);
-  for (const CanonicalCluster* c : clusters) b.add(*c);
+  for (const ClusterView* c : clusters) b.add(*c);
   return b.finish();
+}
+std::vector<uint32_t> encode_memory_page(const std::vector<const CanonicalCluster*>& clusters,
+                                         const MeshQuantization& q) {
+  std::vector<ClusterView> views;
+  return encode_memory_page(views_of(clusters, &views), q);
 }
 
 }  // namespace vgeo::format_detail
@@ -867,6 +895,9 @@ namespace vgeo::format_detail {
 
 
 uint32_t disk_cluster_bytes(const CanonicalCluster& c, uint32_t channel_count, uint32_t version) {
+  return disk_cluster_bytes(view_of(c), channel_count, version);
+}
+uint32_t disk_cluster_bytes(const ClusterView& c, uint32_t channel_count, uint32_t version) {
   uint32_t b = 3 + 5 * channel_count + c.triangle_count + c.ref_count + 5 * c.run_count;
   for (uint32_t k = 0; k < channel_count; ++k) b += delta_bytes(c.bits[k]) * c.vertex_count;
   // Version 2: one copy-mask bit per vertex (rounded up per cluster); a copy replaces at
@@ -875,7 +906,8 @@ uint32_t disk_cluster_bytes(const CanonicalCluster& c, uint32_t channel_count, u
   return b;
 }
 
-void strip_predictors(const CanonicalCluster& c, uint8_t pred[][3], bool* has) {
+void strip_predictors(const CanonicalCluster& c, uint8_t pred[][3], bool* has) { strip_predictors(view_of(c), pred, has); }
+void strip_predictors(const ClusterView& c, uint8_t pred[][3], bool* has) {
   std::fill(has, has + c.vertex_count, false);
   for (uint32_t t = 1; t < c.triangle_count; ++t) {
     const uint8_t ctl = c.ctl[t];
@@ -901,11 +933,17 @@ int64_t predict_v2(const int32_t* values, uint32_t v, int64_t lo, int64_t hi, co
   else p = v == 0 ? lo : values[v - 1];
   return std::clamp(p, lo, hi);
 }
-int64_t channel_hi(const CanonicalCluster& c, uint32_t k) { return int64_t(c.min[k]) + (int64_t(1) << c.bits[k]) - 1; }
+int64_t channel_hi(const ClusterView& c, uint32_t k) { return int64_t(c.min[k]) + (int64_t(1) << c.bits[k]) - 1; }
 }  // namespace
 
 std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>& clusters,
-                                      const MeshQuantization& q, uint32_t version, DiskStreams* streams) {
+                                      const MeshQuantization& q, uint32_t version, DiskStreams* streams,
+                                      DiskSections* sections) {
+  std::vector<ClusterView> views;
+  return encode_disk_page(views_of(clusters, &views), q, version, streams, sections);
+}
+std::vector<uint8_t> encode_disk_page(const std::vector<const ClusterView*>& clusters, const MeshQuantization& q,
+                                      uint32_t version, DiskStreams* streams, DiskSections* sections) {
   assert(version == 1 || version == 2);
   const uint32_t channels = q.channel_count();
   std::vector<uint8_t> b;
@@ -924,8 +962,10 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
     for (uint32_t k = 0; k < channels; ++k) append_le32(b, uint32_t(c->min[k]));
   size_t mark = b.size();
   if (streams) streams->headers.insert(streams->headers.end(), b.begin(), b.end());
-  auto section = [&](std::vector<uint8_t> DiskStreams::*s) {
+  if (sections) sections->headers += b.size();
+  auto section = [&](std::vector<uint8_t> DiskStreams::*s, uint64_t DiskSections::*n) {
     if (streams) (streams->*s).insert((streams->*s).end(), b.begin() + long(mark), b.end());
+    if (sections) sections->*n += b.size() - mark;
     mark = b.size();
   };
   // Topology: one control byte per triangle, then the explicit references.
@@ -936,11 +976,11 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
   }
   append_le32(b, refs);
   for (const auto* c : clusters) b.insert(b.end(), c->refs, c->refs + c->ref_count);
-  section(&DiskStreams::topology);
+  section(&DiskStreams::topology, &DiskSections::topology);
   for (const auto* c : clusters) b.insert(b.end(), c->run_start, c->run_start + c->run_count);
   for (const auto* c : clusters)
     for (uint32_t r = 0; r < c->run_count; ++r) append_le32(b, c->run_material[r]);
-  section(&DiskStreams::materials);
+  section(&DiskStreams::materials, &DiskSections::materials);
   if (version == 1) {
     // Vertices: per channel, per cluster, byte planes of zigzag deltas along first-use order.
     for (uint32_t k = 0; k < channels; ++k) {
@@ -954,7 +994,8 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
           }
         }
       }
-      section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs);
+      section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs,
+              k < 3 ? &DiskSections::positions : channel_is_normal(q, k) ? &DiskSections::normals : &DiskSections::uvs);
     }
     return b;
   }
@@ -1001,10 +1042,11 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
       expected = int64_t(copy_of[v]) + 1;
     }
   if (streams) streams->copies += copy_refs.size();
+  if (sections) sections->copies += copy_refs.size();
   b.insert(b.end(), mask.begin(), mask.end());
   for (uint32_t plane = 0; plane < kCopyRefBytes; ++plane)
     for (uint32_t z : copy_refs) b.push_back(uint8_t(z >> (8 * plane)));
-  section(&DiskStreams::vertex_refs);
+  section(&DiskStreams::vertex_refs, &DiskSections::vertex_refs);
   // Residuals against the parallelogram / previous-vertex prediction, non-copies only.
   // Predictors per page vertex (strip_predictors fills each cluster's first vertex_count
   // entries), found once for every channel.
@@ -1021,7 +1063,7 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
   for (uint32_t k = 0; k < channels; ++k) {
     uint32_t base = 0;
     for (size_t i = 0; i < clusters.size(); ++i) {
-      const CanonicalCluster& c = *clusters[i];
+      const ClusterView& c = *clusters[i];
       const uint32_t nb = delta_bytes(c.bits[k]);
       const bool* has = &has_store[base];
       const auto* pred = reinterpret_cast<const uint8_t(*)[3]>(&pred_store[3 * size_t(base)]);
@@ -1038,7 +1080,8 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>
         for (uint32_t j = 0; j < zn; ++j) b[at++] = uint8_t(z[j] >> (8 * plane));
       base += c.vertex_count;
     }
-    section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs);
+    section(k < 3 ? &DiskStreams::positions : channel_is_normal(q, k) ? &DiskStreams::normals : &DiskStreams::uvs,
+              k < 3 ? &DiskSections::positions : channel_is_normal(q, k) ? &DiskSections::normals : &DiskSections::uvs);
   }
   return b;
 }

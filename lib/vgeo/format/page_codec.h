@@ -57,20 +57,40 @@ void canonicalize_cluster(const ClusterDag& dag, uint32_t c, const MeshQuantizat
 // Fills min/bits from values (the encoder side; the disk parser checks them instead).
 void compute_channel_ranges(CanonicalCluster* c, uint32_t channel_count);
 
+// A canonical cluster as the page encoders read it: counts and channel ranges by value, the
+// arrays by pointer, under CanonicalCluster's field names. The page writer holds the clusters of
+// its open page packed to their counts behind views (container.cpp: ~1 KB each on a mesh with
+// positions only, where a CanonicalCluster is a fixed ~8.8 KB); view_of views a CanonicalCluster.
+struct ClusterView {
+  uint32_t vertex_count = 0, triangle_count = 0, ref_count = 0, run_count = 0;
+  int32_t min[kMaxChannels] = {};
+  uint32_t bits[kMaxChannels] = {};
+  const int32_t* values[kMaxChannels] = {};  // null past the mesh's channels (0 bits: never read)
+  const uint8_t (*strip)[3] = nullptr;
+  const uint8_t* ctl = nullptr;
+  const uint8_t* refs = nullptr;
+  const uint8_t* run_start = nullptr;
+  const uint32_t* run_material = nullptr;
+};
+ClusterView view_of(const CanonicalCluster& c);
+
 // Memory-form triangle of a strip triangle: rotated so the smallest index comes first.
 void min_first(const uint8_t in[3], uint8_t out[3]);
 // Bits per index offset in the memory form: the fewest that hold the cluster's largest
 // triangle span (max(i1 - i0, i2 - i0) after min_first); 0..8.
+uint32_t index_offset_bits(const ClusterView& c);
 uint32_t index_offset_bits(const CanonicalCluster& c);
 
 // Memory-form words of a cluster whose index_offset_bits is `offset_bits` (the caller has it).
+uint32_t memory_cluster_words(const ClusterView& c, uint32_t offset_bits);
 uint32_t memory_cluster_words(const CanonicalCluster& c, uint32_t offset_bits);
 // Appends clusters one at a time to a memory-form page of `cluster_count` clusters; fails
 // with FORMAT_INCONSISTENT (at `where`) as soon as the page would exceed `max_words`.
 class MemoryPageBuilder {
  public:
   MemoryPageBuilder(uint32_t cluster_count, uint64_t max_words, const std::string& where);
-  void add(const CanonicalCluster& c);
+  void add(const ClusterView& c);
+  void add(const CanonicalCluster& c) { add(view_of(c)); }
   std::vector<uint32_t> finish();  // asserts every cluster was added
  private:
   std::vector<uint32_t> w_;
@@ -80,23 +100,32 @@ class MemoryPageBuilder {
 };
 std::vector<uint32_t> encode_memory_page(const std::vector<const CanonicalCluster*>& clusters,
                                          const MeshQuantization& q);
+std::vector<uint32_t> encode_memory_page(const std::vector<const ClusterView*>& clusters, const MeshQuantization& q);
 
-struct DiskSections {  // raw byte counts per component (size report)
-  uint64_t headers = 0, topology = 0, materials = 0, positions = 0, normals = 0, uvs = 0;
+struct DiskSections {  // raw byte counts per component and vertex copies (size report)
+  uint64_t headers = 0, topology = 0, materials = 0, positions = 0, normals = 0, uvs = 0, vertex_refs = 0;
+  uint64_t copies = 0;
 };
-// Appends the raw disk form. Component byte ranges go to `sections` if given, and the
-// concatenated bytes of each component to `streams` (size report compression estimate).
+// The concatenated bytes of each component (the stream measure compresses them one by one).
 struct DiskStreams {
   std::vector<uint8_t> headers, topology, materials, positions, normals, uvs, vertex_refs;
   uint64_t copies = 0;
 };
+// Returns the raw disk form. The byte count of each component is added to `sections` if given
+// (the build report: counts only, no copy of the page's bytes), and its bytes are appended to
+// `streams` if given (the stream measure).
 std::vector<uint8_t> encode_disk_page(const std::vector<const CanonicalCluster*>& clusters,
                                       const MeshQuantization& q, uint32_t version,
-                                      DiskStreams* streams = nullptr);
+                                      DiskStreams* streams = nullptr, DiskSections* sections = nullptr);
+std::vector<uint8_t> encode_disk_page(const std::vector<const ClusterView*>& clusters, const MeshQuantization& q,
+                                      uint32_t version, DiskStreams* streams = nullptr,
+                                      DiskSections* sections = nullptr);
 // Upper bound of a cluster's raw disk bytes (exact for version 1).
+uint32_t disk_cluster_bytes(const ClusterView& c, uint32_t channel_count, uint32_t version);
 uint32_t disk_cluster_bytes(const CanonicalCluster& c, uint32_t channel_count, uint32_t version);
 // Version 2 parallelogram predictor of every vertex a strip continuation introduced:
 // has[v] and pred[v] = (e1, e2, opposite) with value(v) ≈ e1 + e2 − opposite.
+void strip_predictors(const ClusterView& c, uint8_t pred[][3], bool* has);
 void strip_predictors(const CanonicalCluster& c, uint8_t pred[][3], bool* has);
 
 // Parses a raw disk page with `expected_clusters` clusters, handing each cluster to
@@ -131,8 +160,17 @@ class CompressContexts {
   std::vector<uint8_t> compress(const std::vector<uint8_t>& raw, Compression c, int level);
 
  private:
+  // A context and its output buffer: zstd writes into the buffer (sized to the largest
+  // ZSTD_compressBound seen, kept), and the result is copied out at its exact size. A
+  // ZSTD_compressBound-sized vector per call, shrunk only logically, kept every page's output
+  // at ~its raw size until the file was assembled (10.5 MB instead of 5.4 MB on a 1M-triangle
+  // sphere: ~2,600 page faults more; docs/acceptance/issue23_write.md).
+  struct Context {
+    ZSTD_CCtx_s* ctx = nullptr;
+    std::vector<uint8_t> out;
+  };
   std::mutex mutex_;
-  std::vector<ZSTD_CCtx_s*> idle_;
+  std::vector<Context> idle_;
 };
 void decompress(const uint8_t* src, size_t src_size, Compression c, uint8_t* dst, size_t raw_size,
                 const std::string& where);
