@@ -1068,15 +1068,20 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   seconds_error += steady_seconds() - tv0;
   // A candidate simplification of the group (simplify_sealed with `other`) replaces the kept
   // one when its product of measured error and triangles is smaller (on a surface the error
-  // falls about as 1/triangles, so the product compares the two at equal error).
+  // falls about as 1/triangles, so the product compares the two at equal error). It is
+  // measured as the first one was, flips included: measured without them, a candidate lost
+  // to a flipped first result it would have beaten flipped (mech-holes-shark's one-group
+  // level 3: docs/acceptance/issue23_quality2.md). With placement a candidate is placed but
+  // not flipped (flipped too, blade's ratio to the peer went 0.720 -> 0.816).
   auto keep_if_better = [&](const SimplifyTarget& other) {
     SimplifyResult alternative;
     if (!simplify_sealed(s, blk.group_shared_edges[g], prepared, other, scratch, alternative)) return;
     tv0 = steady_seconds();
     VertexMoves moves;
     const float alternative_error =
-        s.placement
-            ? measure_placed(s, L, merged, max_member_error, alternative.triangles, false, scratch, moves)
+        s.placement ? measure_placed(s, L, merged, max_member_error, alternative.triangles, false, scratch, moves)
+        : s.options.edge_flips
+            ? measure_with_edge_flips(s, merged, max_member_error, alternative.triangles)
             : leaf_deviation(s.leaf_surface, *s.positions, merged, alternative.triangles, max_member_error);
     seconds_error += steady_seconds() - tv0;
     if (double(alternative_error) * double(alternative.triangles.triangle_count()) <
