@@ -1,5 +1,6 @@
 #include "vgeo/core/process_memory.h"
 
+#include <sys/mman.h>
 #include <sys/resource.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -22,6 +23,23 @@ uint64_t peak_rss_bytes() {
   }
   struct rusage usage {};
   return getrusage(RUSAGE_SELF, &usage) == 0 ? uint64_t(usage.ru_maxrss) * 1024 : 0;
+}
+
+// The PMD-level huge page of x86-64 and arm64 with 4 KiB pages. Where it is larger, the advice
+// only covers less than it could; where THP is off, it does nothing.
+constexpr uintptr_t kHugePageBytes = uintptr_t(2) << 20;
+
+void advise_huge_pages(void* data, size_t bytes) {
+#ifdef MADV_HUGEPAGE
+  const uintptr_t begin = reinterpret_cast<uintptr_t>(data);
+  const uintptr_t first = (begin + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
+  const uintptr_t last = (begin + bytes) & ~(kHugePageBytes - 1);
+  if (!data || last <= first) return;
+  (void)madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
+#else
+  (void)data;
+  (void)bytes;
+#endif
 }
 
 void release_free_heap() {

@@ -190,7 +190,9 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
   // the order is the serial sort's on any thread count.
   constexpr size_t kCellCount = size_t(kCells) * kCells * kCells;
   const size_t tasks = (n + kTrianglesPerTask - 1) / kTrianglesPerTask;
-  std::vector<uint16_t> cell(n);
+  std::vector<uint16_t> cell;
+  reserve_huge_pages(cell, n);
+  cell.resize(n);
   std::vector<uint32_t> task_count(tasks * kCellCount, 0);  // [task][cell]
   pool.parallel_for(tasks, [&](size_t k) {
     uint32_t* histogram = &task_count[k * kCellCount];
@@ -206,7 +208,9 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
     for (size_t k = 0; k < tasks; ++k) task_fill[k * kCellCount + c] = at, at += task_count[k * kCellCount + c];
   }
   count[kCellCount] = n;
-  std::vector<uint32_t> order(n);
+  std::vector<uint32_t> order;
+  reserve_huge_pages(order, n);
+  order.resize(n);
   pool.parallel_for(tasks, [&](size_t k) {
     size_t* fill = &task_fill[k * kCellCount];
     for (size_t t = k * kTrianglesPerTask; t < std::min(n, (k + 1) * kTrianglesPerTask); ++t) order[fill[cell[t]]++] = uint32_t(t);
@@ -642,6 +646,9 @@ void prepare(BuildState& s) {
       return;
     }
     validate_mesh_values(s.mesh);
+    reserve_huge_pages(s.locks.retired, vertex_count);
+    reserve_huge_pages(s.locks.owner, vertex_count);
+    reserve_huge_pages(s.locks.locked, vertex_count);
     s.locks.retired.assign(vertex_count, 0);
     s.locks.owner.assign(vertex_count, kNone);
     s.locks.locked.assign(vertex_count, 0);
