@@ -1361,7 +1361,6 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
       g.generated[k] = uint32_t(index);
       next[index - old_count] = uint32_t(index);
     }
-    r = GroupResult();  // what is left of it freed here, on the pool
   });
   // Reset per-level lock state (only the touched entries; the same values from any task), and
   // free the clusters' facts (on the pool: a list per cluster).
@@ -1371,7 +1370,6 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
       std::atomic_ref<uint32_t>(s.locks.owner[w]).store(kNone, std::memory_order_relaxed);
       std::atomic_ref<uint8_t>(s.locks.locked[w]).store(0, std::memory_order_relaxed);
     });
-    if (f) *f = ClusterFacts();
   });
   L.facts = {};
   s.next_facts = std::move(next_facts);
