@@ -1362,10 +1362,9 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
       next[index - old_count] = uint32_t(index);
     }
   });
-  // Reset per-level lock state (only the touched entries; the same values from any task), and
-  // free the clusters' facts (on the pool: a list per cluster).
+  // Reset per-level lock state (only the touched entries; the same values from any task).
   s.pool.parallel_for(L.active.size(), [&](size_t i) {
-    ClusterFacts* f = L.facts.empty() ? nullptr : &L.facts[i];
+    const ClusterFacts* f = L.facts.empty() ? nullptr : &L.facts[i];
     for_each_cluster_vertex(s.welded, clusters[L.active[i]], f, [&](uint32_t w) {
       std::atomic_ref<uint32_t>(s.locks.owner[w]).store(kNone, std::memory_order_relaxed);
       std::atomic_ref<uint8_t>(s.locks.locked[w]).store(0, std::memory_order_relaxed);
