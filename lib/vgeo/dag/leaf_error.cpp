@@ -106,6 +106,7 @@ void sort_triangles_by_vertex(const std::vector<uint32_t>& weld, const std::vect
   };
   std::vector<std::vector<uint32_t>> next(parts);  // per part and welded vertex: its count, then its next slot
   pool.parallel_for(parts, [&](size_t p) {
+    reserve_huge_pages(next[p], vertices);
     next[p].assign(vertices, 0);
     const auto [begin, end] = part_corners(p);
     for (size_t k = begin; k < end; ++k) ++next[p][weld[ids[k]]];
