@@ -3,6 +3,7 @@
 // the page format (spec/format.md; a page file is named *.vgp), or a VGEODAG1 file (spec/dag.md) when OUT ends in .vgeodag.
 #include <malloc.h>
 
+#include <algorithm>
 #include <chrono>
 #include <climits>
 #include <cstdio>
@@ -167,6 +168,10 @@ constexpr int kBuildMmapThresholdBytes = 32 << 20;
 // thread, with the layout reusing the levels' memory: 43.9k → 26.5k page faults, system time
 // 0.73-0.82 → 0.34-0.41 s, peak RSS 112 → 114 MiB (docs/acceptance/issue23_dagfast.md).
 constexpr int kBuildTrimThresholdBytes = INT_MAX;
+// A .vgeodag build whose peak RSS reached this keeps its freed heap for the write (see the
+// callback): 32 MiB is ~25 times the write's buffers, and a build that large peaks in its own
+// arrays (the 1M sphere's 105 MiB), while below it the peak is mostly code and fixed buffers.
+constexpr uint64_t kKeepHeapPeakBytes = uint64_t(32) << 20;
 
 }  // namespace
 
@@ -234,13 +239,19 @@ void add_build_command(CLI::App& app, Context& ctx) {
     std::vector<std::string> mesh_names;
     for (const Mesh& m : scene.meshes) mesh_names.push_back(m.name);
     scene = Scene();
+    AssetFileKind kind = asset_file_kind_for_path(args->output);
     // The freed geometry and the build's freed state go back to the kernel: the write's buffers
     // and code then start from the live DAG instead of the build's high-water mark (armadillo
     // page format -0.9 MiB). (zstd's tables, 1.3-3.7 MB, have a huge-page mapping of their own:
     // lib/vgeo/format/container.cpp. Not trimming saved page faults but raised armadillo's
-    // peak by ~2 MiB; docs/acceptance/issue23_write.md.)
-    release_free_heap();
-    AssetFileKind kind = asset_file_kind_for_path(args->output);
+    // peak by ~2 MiB; docs/acceptance/issue23_write.md.) The
+    // VGEODAG1 write streams the DAG through ~1.25 MiB of buffers: a large build's peak lies
+    // far above what is live now, so there the trim is left out (on the 4M sphere it took
+    // 0.05-0.1 s of one thread's time between the build and the write; the 1M sphere's peak
+    // is the build's either way), and a small one's keeps it (lion's peak +0.3 MiB without).
+    uint64_t build_peak = 0;
+    for (const BuildReport& r : reports) build_peak = std::max(build_peak, r.peak_memory_bytes);
+    if (kind == AssetFileKind::kPages || build_peak < kKeepHeapPeakBytes) release_free_heap();
     FormatReport format_report;
     const clock::time_point t_write = clock::now();
     write_asset_file(args->output, built, kind, format_options, &format_report);

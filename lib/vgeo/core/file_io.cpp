@@ -11,6 +11,7 @@
 #include <filesystem>
 
 #include "vgeo/core/error.h"
+#include "vgeo/core/process_memory.h"
 #include "vgeo/core/thread_pool.h"
 
 namespace vgeo {
@@ -219,6 +220,7 @@ FileBytes read_file_bytes(const std::string& path, uint64_t max_bytes, unsigned 
       path, max_bytes,
       [&](size_t size) {
         bytes.data.reset(new uint8_t[size]);  // default-initialised: the read fills it
+        advise_huge_pages(bytes.data.get(), size);
         bytes.size = size;
         return bytes.data.get();
       },

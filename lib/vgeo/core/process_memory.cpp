@@ -26,6 +26,23 @@ uint64_t peak_rss_bytes() {
   return getrusage(RUSAGE_SELF, &usage) == 0 ? uint64_t(usage.ru_maxrss) * 1024 : 0;
 }
 
+// The PMD-level huge page of x86-64 and arm64 with 4 KiB pages. Where it is larger, the advice
+// only covers less than it could; where THP is off, it does nothing.
+constexpr uintptr_t kHugePageBytes = uintptr_t(2) << 20;
+
+void advise_huge_pages(void* data, size_t bytes) {
+#ifdef MADV_HUGEPAGE
+  const uintptr_t begin = reinterpret_cast<uintptr_t>(data);
+  const uintptr_t first = (begin + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
+  const uintptr_t last = (begin + bytes) & ~(kHugePageBytes - 1);
+  if (!data || last <= first) return;
+  (void)madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
+#else
+  (void)data;
+  (void)bytes;
+#endif
+}
+
 void release_free_heap() {
 #if defined(__GLIBC__)
   malloc_trim(0);
@@ -33,8 +50,6 @@ void release_free_heap() {
 }
 
 namespace {
-// The transparent huge page size of x86-64 and arm64 (4 KiB base pages).
-constexpr size_t kHugePageBytes = size_t(2) << 20;
 // Where free_huge_pages finds the mapping: a header in front of the returned block (which
 // stays aligned to max_align_t; the mapping starts on a huge-page boundary).
 struct HugeHeader {
@@ -52,13 +67,11 @@ void* allocate_huge_pages(size_t bytes) {
   void* raw = ::mmap(nullptr, length + kHugePageBytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
   if (raw == MAP_FAILED) return nullptr;
   const uintptr_t start = reinterpret_cast<uintptr_t>(raw);
-  const uintptr_t aligned = (start + kHugePageBytes - 1) & ~uintptr_t(kHugePageBytes - 1);
+  const uintptr_t aligned = (start + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
   if (aligned > start) ::munmap(raw, aligned - start);
   if (start + kHugePageBytes > aligned) ::munmap(reinterpret_cast<void*>(aligned + length), start + kHugePageBytes - aligned);
   void* base = reinterpret_cast<void*>(aligned);
-#ifdef MADV_HUGEPAGE
-  ::madvise(base, length, MADV_HUGEPAGE);  // advice only: small pages where it is refused
-#endif
+  advise_huge_pages(base, length);  // advice only: small pages where it is refused
   auto* header = static_cast<HugeHeader*>(base);
   header->base = base, header->length = length;
   return static_cast<char*>(base) + kHugeHeaderBytes;

@@ -2,6 +2,7 @@
 // The process's peak memory, as the builder's report and `vgeo bench build` state it.
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 namespace vgeo {
 
@@ -19,6 +20,21 @@ uint64_t peak_rss_bytes();
 // would otherwise add to the earlier phase's high-water mark. Costs one page fault per returned
 // page that is used again (docs/acceptance/issue23_smallrss.md).
 void release_free_heap();
+
+// Asks the kernel to back [data, data + bytes) with transparent huge pages (MADV_HUGEPAGE; Linux
+// with THP in `madvise` or `always` mode, a no-op elsewhere) when it covers at least one whole
+// aligned huge page (kHugePageBytes). For large arrays that are filled completely: a first
+// touch then costs one fault per 2 MiB instead of one per 4 KiB page, and the array's accesses
+// miss the TLB far less (docs/acceptance/issue23_dagpar.md measures both on the 4M sphere).
+void advise_huge_pages(void* data, size_t bytes);
+
+// v.reserve(n), the reserved storage advised as above: for a fresh array of n elements that is
+// then sized and filled.
+template <class T>
+void reserve_huge_pages(std::vector<T>& v, size_t n) {
+  v.reserve(n);
+  advise_huge_pages(v.data(), n * sizeof(T));
+}
 
 // Memory for a large table that is written whole and probed at random (zstd's match-finder
 // tables, which it clears at every reset): its own mapping, aligned to and advised for 2 MiB

@@ -10,6 +10,7 @@
 #include <limits>
 #include <map>
 
+#include "vgeo/core/process_memory.h"
 #include "vgeo/core/thread_pool.h"
 
 namespace vgeo {
@@ -89,7 +90,9 @@ TriangleDistanceTree::TriangleDistanceTree(const float* positions, std::vector<u
 void TriangleDistanceTree::build_structure(uint32_t n, ThreadPool* pool, BuildItem* items, std::vector<Subtree>& frontier,
                                            std::vector<Subtree>& top) {
   std::map<uint32_t, uint32_t> memo;
-  nodes_.resize(subtree_nodes(n, leaf_size_, memo));
+  const size_t node_count = subtree_nodes(n, leaf_size_, memo);
+  reserve_huge_pages(nodes_, node_count);
+  nodes_.resize(node_count);
   // The top of the tree breadth first, each level's splits in parallel, until there are
   // enough subtrees to build as independent tasks. Every node's place is fixed by the
   // triangle counts alone (subtree_nodes), so the tree is the one the serial depth-first
@@ -150,7 +153,9 @@ void TriangleDistanceTree::finish(uint32_t n, ThreadPool* pool, const std::vecto
   else
     for (size_t i = 0; i < frontier.size(); ++i) boxes(i);
   for (size_t i = top.size(); i-- > 0;) set_box(top[i].index);
+  reserve_huge_pages(parent_, nodes_.size());
   parent_.assign(nodes_.size(), 0);
+  reserve_huge_pages(leaf_of_, n);
   leaf_of_.resize(n);
   for_chunks(pool, nodes_.size(), kBuildChunk, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {

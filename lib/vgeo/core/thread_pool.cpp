@@ -6,6 +6,8 @@
 #include <atomic>
 #include <exception>
 
+#include "vgeo/core/process_memory.h"
+
 namespace vgeo {
 
 unsigned default_thread_count() {
@@ -85,21 +87,28 @@ void ThreadPool::parallel_for(size_t n, const std::function<void(size_t)>& fn) {
 }
 
 // Faults in the pages of fresh allocations in equal chunks on every pool thread
-// (MADV_POPULATE_WRITE, Linux ≥ 5.14). On a virtual machine a first touch costs several µs
-// per 4 KiB page, so spreading it evenly beats one task per array; where the advice is not
-// supported this does nothing and the first writes fault as before.
+// (MADV_POPULATE_WRITE, Linux ≥ 5.14), backed by huge pages where the kernel gives them
+// (advise_huge_pages). On a virtual machine a first touch costs several µs per 4 KiB page, so
+// spreading it evenly beats one task per array; where the advice is not supported this does
+// nothing and the first writes fault as before.
 void prefault_parallel(std::initializer_list<std::pair<void*, size_t>> ranges, ThreadPool& pool) {
 #ifdef MADV_POPULATE_WRITE
-  // 2 MiB (512 pages, ~1 ms of faults on a VM): arrays of a few MiB (the leaf surface's on a
-  // 1M-triangle mesh) still split over 2-4 threads; a 10M-triangle DAG's are a few thousand tasks.
-  constexpr size_t kChunk = size_t(2) << 20;
+  // 2 MiB (512 pages, ~1 ms of faults on a VM; one huge page): arrays of a few MiB (the leaf
+  // surface's on a 1M-triangle mesh) still split over 2-4 threads; a 10M-triangle DAG's are a
+  // few thousand tasks. Chunk ends fall on multiples of it, so a huge page is one task's.
+  constexpr uintptr_t kChunk = uintptr_t(2) << 20;
   const size_t page = size_t(sysconf(_SC_PAGESIZE));
   std::vector<std::pair<uintptr_t, size_t>> chunks;
   for (auto [data, bytes] : ranges) {
     if (!data || bytes < kChunk) continue;  // small arrays: not worth a system call
+    advise_huge_pages(data, bytes);
     uintptr_t begin = (reinterpret_cast<uintptr_t>(data) + page - 1) & ~uintptr_t(page - 1);
     uintptr_t end = (reinterpret_cast<uintptr_t>(data) + bytes) & ~uintptr_t(page - 1);
-    for (uintptr_t at = begin; at < end; at += kChunk) chunks.push_back({at, std::min<size_t>(kChunk, end - at)});
+    for (uintptr_t at = begin; at < end;) {
+      const uintptr_t next = std::min(end, (at + kChunk) & ~(kChunk - 1));
+      chunks.push_back({at, size_t(next - at)});
+      at = next;
+    }
   }
   pool.parallel_for(chunks.size(), [&](size_t i) {
     (void)madvise(reinterpret_cast<void*>(chunks[i].first), chunks[i].second, MADV_POPULATE_WRITE);

@@ -145,6 +145,17 @@ constexpr size_t kTrianglesPerTask = size_t(1) << 16;
 // hand-out, and a 4,096-cluster block still gives ~30 tasks to balance.
 constexpr size_t kLockGroupsPerTask = 8;
 
+// Clusters per task of the layout's passes (lay_out): ~128 triangles each, so ~50 µs of work
+// per task against ~1 µs of hand-out, and a 64k-cluster DAG (the 4M sphere) gives 256 tasks
+// to balance.
+constexpr size_t kLayoutClustersPerTask = 256;
+
+// Cluster records reserved per leaf cluster for the whole DAG (build_leaves): the levels add
+// about as many as the leaves (the spheres and 6 of the 8 corpus meshes: 2.03x to 2.13x;
+// elephant-with-holes 2.31x, blade 2.86x, where groups that cannot simplify keep adding
+// levels); a DAG that needs more grows the array as a vector does.
+constexpr double kReservedClustersPerLeaf = 2.25;
+
 // AABB of the vertices referenced by triangles (fixed blocks combined in order).
 Aabb indexed_bounds(const Mesh& mesh, ThreadPool& pool) {
   const size_t n = mesh.triangle_count(), tasks = (n + kTrianglesPerTask - 1) / kTrianglesPerTask;
@@ -190,7 +201,9 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
   // the order is the serial sort's on any thread count.
   constexpr size_t kCellCount = size_t(kCells) * kCells * kCells;
   const size_t tasks = (n + kTrianglesPerTask - 1) / kTrianglesPerTask;
-  std::vector<uint16_t> cell(n);
+  std::vector<uint16_t> cell;
+  reserve_huge_pages(cell, n);
+  cell.resize(n);
   std::vector<uint32_t> task_count(tasks * kCellCount, 0);  // [task][cell]
   pool.parallel_for(tasks, [&](size_t k) {
     uint32_t* histogram = &task_count[k * kCellCount];
@@ -206,7 +219,9 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
     for (size_t k = 0; k < tasks; ++k) task_fill[k * kCellCount + c] = at, at += task_count[k * kCellCount + c];
   }
   count[kCellCount] = n;
-  std::vector<uint32_t> order(n);
+  std::vector<uint32_t> order;
+  reserve_huge_pages(order, n);
+  order.resize(n);
   pool.parallel_for(tasks, [&](size_t k) {
     size_t* fill = &task_fill[k * kCellCount];
     for (size_t t = k * kTrianglesPerTask; t < std::min(n, (k + 1) * kTrianglesPerTask); ++t) order[fill[cell[t]]++] = uint32_t(t);
@@ -398,7 +413,8 @@ struct ScratchPool {
     std::lock_guard<std::mutex> lock(mutex);
     if (free.empty()) {
       std::vector<uint32_t> s;
-      s.reserve(std::max(size, capacity));
+      // Huge pages: the tasks index it by vertex, all over it (fewer TLB misses, 2 MiB faults).
+      reserve_huge_pages(s, std::max(size, capacity));
       s.assign(size, kNone);
       return s;
     }
@@ -642,6 +658,9 @@ void prepare(BuildState& s) {
       return;
     }
     validate_mesh_values(s.mesh);
+    reserve_huge_pages(s.locks.retired, vertex_count);
+    reserve_huge_pages(s.locks.owner, vertex_count);
+    reserve_huge_pages(s.locks.locked, vertex_count);
     s.locks.retired.assign(vertex_count, 0);
     s.locks.owner.assign(vertex_count, kNone);
     s.locks.locked.assign(vertex_count, 0);
@@ -690,7 +709,10 @@ void build_leaves(BuildState& s) {
   });
   size_t leaf_count = 0;
   for (const auto& cl : chunk_leaves) leaf_count += cl.size();
-  s.clusters.reserve(leaf_count);
+  // Room for the whole DAG's clusters: each level halves its input (kSimplifyTargetRatio), so
+  // the DAG holds about twice the leaves (4M sphere: 2.05x); growing as a vector moved every
+  // cluster record into fresh memory at the levels that crossed the capacity.
+  reserve_huge_pages(s.clusters, size_t(kReservedClustersPerLeaf * double(leaf_count)));
   s.next_facts.reserve(leaf_count);
   for (size_t i = 0; i < chunks.size(); ++i)
     for (size_t k = 0; k < chunk_leaves[i].size(); ++k) {
@@ -1286,11 +1308,15 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   std::vector<WorkCluster>& clusters = s.clusters;
   std::vector<WorkGroup>& groups = s.groups;
   const uint32_t first_group = uint32_t(groups.size());
-  for (auto& members : level_groups) {
-    WorkGroup g;
-    g.members = std::move(members);
+  const uint32_t group_count = uint32_t(level_groups.size());
+  // The level's groups from their members, on the pool (a cluster is a member of one group);
+  // this and the new clusters below ran on one thread, ~0.1 s per 4M-triangle build.
+  groups.resize(size_t(first_group) + group_count);
+  s.pool.parallel_for(group_count, [&](size_t i) {
+    WorkGroup& g = groups[first_group + i];
+    g.members = std::move(level_groups[i]);
     g.level = L.level;
-    uint32_t gi = uint32_t(groups.size());
+    uint32_t gi = first_group + uint32_t(i);
     std::vector<Sphere> b, lb;
     float max_child = 0.0f;
     for (uint32_t m : g.members) {
@@ -1302,17 +1328,16 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
     g.bounds = enclose_spheres(b.data(), b.size());
     g.parent_bounds = enclose_spheres(lb.data(), lb.size());
     g.parent_error = max_child;
-    groups.push_back(std::move(g));
-  }
-  const uint32_t group_count = uint32_t(groups.size()) - first_group;
+  });
   L.report.groups = group_count;
 
-  std::vector<uint32_t> next;
-  std::vector<ClusterFacts> next_facts;  // (s.next_facts)
+  // Each group's new clusters follow the earlier groups' (one thread's appends in group order).
+  std::vector<size_t> first_new(size_t(group_count) + 1, clusters.size());
   std::vector<uint64_t> new_retired_edges;
   for (uint32_t i = 0; i < group_count; ++i) {
     GroupResult& r = results[i];
     uint32_t gi = first_group + i;
+    first_new[i + 1] = first_new[i];
     if (r.terminal) {
       groups[gi].terminal = true;
       groups[gi].parent_error = kTerminalError;
@@ -1329,24 +1354,33 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
     // parent_error = max(member lod_error, measured deviation from the leaves): monotonic
     // exactly, and tight (no per-level sum).
     if (std::isfinite(r.error)) groups[gi].parent_error = std::max(groups[gi].parent_error, r.error);
-    for (size_t k = 0; k < r.clusters.size(); ++k) {
-      WorkCluster c;
-      c.triangles = std::move(r.clusters[k]);
-      next_facts.emplace_back();
-      if (!r.facts.empty()) c.bounds = r.bounds[k], next_facts.back() = std::move(r.facts[k]);
-      c.level = L.level + 1;
-      c.generating_group = gi;
-      c.lod_bounds = groups[gi].parent_bounds;
-      c.lod_error = groups[gi].parent_error;
-      groups[gi].generated.push_back(uint32_t(clusters.size()));
-      next.push_back(uint32_t(clusters.size()));
-      clusters.push_back(std::move(c));
-    }
+    first_new[i + 1] += r.clusters.size();
   }
   if (!L.simplify_allowed) L.report.stuck_groups = 0;  // roots by construction, not stuck
-  s.pool.parallel_for(next.size(), [&](size_t i) {
-    WorkCluster& c = clusters[next[i]];
-    if (!next_facts[i].counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
+  const size_t old_count = clusters.size(), new_count = first_new[group_count] - old_count;
+  clusters.resize(old_count + new_count);
+  std::vector<uint32_t> next(new_count);
+  std::vector<ClusterFacts> next_facts(new_count);  // (s.next_facts)
+  s.pool.parallel_for(group_count, [&](size_t i) {
+    GroupResult& r = results[i];
+    if (r.terminal) return;
+    const uint32_t gi = first_group + uint32_t(i);
+    WorkGroup& g = groups[gi];
+    g.generated.resize(r.clusters.size());
+    for (size_t k = 0; k < r.clusters.size(); ++k) {
+      const size_t index = first_new[i] + k;
+      WorkCluster& c = clusters[index];
+      ClusterFacts& f = next_facts[index - old_count];
+      c.triangles = std::move(r.clusters[k]);
+      if (!r.facts.empty()) c.bounds = r.bounds[k], f = std::move(r.facts[k]);
+      if (!f.counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
+      c.level = L.level + 1;
+      c.generating_group = gi;
+      c.lod_bounds = g.parent_bounds;
+      c.lod_error = g.parent_error;
+      g.generated[k] = uint32_t(index);
+      next[index - old_count] = uint32_t(index);
+    }
   });
   // Reset per-level lock state (only the touched entries; the same values from any task).
   s.pool.parallel_for(L.active.size(), [&](size_t i) {
@@ -1470,75 +1504,92 @@ ClusterDag lay_out(BuildState& s) {
     g.parent_error = w.parent_error;
     dag.level_count = std::max(dag.level_count, w.level + 1);
   }
-  // Vertex/triangle offsets need a prefix sum over the final order.
+  // Vertex/triangle offsets need a prefix sum over the final order. The triangles' are known
+  // up front, so the local corners are written straight into dag.indices; the vertices' once
+  // each cluster's distinct vertices are listed.
   std::vector<uint32_t> order(clusters.size());
   for (size_t i = 0; i < clusters.size(); ++i) order[new_index[i]] = uint32_t(i);
-  std::vector<std::vector<uint32_t>> cluster_vertices(clusters.size());
-  // Per cluster: distinct original vertices in order of first use, and local corners.
-  std::vector<std::vector<uint8_t>> cluster_local(clusters.size());
-  pool.parallel_for(clusters.size(), [&](size_t i) {
-    const TriangleSet& t = clusters[order[i]].triangles;
-    std::vector<uint32_t>& verts = cluster_vertices[i];
-    std::vector<uint8_t>& local = cluster_local[i];
-    local.resize(t.corners.size());
-    // Open addressing over ≤ 384 corners, ≤ 255 distinct (kMaxClusterVertices): 512 slots, a
-    // load ≤ 1/2 (1024 slots cost more to clear per cluster than their shorter probes saved).
-    constexpr size_t kSlots = 512;
-    constexpr int kSlotShift = 32 - 9;  // top log2(kSlots) bits of the hash
-    uint32_t key[kSlots], val[kSlots];
-    std::fill(key, key + kSlots, kNone);
-    for (size_t k = 0; k < t.corners.size(); ++k) {
-      uint32_t v = t.corners[k];
-      size_t h = (v * 0x9E3779B1u) >> kSlotShift;
-      while (key[h] != kNone && key[h] != v) h = (h + 1) & (kSlots - 1);
-      if (key[h] == kNone) {
-        key[h] = v;
-        val[h] = uint32_t(verts.size());
-        verts.push_back(v);
-      }
-      local[k] = uint8_t(val[h]);
-    }
-  });
-  size_t total_vertices = 0, total_triangles = 0;
-  for (size_t i = 0; i < clusters.size(); ++i) {
-    total_vertices += cluster_vertices[i].size();
-    total_triangles += clusters[order[i]].triangles.triangle_count();
-  }
-  if (total_vertices >= kNone || total_triangles >= kNone)
+  size_t total_triangles = 0;
+  for (size_t i = 0; i < clusters.size(); ++i) total_triangles += clusters[order[i]].triangles.triangle_count();
+  if (total_triangles >= kNone)
     fail("BUILD_MESH_TOO_LARGE", s.mesh.name, "the DAG would exceed 2^32 vertices or triangles");
+  for (size_t i = 0, to = 0; i < clusters.size(); ++i) {
+    dag.clusters[i].triangle_offset = uint32_t(to);
+    to += clusters[order[i]].triangles.triangle_count();
+  }
   // The big arrays are fresh memory: their first touch (page faults, zeroing) is most of
   // the layout's cost. They are reserved, their pages faulted in by equal chunks on every
   // thread (prefault_parallel), and only then sized (the zero fill then runs on mapped pages).
+  dag.indices.reserve(3 * total_triangles);
+  dag.triangle_materials.reserve(total_triangles);
+  prefault_parallel({{dag.indices.data(), dag.indices.capacity()},
+                     {dag.triangle_materials.data(), 4 * dag.triangle_materials.capacity()}},
+                    pool);
+  pool.parallel_for(2, [&](size_t k) {
+    if (k == 0) dag.indices.resize(3 * total_triangles);
+    else dag.triangle_materials.resize(total_triangles);
+  });
+  // Per task of kLayoutClustersPerTask consecutive clusters (final order): their distinct
+  // original vertices in order of first use, cluster after cluster (one array per task: two
+  // arrays per cluster, their allocations, first touches and frees, were 0.8 of the layout's
+  // 1.0 CPU-s on the 4M sphere, and the frees ran on one thread). Each cluster's local corners
+  // and materials go straight to their place in the DAG.
+  const size_t layout_tasks = (clusters.size() + kLayoutClustersPerTask - 1) / kLayoutClustersPerTask;
+  std::vector<std::vector<uint32_t>> task_vertices(layout_tasks);
+  pool.parallel_for(layout_tasks, [&](size_t task) {
+    std::vector<uint32_t>& verts = task_vertices[task];
+    for (size_t i = task * kLayoutClustersPerTask; i < std::min(clusters.size(), (task + 1) * kLayoutClustersPerTask); ++i) {
+      const TriangleSet& t = clusters[order[i]].triangles;
+      DagCluster& c = dag.clusters[i];
+      uint8_t* local = &dag.indices[3 * size_t(c.triangle_offset)];
+      const size_t first = verts.size();
+      // Open addressing over ≤ 384 corners, ≤ 255 distinct (kMaxClusterVertices): 512 slots, a
+      // load ≤ 1/2 (1024 slots cost more to clear per cluster than their shorter probes saved).
+      constexpr size_t kSlots = 512;
+      constexpr int kSlotShift = 32 - 9;  // top log2(kSlots) bits of the hash
+      uint32_t key[kSlots], val[kSlots];
+      std::fill(key, key + kSlots, kNone);
+      for (size_t k = 0; k < t.corners.size(); ++k) {
+        uint32_t v = t.corners[k];
+        size_t h = (v * 0x9E3779B1u) >> kSlotShift;
+        while (key[h] != kNone && key[h] != v) h = (h + 1) & (kSlots - 1);
+        if (key[h] == kNone) {
+          key[h] = v;
+          val[h] = uint32_t(verts.size() - first);
+          verts.push_back(v);
+        }
+        local[k] = uint8_t(val[h]);
+      }
+      c.vertex_count = uint32_t(verts.size() - first);
+      std::copy(t.materials.begin(), t.materials.end(), dag.triangle_materials.begin() + c.triangle_offset);
+    }
+  });
+  size_t total_vertices = 0;
+  for (size_t i = 0; i < clusters.size(); ++i) total_vertices += dag.clusters[i].vertex_count;
+  if (total_vertices >= kNone)
+    fail("BUILD_MESH_TOO_LARGE", s.mesh.name, "the DAG would exceed 2^32 vertices or triangles");
   dag.positions.reserve(3 * total_vertices);
   if (!mesh.normals.empty()) dag.normals.reserve(3 * total_vertices);
   if (!mesh.uvs.empty()) dag.uvs.reserve(2 * total_vertices);
-  dag.indices.reserve(3 * total_triangles);
-  dag.triangle_materials.reserve(total_triangles);
   prefault_parallel({{dag.positions.data(), 4 * dag.positions.capacity()},
                      {dag.normals.data(), 4 * dag.normals.capacity()},
-                     {dag.uvs.data(), 4 * dag.uvs.capacity()},
-                     {dag.indices.data(), dag.indices.capacity()},
-                     {dag.triangle_materials.data(), 4 * dag.triangle_materials.capacity()}},
+                     {dag.uvs.data(), 4 * dag.uvs.capacity()}},
                     pool);
-  pool.parallel_for(5, [&](size_t k) {
+  pool.parallel_for(3, [&](size_t k) {
     switch (k) {
       case 0: dag.positions.resize(3 * total_vertices); break;
       case 1: if (!mesh.normals.empty()) dag.normals.resize(3 * total_vertices); break;
-      case 2: if (!mesh.uvs.empty()) dag.uvs.resize(2 * total_vertices); break;
-      case 3: dag.indices.resize(3 * total_triangles); break;
-      default: dag.triangle_materials.resize(total_triangles); break;
+      default: if (!mesh.uvs.empty()) dag.uvs.resize(2 * total_vertices); break;
     }
   });
   {
-    uint32_t vo = 0, to = 0;
+    uint32_t vo = 0;
     for (size_t i = 0; i < clusters.size(); ++i) {
       const WorkCluster& w = clusters[order[i]];
       DagCluster& c = dag.clusters[i];
       c.vertex_offset = vo;
-      c.vertex_count = uint32_t(cluster_vertices[i].size());
-      c.triangle_offset = to;
       c.triangle_count = uint32_t(w.triangles.triangle_count());
-      c.material_offset = to;
+      c.material_offset = c.triangle_offset;
       c.group = w.group;
       c.generating_group = w.generating_group;
       c.level = w.level;
@@ -1550,21 +1601,20 @@ ClusterDag lay_out(BuildState& s) {
       assert(c.triangle_count >= 1 && c.triangle_count <= kMaxClusterTriangles);
       assert(c.vertex_count <= kMaxClusterVertices);
       vo += c.vertex_count;
-      to += c.triangle_count;
     }
   }
-  pool.parallel_for(clusters.size(), [&](size_t i) {
-    const WorkCluster& w = clusters[order[i]];
-    const DagCluster& c = dag.clusters[i];
-    const std::vector<uint32_t>& verts = cluster_vertices[i];
-    for (size_t k = 0; k < verts.size(); ++k) {
-      size_t dst = c.vertex_offset + k, src = verts[k];
-      std::memcpy(&dag.positions[3 * dst], &mesh.positions[3 * src], 12);
-      if (!dag.normals.empty()) std::memcpy(&dag.normals[3 * dst], &mesh.normals[3 * src], 12);
-      if (!dag.uvs.empty()) std::memcpy(&dag.uvs[2 * dst], &mesh.uvs[2 * src], 8);
+  pool.parallel_for(layout_tasks, [&](size_t task) {
+    const uint32_t* src = task_vertices[task].data();
+    for (size_t i = task * kLayoutClustersPerTask; i < std::min(clusters.size(), (task + 1) * kLayoutClustersPerTask); ++i) {
+      const DagCluster& c = dag.clusters[i];
+      for (size_t k = 0; k < c.vertex_count; ++k) {
+        size_t dst = c.vertex_offset + k, v = *src++;
+        std::memcpy(&dag.positions[3 * dst], &mesh.positions[3 * v], 12);
+        if (!dag.normals.empty()) std::memcpy(&dag.normals[3 * dst], &mesh.normals[3 * v], 12);
+        if (!dag.uvs.empty()) std::memcpy(&dag.uvs[2 * dst], &mesh.uvs[2 * v], 8);
+      }
     }
-    std::memcpy(&dag.indices[3 * size_t(c.triangle_offset)], cluster_local[i].data(), 3 * size_t(c.triangle_count));
-    for (size_t t = 0; t < c.triangle_count; ++t) dag.triangle_materials[c.triangle_offset + t] = w.triangles.materials[t];
+    task_vertices[task] = {};
   });
   // Only vertices referenced by triangles count as leaf positions.
   dag.bounds = s.mesh_box;

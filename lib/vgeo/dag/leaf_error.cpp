@@ -24,6 +24,7 @@
 #include <cmath>
 #include <limits>
 
+#include "vgeo/core/process_memory.h"
 #include "vgeo/core/thread_pool.h"
 #include "vgeo/dag/build_internal.h"
 
@@ -85,6 +86,7 @@ constexpr size_t kAdjacencySortParts = 4;
 void sort_triangles_by_vertex(const std::vector<uint32_t>& weld, const std::vector<uint32_t>& ids, ThreadPool& pool,
                               std::vector<uint32_t>& first, std::vector<uint32_t>& triangles) {
   const size_t vertices = weld.size();
+  reserve_huge_pages(first, vertices + 1);
   first.assign(vertices + 1, 0);
   triangles.reserve(ids.size());
   prefault_parallel({{triangles.data(), 4 * ids.size()}}, pool);  // (as build_adjacency's arrays)
@@ -104,6 +106,7 @@ void sort_triangles_by_vertex(const std::vector<uint32_t>& weld, const std::vect
   };
   std::vector<std::vector<uint32_t>> next(parts);  // per part and welded vertex: its count, then its next slot
   pool.parallel_for(parts, [&](size_t p) {
+    reserve_huge_pages(next[p], vertices);
     next[p].assign(vertices, 0);
     const auto [begin, end] = part_corners(p);
     for (size_t k = begin; k < end; ++k) ++next[p][weld[ids[k]]];
@@ -216,7 +219,9 @@ LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const
                                bool normals) {
   std::vector<size_t> first_triangle(leaves.size() + 1, 0);  // per leaf set: its first triangle
   for (size_t i = 0; i < leaves.size(); ++i) first_triangle[i + 1] = first_triangle[i] + leaves[i]->triangle_count();
-  std::vector<uint32_t> ids(3 * first_triangle.back());
+  std::vector<uint32_t> ids;
+  reserve_huge_pages(ids, 3 * first_triangle.back());
+  ids.resize(3 * first_triangle.back());
   pool.parallel_for(leaves.size(), [&](size_t i) {
     std::copy(leaves[i]->corners.begin(), leaves[i]->corners.end(), &ids[3 * first_triangle[i]]);
   });

@@ -6,6 +6,7 @@
 #include <cassert>
 #include <cstring>
 
+#include "vgeo/core/process_memory.h"
 #include "vgeo/dag/build_internal.h"
 
 namespace vgeo::build_detail {
@@ -30,11 +31,14 @@ WeldedMesh weld_positions(const Mesh& mesh) {
   WeldedMesh w;
   w.mesh = &mesh;
   size_t n = mesh.vertex_count();
+  reserve_huge_pages(w.weld, n);
   w.weld.resize(n);
   // Open addressing, table at least twice the vertex count: expected O(1) probes.
   size_t cap = 16;
   while (cap < 2 * n) cap <<= 1;
-  std::vector<uint32_t> table(cap, kNone);
+  std::vector<uint32_t> table;
+  reserve_huge_pages(table, cap);
+  table.assign(cap, kNone);
   const float* pos = mesh.positions.data();
   for (size_t v = 0; v < n; ++v) {
     size_t slot = hash_position(pos + 3 * v) & (cap - 1);
@@ -52,6 +56,7 @@ WeldedMesh weld_positions(const Mesh& mesh) {
       slot = (slot + 1) & (cap - 1);
     }
   }
+  reserve_huge_pages(w.copies, n);
   w.copies.assign(n, 0);
   for (size_t v = 0; v < n; ++v) {
     uint8_t& c = w.copies[w.weld[v]];
