@@ -8,7 +8,19 @@ execute_process(COMMAND ${NM} -D --undefined-only ${MODULE} OUTPUT_VARIABLE unde
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "${NM} failed on ${MODULE}")
 endif()
-string(REGEX MATCHALL "U [^\n@]+" entries "${undefined}")
+# Only unversioned symbols: a versioned one (name@GLIBCXX_..., @PNG16_...) was bound at the
+# module's link to one of its own shared libraries, which it still finds there. Exporting such a
+# symbol from the executable (whose C++ runtime is a static copy) would bind the module, and any
+# library loaded later (a Vulkan layer or driver), to the executable's copy of libstdc++ instead:
+# two runtimes of different versions then share locale state and crash (a validation layer on a
+# newer libstdc++.so than the compiler's: docs/acceptance/device_stop36.md).
+string(REGEX MATCHALL "U [^\n@]+(@[^\n]*)?" candidates "${undefined}")
+set(entries "")
+foreach(candidate ${candidates})
+  if(NOT candidate MATCHES "@")
+    list(APPEND entries "${candidate}")
+  endif()
+endforeach()
 set(text "{\n")
 foreach(entry ${entries})
   string(SUBSTRING "${entry}" 2 -1 symbol)
