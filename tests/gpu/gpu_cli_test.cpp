@@ -3,6 +3,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <filesystem>
 #include <fstream>
 
 #include "render/frame_loop_flags.h"
@@ -46,6 +47,21 @@ TEST(GpuCli, UnknownDeviceIsAOneLineCodedError) {
   test::CliResult r = test::run_cli("render '" + kScene + "' --backend vulkan --device no-such-gpu --no-cache");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("error[GPU_DEVICE_NOT_FOUND]"), std::string::npos) << r.output;
+}
+
+// A validation layer whose manifest is found but whose library does not load (seen where the
+// layer's package was unpacked off the library path) is as unavailable as a missing layer.
+TEST(GpuCli, ValidationLayerThatDoesNotLoadIsACodedError) {
+  const std::string dir = testing::TempDir() + "vgeo_broken_layer";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/VkLayer_khronos_validation.json")
+      << R"({"file_format_version": "1.2.0", "layer": {"name": "VK_LAYER_KHRONOS_validation",
+           "type": "GLOBAL", "library_path": "./libvgeo_no_such_layer.so", "api_version": "1.3.239",
+           "implementation_version": "1", "description": "a manifest without its library"}})";
+  test::CliResult r = test::run_command("VK_LAYER_PATH='" + dir + "' '" + test::cli_path() + "' render '" + kScene +
+                                        "' --backend vulkan --validate --no-cache");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("error[GPU_VALIDATION_UNAVAILABLE]"), std::string::npos) << r.output;
 }
 
 // spec/shadow.md: a scene with lights renders on Vulkan; --compare cpu covers the shadow pages

@@ -127,6 +127,11 @@ VkInstance create_instance(bool validate, GpuContext* context) {
   if (r == VK_ERROR_INCOMPATIBLE_DRIVER || r == VK_ERROR_INITIALIZATION_FAILED)
     fail("GPU_NO_DEVICE", "vulkan",
          "no Vulkan 1.3 driver (install mesa-vulkan-drivers for lavapipe; tools/setup does)", kExitUsage);
+  // The layer's manifest was listed but its library did not load (removed, or not on the
+  // library path): the layer is as unavailable as when it is not listed at all.
+  if (r == VK_ERROR_LAYER_NOT_PRESENT && validate)
+    fail("GPU_VALIDATION_UNAVAILABLE", "vulkan",
+         std::string(kValidationLayer) + " is listed but its library could not be loaded", kExitUsage);
   check_vk(r, "vkCreateInstance");
   return instance;
 }
