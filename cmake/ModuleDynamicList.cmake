@@ -4,27 +4,19 @@
 # (-rdynamic) made .dynsym/.dynstr ~210 KB that every process start maps; a statically linked
 # library's symbols would also have been exported to the libraries a process loads.
 # Usage: cmake -DNM=... -DMODULE=vgeo_extras.so -DOUT=list.txt -P ModuleDynamicList.cmake
-execute_process(COMMAND ${NM} -D --undefined-only ${MODULE} OUTPUT_VARIABLE undefined RESULT_VARIABLE rc)
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "${NM} failed on ${MODULE}")
-endif()
+include(${CMAKE_CURRENT_LIST_DIR}/DynamicSymbols.cmake)
+dynamic_symbols(${NM} ${MODULE} --undefined-only U undefined)
 # Only unversioned symbols: a versioned one (name@GLIBCXX_..., @PNG16_...) was bound at the
 # module's link to one of its own shared libraries, which it still finds there. Exporting such a
 # symbol from the executable (whose C++ runtime is a static copy) would bind the module, and any
 # library loaded later (a Vulkan layer or driver), to the executable's copy of libstdc++ instead:
 # two runtimes of different versions then share locale state and crash (a validation layer on a
 # newer libstdc++.so than the compiler's: docs/acceptance/device_stop36.md).
-string(REGEX MATCHALL "U [^\n@]+(@[^\n]*)?" candidates "${undefined}")
-set(entries "")
-foreach(candidate ${candidates})
-  if(NOT candidate MATCHES "@")
-    list(APPEND entries "${candidate}")
-  endif()
-endforeach()
 set(text "{\n")
-foreach(entry ${entries})
-  string(SUBSTRING "${entry}" 2 -1 symbol)
-  string(APPEND text "  ${symbol};\n")
+foreach(symbol ${undefined})
+  if(NOT symbol MATCHES "@")
+    string(APPEND text "  ${symbol};\n")
+  endif()
 endforeach()
 string(APPEND text "};\n")
 # Rewritten only when it changes: the executable relinks only when the module's needs change.
