@@ -1,11 +1,9 @@
 // `vgeo build INPUT -o OUT [--simplifier meshopt|openmesh] [--threads N] [--page-size SIZE]
 // [--zstd-level L] [--error-bound measured|certified] [--report R.json]`: builds the cluster DAG of every mesh of INPUT and writes
 // the page format (spec/format.md; a page file is named *.vgp), or a VGEODAG1 file (spec/dag.md) when OUT ends in .vgeodag.
-#include <malloc.h>
 
 #include <algorithm>
 #include <chrono>
-#include <climits>
 #include <cstdio>
 #include <map>
 #include <stdexcept>
@@ -150,24 +148,6 @@ void print_format_sizes(const FormatReport& r) {
               r.pages_stored_bytes ? raw / double(r.pages_stored_bytes) : 0.0);
 }
 
-// Allocations up to this size come from the heap, not from mmap: a build allocates and frees
-// arrays of the mesh's size (MBs to hundreds of MBs) on every level, and glibc's default
-// (mmap above 128 KiB, raised only up to 32 MiB as chunks are freed) hands each back to the
-// kernel, so the next one is faulted in and zeroed again. Measured on the 1M sphere, one
-// thread: 0.2 s less system time and 0.1-0.3 s less user time (about 8% of the build),
-// peak RSS +2% (docs/acceptance/issue23_buildspeed.md). Larger arrays (beyond 32 MiB: the
-// import's file buffer, the leaf adjacency and index arrays of multi-million-triangle meshes) are
-// mmapped and go back to the kernel when freed: kept in the heap they left holes the layout's
-// arrays could not fit in, and the 4M sphere peaked at 445 MiB, 1.25x the peer's 356 (407 MiB
-// now; CPU medians 8.45 -> 8.31 s, the 1M sphere's arrays all lie below: unchanged;
-// docs/acceptance/issue23_stop33.md; 256 MiB and 32 MiB measured the same CPU side by side).
-constexpr int kBuildMmapThresholdBytes = 32 << 20;
-// Freed heap memory is kept, not trimmed back to the kernel (glibc trims the top once 128 KiB
-// are free there): the next level's arrays and the layout's reuse it instead of faulting it
-// in again, and the peak RSS is the high-water mark either way. Measured on the 1M sphere, one
-// thread, with the layout reusing the levels' memory: 43.9k → 26.5k page faults, system time
-// 0.73-0.82 → 0.34-0.41 s, peak RSS 112 → 114 MiB (docs/acceptance/issue23_dagfast.md).
-constexpr int kBuildTrimThresholdBytes = INT_MAX;
 // A .vgeodag build whose peak RSS reached this keeps its freed heap for the write (see the
 // callback): 32 MiB is ~25 times the write's buffers, and a build that large peaks in its own
 // arrays (the 1M sphere's 105 MiB), while below it the peak is mostly code and fixed buffers.
@@ -208,8 +188,7 @@ void add_build_command(CLI::App& app, Context& ctx) {
       ->check(CLI::IsMember({"measured", "certified"}));
   cmd->add_option("--report", args->report, "write the build report as JSON");
   cmd->callback([args, &ctx] {
-    mallopt(M_MMAP_THRESHOLD, kBuildMmapThresholdBytes);  // before the first large allocation
-    mallopt(M_TRIM_THRESHOLD, kBuildTrimThresholdBytes);
+    prepare_build_heap();  // before the first large allocation
     FormatOptions format_options;
     if (!args->page_size.empty()) format_options.page_size = parse_page_size(args->page_size);  // before the build
     if (!args->zstd_level.empty()) format_options.zstd_level = parse_zstd_level(args->zstd_level);

@@ -13,6 +13,15 @@ namespace vgeo {
 // 39 MiB for bunny00 against 20 MiB measured by /usr/bin/time).
 uint64_t peak_rss_bytes();
 
+// Sets the allocator up for one build (`vgeo build`; call once, before the build's first large
+// allocation; a no-op without glibc): large arrays up to 32 MiB come from the heap, freed
+// memory stays there for the next level to reuse, and the heap grows in steps of 8 MiB, the
+// first of which is advised for transparent huge pages, so that the import's and clustering's
+// fresh memory costs one page fault per 2 MiB instead of one per 4 KiB page
+// (docs/acceptance/issue23_heap.md). Where THP is off or refused the advice does nothing, and
+// the steps are address space, not memory.
+void prepare_build_heap();
+
 // Hands the heap's free pages back to the kernel (glibc's malloc_trim: the free space at the
 // heap's top and the whole pages inside free chunks; a no-op elsewhere). Called where a phase has
 // freed most of what it allocated and the next phase allocates less: the freed pages then stop
