@@ -1006,26 +1006,35 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const ClusterView*>& clu
   std::vector<uint32_t> copy_of(total_vertices, UINT32_MAX);
   {
     // First occurrence of each vertex value (all channels): an open-addressing table of page
-    // vertex indices, linear probing, at most half full.
-    std::vector<int32_t> value(total_vertices * channels);
+    // vertex indices, linear probing, at most half full. A slot's values are read from the
+    // cluster that holds the vertex (`holder`: cluster index << 8 | vertex, 4 bytes a page
+    // vertex instead of a copy of its 12-28 value bytes: fewer fresh pages per page encoded).
+    std::vector<uint32_t> holder(total_vertices);
     uint32_t size = 16;
     while (size < 2 * total_vertices) size *= 2;
     std::vector<uint32_t> first(size, UINT32_MAX);
+    auto same_value = [&](uint32_t page_vertex, const int32_t* key) {
+      const ClusterView& o = *clusters[holder[page_vertex] >> 8];
+      const uint32_t ov = holder[page_vertex] & 0xFF;
+      for (uint32_t k = 0; k < channels; ++k)
+        if (o.values[k][ov] != key[k]) return false;
+      return true;
+    };
     uint32_t base = 0;
-    for (const auto* c : clusters) {
+    for (size_t ci = 0; ci < clusters.size(); ++ci) {
+      const ClusterView* c = clusters[ci];
       uint32_t residual_bytes = 0;
       for (uint32_t k = 0; k < channels; ++k) residual_bytes += delta_bytes(c->bits[k]);
       for (uint32_t v = 0; v < c->vertex_count; ++v) {
-        int32_t* key = &value[size_t(base + v) * channels];
+        holder[base + v] = uint32_t(ci) << 8 | v;
+        int32_t key[kMaxChannels];
         uint64_t h = 1469598103934665603ull;  // FNV-1a over the channel values
         for (uint32_t k = 0; k < channels; ++k) {
           key[k] = c->values[k][v];
           h = (h ^ uint32_t(key[k])) * 1099511628211ull;
         }
         uint32_t slot = uint32_t(h) & (size - 1);
-        while (first[slot] != UINT32_MAX &&
-               std::memcmp(&value[size_t(first[slot]) * channels], key, channels * sizeof(int32_t)) != 0)
-          slot = (slot + 1) & (size - 1);
+        while (first[slot] != UINT32_MAX && !same_value(first[slot], key)) slot = (slot + 1) & (size - 1);
         if (first[slot] == UINT32_MAX) first[slot] = base + v;
         else if (first[slot] < base && residual_bytes >= kCopyRefBytes) copy_of[base + v] = first[slot];
       }
