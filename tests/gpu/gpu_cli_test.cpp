@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <unistd.h>
+
 #include "render/frame_loop_flags.h"
 #include "render/stream_fixture.h"
 #include "support/run_command.h"
@@ -52,7 +54,8 @@ TEST(GpuCli, UnknownDeviceIsAOneLineCodedError) {
 // A validation layer whose manifest is found but whose library does not load (seen where the
 // layer's package was unpacked off the library path) is as unavailable as a missing layer.
 TEST(GpuCli, ValidationLayerThatDoesNotLoadIsACodedError) {
-  const std::string dir = testing::TempDir() + "vgeo_broken_layer";
+  // One folder per process: a suite of another tree running at the same time writes its own.
+  const std::string dir = testing::TempDir() + "vgeo_broken_layer_" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
   std::ofstream(dir + "/VkLayer_khronos_validation.json")
       << R"({"file_format_version": "1.2.0", "layer": {"name": "VK_LAYER_KHRONOS_validation",
@@ -62,6 +65,7 @@ TEST(GpuCli, ValidationLayerThatDoesNotLoadIsACodedError) {
                                         "' --backend vulkan --validate --no-cache");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("error[GPU_VALIDATION_UNAVAILABLE]"), std::string::npos) << r.output;
+  std::filesystem::remove_all(dir);
 }
 
 // spec/shadow.md: a scene with lights renders on Vulkan; --compare cpu covers the shadow pages
