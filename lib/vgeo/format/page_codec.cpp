@@ -1009,13 +1009,15 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const ClusterView*>& clu
     // vertex indices, linear probing, at most half full. A slot's values are read from the
     // cluster that holds the vertex (`holder`: cluster index << 8 | vertex, 4 bytes a page
     // vertex instead of a copy of its 12-28 value bytes: fewer fresh pages per page encoded).
+    constexpr uint32_t kHolderVertexBits = 8;  // a cluster's vertex index: < kMaxClusterVertices
+    static_assert(kMaxClusterVertices <= (1u << kHolderVertexBits), "holder packs the vertex in 8 bits");
     std::vector<uint32_t> holder(total_vertices);
     uint32_t size = 16;
     while (size < 2 * total_vertices) size *= 2;
     std::vector<uint32_t> first(size, UINT32_MAX);
     auto same_value = [&](uint32_t page_vertex, const int32_t* key) {
-      const ClusterView& o = *clusters[holder[page_vertex] >> 8];
-      const uint32_t ov = holder[page_vertex] & 0xFF;
+      const ClusterView& o = *clusters[holder[page_vertex] >> kHolderVertexBits];
+      const uint32_t ov = holder[page_vertex] & ((1u << kHolderVertexBits) - 1);
       for (uint32_t k = 0; k < channels; ++k)
         if (o.values[k][ov] != key[k]) return false;
       return true;
@@ -1026,7 +1028,7 @@ std::vector<uint8_t> encode_disk_page(const std::vector<const ClusterView*>& clu
       uint32_t residual_bytes = 0;
       for (uint32_t k = 0; k < channels; ++k) residual_bytes += delta_bytes(c->bits[k]);
       for (uint32_t v = 0; v < c->vertex_count; ++v) {
-        holder[base + v] = uint32_t(ci) << 8 | v;
+        holder[base + v] = uint32_t(ci) << kHolderVertexBits | v;
         int32_t key[kMaxChannels];
         uint64_t h = 1469598103934665603ull;  // FNV-1a over the channel values
         for (uint32_t k = 0; k < channels; ++k) {
