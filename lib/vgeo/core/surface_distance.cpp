@@ -247,9 +247,13 @@ double TriangleDistanceTree::nearest_or_within_squared(DVec3 p, double threshold
   double best = std::numeric_limits<double>::infinity();
   if (nodes_.empty()) return best;
   uint32_t best_t = *hint;
-  // The hint's whole leaf first: a smaller first bound prunes more of the descent.
+  // The hint's whole leaf first: a smaller first bound prunes more of the descent, which then
+  // skips that leaf (its triangles are in `best` already: testing them again changes neither
+  // `best` nor `best_t`, whose update needs a strictly smaller distance).
+  uint32_t tested_leaf = ~0u;
   if (best_t < leaf_of_.size()) {
-    const Node& leaf = nodes_[leaf_of_[best_t]];
+    tested_leaf = leaf_of_[best_t];
+    const Node& leaf = nodes_[tested_leaf];
     for (uint32_t t = leaf.first; t < leaf.first + leaf.count; ++t) {
       const double d = triangle_d2(p, t);
       if (d < best) best = d, best_t = t;
@@ -267,7 +271,7 @@ double TriangleDistanceTree::nearest_or_within_squared(DVec3 p, double threshold
   stack[top++] = {0, box_d2(p, nodes_[0].lo, nodes_[0].hi)};
   while (top) {
     const Entry e = stack[--top];
-    if (e.d2 >= best) continue;
+    if (e.d2 >= best || e.node == tested_leaf) continue;
     const Node& nd = nodes_[e.node];
     if (nd.count) {
       for (uint32_t i = 0; i < nd.count; ++i) {
