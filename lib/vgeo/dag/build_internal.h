@@ -53,7 +53,7 @@ inline constexpr double kCapShortfallRedo = 0.9;
 //   measured error is at least the floor (the members' error is a floor), and it keeps about
 //   `ratio` of the input (at least kCapShortfallRedo of that target, which the shortfall redo
 //   asks for), so its product cannot be the smaller.
-// Over the 34 CGAL meshes whose groups run the candidate it skips 59 of 302 runs, none of the
+// Over the 34 CGAL meshes whose groups run the candidate it skips 61 of 302 runs, none of the
 // 72 it won (every output byte-identical; docs/acceptance/issue23_holes37.md).
 inline bool milder_caps_may_win(double input, double capped, double kept_product, float floor, double ratio) {
   if (capped >= ratio * input) return false;
