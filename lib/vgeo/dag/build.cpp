@@ -1076,6 +1076,14 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     sealed = simplify_sealed(s, blk.group_shared_edges[g], prepared, target, scratch, simplified);
   }
   float error = 0.0f;
+  // The results measured so far as candidates are, before the measurement's flips (only for
+  // groups that run candidates: a chain of their own open edges, or caps): a candidate with the
+  // same triangles would measure the same error, and a tie never replaces the kept result.
+  // The first result is measured as candidates are unless placement flips it.
+  std::vector<TriangleSet> measured;
+  const bool repeats = s.internal.skip_losing_candidates && sealed &&
+                       (simplified.capped || !prepared.open_border.chain_corners.empty());
+  if (repeats && !(s.placement && s.options.edge_flips)) measured.push_back(simplified.triangles);
   double tv0 = steady_seconds();
   // The stored error is a promise lib/vgeo/verify checks (ERROR_BOUND): the distance from the
   // simplified surface to the leaves, measured as verify measures it; the members' stored
@@ -1098,6 +1106,11 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   auto keep_if_better = [&](const SimplifyTarget& other) {
     SimplifyResult alternative;
     if (!simplify_sealed(s, blk.group_shared_edges[g], prepared, other, scratch, alternative)) return;
+    if (repeats) {
+      for (const TriangleSet& t : measured)
+        if (t.corners == alternative.triangles.corners && t.materials == alternative.triangles.materials) return;
+      measured.push_back(alternative.triangles);
+    }
     tv0 = steady_seconds();
     VertexMoves moves;
     const float alternative_error =
@@ -1110,6 +1123,9 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
         double(error) * double(simplified.triangles.triangle_count()))
       simplified = std::move(alternative), error = alternative_error, r.moves = std::move(moves);
   };
+  // The first result's triangles when it moved the group's own open borders (caps, or a lone
+  // group's simplification without LockBorder; 0: it did not).
+  const size_t capped_triangles = sealed && simplified.capped ? simplified.triangles.triangle_count() : 0;
   if (sealed && simplified.capped) {
     // The group's own open borders moved (border_caps.cpp). A border collapse can cost more
     // measured error than it saves triangles (a chord across a curved hole): the group is
@@ -1140,8 +1156,12 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     // And capped at a milder ratio (kMilderCapsRatio): near the leaves the error falls faster
     // than 1/triangles as collapses are given back, so fewer collapses can win the product
     // (elephant-with-holes: 1.046 -> 0.917 of the peer's triangles at equal measured error;
-    // docs/acceptance/issue23_holes36.md).
-    if (s.internal.milder_caps_ratio > target.ratio) {
+    // docs/acceptance/issue23_holes36.md). Not where it cannot win (milder_caps_may_win).
+    const double kept_product = double(error) * double(simplified.triangles.triangle_count());
+    if (s.internal.milder_caps_ratio > target.ratio &&
+        (!s.internal.skip_losing_candidates ||
+         milder_caps_may_win(double(merged_triangles), double(capped_triangles), kept_product, max_member_error,
+                             s.internal.milder_caps_ratio))) {
       SimplifyTarget milder_target = target;
       milder_target.ratio = s.internal.milder_caps_ratio;
       milder_target.lone_unlocked = false;

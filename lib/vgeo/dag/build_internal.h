@@ -34,6 +34,31 @@ inline constexpr double kSimplifyTargetRatio = 0.5;
 // peer's triangles at equal measured error, 0.6 has the smallest gmean of all 9 without a
 // change of roots, 0.7 puts mech-holes-shark over the peer (1.039).
 inline constexpr double kMilderCapsRatio = 0.6;
+// A capped result with fewer real triangles than this share of the real target is redone
+// (simplify_with_open_border_caps, simplify.cpp). 0.9 redoes elephant-with-holes' level-0 groups (82% of
+// their target) and no group of the other measured meshes' default builds but blade's; 1.0
+// (every short result) moved blade's last levels into a collapse (dagq 0.62 -> 0.90 of the
+// peer, 1.02 with placement and flips); 0.8 redoes nothing (docs/acceptance/issue23_holes.md).
+inline constexpr double kCapShortfallRedo = 0.9;
+// Whether the milder capped candidate can win a group's product (spec/dag.md §3, open-border
+// caps), asked before it is simplified: `input` triangles in the group, `capped` the triangles
+// of its first result if that moved the group's own open borders (caps, or a lone group's
+// simplification without LockBorder; 0: it did not), `kept_product` the kept result's
+// measured error × triangles, `floor` the members' largest stored error, `ratio` the milder
+// ratio. It cannot where
+// * that result already holds `ratio` of the input: meshopt stopped short of the target
+//   (the error budget, or a border retry's ratio), and the milder target asks for no fewer
+//   triangles than it kept, so there is nothing to give back;
+// * the kept product is at most floor × kCapShortfallRedo × ratio × input: the milder result's
+//   measured error is at least the floor (the members' error is a floor), and it keeps about
+//   `ratio` of the input (at least kCapShortfallRedo of that target, which the shortfall redo
+//   asks for), so its product cannot be the smaller.
+// Over the 34 CGAL meshes whose groups run the candidate it skips 61 of 302 runs, none of the
+// 72 it won (every output byte-identical; docs/acceptance/issue23_holes37.md).
+inline bool milder_caps_may_win(double input, double capped, double kept_product, float floor, double ratio) {
+  if (capped >= ratio * input) return false;
+  return kept_product > double(floor) * kCapShortfallRedo * ratio * input;
+}
 // A group whose simplification removes fewer than 15% of its triangles is terminal: it
 // would otherwise spend levels on almost nothing; forcing progress by unlocking its border
 // would open cracks (spec/dag.md §2: > 85% of the triangles left = stuck).
@@ -236,6 +261,9 @@ struct InternalBuildOptions {
   float simplify_error_budget = kSimplifyErrorBudget;
   bool simplify_open_borders = true;  // SimplifyTarget::open_borders
   double milder_caps_ratio = kMilderCapsRatio;  // 0: no milder capped candidate (tests compare)
+  // false: every candidate of a group is simplified and measured (milder_caps_may_win and the
+  // repeat check of simplify_one_group off; the same output, tests compare)
+  bool skip_losing_candidates = true;
   double placement_share = kPlacementShare;  // PlacementContext::share (with BuildOptions::vertex_placement)
 };
 ClusterDag build_dag_internal(const Mesh& mesh, const BuildOptions& options, const InternalBuildOptions& internal,

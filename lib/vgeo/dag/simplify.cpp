@@ -137,13 +137,6 @@ std::vector<uint32_t> locked_vertices_off_the_border(const WeldedMesh& welded, c
   return out;
 }
 
-// A capped result with fewer real triangles than this share of the real target is redone
-// (simplify_with_open_border_caps). 0.9 redoes elephant-with-holes' level-0 groups (82% of
-// their target) and no group of the other measured meshes' default builds but blade's; 1.0
-// (every short result) moved blade's last levels into a collapse (dagq 0.62 -> 0.90 of the
-// peer, 1.02 with placement and flips); 0.8 redoes nothing (docs/acceptance/issue23_holes.md).
-constexpr double kCapShortfallRedo = 0.9;
-
 // meshopt_simplify with LockBorder of a sub-mesh whose own open borders are capped
 // (add_open_border_caps), so only the group border stays locked. The cap triangles count
 // towards meshopt's target: they are asked to shrink by the same ratio as the surface.
