@@ -176,7 +176,10 @@ void append_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, 
 // ≤ 255 positions over 255 vertices).
 void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<uint32_t>& scratch,
                   std::vector<TriangleSet>& out);
-std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch);
+// along_curve = false: the grower keeps the input order of a large split instead of the curve
+// order (slower; the same clusters: tests compare the two).
+std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch,
+                                   bool along_curve = true);
 std::vector<TriangleSet> split_meshopt(const WeldedMesh& welded, const TriangleSet& tris,
                                        std::vector<uint32_t>& scratch);
 std::vector<TriangleSet> split_metis(const WeldedMesh& welded, const TriangleSet& tris,
