@@ -12,6 +12,7 @@
 // broken by input index, so the clusters are those of the input order).
 #include <algorithm>
 #include <cfloat>
+#include <memory>
 
 #include "vgeo/dag/build_internal.h"
 
@@ -53,11 +54,8 @@ inline uint32_t spread_bits(uint32_t x) {
 // triangles at a vertex, a cluster's candidates and their vertices lie near each other in
 // its arrays (in bunny00's input order a triangle's neighbours lie thousands of indices away:
 // most of the grower's time was cache misses), and the centroid tree's leaves are runs of it.
-std::vector<uint32_t> curve_order(const float* centroids, size_t n) {
-  float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
-  for (size_t t = 0; t < n; ++t)
-    for (int k = 0; k < 3; ++k)
-      lo[k] = std::min(lo[k], centroids[3 * t + k]), hi[k] = std::max(hi[k], centroids[3 * t + k]);
+// `lo` and `hi`: the centroids' bounding box.
+std::vector<uint32_t> curve_order(const float* centroids, size_t n, const float lo[3], const float hi[3]) {
   // In double: a float scale over a denormal extent would overflow (0 · inf = NaN).
   constexpr double kCells = double(1u << kMortonBitsPerAxis);
   double scale[3];
@@ -260,7 +258,11 @@ void index_triangles(Grower& g, const WeldedMesh& welded, bool along_curve) {
   };
   // compact_welded over the triangles in the grower's order (local ids in order of first use
   // there), with the centroids: `corners_of(i)` = the input corners of position i.
-  std::vector<uint32_t> welded_of_local;
+  // Welded id per local id (to clear `scratch`): at most one per corner and per welded id,
+  // left uninitialized (a leaf chunk's bound is megabytes, mostly untouched).
+  const size_t max_local = std::min(3 * n, welded.weld.size());
+  const std::unique_ptr<uint32_t[]> welded_of_local(new uint32_t[max_local]);
+  uint32_t vcount = 0;
   bool copy = false;
   g.local.resize(3 * n);
   g.centroid.resize(3 * n);
@@ -272,8 +274,8 @@ void index_triangles(Grower& g, const WeldedMesh& welded, bool along_curve) {
         w[k] = welded.weld[corners[k]];
         copy |= w[k] != corners[k];
         if (g.scratch[w[k]] == kNone) {
-          g.scratch[w[k]] = uint32_t(welded_of_local.size());
-          welded_of_local.push_back(w[k]);
+          g.scratch[w[k]] = vcount;
+          welded_of_local[vcount++] = w[k];
         }
         g.local[3 * i + k] = g.scratch[w[k]];
       }
@@ -282,12 +284,15 @@ void index_triangles(Grower& g, const WeldedMesh& welded, bool along_curve) {
   };
   if (along_curve && n > kNearestScanMaxTriangles) {
     std::vector<float> input_centroid(3 * n);
+    float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
     for (size_t t = 0; t < n; ++t) {
       const uint32_t* c = &g.tris.corners[3 * t];
       const uint32_t w[3] = {welded.weld[c[0]], welded.weld[c[1]], welded.weld[c[2]]};
-      centroid_of(w, &input_centroid[3 * t]);
+      float* p = &input_centroid[3 * t];
+      centroid_of(w, p);
+      for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
     }
-    g.id = curve_order(input_centroid.data(), n);
+    g.id = curve_order(input_centroid.data(), n, lo, hi);
     compact([&](size_t i) { return &g.tris.corners[3 * size_t(g.id[i])]; },
             [&](size_t i, const uint32_t*) {
               std::copy_n(&input_centroid[3 * size_t(g.id[i])], 3, &g.centroid[3 * i]);
@@ -296,9 +301,8 @@ void index_triangles(Grower& g, const WeldedMesh& welded, bool along_curve) {
     compact([&](size_t i) { return &g.tris.corners[3 * i]; },
             [&](size_t i, const uint32_t* w) { centroid_of(w, &g.centroid[3 * i]); });
   }
-  for (uint32_t w : welded_of_local) g.scratch[w] = kNone;
+  for (uint32_t v = 0; v < vcount; ++v) g.scratch[welded_of_local[v]] = kNone;
   g.copies = copy;
-  const size_t vcount = welded_of_local.size();
   g.first.assign(vcount + 1, 0);
   g.live.assign(vcount, 0);
   g.adjacency.resize(3 * n);
@@ -306,7 +310,8 @@ void index_triangles(Grower& g, const WeldedMesh& welded, bool along_curve) {
   for (size_t v = 0; v < vcount; ++v) g.first[v + 1] = g.first[v] + g.live[v];
   {
     std::vector<uint32_t> fill(g.first.begin(), g.first.end() - 1);
-    for (size_t i = 0; i < g.local.size(); ++i) g.adjacency[fill[g.local[i]]++] = uint32_t(i / 3);
+    for (uint32_t t = 0; t < n; ++t)
+      for (int k = 0; k < 3; ++k) g.adjacency[fill[g.local[3 * size_t(t) + k]]++] = t;
   }
   g.clustered.assign(n, 0);
   g.in_cluster.assign(vcount, kNone);
