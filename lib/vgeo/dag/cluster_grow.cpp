@@ -237,7 +237,7 @@ struct Grower {
   std::vector<TriangleSet> out;
   uint32_t stamp = 0, cluster_vertices = 0;
   float sum[3] = {0, 0, 0};  // of the cluster's triangle centroids
-  // False when no corner of the set is a copy of another vertex's position (compact_welded):
+  // False when no corner of the set is a copy of another vertex's position (index_triangles):
   // then a cluster's original vertices are its positions (cluster_vertices), and it is
   // emitted without counting them.
   bool copies = false;
