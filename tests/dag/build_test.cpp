@@ -408,6 +408,55 @@ TEST(Build, SplitKeepsEveryTriangleOnce) {
   }
 }
 
+// The grower works on a large split's triangles in the order of a Morton curve (for cache
+// locality); every choice breaks its ties by input index, so the clusters are those of the
+// input order, exactly: a grid (distance ties everywhere), a sphere and 60 islands in a grid
+// of their own (the nearest-triangle restarts, through the centroid tree), over 2,048
+// triangles (where the grower reorders), in their own order, reversed (the first seed's tie at
+// the grid's corner goes the other way) and shuffled.
+TEST(Build, GrowerClustersDoNotDependOnItsTriangleOrder) {
+  Mesh m = make_grid(32);
+  const Mesh sphere = make_sphere(12, 24, 0.4f, Vec3{0.5f, 0.5f, 1.5f});
+  auto append = [&](const Mesh& s) {
+    const uint32_t base = uint32_t(m.vertex_count());
+    m.positions.insert(m.positions.end(), s.positions.begin(), s.positions.end());
+    for (uint32_t idx : s.indices) m.indices.push_back(base + idx);
+  };
+  append(sphere);
+  for (int i = 0; i < 60; ++i) append(make_sphere(3, 4, 0.05f, Vec3{2.0f + float(i % 10) * 0.25f, float(i / 10) * 0.25f, 0.0f}));
+  ASSERT_GT(m.triangle_count(), 2048u);
+  const build_detail::WeldedMesh welded = build_detail::weld_positions(m);
+  build_detail::TriangleSet in_order, reversed, shuffled;
+  in_order.corners = m.indices;
+  for (size_t t = 0; t < m.triangle_count(); ++t) in_order.materials.push_back(uint32_t(t % 2));
+  std::vector<uint32_t> order(m.triangle_count());
+  for (uint32_t t = 0; t < order.size(); ++t) order[t] = t;
+  uint64_t state = 12345;  // a fixed LCG shuffle (Fisher-Yates)
+  for (size_t i = order.size(); i-- > 1;) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    std::swap(order[i], order[(state >> 33) % (i + 1)]);
+  }
+  for (size_t t = m.triangle_count(); t-- > 0;) {
+    reversed.corners.insert(reversed.corners.end(), &m.indices[3 * t], &m.indices[3 * t] + 3);
+    reversed.materials.push_back(in_order.materials[t]);
+  }
+  for (uint32_t t : order) {
+    shuffled.corners.insert(shuffled.corners.end(), &m.indices[3 * size_t(t)], &m.indices[3 * size_t(t)] + 3);
+    shuffled.materials.push_back(in_order.materials[t]);
+  }
+  for (const build_detail::TriangleSet* tris : {&in_order, &reversed, &shuffled}) {
+    std::vector<uint32_t> scratch(welded.weld.size(), kNone);
+    const std::vector<build_detail::TriangleSet> curve = build_detail::split_grow(welded, *tris, scratch, true);
+    const std::vector<build_detail::TriangleSet> input = build_detail::split_grow(welded, *tris, scratch, false);
+    ASSERT_EQ(curve.size(), input.size());
+    for (size_t i = 0; i < curve.size(); ++i) {
+      EXPECT_EQ(curve[i].corners, input[i].corners) << "cluster " << i;
+      EXPECT_EQ(curve[i].materials, input[i].materials) << "cluster " << i;
+    }
+    EXPECT_TRUE(std::all_of(scratch.begin(), scratch.end(), [](uint32_t v) { return v == kNone; }));
+  }
+}
+
 TEST(Build, SingleTriangle) {
   Mesh m;
   m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0};

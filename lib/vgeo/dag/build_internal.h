@@ -188,11 +188,8 @@ std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const Tri
 // kept for measurement (cluster_split_alternatives.cpp), which split_into_clusters calls.
 // Compacts the welded ids of `tris` into local ids [0, n) in order of first use.
 // Returns the welded ids per local id; `local_corner` gets 3 local ids per triangle.
-// With `copies`: set when a corner's vertex is not its welded position's representative (a
-// copy: without any, each position of the set is one vertex).
 std::vector<uint32_t> compact_welded(const WeldedMesh& welded, const TriangleSet& tris,
-                                     std::vector<uint32_t>& scratch, std::vector<uint32_t>& local_corner,
-                                     bool* copies = nullptr);
+                                     std::vector<uint32_t>& scratch, std::vector<uint32_t>& local_corner);
 // Appends one cluster of triangles `ids` (indices into tris), as they are: the caller knows
 // it holds ≤ kMaxClusterTriangles triangles and ≤ kMaxClusterVertices original vertices.
 void append_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<TriangleSet>& out);
@@ -201,7 +198,10 @@ void append_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, 
 // ≤ 255 positions over 255 vertices).
 void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<uint32_t>& scratch,
                   std::vector<TriangleSet>& out);
-std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch);
+// along_curve = false: the grower keeps the input order of a large split instead of the curve
+// order (slower; the same clusters: tests compare the two).
+std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch,
+                                   bool along_curve = true);
 std::vector<TriangleSet> split_meshopt(const WeldedMesh& welded, const TriangleSet& tris,
                                        std::vector<uint32_t>& scratch);
 std::vector<TriangleSet> split_metis(const WeldedMesh& welded, const TriangleSet& tris,

@@ -16,14 +16,11 @@
 namespace vgeo::build_detail {
 
 std::vector<uint32_t> compact_welded(const WeldedMesh& welded, const TriangleSet& tris,
-                                     std::vector<uint32_t>& scratch, std::vector<uint32_t>& local_corner,
-                                     bool* copies) {
+                                     std::vector<uint32_t>& scratch, std::vector<uint32_t>& local_corner) {
   std::vector<uint32_t> welded_of_local;
   local_corner.resize(tris.corners.size());
-  bool copy = false;
   for (size_t i = 0; i < tris.corners.size(); ++i) {
     uint32_t w = welded.weld[tris.corners[i]];
-    copy |= w != tris.corners[i];
     if (scratch[w] == kNone) {
       scratch[w] = uint32_t(welded_of_local.size());
       welded_of_local.push_back(w);
@@ -31,7 +28,6 @@ std::vector<uint32_t> compact_welded(const WeldedMesh& welded, const TriangleSet
     local_corner[i] = scratch[w];
   }
   for (uint32_t w : welded_of_local) scratch[w] = kNone;
-  if (copies) *copies = copy;
   return welded_of_local;
 }
 
