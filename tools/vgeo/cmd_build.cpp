@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -188,7 +189,9 @@ void add_build_command(CLI::App& app, Context& ctx) {
       ->check(CLI::IsMember({"measured", "certified"}));
   cmd->add_option("--report", args->report, "write the build report as JSON");
   cmd->callback([args, &ctx] {
-    prepare_build_heap();  // before the first large allocation
+    std::error_code size_error;  // an unreadable input fails in the import
+    const uintmax_t input_bytes = std::filesystem::file_size(args->input, size_error);
+    prepare_build_heap(size_error ? 0 : uint64_t(input_bytes));  // before the first large allocation
     FormatOptions format_options;
     if (!args->page_size.empty()) format_options.page_size = parse_page_size(args->page_size);  // before the build
     if (!args->zstd_level.empty()) format_options.zstd_level = parse_zstd_level(args->zstd_level);
