@@ -18,9 +18,11 @@ uint64_t peak_rss_bytes();
 // memory stays there for the next level to reuse, and the heap grows in steps of 8 MiB, the
 // first of which is advised for transparent huge pages, so that the import's and clustering's
 // fresh memory costs one page fault per 2 MiB instead of one per 4 KiB page
-// (docs/acceptance/issue23_heap.md). Where THP is off or refused the advice does nothing, and
-// the steps are address space, not memory.
-void prepare_build_heap();
+// (docs/acceptance/issue23_heap.md). The advice stops below what a build of an input file of
+// `input_bytes` is sure to fill (0: no advice), so that no huge page lies across the heap's
+// high-water mark (docs/acceptance/issue23_rss37.md). Where THP is off or refused the advice
+// does nothing, and the steps are address space, not memory.
+void prepare_build_heap(uint64_t input_bytes);
 
 // Hands the heap's free pages back to the kernel (glibc's malloc_trim: the free space at the
 // heap's top and the whole pages inside free chunks; a no-op elsewhere). Called where a phase has
