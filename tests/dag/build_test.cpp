@@ -816,5 +816,28 @@ TEST(Build, MeshoptKeepsLockedVerticesInsideTheGroup) {
   for (uint32_t v : inner) EXPECT_TRUE(used.count(v)) << "locked interior vertex " << v << " was collapsed";
 }
 
+// build_scene of a scene given up (Scene&&) hands each one-chunk mesh's triangle list to its
+// leaf pass instead of copying it: the DAGs must be the ones a kept scene gives, materials and
+// uvs included, and only the given-up meshes' triangle lists may be taken.
+TEST(Build, GivenUpSceneBuildsTheSameDagsAsAKeptOne) {
+  Scene scene;
+  Mesh sphere = make_sphere(24, 40);
+  sphere.materials.resize(sphere.triangle_count());
+  for (size_t t = 0; t < sphere.triangle_count(); ++t) sphere.materials[t] = uint32_t(t % 3);
+  sphere.uvs.assign(2 * sphere.vertex_count(), 0.5f);
+  scene.meshes = {sphere, make_grid(24, 1.0f, true)};
+  scene.instances.resize(2);
+  scene.instances[1].mesh = 1;
+  BuildOptions o;
+  o.threads = 2;
+  const BuiltScene kept = build_scene(scene, o);
+  Scene given_up = scene;
+  const BuiltScene taken = build_scene(std::move(given_up), o);
+  EXPECT_EQ(encode_dag_file(taken), encode_dag_file(kept));
+  ASSERT_EQ(given_up.meshes.size(), 2u);
+  EXPECT_EQ(given_up.meshes[0].positions, scene.meshes[0].positions);  // vertices are left as they were
+  EXPECT_EQ(given_up.meshes[0].materials, scene.meshes[0].materials);
+}
+
 }  // namespace
 }  // namespace vgeo::test
