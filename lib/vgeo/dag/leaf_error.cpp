@@ -513,14 +513,18 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
 LeafWalkEnd walk_leaf_surface(const LeafSurface& s, DVec3 p, uint32_t start, int max_steps) {
   uint32_t t = start, previous = kNone;
   for (int step = 1;; ++step) {
-    LeafWalkEnd end;
-    end.triangle = t;
-    end.prepared = prepare_triangle(s.tree.corner(t, 0), s.tree.corner(t, 1), s.tree.corner(t, 2));
-    const int region = prepared_triangle_region(p, end.prepared);
-    end.projects_inside = region == kProjectsInside;
-    if (end.projects_inside) return end;
-    const uint32_t next = region == kNoNormal ? kNone : s.neighbour[3 * size_t(t) + size_t(region)];
-    if (next == kNone || next == previous || step == max_steps) return end;
+    // Each step needs only the side tests (triangle_region); the whole prepared triangle is
+    // made once, for the triangle where the walk ends.
+    const DVec3 a = s.tree.corner(t, 0), b = s.tree.corner(t, 1), c = s.tree.corner(t, 2);
+    const int region = triangle_region(p, a, b, c);
+    const uint32_t next = region == kProjectsInside || region == kNoNormal ? kNone : s.neighbour[3 * size_t(t) + size_t(region)];
+    if (next == kNone || next == previous || step == max_steps) {
+      LeafWalkEnd end;
+      end.triangle = t;
+      end.prepared = prepare_triangle(a, b, c);
+      end.projects_inside = region == kProjectsInside;
+      return end;
+    }
     previous = t;
     t = next;
   }
