@@ -151,6 +151,30 @@ RC_GTEST_PROP(LeafError, ConnectedSheetWithSeamBitIdentical, ()) {
   RC_ASSERT(bits(leaf_deviation_of(mesh, leaves, leaves, simplified, floor, threads)) == bits(std::max(floor, reference)));
 }
 
+// A measurement without a record or peak defers its tree searches (every point's walk first,
+// then the largest bound's exact nearest, then the points whose bound lies beyond the
+// maximum); one with them searches each point in visiting order. Both give the same value,
+// bit for bit. A coarse grid makes equal distances common; floors 0 and the input's deviation.
+RC_GTEST_PROP(LeafError, DeferredSearchEqualsSequential, ()) {
+  const uint32_t vertex_count = *rc::gen::inRange<uint32_t>(3, 40);
+  Mesh mesh;
+  const float step = *rc::gen::element(0.25f, 1.0f / 64);
+  const int extent = step == 0.25f ? 4 : 64;
+  for (uint32_t v = 0; v < 3 * vertex_count; ++v) mesh.positions.push_back(float(*rc::gen::inRange(-extent, extent + 1)) * step);
+  const TriangleSet leaves = random_triangles(vertex_count, nullptr, 1, 60);
+  const TriangleSet input = random_triangles(vertex_count, &leaves, 1, 40);
+  const TriangleSet simplified = random_triangles(vertex_count, &leaves, 1, 40);
+  const float floor = *rc::gen::element(0.0f, build_detail::round_up_to_float(reference_distance(mesh, leaves, input)));
+  ThreadPool pool(1);
+  const build_detail::WeldedMesh welded = build_detail::weld_positions(mesh);
+  const build_detail::LeafSurface surface = build_detail::build_leaf_surface(welded, {&leaves}, pool);
+  build_detail::LatticePeak peak;
+  build_detail::LatticeRecord record;
+  const float deferred = build_detail::leaf_deviation(surface, mesh, input, simplified, floor);
+  const float sequential = build_detail::leaf_deviation(surface, mesh, input, simplified, floor, &peak, &record);
+  RC_ASSERT(bits(deferred) == bits(sequential));
+}
+
 }  // namespace
 }  // namespace vgeo::test
 

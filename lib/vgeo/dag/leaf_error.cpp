@@ -20,6 +20,8 @@
 // the first leaf triangle within the threshold or else finds the exact nearest. The walk
 // proves "within" only, so the result is the tree's, bit for bit
 // (docs/acceptance/issue23_errspeed.md: 99.5% of the points are decided by a walk of ~2.4 steps).
+// A measurement without a record walks every point first and asks the tree for the largest
+// walk bound first (deviation_squared; docs/acceptance/issue23_walk38.md).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -213,6 +215,23 @@ bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at, 
   return prepared_triangle_within_squared(p, end.prepared, threshold, d2);
 }
 
+// A point of a decision-only measurement whose search waits (deviation_squared): where it is,
+// the exact squared distance to the leaf triangle its walk ended in (`bound`: an upper bound of
+// its nearest distance, the value the tree's own test gives that triangle) and the walk's end
+// (the tree's starting hint).
+struct DeferredPoint {
+  DVec3 p;
+  double bound;
+  uint32_t at;
+};
+
+// One buffer per thread, kept from group to group (a measurement holds ~4 points per simplified
+// triangle: fresh pages for each would cost more page faults than the searches it saves).
+std::vector<DeferredPoint>& deferred_points() {
+  thread_local std::vector<DeferredPoint> points;
+  return points;
+}
+
 }  // namespace
 
 LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves, ThreadPool& pool,
@@ -367,6 +386,51 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     }
     if (record) note(d2, at);
   };
+  // A decision-only measurement (no record, no peak: floor 0's, leaf_deviation_after_change's)
+  // defers its tree searches: first every point's walk, keeping its bound (DeferredPoint),
+  // then the exact nearest of the point with the largest bound, which lifts the running
+  // maximum to its final value or near it at once (bunny00: 605 tree searches in 41 such
+  // measurements, 463 of them raising the maximum, one at a time), then only the points whose
+  // bound still lies beyond it. The maximum of the points' nearest distances is the same in
+  // any order. A record keeps each point's own walk value, which depends on the running
+  // maximum when it was visited, and the peak is the first point in visiting order at the
+  // maximum: those measurements visit in order (`visit`).
+  const bool defer_searches = !record && !peak;
+  std::vector<DeferredPoint>& deferred = deferred_points();
+  deferred.clear();
+  auto defer = [&](DVec3 p) {
+    double bound;
+    if (at != kNone) {
+      const LeafWalkEnd end = walk_leaf_surface(leaves, p, at, kMaxWalkSteps);
+      at = end.triangle;
+      bound = end.projects_inside ? prepared_plane_distance_squared(p, end.prepared)
+                                  : prepared_triangle_distance_squared(p, end.prepared);
+    } else {
+      bound = leaves.tree.nearest_distance_squared(p, &at);  // no walk start: the exact distance
+    }
+    if (bound > floor_d2) deferred.push_back({p, bound, at});  // else it cannot raise the maximum
+  };
+  auto measure = [&](DVec3 p) {
+    if (defer_searches)
+      defer(p);
+    else
+      visit(p);
+  };
+  auto resolve_deferred = [&]() {
+    if (deferred.empty()) return;
+    size_t largest = 0;
+    for (size_t i = 1; i < deferred.size(); ++i)
+      if (deferred[i].bound > deferred[largest].bound) largest = i;
+    auto search = [&](DeferredPoint& d) {  // as `visit`'s search: best2 rises to d's nearest beyond the threshold
+      const double threshold = std::max(best2, floor_d2);
+      const double d2 = leaves.tree.nearest_or_within_squared(d.p, threshold, &d.at);
+      if (d2 > threshold) best2 = d2;
+    };
+    search(deferred[largest]);
+    deferred[largest].bound = 0;  // searched
+    for (DeferredPoint& d : deferred)
+      if (d.bound > std::max(best2, floor_d2)) search(d);
+  };
   // The points of for_each_lattice_point, triangle by triangle (for_each_place_point).
   // Corners are skipped: a simplified corner is an input vertex (both backends only remove
   // vertices), a corner of a leaf triangle, at distance exactly 0. Which points are visited
@@ -417,11 +481,12 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
       if (j > 0 && !after_previous_edge) at = mesh.start_triangle(tri[j]);
       after_previous_edge = true;
       here.place = j;
-      for_each_place_point(mesh, tri, j, visit);
+      for_each_place_point(mesh, tri, j, measure);
     }
     here.place = kLatticeInterior;
-    for_each_place_point(mesh, tri, kLatticeInterior, visit);
+    for_each_place_point(mesh, tri, kLatticeInterior, measure);
   }
+  resolve_deferred();
   // A skipped place is recorded with its bound (the walk of a later search starts at its first
   // vertex's leaf triangle).
   for (const auto& [t, place] : displaced) {
