@@ -225,12 +225,11 @@ struct DeferredPoint {
   uint32_t at;
 };
 
-// One buffer per thread, kept from group to group (a measurement holds ~4 points per simplified
-// triangle: fresh pages for each would cost more page faults than the searches it saves).
-std::vector<DeferredPoint>& deferred_points() {
-  thread_local std::vector<DeferredPoint> points;
-  return points;
-}
+// Deferred points resolved together (deviation_squared): the batch's largest bound lifts the
+// running maximum near its final value in the first batch (a level-1 group holds ~4,000
+// points), and later points enter only beyond it. 256 keeps the batch (10 KB) on the stack:
+// a buffer of all of a group's points cost armadillo 0.4 MB of peak memory.
+constexpr size_t kDeferredBatch = 256;
 
 }  // namespace
 
@@ -387,17 +386,33 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     if (record) note(d2, at);
   };
   // A decision-only measurement (no record, no peak: floor 0's, leaf_deviation_after_change's)
-  // defers its tree searches: first every point's walk, keeping its bound (DeferredPoint),
-  // then the exact nearest of the point with the largest bound, which lifts the running
-  // maximum to its final value or near it at once (bunny00: 605 tree searches in 41 such
-  // measurements, 463 of them raising the maximum, one at a time), then only the points whose
-  // bound still lies beyond it. The maximum of the points' nearest distances is the same in
-  // any order. A record keeps each point's own walk value, which depends on the running
-  // maximum when it was visited, and the peak is the first point in visiting order at the
-  // maximum: those measurements visit in order (`visit`).
+  // defers its tree searches: each point's walk first, keeping its bound (DeferredPoint) when
+  // that lies beyond the running maximum; then, for a batch of those, the exact nearest of the
+  // largest bound first, which lifts the maximum to its final value or near it at once, and
+  // only then the batch's points whose bound still lies beyond it (bunny00: 605 tree searches
+  // in 41 such measurements, one at a time, 463 of them raising the maximum). The maximum of
+  // the points' nearest distances is the same in any order. A record keeps each point's own
+  // walk value, which depends on the running maximum when it was visited, and the peak is the
+  // first point in visiting order at the maximum: those measurements visit in order (`visit`).
   const bool defer_searches = !record && !peak;
-  std::vector<DeferredPoint>& deferred = deferred_points();
-  deferred.clear();
+  DeferredPoint deferred[kDeferredBatch];
+  size_t deferred_count = 0;
+  auto resolve_deferred = [&]() {
+    if (deferred_count == 0) return;
+    auto search = [&](DeferredPoint& d) {  // as `visit`'s search: best2 rises to d's nearest beyond the threshold
+      const double threshold = std::max(best2, floor_d2);
+      const double d2 = leaves.tree.nearest_or_within_squared(d.p, threshold, &d.at);
+      if (d2 > threshold) best2 = d2;
+    };
+    size_t largest = 0;
+    for (size_t i = 1; i < deferred_count; ++i)
+      if (deferred[i].bound > deferred[largest].bound) largest = i;
+    search(deferred[largest]);
+    deferred[largest].bound = 0;  // searched
+    for (size_t i = 0; i < deferred_count; ++i)
+      if (deferred[i].bound > std::max(best2, floor_d2)) search(deferred[i]);
+    deferred_count = 0;
+  };
   auto defer = [&](DVec3 p) {
     double bound;
     if (at != kNone) {
@@ -408,28 +423,15 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     } else {
       bound = leaves.tree.nearest_distance_squared(p, &at);  // no walk start: the exact distance
     }
-    if (bound > floor_d2) deferred.push_back({p, bound, at});  // else it cannot raise the maximum
+    if (!(bound > std::max(best2, floor_d2))) return;  // within the maximum: it cannot raise it
+    if (deferred_count == kDeferredBatch) resolve_deferred();
+    deferred[deferred_count++] = {p, bound, at};
   };
   auto measure = [&](DVec3 p) {
     if (defer_searches)
       defer(p);
     else
       visit(p);
-  };
-  auto resolve_deferred = [&]() {
-    if (deferred.empty()) return;
-    size_t largest = 0;
-    for (size_t i = 1; i < deferred.size(); ++i)
-      if (deferred[i].bound > deferred[largest].bound) largest = i;
-    auto search = [&](DeferredPoint& d) {  // as `visit`'s search: best2 rises to d's nearest beyond the threshold
-      const double threshold = std::max(best2, floor_d2);
-      const double d2 = leaves.tree.nearest_or_within_squared(d.p, threshold, &d.at);
-      if (d2 > threshold) best2 = d2;
-    };
-    search(deferred[largest]);
-    deferred[largest].bound = 0;  // searched
-    for (DeferredPoint& d : deferred)
-      if (d.bound > std::max(best2, floor_d2)) search(d);
   };
   // The points of for_each_lattice_point, triangle by triangle (for_each_place_point).
   // Corners are skipped: a simplified corner is an input vertex (both backends only remove
