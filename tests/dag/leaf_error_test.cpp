@@ -33,12 +33,18 @@ uint32_t bits(float f) {
   return b;
 }
 
+// `in_order`: with a peak and a record, which make the measurement search every point in
+// visiting order; without them it defers its tree searches (deviation_squared: every point's
+// walk first, then the largest walk bound's exact nearest). Both must give the same value.
 float leaf_deviation_of(const Mesh& mesh, const TriangleSet& leaves, const TriangleSet& input,
-                        const TriangleSet& simplified, float floor, unsigned threads) {
+                        const TriangleSet& simplified, float floor, unsigned threads, bool in_order = false) {
   ThreadPool pool(threads);
   const build_detail::WeldedMesh welded = build_detail::weld_positions(mesh);
   const build_detail::LeafSurface surface = build_detail::build_leaf_surface(welded, {&leaves}, pool);
-  return build_detail::leaf_deviation(surface, mesh, input, simplified, floor);
+  build_detail::LatticePeak peak;
+  build_detail::LatticeRecord record;
+  return in_order ? build_detail::leaf_deviation(surface, mesh, input, simplified, floor, &peak, &record)
+                  : build_detail::leaf_deviation(surface, mesh, input, simplified, floor);
 }
 
 // Triangles over vertices drawn from `from` (corners of leaf triangles: both backends only
@@ -75,6 +81,7 @@ RC_GTEST_PROP(LeafError, BitIdenticalToReferenceLattice, ()) {
   const float expected = std::max(floor, build_detail::round_up_to_float(reference_distance(mesh, leaves, simplified)));
   const unsigned threads = *rc::gen::inRange(1u, 3u);
   RC_ASSERT(bits(leaf_deviation_of(mesh, leaves, input, simplified, floor, threads)) == bits(expected));
+  RC_ASSERT(bits(leaf_deviation_of(mesh, leaves, input, simplified, floor, threads, true)) == bits(expected));
 }
 
 // Many tiny leaf triangles and a few that span the whole sheet; simplified triangles far
@@ -108,7 +115,9 @@ TEST(LeafError, HugeAmongTinyTrianglesStillBitIdentical) {
   EXPECT_GT(reference, 0.0f);
   for (float floor : {0.0f, reference * 0.5f, reference, reference * 2.0f})
     for (unsigned threads : {1u, 2u})
-      EXPECT_EQ(bits(leaf_deviation_of(mesh, leaves, leaves, simplified, floor, threads)), bits(std::max(floor, reference)));
+      for (bool in_order : {false, true})
+        EXPECT_EQ(bits(leaf_deviation_of(mesh, leaves, leaves, simplified, floor, threads, in_order)),
+                  bits(std::max(floor, reference)));
 }
 
 // A connected wavy sheet (a grid of cells, two triangles each, one column of vertices
@@ -149,30 +158,6 @@ RC_GTEST_PROP(LeafError, ConnectedSheetWithSeamBitIdentical, ()) {
   const float floor = *rc::gen::element(0.0f, reference * 0.5f, reference, reference * 2.0f);
   const unsigned threads = *rc::gen::inRange(1u, 3u);
   RC_ASSERT(bits(leaf_deviation_of(mesh, leaves, leaves, simplified, floor, threads)) == bits(std::max(floor, reference)));
-}
-
-// A measurement without a record or peak defers its tree searches (every point's walk first,
-// then the largest bound's exact nearest, then the points whose bound lies beyond the
-// maximum); one with them searches each point in visiting order. Both give the same value,
-// bit for bit. A coarse grid makes equal distances common; floors 0 and the input's deviation.
-RC_GTEST_PROP(LeafError, DeferredSearchEqualsSequential, ()) {
-  const uint32_t vertex_count = *rc::gen::inRange<uint32_t>(3, 40);
-  Mesh mesh;
-  const float step = *rc::gen::element(0.25f, 1.0f / 64);
-  const int extent = step == 0.25f ? 4 : 64;
-  for (uint32_t v = 0; v < 3 * vertex_count; ++v) mesh.positions.push_back(float(*rc::gen::inRange(-extent, extent + 1)) * step);
-  const TriangleSet leaves = random_triangles(vertex_count, nullptr, 1, 60);
-  const TriangleSet input = random_triangles(vertex_count, &leaves, 1, 40);
-  const TriangleSet simplified = random_triangles(vertex_count, &leaves, 1, 40);
-  const float floor = *rc::gen::element(0.0f, build_detail::round_up_to_float(reference_distance(mesh, leaves, input)));
-  ThreadPool pool(1);
-  const build_detail::WeldedMesh welded = build_detail::weld_positions(mesh);
-  const build_detail::LeafSurface surface = build_detail::build_leaf_surface(welded, {&leaves}, pool);
-  build_detail::LatticePeak peak;
-  build_detail::LatticeRecord record;
-  const float deferred = build_detail::leaf_deviation(surface, mesh, input, simplified, floor);
-  const float sequential = build_detail::leaf_deviation(surface, mesh, input, simplified, floor, &peak, &record);
-  RC_ASSERT(bits(deferred) == bits(sequential));
 }
 
 }  // namespace

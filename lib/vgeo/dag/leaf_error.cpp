@@ -20,8 +20,8 @@
 // the first leaf triangle within the threshold or else finds the exact nearest. The walk
 // proves "within" only, so the result is the tree's, bit for bit
 // (docs/acceptance/issue23_errspeed.md: 99.5% of the points are decided by a walk of ~2.4 steps).
-// A measurement without a record walks every point first and asks the tree for the largest
-// walk bound first (deviation_squared; docs/acceptance/issue23_walk38.md).
+// A measurement without a record or peak walks every point first and asks the tree for the
+// largest walk bound first (deviation_squared; docs/acceptance/issue23_walk38.md).
 #include <algorithm>
 #include <cmath>
 #include <limits>
