@@ -83,6 +83,38 @@ RC_GTEST_PROP(TriangleDistanceTree, IndexedTreeQueriesEqualBruteForceForAnyPool,
   expect_queries_equal_brute_force(serial, parallel, corners);
 }
 
+// triangle_region (the walk's side tests from the corners, computing only what they reach)
+// decides as prepared_triangle_region on the prepared triangle, for points where the side
+// tests are closest to 0: the corners, points on the edges and on their lines (the lattice
+// points of surface_distance.h), the centroid, those moved by an ulp, and grid points, on
+// triangles from a coarse grid (slivers, collinear and repeated corners: no normal) and on
+// fine, random ones.
+RC_GTEST_PROP(TriangleRegion, FromCornersEqualsPrepared, ()) {
+  const bool coarse = *rc::gen::arbitrary<bool>();
+  auto coordinate = [&] {
+    return coarse ? double(float(*rc::gen::inRange(-4, 5)) * 0.5f) : double(float(*rc::gen::inRange(-100000, 100001)) * 1e-5f);
+  };
+  auto point = [&] { return DVec3{coordinate(), coordinate(), coordinate()}; };
+  const DVec3 a = point(), b = point(), c = point();
+  const PreparedTriangle prepared = prepare_triangle(a, b, c);
+  std::vector<DVec3> points{a, b, c, point(), point()};
+  const DVec3 corner[3] = {a, b, c};
+  for (int j = 0; j < 3; ++j) {
+    const DVec3 e0 = corner[j], e1 = corner[(j + 1) % 3];
+    for (double f : {1.0 / 3, 0.5, 2.0 / 3, -1.0, 2.0})
+      points.push_back({e0.x + (e1.x - e0.x) * f, e0.y + (e1.y - e0.y) * f, e0.z + (e1.z - e0.z) * f});
+  }
+  points.push_back({(a.x + b.x + c.x) / 3, (a.y + b.y + c.y) / 3, (a.z + b.z + c.z) / 3});
+  const size_t exact = points.size();
+  for (size_t i = 0; i < exact; ++i)
+    for (double to : {-1e300, 1e300}) {
+      const DVec3 q = points[i];
+      points.push_back({std::nextafter(q.x, to), q.y, q.z});
+      points.push_back({q.x, std::nextafter(q.y, to), std::nextafter(q.z, -to)});
+    }
+  for (const DVec3& p : points) RC_ASSERT(triangle_region(p, a, b, c) == prepared_triangle_region(p, prepared));
+}
+
 TEST(TriangleDistanceTree, EmptyTree) {
   ThreadPool pool(2);
   const TriangleDistanceTree tree(std::vector<float>{}, &pool);

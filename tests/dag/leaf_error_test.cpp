@@ -33,12 +33,18 @@ uint32_t bits(float f) {
   return b;
 }
 
+// `in_order`: with a peak and a record, which make the measurement search every point in
+// visiting order; without them it defers its tree searches (deviation_squared: every point's
+// walk first, then the largest walk bound's exact nearest). Both must give the same value.
 float leaf_deviation_of(const Mesh& mesh, const TriangleSet& leaves, const TriangleSet& input,
-                        const TriangleSet& simplified, float floor, unsigned threads) {
+                        const TriangleSet& simplified, float floor, unsigned threads, bool in_order = false) {
   ThreadPool pool(threads);
   const build_detail::WeldedMesh welded = build_detail::weld_positions(mesh);
   const build_detail::LeafSurface surface = build_detail::build_leaf_surface(welded, {&leaves}, pool);
-  return build_detail::leaf_deviation(surface, mesh, input, simplified, floor);
+  build_detail::LatticePeak peak;
+  build_detail::LatticeRecord record;
+  return in_order ? build_detail::leaf_deviation(surface, mesh, input, simplified, floor, &peak, &record)
+                  : build_detail::leaf_deviation(surface, mesh, input, simplified, floor);
 }
 
 // Triangles over vertices drawn from `from` (corners of leaf triangles: both backends only
@@ -75,6 +81,7 @@ RC_GTEST_PROP(LeafError, BitIdenticalToReferenceLattice, ()) {
   const float expected = std::max(floor, build_detail::round_up_to_float(reference_distance(mesh, leaves, simplified)));
   const unsigned threads = *rc::gen::inRange(1u, 3u);
   RC_ASSERT(bits(leaf_deviation_of(mesh, leaves, input, simplified, floor, threads)) == bits(expected));
+  RC_ASSERT(bits(leaf_deviation_of(mesh, leaves, input, simplified, floor, threads, true)) == bits(expected));
 }
 
 // Many tiny leaf triangles and a few that span the whole sheet; simplified triangles far
@@ -108,7 +115,9 @@ TEST(LeafError, HugeAmongTinyTrianglesStillBitIdentical) {
   EXPECT_GT(reference, 0.0f);
   for (float floor : {0.0f, reference * 0.5f, reference, reference * 2.0f})
     for (unsigned threads : {1u, 2u})
-      EXPECT_EQ(bits(leaf_deviation_of(mesh, leaves, leaves, simplified, floor, threads)), bits(std::max(floor, reference)));
+      for (bool in_order : {false, true})
+        EXPECT_EQ(bits(leaf_deviation_of(mesh, leaves, leaves, simplified, floor, threads, in_order)),
+                  bits(std::max(floor, reference)));
 }
 
 // A connected wavy sheet (a grid of cells, two triangles each, one column of vertices

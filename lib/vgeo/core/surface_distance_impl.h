@@ -49,13 +49,32 @@ inline PreparedTriangle prepare_triangle(DVec3 a, DVec3 b, DVec3 c) {
 // distance is the nearest edge's. Callers walking over a mesh cross the edge returned.
 inline constexpr int kProjectsInside = -1;
 inline constexpr int kNoNormal = 3;
+namespace surface_distance_detail {
+// The region test's side test: whether p lies outside the edge from `from` along `edge`, seen
+// along n. `!(x >= 0)`, not `x < 0`: a NaN fails the test, as it fails `x >= 0`.
+inline bool outside_edge(DVec3 p, DVec3 from, DVec3 edge, DVec3 n) { return !(dot(cross(edge, sub(p, from)), n) >= 0); }
+}  // namespace surface_distance_detail
+
 inline int prepared_triangle_region(DVec3 p, const PreparedTriangle& t) {
   using namespace surface_distance_detail;
-  // `!(x >= 0)`, not `x < 0`: a NaN fails the test, as it fails `x >= 0`.
   if (!(t.nn > 0)) return kNoNormal;
-  if (!(dot(cross(t.ab, sub(p, t.a)), t.n) >= 0)) return 0;
-  if (!(dot(cross(t.bc, sub(p, t.b)), t.n) >= 0)) return 1;
-  if (!(dot(cross(t.ca, sub(p, t.c)), t.n) >= 0)) return 2;
+  if (outside_edge(p, t.a, t.ab, t.n)) return 0;
+  if (outside_edge(p, t.b, t.bc, t.n)) return 1;
+  if (outside_edge(p, t.c, t.ca, t.n)) return 2;
+  return kProjectsInside;
+}
+
+// prepared_triangle_region(p, prepare_triangle(a, b, c)) computing only what its tests reach
+// (the same operations on the same values, so the same region): a walk over a mesh leaves
+// most triangles after their first side test, and needs none of the squared edge lengths.
+inline int triangle_region(DVec3 p, DVec3 a, DVec3 b, DVec3 c) {
+  using namespace surface_distance_detail;
+  const DVec3 ab = sub(b, a);
+  const DVec3 n = cross(ab, sub(c, a));
+  if (!(dot(n, n) > 0)) return kNoNormal;
+  if (outside_edge(p, a, ab, n)) return 0;
+  if (outside_edge(p, b, sub(c, b), n)) return 1;
+  if (outside_edge(p, c, sub(a, c), n)) return 2;
   return kProjectsInside;
 }
 

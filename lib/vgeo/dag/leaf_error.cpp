@@ -20,6 +20,8 @@
 // the first leaf triangle within the threshold or else finds the exact nearest. The walk
 // proves "within" only, so the result is the tree's, bit for bit
 // (docs/acceptance/issue23_errspeed.md: 99.5% of the points are decided by a walk of ~2.4 steps).
+// A measurement without a record or peak walks every point first and asks the tree for the
+// largest walk bound first (deviation_squared; docs/acceptance/issue23_walk38.md).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -213,6 +215,22 @@ bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at, 
   return prepared_triangle_within_squared(p, end.prepared, threshold, d2);
 }
 
+// A point of a decision-only measurement whose search waits (deviation_squared): where it is,
+// the exact squared distance to the leaf triangle its walk ended in (`bound`: an upper bound of
+// its nearest distance, the value the tree's own test gives that triangle) and the walk's end
+// (the tree's starting hint).
+struct DeferredPoint {
+  DVec3 p;
+  double bound;
+  uint32_t at;
+};
+
+// Deferred points resolved together (deviation_squared): the batch's largest bound lifts the
+// running maximum near its final value in the first batch (a level-1 group holds ~4,000
+// points), and later points enter only beyond it. 256 keeps the batch (10 KB) on the stack:
+// a buffer of all of a group's points cost armadillo 0.4 MB of peak memory.
+constexpr size_t kDeferredBatch = 256;
+
 }  // namespace
 
 LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const TriangleSet*>& leaves, ThreadPool& pool,
@@ -367,6 +385,54 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     }
     if (record) note(d2, at);
   };
+  // A decision-only measurement (no record, no peak: floor 0's, leaf_deviation_after_change's)
+  // defers its tree searches: each point's walk first, keeping its bound (DeferredPoint) when
+  // that lies beyond the running maximum; then, for a batch of those, the exact nearest of the
+  // largest bound first, which lifts the maximum to its final value or near it at once, and
+  // only then the batch's points whose bound still lies beyond it (bunny00: 605 tree searches
+  // in 41 such measurements, one at a time, 463 of them raising the maximum). The maximum of
+  // the points' nearest distances is the same in any order. A record keeps each point's own
+  // walk value, which depends on the running maximum when it was visited, and the peak is the
+  // first point in visiting order at the maximum: those measurements visit in order (`visit`).
+  const bool defer_searches = !record && !peak;
+  DeferredPoint deferred[kDeferredBatch];
+  size_t deferred_count = 0;
+  auto resolve_deferred = [&]() {
+    if (deferred_count == 0) return;
+    auto search = [&](DeferredPoint& d) {  // as `visit`'s search: best2 rises to d's nearest beyond the threshold
+      const double threshold = std::max(best2, floor_d2);
+      const double d2 = leaves.tree.nearest_or_within_squared(d.p, threshold, &d.at);
+      if (d2 > threshold) best2 = d2;
+    };
+    size_t largest = 0;
+    for (size_t i = 1; i < deferred_count; ++i)
+      if (deferred[i].bound > deferred[largest].bound) largest = i;
+    search(deferred[largest]);
+    deferred[largest].bound = 0;  // searched
+    for (size_t i = 0; i < deferred_count; ++i)
+      if (deferred[i].bound > std::max(best2, floor_d2)) search(deferred[i]);
+    deferred_count = 0;
+  };
+  auto defer = [&](DVec3 p) {
+    double bound;
+    if (at != kNone) {
+      const LeafWalkEnd end = walk_leaf_surface(leaves, p, at, kMaxWalkSteps);
+      at = end.triangle;
+      bound = end.projects_inside ? prepared_plane_distance_squared(p, end.prepared)
+                                  : prepared_triangle_distance_squared(p, end.prepared);
+    } else {
+      bound = leaves.tree.nearest_distance_squared(p, &at);  // no walk start: the exact distance
+    }
+    if (!(bound > std::max(best2, floor_d2))) return;  // within the maximum: it cannot raise it
+    if (deferred_count == kDeferredBatch) resolve_deferred();
+    deferred[deferred_count++] = {p, bound, at};
+  };
+  auto measure = [&](DVec3 p) {
+    if (defer_searches)
+      defer(p);
+    else
+      visit(p);
+  };
   // The points of for_each_lattice_point, triangle by triangle (for_each_place_point).
   // Corners are skipped: a simplified corner is an input vertex (both backends only remove
   // vertices), a corner of a leaf triangle, at distance exactly 0. Which points are visited
@@ -417,11 +483,12 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
       if (j > 0 && !after_previous_edge) at = mesh.start_triangle(tri[j]);
       after_previous_edge = true;
       here.place = j;
-      for_each_place_point(mesh, tri, j, visit);
+      for_each_place_point(mesh, tri, j, measure);
     }
     here.place = kLatticeInterior;
-    for_each_place_point(mesh, tri, kLatticeInterior, visit);
+    for_each_place_point(mesh, tri, kLatticeInterior, measure);
   }
+  resolve_deferred();
   // A skipped place is recorded with its bound (the walk of a later search starts at its first
   // vertex's leaf triangle).
   for (const auto& [t, place] : displaced) {
@@ -513,14 +580,18 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
 LeafWalkEnd walk_leaf_surface(const LeafSurface& s, DVec3 p, uint32_t start, int max_steps) {
   uint32_t t = start, previous = kNone;
   for (int step = 1;; ++step) {
-    LeafWalkEnd end;
-    end.triangle = t;
-    end.prepared = prepare_triangle(s.tree.corner(t, 0), s.tree.corner(t, 1), s.tree.corner(t, 2));
-    const int region = prepared_triangle_region(p, end.prepared);
-    end.projects_inside = region == kProjectsInside;
-    if (end.projects_inside) return end;
-    const uint32_t next = region == kNoNormal ? kNone : s.neighbour[3 * size_t(t) + size_t(region)];
-    if (next == kNone || next == previous || step == max_steps) return end;
+    // Each step needs only the side tests (triangle_region); the whole prepared triangle is
+    // made once, for the triangle where the walk ends.
+    const DVec3 a = s.tree.corner(t, 0), b = s.tree.corner(t, 1), c = s.tree.corner(t, 2);
+    const int region = triangle_region(p, a, b, c);
+    const uint32_t next = region == kProjectsInside || region == kNoNormal ? kNone : s.neighbour[3 * size_t(t) + size_t(region)];
+    if (next == kNone || next == previous || step == max_steps) {
+      LeafWalkEnd end;
+      end.triangle = t;
+      end.prepared = prepare_triangle(a, b, c);
+      end.projects_inside = region == kProjectsInside;
+      return end;
+    }
     previous = t;
     t = next;
   }
