@@ -98,11 +98,11 @@ void prefault_parallel(std::initializer_list<std::pair<void*, size_t>> ranges, T
   // few thousand tasks. Chunk ends fall on multiples of it, so a huge page is one task's.
   constexpr uintptr_t kChunk = uintptr_t(2) << 20;
   // Smaller ranges are left to their first touch. One call populates a page for ~0.7 µs, where
-  // a first-touch fault costs ~10 µs on the virtual machine of docs/acceptance/issue23_write.md
-  // (16 MiB, 4 KiB pages, after it each first write still costs ~4 µs, the host's side: 4.5
-  // against 10 µs per page; docs/acceptance/issue23_scratch38.md), so a call pays for itself
-  // from a few pages on: 16 of them, small meshes' arrays (bunny00's leaf surface, layout and
-  // import arrays: 0.1-1.7 MiB each) included.
+  // a first-touch fault costs ~10 µs on the virtual machine of docs/acceptance/issue23_write.md;
+  // the first write of a populated page still costs ~4 µs there (the host's side), so a page
+  // costs ~4.5 µs instead of ~10 (a 16 MiB test, 4 KiB pages: docs/acceptance/issue23_scratch38.md).
+  // A call pays for itself from a few pages on: 16 of them, small meshes' arrays (bunny00's
+  // leaf surface, layout and import arrays: 0.1-1.7 MiB each) included.
   constexpr size_t kMinPrefaultBytes = size_t(64) << 10;
   const size_t page = size_t(sysconf(_SC_PAGESIZE));
   std::vector<std::pair<uintptr_t, size_t>> chunks;
