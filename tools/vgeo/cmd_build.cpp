@@ -153,6 +153,15 @@ void print_format_sizes(const FormatReport& r) {
 // callback): 32 MiB is ~25 times the write's buffers, and a build that large peaks in its own
 // arrays (the 1M sphere's 105 MiB), while below it the peak is mostly code and fixed buffers.
 constexpr uint64_t kKeepHeapPeakBytes = uint64_t(32) << 20;
+// A .vgeodag build whose heap holds this much freed memory keeps it for the write too: twice
+// the write's ~1.25 MiB of buffers, so they and the write's small allocations reuse pages that
+// are resident already, and the peak stays near the build's own (its levels', 0.6-0.9 MiB
+// above the RSS at the write). The trim cost 3-7 ms there, 2-3.5% of armadillo's and
+// bunny00's builds (free heap 4.4 and 6.6 MiB), for 0.1-0.25 MiB of median peak (armadillo
+// 9,576 -> 9,764 KiB, 1.15x -> 1.18x the peer's); lion, blade and the other small meshes (free
+// heap 0.5-1.4 MiB, peaks within 0.3 MiB of the write's RSS) still trim
+// (docs/acceptance/issue23_scratch38.md).
+constexpr uint64_t kWriteReusesFreeHeapBytes = uint64_t(5) << 19;  // 2.5 MiB
 
 }  // namespace
 
@@ -231,10 +240,13 @@ void add_build_command(CLI::App& app, Context& ctx) {
     // VGEODAG1 write streams the DAG through ~1.25 MiB of buffers: a large build's peak lies
     // far above what is live now, so there the trim is left out (on the 4M sphere it took
     // 0.05-0.1 s of one thread's time between the build and the write; the 1M sphere's peak
-    // is the build's either way), and a small one's keeps it (lion's peak +0.3 MiB without).
+    // is the build's either way), and a small one's keeps it (lion's peak +0.3 MiB without)
+    // unless its heap can hold the write (kWriteReusesFreeHeapBytes).
     uint64_t build_peak = 0;
     for (const BuildReport& r : reports) build_peak = std::max(build_peak, r.peak_memory_bytes);
-    if (kind == AssetFileKind::kPages || build_peak < kKeepHeapPeakBytes) release_free_heap();
+    if (kind == AssetFileKind::kPages ||
+        (build_peak < kKeepHeapPeakBytes && free_heap_bytes() < kWriteReusesFreeHeapBytes))
+      release_free_heap();
     FormatReport format_report;
     const clock::time_point t_write = clock::now();
     write_asset_file(args->output, built, kind, format_options, &format_report);

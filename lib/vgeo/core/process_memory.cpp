@@ -126,6 +126,15 @@ void release_free_heap() {
 #endif
 }
 
+uint64_t free_heap_bytes() {
+#if defined(__GLIBC__) && __GLIBC_PREREQ(2, 33)
+  const struct mallinfo2 info = mallinfo2();
+  return uint64_t(info.fordblks - std::min(info.fordblks, info.keepcost));
+#else
+  return 0;
+#endif
+}
+
 namespace {
 // Where free_huge_pages finds the mapping: a header in front of the returned block (which
 // stays aligned to max_align_t; the mapping starts on a huge-page boundary).

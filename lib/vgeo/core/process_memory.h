@@ -32,6 +32,11 @@ void prepare_build_heap(uint64_t input_bytes);
 // page that is used again (docs/acceptance/issue23_smallrss.md).
 void release_free_heap();
 
+// Bytes of freed memory the heap holds for reuse (glibc's mallinfo2: its free chunks, less the
+// top chunk, whose step of address space above the live data is mostly never touched); 0
+// elsewhere. A phase whose allocations fit in it reuses pages that are already resident.
+uint64_t free_heap_bytes();
+
 // Asks the kernel to back [data, data + bytes) with transparent huge pages (MADV_HUGEPAGE; Linux
 // with THP in `madvise` or `always` mode, a no-op elsewhere) when it covers at least one whole
 // aligned huge page (kHugePageBytes). For large arrays that are filled completely: a first

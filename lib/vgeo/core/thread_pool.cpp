@@ -97,10 +97,17 @@ void prefault_parallel(std::initializer_list<std::pair<void*, size_t>> ranges, T
   // surface's on a 1M-triangle mesh) still split over 2-4 threads; a 10M-triangle DAG's are a
   // few thousand tasks. Chunk ends fall on multiples of it, so a huge page is one task's.
   constexpr uintptr_t kChunk = uintptr_t(2) << 20;
+  // Smaller ranges are left to their first touch. One call populates a page for ~0.7 µs, where
+  // a first-touch fault costs ~10 µs on the virtual machine of docs/acceptance/issue23_write.md;
+  // the first write of a populated page still costs ~4 µs there (the host's side), so a page
+  // costs ~4.5 µs instead of ~10 (a 16 MiB test, 4 KiB pages: docs/acceptance/issue23_scratch38.md).
+  // A call pays for itself from a few pages on: 16 of them, small meshes' arrays (bunny00's
+  // leaf surface, layout and import arrays: 0.1-1.7 MiB each) included.
+  constexpr size_t kMinPrefaultBytes = size_t(64) << 10;
   const size_t page = size_t(sysconf(_SC_PAGESIZE));
   std::vector<std::pair<uintptr_t, size_t>> chunks;
   for (auto [data, bytes] : ranges) {
-    if (!data || bytes < kChunk) continue;  // small arrays: not worth a system call
+    if (!data || bytes < kMinPrefaultBytes) continue;  // small arrays: not worth a system call
     advise_huge_pages(data, bytes);
     uintptr_t begin = (reinterpret_cast<uintptr_t>(data) + page - 1) & ~uintptr_t(page - 1);
     uintptr_t end = (reinterpret_cast<uintptr_t>(data) + bytes) & ~uintptr_t(page - 1);
