@@ -627,10 +627,16 @@ struct EdgeUses {  // (simplify.cpp, border_caps.cpp)
 
 // The welded edges of a corner list: fn(a, b) per corner, a = welded id of the corner, b = of
 // the next corner of its triangle, in corner order. a == b on welded-degenerate triangles.
+// Each corner's welded id is read once (fn's stores may alias `weld`, so the compiler would
+// read each twice).
 template <class Fn>
 inline void for_each_welded_edge(const WeldedMesh& welded, const std::vector<uint32_t>& corners, Fn&& fn) {
-  for (size_t t = 0; t + 3 <= corners.size(); t += 3)
-    for (size_t k = 0; k < 3; ++k) fn(welded.weld[corners[t + k]], welded.weld[corners[t + (k + 1) % 3]]);
+  for (size_t t = 0; t + 3 <= corners.size(); t += 3) {
+    const uint32_t a = welded.weld[corners[t]], b = welded.weld[corners[t + 1]], c = welded.weld[corners[t + 2]];
+    fn(a, b);
+    fn(b, c);
+    fn(c, a);
+  }
 }
 
 }  // namespace vgeo::build_detail
