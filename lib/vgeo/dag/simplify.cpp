@@ -406,7 +406,11 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const PreparedGroup& p
     for (size_t t = 0; t < out_count / 3; ++t) r.triangles.materials[t] = uint32_t(key_of(out[3 * t]));
     if (attempt == kMaxLockedRetries) break;
     std::vector<uint32_t> lost = lost_locked_vertices(welded, p.input_locked, r.triangles.corners, scratch);
-    if (lost.empty()) break;
+    if (lost.empty()) {
+      // The group's locked ids are the input's when no triangle was left out.
+      r.group_locked_kept = !p.any_left_out;
+      break;
+    }
     // Another collapse order loses other such vertices: the first retry also splits every
     // locked vertex LockBorder cannot hold (not exactly two open welded edges in the group).
     if (attempt == 0) {
@@ -528,7 +532,9 @@ SimplifyResult simplify_prepared(const WeldedMesh& welded, const PreparedGroup& 
   if (input.triangle_count() == 0) return SimplifyResult{};
   SimplifyResult r = simplifier == Simplifier::kOpenMesh ? simplify_openmesh(welded, input, locked, target)
                                                          : simplify_meshopt(welded, prepared, locked, target, scratch);
+  const size_t kept = r.triangles.triangle_count();
   drop_reversed_pairs(welded, r.triangles);
+  if (r.triangles.triangle_count() != kept) r.group_locked_kept = false;
   return r;
 }
 
@@ -641,10 +647,12 @@ bool folds_parity(const WeldedMesh& welded, const TriangleSet& before, const Edg
 }
 
 // The border check (check_simplification) given `after`'s edge uses.
-BorderState border_state(const WeldedMesh& welded, const std::vector<uint32_t>& before_locked, const TriangleSet& after,
-                         const EdgeUses& out, const std::vector<uint64_t>& before_shared, std::vector<uint32_t>& scratch) {
+BorderState border_state(const WeldedMesh& welded, const std::vector<uint32_t>& before_locked, bool locked_kept,
+                         const TriangleSet& after, const EdgeUses& out, const std::vector<uint64_t>& before_shared,
+                         std::vector<uint32_t>& scratch) {
   // Every locked vertex of `before` is used by `after`.
-  if (!lost_locked_vertices(welded, before_locked, after.corners, scratch).empty()) return BorderState::kBroken;
+  if (!locked_kept && !lost_locked_vertices(welded, before_locked, after.corners, scratch).empty())
+    return BorderState::kBroken;
   // Every shared edge of `before` is an edge of `after`; one used once (a manifold border)
   // should stay used once: more uses are a fold over the border (spec/dag.md §2.3).
   BorderState state = BorderState::kKept;
@@ -668,12 +676,12 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
 }
 
 SimplificationCheck check_simplification(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                                         const std::vector<uint32_t>& before_locked,
+                                         const std::vector<uint32_t>& before_locked, bool locked_kept,
                                          const std::vector<uint64_t>& shared_edges, std::vector<uint32_t>& scratch) {
   // One count of `after`'s edges serves both checks.
   std::vector<uint64_t> folded;
   const EdgeUses out = count_edge_uses(welded, after, folded);
-  return {border_state(welded, before_locked, after, out, shared_edges, scratch),
+  return {border_state(welded, before_locked, locked_kept, after, out, shared_edges, scratch),
           folds_parity(welded, before, out, folded)};
 }
 
