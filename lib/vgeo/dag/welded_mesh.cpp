@@ -84,10 +84,11 @@ void count_local_edges(const uint32_t* vertices, size_t vertex_count, const uint
     std::fill(more, more + words, uint64_t(0));
   }
   auto bit_of = [vertex_count](uint32_t a, uint32_t b) { return a < b ? a * vertex_count + b : b * vertex_count + a; };
-  // Each edge's first use, (a << 16) | b in corner order, written at index `all` whether or
+  // Each edge's first use, (a << kLocalBits) | b in corner order, written at index `all` whether or
   // not it is one (no branch: a later use is overwritten by the next first use). The open
   // edges are then the first uses never used again: counted, and their keys listed in corner
   // order, from these ~half of the corners instead of a pass over the matrices and the corners.
+  constexpr uint32_t kLocalBits = 16;  // a local id is a uint16_t
   constexpr size_t kStackCorners = 3 * size_t(kMaxClusterTriangles);
   uint32_t stack_first[kStackCorners];
   std::vector<uint32_t> heap_first;
@@ -102,7 +103,7 @@ void count_local_edges(const uint32_t* vertices, size_t vertex_count, const uint
       const uint64_t mask = uint64_t(1) << (i & 63), seen = once[i >> 6] & mask;
       more[i >> 6] |= seen;
       once[i >> 6] |= mask;
-      first_use[all] = (a << 16) | b;
+      first_use[all] = (a << kLocalBits) | b;
       all += seen == 0;
     }
   uint64_t open = 0;
@@ -111,7 +112,7 @@ void count_local_edges(const uint32_t* vertices, size_t vertex_count, const uint
   uint64_t* keys = stack_keys;
   if (open_keys && all > kStackCorners) heap_keys.resize(all), keys = heap_keys.data();
   for (size_t j = 0; j < all; ++j) {
-    const uint32_t a = first_use[j] >> 16, b = first_use[j] & 0xFFFF;
+    const uint32_t a = first_use[j] >> kLocalBits, b = first_use[j] & ((1u << kLocalBits) - 1);
     const size_t i = bit_of(a, b);
     if ((more[i >> 6] >> (i & 63) & 1) != 0) continue;
     if (open_keys) keys[open] = edge_key(vertices[a], vertices[b]);
