@@ -969,7 +969,8 @@ bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, c
     }
     if (!reduces_enough(merged, simplified.triangles)) break;
     const SimplificationCheck check =
-        check_simplification(s.welded, merged, simplified.triangles, prepared.group_locked, shared_edges, scratch);
+        check_simplification(s.welded, merged, simplified.triangles, prepared.group_locked,
+                             simplified.group_locked_kept, shared_edges, scratch);
     const BorderState border = check.border;
     if (border == BorderState::kBroken || check.folds) continue;
     sealed = border == BorderState::kKept;

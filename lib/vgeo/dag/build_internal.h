@@ -314,6 +314,9 @@ bool remove_open_border_caps(const BorderCaps& caps, const std::vector<uint32_t>
 struct SimplifyResult {
   TriangleSet triangles;  // references original vertex ids only (no new positions)
   bool capped = false;    // the group's own open borders were simplified (border_caps.cpp)
+  // Known to use every locked welded id of the group (PreparedGroup::group_locked): the
+  // meshopt backend checked it for its retries, and nothing was dropped since.
+  bool group_locked_kept = false;
 };
 // The smallest float ≥ d: stored errors are rounded up, never below the measured double.
 inline float round_up_to_float(double d) {
@@ -551,10 +554,12 @@ struct SimplificationCheck {
   BorderState border;
   bool folds;
 };
-// `before_locked`: the distinct locked welded ids of `before` (PreparedGroup::group_locked).
-// `scratch` (weld.size() entries, all kNone) is returned in that state.
+// `before_locked`: the distinct locked welded ids of `before` (PreparedGroup::group_locked);
+// `locked_kept`: `after` is known to use them all (SimplifyResult::group_locked_kept), so
+// they are not looked up again. `scratch` (weld.size() entries, all kNone) is returned in
+// that state.
 SimplificationCheck check_simplification(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                                         const std::vector<uint32_t>& before_locked,
+                                         const std::vector<uint32_t>& before_locked, bool locked_kept,
                                          const std::vector<uint64_t>& shared_edges, std::vector<uint32_t>& scratch);
 
 // Spheres, computed in double and rounded outward so containment survives float rounding
@@ -627,10 +632,16 @@ struct EdgeUses {  // (simplify.cpp, border_caps.cpp)
 
 // The welded edges of a corner list: fn(a, b) per corner, a = welded id of the corner, b = of
 // the next corner of its triangle, in corner order. a == b on welded-degenerate triangles.
+// Each corner's welded id is read once (fn's stores may alias `weld`, so the compiler would
+// read each twice).
 template <class Fn>
 inline void for_each_welded_edge(const WeldedMesh& welded, const std::vector<uint32_t>& corners, Fn&& fn) {
-  for (size_t t = 0; t + 3 <= corners.size(); t += 3)
-    for (size_t k = 0; k < 3; ++k) fn(welded.weld[corners[t + k]], welded.weld[corners[t + (k + 1) % 3]]);
+  for (size_t t = 0; t + 3 <= corners.size(); t += 3) {
+    const uint32_t a = welded.weld[corners[t]], b = welded.weld[corners[t + 1]], c = welded.weld[corners[t + 2]];
+    fn(a, b);
+    fn(b, c);
+    fn(c, a);
+  }
 }
 
 }  // namespace vgeo::build_detail

@@ -188,13 +188,21 @@ std::vector<uint32_t> sort_keys(const std::vector<uint64_t>& keys) {
   std::vector<uint32_t> order(n), next(n);
   for (size_t i = 0; i < n; ++i) order[i] = uint32_t(i);
   if (n < 2) return order;
-  std::vector<uint32_t> count(kDigits * kBuckets, 0);
+  // The digits where keys differ (bits set in some key and clear in another); only they are
+  // counted and sorted by.
+  uint64_t any_set = 0, all_set = ~uint64_t(0);
+  for (uint64_t key : keys) any_set |= key, all_set &= key;
+  const uint64_t varying = any_set ^ all_set;
+  int digits[kDigits], varying_digits = 0;
+  for (int d = 0; d < kDigits; ++d)
+    if ((varying >> (kDigitBits * d)) & (kBuckets - 1)) digits[varying_digits++] = d;
+  std::vector<uint32_t> count(size_t(varying_digits) * kBuckets, 0);
   for (uint64_t key : keys)
-    for (int d = 0; d < kDigits; ++d) ++count[d * kBuckets + ((key >> (kDigitBits * d)) & (kBuckets - 1))];
-  for (int d = 0; d < kDigits; ++d) {
-    uint32_t* c = &count[d * kBuckets];
-    const int shift = kDigitBits * d;
-    if (c[(keys[0] >> shift) & (kBuckets - 1)] == n) continue;  // every key has this digit
+    for (int j = 0; j < varying_digits; ++j)
+      ++count[j * kBuckets + ((key >> (kDigitBits * digits[j])) & (kBuckets - 1))];
+  for (int j = 0; j < varying_digits; ++j) {
+    uint32_t* c = &count[j * kBuckets];
+    const int shift = kDigitBits * digits[j];
     uint32_t sum = 0;
     for (size_t b = 0; b < kBuckets; ++b) {
       const uint32_t k = c[b];
@@ -216,25 +224,44 @@ void build_sub_mesh(const WeldedMesh& welded, PreparedGroup& p, std::vector<uint
   // distinct_of[i] is corner i's. scratch[v] holds the last distinct key found with vertex v
   // and next_of_vertex chains the earlier ones: a vertex has one key per material of its
   // triangles in the group (almost always one), so a corner's key is found in one or two
-  // steps without hashing (the vertex-indexed scratch array is there anyway).
+  // steps without hashing (the vertex-indexed scratch array is there anyway). With one
+  // material (most groups) a vertex has one key: scratch[v] is it, and there is no chain.
+  const bool one_material = std::adjacent_find(group.materials.begin(), group.materials.end(),
+                                               std::not_equal_to<uint32_t>()) == group.materials.end();
   std::vector<uint64_t> distinct;
-  std::vector<uint32_t> next_of_vertex, distinct_of(3 * n);
+  std::vector<uint32_t> distinct_of(3 * n);
   distinct.reserve(3 * n);
-  next_of_vertex.reserve(3 * n);
-  for (size_t i = 0; i < 3 * n; ++i) {
-    const uint32_t v = group.corners[i];
-    const uint64_t key = (uint64_t(v) << 32) | group.materials[i / 3];
-    uint32_t u = scratch[v];
-    while (u != kNone && distinct[u] != key) u = next_of_vertex[u];
-    if (u == kNone) {
-      u = uint32_t(distinct.size());
-      distinct.push_back(key);
-      next_of_vertex.push_back(scratch[v]);
-      scratch[v] = u;
+  const uint32_t* corners = group.corners.data();
+  uint32_t* const key_of_vertex = scratch.data();
+  if (one_material) {
+    const uint64_t material = n > 0 ? group.materials[0] : 0;
+    for (size_t i = 0; i < 3 * n; ++i) {
+      const uint32_t v = corners[i];
+      uint32_t u = key_of_vertex[v];
+      if (u == kNone) {
+        u = key_of_vertex[v] = uint32_t(distinct.size());
+        distinct.push_back((uint64_t(v) << 32) | material);
+      }
+      distinct_of[i] = u;
     }
-    distinct_of[i] = u;
+  } else {
+    std::vector<uint32_t> next_of_vertex;
+    next_of_vertex.reserve(3 * n);
+    for (size_t i = 0; i < 3 * n; ++i) {
+      const uint32_t v = corners[i];
+      const uint64_t key = (uint64_t(v) << 32) | group.materials[i / 3];
+      uint32_t u = key_of_vertex[v];
+      while (u != kNone && distinct[u] != key) u = next_of_vertex[u];
+      if (u == kNone) {
+        u = uint32_t(distinct.size());
+        distinct.push_back(key);
+        next_of_vertex.push_back(key_of_vertex[v]);
+        key_of_vertex[v] = u;
+      }
+      distinct_of[i] = u;
+    }
   }
-  for (uint64_t key : distinct) scratch[uint32_t(key >> 32)] = kNone;
+  for (uint64_t key : distinct) key_of_vertex[uint32_t(key >> 32)] = kNone;
   // Positions with more than kMaxSeamWedges wedges in the group, or more than kMaxSeamWedges
   // input vertices in the mesh, are welded: the second because above the leaves a group of a
   // per-corner mesh holds only the corners earlier levels kept (often one or two per position,
@@ -243,8 +270,7 @@ void build_sub_mesh(const WeldedMesh& welded, PreparedGroup& p, std::vector<uint
   // (welded id, material). Sorted welded ids, so the sub-mesh does not depend on corner order.
   // A position has one wedge when one input vertex sits there and the group has one material
   // (most meshes): then none is welded, and the sort below is skipped.
-  bool any_wedges = std::adjacent_find(group.materials.begin(), group.materials.end(),
-                                       std::not_equal_to<uint32_t>()) != group.materials.end();
+  bool any_wedges = !one_material;
   for (size_t u = 0; u < distinct.size() && !any_wedges; ++u)
     any_wedges = welded.copies[welded.weld[uint32_t(distinct[u] >> 32)]] > 1;
   std::vector<std::pair<uint32_t, uint32_t>> wedge_of;  // (welded id, vertex)
@@ -284,8 +310,11 @@ void build_sub_mesh(const WeldedMesh& welded, PreparedGroup& p, std::vector<uint
   p.indices.resize(3 * n);
   for (size_t i = 0; i < 3 * n; ++i) p.indices[i] = rank_of[distinct_of[i]];
   p.positions.resize(3 * p.sub_keys.size());
-  for (size_t v = 0; v < p.sub_keys.size(); ++v)
-    std::memcpy(&p.positions[3 * v], &mesh.positions[3 * size_t(p.sub_keys[v] >> 32)], 12);
+  {
+    const float* from = mesh.positions.data();
+    float* to = p.positions.data();
+    for (uint64_t key : p.sub_keys) std::memcpy(to, &from[3 * size_t(key >> 32)], 12), to += 3;
+  }
   // meshopt 0.18's error bound is relative to the sub-mesh's extent.
   p.scale = meshopt_simplifyScale(p.positions.data(), p.sub_keys.size(), sizeof(float) * 3);
   if (!welded_positions.empty()) {
@@ -377,7 +406,11 @@ SimplifyResult simplify_meshopt(const WeldedMesh& welded, const PreparedGroup& p
     for (size_t t = 0; t < out_count / 3; ++t) r.triangles.materials[t] = uint32_t(key_of(out[3 * t]));
     if (attempt == kMaxLockedRetries) break;
     std::vector<uint32_t> lost = lost_locked_vertices(welded, p.input_locked, r.triangles.corners, scratch);
-    if (lost.empty()) break;
+    if (lost.empty()) {
+      // The group's locked ids are the input's when no triangle was left out.
+      r.group_locked_kept = !p.any_left_out;
+      break;
+    }
     // Another collapse order loses other such vertices: the first retry also splits every
     // locked vertex LockBorder cannot hold (not exactly two open welded edges in the group).
     if (attempt == 0) {
@@ -454,9 +487,10 @@ PreparedGroup prepare_group(const WeldedMesh& welded, const TriangleSet& group, 
   PreparedGroup p;
   p.group = &group;
   std::vector<uint32_t> left_out;  // triangle indices
+  const uint32_t* weld = welded.weld.data();
   for (size_t t = 0; t < group.triangle_count(); ++t) {
     const uint32_t* c = &group.corners[3 * t];
-    const uint32_t a = welded.weld[c[0]], b = welded.weld[c[1]], d = welded.weld[c[2]];
+    const uint32_t a = weld[c[0]], b = weld[c[1]], d = weld[c[2]];
     if (a == b || b == d || d == a || is_fin(c)) left_out.push_back(uint32_t(t));
   }
   p.any_left_out = !left_out.empty();
@@ -498,7 +532,9 @@ SimplifyResult simplify_prepared(const WeldedMesh& welded, const PreparedGroup& 
   if (input.triangle_count() == 0) return SimplifyResult{};
   SimplifyResult r = simplifier == Simplifier::kOpenMesh ? simplify_openmesh(welded, input, locked, target)
                                                          : simplify_meshopt(welded, prepared, locked, target, scratch);
+  const size_t kept = r.triangles.triangle_count();
   drop_reversed_pairs(welded, r.triangles);
+  if (r.triangles.triangle_count() != kept) r.group_locked_kept = false;
   return r;
 }
 
@@ -611,10 +647,12 @@ bool folds_parity(const WeldedMesh& welded, const TriangleSet& before, const Edg
 }
 
 // The border check (check_simplification) given `after`'s edge uses.
-BorderState border_state(const WeldedMesh& welded, const std::vector<uint32_t>& before_locked, const TriangleSet& after,
-                         const EdgeUses& out, const std::vector<uint64_t>& before_shared, std::vector<uint32_t>& scratch) {
+BorderState border_state(const WeldedMesh& welded, const std::vector<uint32_t>& before_locked, bool locked_kept,
+                         const TriangleSet& after, const EdgeUses& out, const std::vector<uint64_t>& before_shared,
+                         std::vector<uint32_t>& scratch) {
   // Every locked vertex of `before` is used by `after`.
-  if (!lost_locked_vertices(welded, before_locked, after.corners, scratch).empty()) return BorderState::kBroken;
+  if (!locked_kept && !lost_locked_vertices(welded, before_locked, after.corners, scratch).empty())
+    return BorderState::kBroken;
   // Every shared edge of `before` is an edge of `after`; one used once (a manifold border)
   // should stay used once: more uses are a fold over the border (spec/dag.md §2.3).
   BorderState state = BorderState::kKept;
@@ -638,12 +676,12 @@ bool simplification_folds(const WeldedMesh& welded, const TriangleSet& before, c
 }
 
 SimplificationCheck check_simplification(const WeldedMesh& welded, const TriangleSet& before, const TriangleSet& after,
-                                         const std::vector<uint32_t>& before_locked,
+                                         const std::vector<uint32_t>& before_locked, bool locked_kept,
                                          const std::vector<uint64_t>& shared_edges, std::vector<uint32_t>& scratch) {
   // One count of `after`'s edges serves both checks.
   std::vector<uint64_t> folded;
   const EdgeUses out = count_edge_uses(welded, after, folded);
-  return {border_state(welded, before_locked, after, out, shared_edges, scratch),
+  return {border_state(welded, before_locked, locked_kept, after, out, shared_edges, scratch),
           folds_parity(welded, before, out, folded)};
 }
 

@@ -2,7 +2,6 @@
 // welding, degenerate triangles and fins, the open and distinct edges of a cluster.
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cassert>
 #include <cstring>
 
@@ -85,6 +84,16 @@ void count_local_edges(const uint32_t* vertices, size_t vertex_count, const uint
     std::fill(more, more + words, uint64_t(0));
   }
   auto bit_of = [vertex_count](uint32_t a, uint32_t b) { return a < b ? a * vertex_count + b : b * vertex_count + a; };
+  // Each edge's first use, (a << kLocalBits) | b in corner order, written at index `all` whether or
+  // not it is one (no branch: a later use is overwritten by the next first use). The open
+  // edges are then the first uses never used again: counted, and their keys listed in corner
+  // order, from these ~half of the corners instead of a pass over the matrices and the corners.
+  constexpr uint32_t kLocalBits = 16;  // a local id is a uint16_t
+  constexpr size_t kStackCorners = 3 * size_t(kMaxClusterTriangles);
+  uint32_t stack_first[kStackCorners];
+  std::vector<uint32_t> heap_first;
+  uint32_t* first_use = stack_first;
+  if (3 * triangles > kStackCorners) heap_first.resize(3 * triangles), first_use = heap_first.data();
   uint64_t all = 0;
   for (size_t t = 0; t < triangles; ++t)
     for (int k = 0; k < 3; ++k) {
@@ -94,21 +103,24 @@ void count_local_edges(const uint32_t* vertices, size_t vertex_count, const uint
       const uint64_t mask = uint64_t(1) << (i & 63), seen = once[i >> 6] & mask;
       more[i >> 6] |= seen;
       once[i >> 6] |= mask;
+      first_use[all] = (a << kLocalBits) | b;
       all += seen == 0;
     }
   uint64_t open = 0;
-  for (size_t w = 0; w < words; ++w) open += uint64_t(std::popcount(once[w] & ~more[w]));
+  uint64_t stack_keys[kStackCorners];
+  std::vector<uint64_t> heap_keys;
+  uint64_t* keys = stack_keys;
+  if (open_keys && all > kStackCorners) heap_keys.resize(all), keys = heap_keys.data();
+  for (size_t j = 0; j < all; ++j) {
+    const uint32_t a = first_use[j] >> kLocalBits, b = first_use[j] & ((1u << kLocalBits) - 1);
+    const size_t i = bit_of(a, b);
+    if ((more[i >> 6] >> (i & 63) & 1) != 0) continue;
+    if (open_keys) keys[open] = edge_key(vertices[a], vertices[b]);
+    ++open;
+  }
   if (open_keys && open > 0) {
-    // An open edge is used once: one visit of the corners finds each once.
-    const size_t first_open = open_keys->size();
-    open_keys->reserve(first_open + open);
-    for (size_t t = 0; t < triangles; ++t)
-      for (int k = 0; k < 3; ++k) {
-        const uint32_t a = local[3 * t + k], b = local[3 * t + (k == 2 ? 0 : k + 1)];
-        if (a == b) continue;
-        const size_t i = bit_of(a, b);
-        if ((more[i >> 6] >> (i & 63) & 1) == 0) open_keys->push_back(edge_key(vertices[a], vertices[b]));
-      }
+    open_keys->reserve(open_keys->size() + open);
+    open_keys->insert(open_keys->end(), keys, keys + open);
     // (Not sorted: group_clusters sorts every cluster's keys together, and a cluster's are
     // distinct, so their order within the cluster changes nothing.)
   }
