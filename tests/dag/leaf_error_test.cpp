@@ -157,6 +157,20 @@ RC_GTEST_PROP(LeafError, ConnectedSheetWithSeamBitIdentical, ()) {
 namespace vgeo::test {
 namespace {
 
+// Two leaf triangles per cell of a side x side grid, the cells in a scrambled order (cell
+// k * step mod side^2, step coprime to side^2), corners at(x, y); then a triangle with a
+// repeated corner at (r, r) and a third triangle on an edge of cell (e, e).
+template <class At>
+void append_scrambled_grid(TriangleSet& leaves, uint32_t side, uint32_t step, At at, uint32_t r, uint32_t e) {
+  for (uint32_t k = 0; k < side * side; ++k) {
+    const uint32_t cell = (k * step) % (side * side), x = cell % side, y = cell / side;
+    leaves.corners.insert(leaves.corners.end(), {at(x, y), at(x + 1, y), at(x + 1, y + 1)});
+    leaves.corners.insert(leaves.corners.end(), {at(x, y), at(x + 1, y + 1), at(x, y + 1)});
+  }
+  leaves.corners.insert(leaves.corners.end(), {at(r, r), at(r, r), at(r + 1, r)});          // repeated corner
+  leaves.corners.insert(leaves.corners.end(), {at(e, e), at(e + 1, e), at(e + 1, e + 1)});  // a third triangle on an edge
+}
+
 // The walk's adjacency (neighbour, vertex_triangle) does not depend on the pool: the counting
 // sort by welded vertex in parallel parts (sort_triangles_by_vertex) lists each vertex's
 // triangles as the one-pass sort does. A grid whose rows repeat their first vertex's position
@@ -171,13 +185,7 @@ TEST(LeafSurface, AdjacencyIsTheSameOnAnyPool) {
   const uint32_t copies = (kSide + 1) * (kSide + 1);
   auto at = [&](uint32_t x, uint32_t y) { return x == 0 && y % 2 ? copies + y : y * (kSide + 1) + x; };
   TriangleSet leaves;
-  for (uint32_t k = 0; k < kSide * kSide; ++k) {
-    const uint32_t cell = (k * 769u) % (kSide * kSide), x = cell % kSide, y = cell / kSide;
-    leaves.corners.insert(leaves.corners.end(), {at(x, y), at(x + 1, y), at(x + 1, y + 1)});
-    leaves.corners.insert(leaves.corners.end(), {at(x, y), at(x + 1, y + 1), at(x, y + 1)});
-  }
-  leaves.corners.insert(leaves.corners.end(), {at(3, 3), at(3, 3), at(4, 3)});  // repeated corner
-  leaves.corners.insert(leaves.corners.end(), {at(5, 5), at(6, 5), at(6, 6)});  // a third triangle on an edge
+  append_scrambled_grid(leaves, kSide, 769u, at, 3, 5);
   leaves.materials.assign(leaves.corners.size() / 3, 0);
   const build_detail::WeldedMesh welded = build_detail::weld_positions(mesh);
   ThreadPool one(1);
@@ -210,14 +218,8 @@ TEST(LeafSurface, NeighbourIsTheFirstOtherTriangleWithTheEdge) {
   auto at = [&](uint32_t x, uint32_t y) { return x == 0 && y == 0 ? copy : grid + y * (kSide + 1) + x; };
   TriangleSet leaves;
   for (uint32_t i = 0; i < kFan; ++i) leaves.corners.insert(leaves.corners.end(), {0u, 1 + i, 1 + (i + 1) % kFan});
-  for (uint32_t k = 0; k < kSide * kSide; ++k) {
-    const uint32_t cell = (k * 7u) % (kSide * kSide), x = cell % kSide, y = cell / kSide;
-    leaves.corners.insert(leaves.corners.end(), {at(x, y), at(x + 1, y), at(x + 1, y + 1)});
-    leaves.corners.insert(leaves.corners.end(), {at(x, y), at(x + 1, y + 1), at(x, y + 1)});
-  }
-  leaves.corners.insert(leaves.corners.end(), {at(2, 2), at(2, 2), at(3, 2)});  // repeated corner
-  leaves.corners.insert(leaves.corners.end(), {at(4, 4), at(5, 4), at(5, 5)});  // a third triangle on an edge
-  leaves.corners.insert(leaves.corners.end(), {0u, 2u, 1u});                    // a fan triangle reversed
+  append_scrambled_grid(leaves, kSide, 7u, at, 2, 4);
+  leaves.corners.insert(leaves.corners.end(), {0u, 2u, 1u});  // a fan triangle reversed
   leaves.materials.assign(leaves.corners.size() / 3, 0);
   const build_detail::WeldedMesh welded = build_detail::weld_positions(mesh);
   ThreadPool one(1);
