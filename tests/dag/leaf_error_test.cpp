@@ -166,6 +166,20 @@ RC_GTEST_PROP(LeafError, ConnectedSheetWithSeamBitIdentical, ()) {
 namespace vgeo::test {
 namespace {
 
+// Two leaf triangles per cell of a side x side grid, the cells in a scrambled order (cell
+// k * step mod side^2, step coprime to side^2), corners at(x, y); then a triangle with a
+// repeated corner at (r, r) and a third triangle on an edge of cell (e, e).
+template <class At>
+void append_scrambled_grid(TriangleSet& leaves, uint32_t side, uint32_t step, At at, uint32_t r, uint32_t e) {
+  for (uint32_t k = 0; k < side * side; ++k) {
+    const uint32_t cell = (k * step) % (side * side), x = cell % side, y = cell / side;
+    leaves.corners.insert(leaves.corners.end(), {at(x, y), at(x + 1, y), at(x + 1, y + 1)});
+    leaves.corners.insert(leaves.corners.end(), {at(x, y), at(x + 1, y + 1), at(x, y + 1)});
+  }
+  leaves.corners.insert(leaves.corners.end(), {at(r, r), at(r, r), at(r + 1, r)});          // repeated corner
+  leaves.corners.insert(leaves.corners.end(), {at(e, e), at(e + 1, e), at(e + 1, e + 1)});  // a third triangle on an edge
+}
+
 // The walk's adjacency (neighbour, vertex_triangle) does not depend on the pool: the counting
 // sort by welded vertex in parallel parts (sort_triangles_by_vertex) lists each vertex's
 // triangles as the one-pass sort does. A grid whose rows repeat their first vertex's position
@@ -180,13 +194,7 @@ TEST(LeafSurface, AdjacencyIsTheSameOnAnyPool) {
   const uint32_t copies = (kSide + 1) * (kSide + 1);
   auto at = [&](uint32_t x, uint32_t y) { return x == 0 && y % 2 ? copies + y : y * (kSide + 1) + x; };
   TriangleSet leaves;
-  for (uint32_t k = 0; k < kSide * kSide; ++k) {
-    const uint32_t cell = (k * 769u) % (kSide * kSide), x = cell % kSide, y = cell / kSide;
-    leaves.corners.insert(leaves.corners.end(), {at(x, y), at(x + 1, y), at(x + 1, y + 1)});
-    leaves.corners.insert(leaves.corners.end(), {at(x, y), at(x + 1, y + 1), at(x, y + 1)});
-  }
-  leaves.corners.insert(leaves.corners.end(), {at(3, 3), at(3, 3), at(4, 3)});  // repeated corner
-  leaves.corners.insert(leaves.corners.end(), {at(5, 5), at(6, 5), at(6, 6)});  // a third triangle on an edge
+  append_scrambled_grid(leaves, kSide, 769u, at, 3, 5);
   leaves.materials.assign(leaves.corners.size() / 3, 0);
   const build_detail::WeldedMesh welded = build_detail::weld_positions(mesh);
   ThreadPool one(1);
@@ -197,6 +205,48 @@ TEST(LeafSurface, AdjacencyIsTheSameOnAnyPool) {
     EXPECT_EQ(pooled.neighbour, serial.neighbour) << threads;
     EXPECT_EQ(pooled.vertex_triangle, serial.vertex_triangle) << threads;
   }
+}
+
+// LeafSurface::neighbour as it is defined: edge j of t (welded corners j, (j + 1) % 3) has as
+// neighbour the first other triangle in id order with both of its ends among its welded
+// corners, kNone if none. Brute force against the builder's per-vertex matching
+// (link_edges_at), on a fan whose centre has more triangles than a match mask holds (40), a
+// grid of 6-triangle vertices, a repeated-corner triangle, a third triangle on an edge and a
+// reversed copy of a triangle.
+TEST(LeafSurface, NeighbourIsTheFirstOtherTriangleWithTheEdge) {
+  constexpr uint32_t kFan = 40, kSide = 6;
+  Mesh mesh;
+  mesh.positions = {0.0f, 0.0f, 1.0f};  // the fan's centre
+  for (uint32_t i = 0; i < kFan; ++i)
+    mesh.positions.insert(mesh.positions.end(), {std::cos(0.15f * float(i)), std::sin(0.15f * float(i)), 1.0f});
+  const uint32_t grid = uint32_t(mesh.positions.size() / 3);
+  for (uint32_t y = 0; y <= kSide; ++y)
+    for (uint32_t x = 0; x <= kSide; ++x) mesh.positions.insert(mesh.positions.end(), {float(x), float(y), 0.0f});
+  mesh.positions.insert(mesh.positions.end(), {0.0f, 0.0f, 0.0f});  // a welded copy of the grid's first vertex
+  const uint32_t copy = uint32_t(mesh.positions.size() / 3) - 1;
+  auto at = [&](uint32_t x, uint32_t y) { return x == 0 && y == 0 ? copy : grid + y * (kSide + 1) + x; };
+  TriangleSet leaves;
+  for (uint32_t i = 0; i < kFan; ++i) leaves.corners.insert(leaves.corners.end(), {0u, 1 + i, 1 + (i + 1) % kFan});
+  append_scrambled_grid(leaves, kSide, 7u, at, 2, 4);
+  leaves.corners.insert(leaves.corners.end(), {0u, 2u, 1u});  // a fan triangle reversed
+  leaves.materials.assign(leaves.corners.size() / 3, 0);
+  const build_detail::WeldedMesh welded = build_detail::weld_positions(mesh);
+  ThreadPool one(1);
+  const build_detail::LeafSurface surface = build_detail::build_leaf_surface(welded, {&leaves}, one);
+  const size_t count = leaves.triangle_count();
+  ASSERT_EQ(surface.neighbour.size(), 3 * count);
+  auto welded_corner = [&](size_t t, int j) { return welded.weld[leaves.corners[3 * t + size_t(j)]]; };
+  auto has = [&](size_t t, uint32_t w) {
+    return welded_corner(t, 0) == w || welded_corner(t, 1) == w || welded_corner(t, 2) == w;
+  };
+  for (size_t t = 0; t < count; ++t)
+    for (int j = 0; j < 3; ++j) {
+      const uint32_t a = welded_corner(t, j), b = welded_corner(t, (j + 1) % 3);
+      uint32_t expected = kNone;
+      for (size_t other = 0; other < count && expected == kNone; ++other)
+        if (other != t && has(other, a) && has(other, b)) expected = uint32_t(other);
+      EXPECT_EQ(surface.neighbour[3 * t + size_t(j)], expected) << "triangle " << t << " edge " << j;
+    }
 }
 
 }  // namespace

@@ -5,11 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <bit>
+#include <charconv>
 #include <cstring>
 #include <string>
 #include <vector>
 
 #include "vgeo/mesh/import.h"
+#include "vgeo/mesh/import_text.h"
 
 namespace {
 
@@ -254,5 +256,47 @@ TEST(ImportReaders, OffByLineRangesGivesTheOneThreadError) {
     const std::string one = code_with_threads(bytes, 1);
     EXPECT_NE(one, "OK");
     EXPECT_EQ(code_with_threads(bytes, 2), one);
+  }
+}
+
+// The short-decimal path of the text readers (read_short_decimal, mesh/import_text.h) gives
+// from_chars' float bit for bit, and ends where it does: 2M random decimals of 1-9 integer and
+// 0-11 fraction digits (leading zeros, signs, both sides of 2^24 and of 10^10), plus edges.
+// Where it declines (nullptr), from_chars reads the token as before.
+TEST(ImportReaders, ShortDecimalsReadAsFromCharsDoes) {
+  uint64_t state = 0x9E3779B97F4A7C15ull;
+  auto next = [&] {
+    state ^= state << 13, state ^= state >> 7, state ^= state << 17;
+    return state;
+  };
+  auto check = [](const std::string& text) {
+    const char* const end = text.data() + text.size();
+    float fast = 0.0f, slow = 0.0f;
+    const char* q = vgeo::detail::read_short_decimal(text.data(), end, fast);
+    if (q == nullptr) return false;
+    const auto r = std::from_chars(text.data(), end, slow);
+    EXPECT_EQ(r.ec, std::errc()) << text;
+    EXPECT_EQ(r.ptr, q) << text;
+    EXPECT_EQ(std::bit_cast<uint32_t>(fast), std::bit_cast<uint32_t>(slow)) << text;
+    return true;
+  };
+  size_t taken = 0;
+  for (int i = 0; i < 2'000'000; ++i) {
+    std::string text = next() % 2 ? "-" : "";
+    const int integer = 1 + int(next() % 9), fraction = int(next() % 12);
+    for (int k = 0; k < integer; ++k) text += char('0' + (k == 0 && next() % 4 ? next() % 2 : next() % 10));
+    if (fraction > 0) text += '.';
+    for (int k = 0; k < fraction; ++k) text += char('0' + next() % 10);
+    taken += check(text);
+  }
+  EXPECT_GT(taken, size_t(500'000));  // the path is taken, not only declined
+  for (const char* text : {"0", "-0", "0.0", "-0.000", "16777215", "16777216", "1.6777215", "0.0000000001",
+                           "-0.0000000001", "0.00000000001", "1677721.5", "9999999", "0.1", "-0.5", "3.4028235"})
+    check(text);
+  for (const char* text : {"", "-", ".5", "-.5", "5.", "1e5", "+1", "1.5e3", "inf", "nan"}) {
+    float v = 7.0f;
+    const char* end = text + std::strlen(text);
+    const char* q = vgeo::detail::read_short_decimal(text, end, v);
+    EXPECT_TRUE(q == nullptr || q < end) << text;  // declined, or stops before what it does not read
   }
 }

@@ -214,13 +214,27 @@ std::vector<uint8_t> read_file(const std::string& path, uint64_t max_bytes) {
   return bytes;
 }
 
+void FileBytesFree::operator()(uint8_t* p) const {
+  if (huge_pages) free_huge_pages(p);
+  else delete[] p;
+}
+
+// Where the read goes (kHugeReadBufferBytes): a read into fresh memory faults in each of its
+// pages inside the kernel's copy, ~12 us per 4 KiB on the virtual machine of
+// docs/acceptance/issue23_write.md, where one 2 MiB huge page costs ~0.3-0.8 ms: from ~64 KiB
+// of file per huge page on, the huge pages are cheaper, and 256 KiB keeps that sure while the
+// rounding up to whole huge pages (at most 2 MiB more, for the import only) stays small next to
+// a mesh of that size's build. A heap buffer only got huge pages where it happened to cover an
+// aligned 2 MiB stretch (bunny00's 2.6 MB file: one in two runs). bunny00 .vgeodag: -2%
+// task-clock (docs/acceptance/issue23_leaf38.md). Smaller files stay in the heap.
 FileBytes read_file_bytes(const std::string& path, uint64_t max_bytes, unsigned threads) {
   FileBytes bytes;
   read_whole(
       path, max_bytes,
       [&](size_t size) {
-        bytes.data.reset(new uint8_t[size]);  // default-initialised: the read fills it
-        advise_huge_pages(bytes.data.get(), size);
+        uint8_t* huge = size >= kHugeReadBufferBytes ? static_cast<uint8_t*>(allocate_huge_pages(size)) : nullptr;
+        if (huge) bytes.data = std::unique_ptr<uint8_t[], FileBytesFree>(huge, FileBytesFree{true});
+        else bytes.data.reset(new uint8_t[size]);  // default-initialised: the read fills it
         bytes.size = size;
         return bytes.data.get();
       },

@@ -40,9 +40,16 @@ inline constexpr uint64_t kAnyFileSize = UINT64_MAX;
 std::vector<uint8_t> read_file(const std::string& path, uint64_t max_bytes = kMaxReadBytes);
 // The same in a buffer that is not zero-filled before the read (mesh inputs of tens of MB, where
 // the fill cost as much as the read itself). `threads` != 1 (0 = all cores): a file of several
-// MiB is read by pieces on that many threads (the same bytes, codes and messages).
+// MiB is read by pieces on that many threads (the same bytes, codes and messages). A file of
+// kHugeReadBufferBytes or more is read into a mapping of its own on transparent huge pages
+// (allocate_huge_pages, core/process_memory.h), returned to the kernel when freed.
+inline constexpr size_t kHugeReadBufferBytes = size_t(256) << 10;
+struct FileBytesFree {
+  bool huge_pages = false;
+  void operator()(uint8_t* p) const;
+};
 struct FileBytes {
-  std::unique_ptr<uint8_t[]> data;
+  std::unique_ptr<uint8_t[], FileBytesFree> data;
   size_t size = 0;
 };
 FileBytes read_file_bytes(const std::string& path, uint64_t max_bytes = kMaxReadBytes, unsigned threads = 1);

@@ -23,6 +23,7 @@
 // A measurement without a record or peak walks every point first and asks the tree for the
 // largest walk bound first (deviation_squared; docs/acceptance/issue23_walk38.md).
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -143,12 +144,47 @@ void sort_triangles_by_vertex(const std::vector<uint32_t>& weld, const std::vect
   });
 }
 
+// Lists of at most this many triangles (a welded vertex's; 6 on a regular mesh) find their
+// edges' neighbours by a match mask, one bit per entry: a uint32_t holds it.
+constexpr uint32_t kMaskedListLength = 32;
+
+// LeafSurface::neighbour of the edges that start at welded vertex u: edge j of triangle
+// list[i] starts at u when its corner j is welded to u, and its neighbour is the first other
+// entry of u's list (ascending ids) that has the edge's second vertex. u's triangles' welded
+// corners are read once into `corners` (3 per list entry) and every edge is matched against
+// them. A list within kMaskedListLength entries gets, per edge, the mask of all entries that
+// match (no early exit, no branch per entry: where the match falls is unpredictable), and
+// takes its lowest bit; a triangle with two corners at u is in the list twice, and neither copy
+// is "other".
+void link_edges_at(uint32_t u, const uint32_t* list, uint32_t count, const std::vector<uint32_t>& weld,
+                   const std::vector<uint32_t>& ids, std::vector<uint32_t>& corners, uint32_t* neighbour) {
+  corners.resize(3 * size_t(count));
+  for (uint32_t i = 0; i < count; ++i)
+    for (int j = 0; j < 3; ++j) corners[3 * i + j] = weld[ids[3 * size_t(list[i]) + j]];
+  for (uint32_t i = 0; i < count; ++i)
+    for (int j = 0; j < 3; ++j) {
+      if (corners[3 * i + j] != u) continue;
+      const uint32_t w = corners[3 * i + (j + 1) % 3];
+      uint32_t found = kNone;
+      if (count <= kMaskedListLength) {
+        uint32_t matches = 0;
+        for (uint32_t k = 0; k < count; ++k) {
+          const bool has_w = (corners[3 * k] == w) | (corners[3 * k + 1] == w) | (corners[3 * k + 2] == w);
+          matches |= uint32_t(has_w & (list[k] != list[i])) << k;
+        }
+        if (matches != 0) found = list[std::countr_zero(matches)];
+      } else {
+        for (uint32_t k = 0; k < count && found == kNone; ++k)
+          if (list[k] != list[i] && (corners[3 * k] == w || corners[3 * k + 1] == w || corners[3 * k + 2] == w)) found = list[k];
+      }
+      neighbour[3 * size_t(list[i]) + j] = found;
+    }
+}
+
 // The walk's adjacency (LeafSurface::neighbour, vertex_triangle) from the leaf triangles'
 // corners (`ids`, 3 per triangle id), by welded id: triangles by welded vertex
 // (sort_triangles_by_vertex), then for each edge the first other triangle of its
-// first vertex's list that has its second vertex. Vertex by vertex: a vertex's triangles'
-// welded corners are read once into a small table and every edge starting at the vertex is
-// matched against it (instead of three welded lookups per candidate and edge).
+// first vertex's list that has its second vertex, vertex by vertex (link_edges_at).
 // With `normals`, also LeafSurface::normal: per welded vertex the area-weighted normal of its
 // triangles (ascending ids: the same sum on any thread count), 0 where some triangle with an
 // area faces more than the crease angle away from it (or none has an area).
@@ -174,20 +210,7 @@ void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector
       const uint32_t count = first[u + 1] - first[u];
       if (count == 0) continue;  // not a welded id, or no leaf triangle has it
       if (normals) vertex_normal(positions, ids, list, count, face, &s.normal[3 * u]);
-      corners.resize(3 * size_t(count));
-      for (uint32_t i = 0; i < count; ++i)
-        for (int j = 0; j < 3; ++j) corners[3 * i + j] = weld[ids[3 * size_t(list[i]) + j]];
-      // Edge j of list[i] starts at u when its corner j is u; its neighbour is the first other
-      // entry (ascending ids) with the edge's second vertex.
-      for (uint32_t i = 0; i < count; ++i)
-        for (int j = 0; j < 3; ++j) {
-          if (corners[3 * i + j] != u) continue;
-          const uint32_t w = corners[3 * i + (j + 1) % 3];
-          uint32_t found = kNone;
-          for (uint32_t k = 0; k < count && found == kNone; ++k)
-            if (list[k] != list[i] && (corners[3 * k] == w || corners[3 * k + 1] == w || corners[3 * k + 2] == w)) found = list[k];
-          s.neighbour[3 * size_t(list[i]) + j] = found;
-        }
+      link_edges_at(uint32_t(u), list, count, weld, ids, corners, s.neighbour.data());
     }
   });
   s.vertex_triangle.resize(welded.weld.size());

@@ -109,6 +109,10 @@ bool read_plain_number_line(TextCursor& in, float* values, size_t count) {
   for (size_t k = 0; k < count; ++k) {
     p = skip_line_blanks(p, end);
     if (p >= end || *p == '+') return false;  // parse_number's sign rules: the token path
+    if (const char* q = read_short_decimal(p, end, values[k]); q != nullptr && ends_token(q, end)) {
+      p = q;
+      continue;
+    }
     const auto r = std::from_chars(p, end, values[k]);
     if (r.ec != std::errc() || !ends_token(r.ptr, end)) return false;
     p = r.ptr;

@@ -73,6 +73,9 @@ struct TextCursor {
   }
 };
 
+// Unsigned decimal tokens this long or shorter cannot overflow int64_t (10^18 - 1 < 2^63).
+inline constexpr size_t kDigitLoopMaxDigits = 18;
+
 // Whole-token numbers: "1", "+2.", "-3e4", "inf" (non-finite values are caught later by the
 // shared validation with their own codes). A token with anything after the number is refused.
 template <typename T>
@@ -82,11 +85,55 @@ bool parse_number(std::string_view t, T& out) {
   const auto r = std::from_chars(t.data(), t.data() + t.size(), out);
   return r.ec == std::errc() && r.ptr == t.data() + t.size();
 }
-inline bool parse_float(std::string_view t, float& out) { return parse_number(t, out); }
+
+// Short decimals "[-]digits[.digits]" read without from_chars (Clinger's fast path, in float):
+// a significand below 2^24 and a power of ten up to 10^10 (5^10 < 2^24) are both exact in
+// float, so the one IEEE division m / 10^k is the correctly rounded value of the decimal,
+// which is from_chars' value, bit for bit. Mesh files mostly write 6-7 significant digits
+// (bunny00, armadillo); from_chars' generic scan (infinities, exponents, long significands)
+// was ~1% of a small mesh's build. Anything else is from_chars' to read.
+inline constexpr uint32_t kExactFloatSignificandLimit = uint32_t(1) << 24;
+inline constexpr float kExactFloatPowersOfTen[] = {1e0f, 1e1f, 1e2f, 1e3f, 1e4f, 1e5f,
+                                                   1e6f, 1e7f, 1e8f, 1e9f, 1e10f};
+inline constexpr int kMaxExactFloatPowerOfTen = 10;
+
+// The short decimal at p into `out` and the end of its characters; nullptr (`out` untouched)
+// where p does not start one (from_chars decides those). The caller checks what follows.
+inline const char* read_short_decimal(const char* p, const char* end, float& out) {
+  const bool negative = p < end && *p == '-';
+  if (negative) ++p;
+  uint64_t m = 0;
+  size_t digits = 0;
+  auto read_digits = [&] {
+    for (unsigned d; p < end && (d = unsigned(uint8_t(*p)) - unsigned('0')) <= 9; ++p, ++digits) m = m * 10 + d;
+  };
+  const char* const integer = p;
+  read_digits();
+  if (p == integer) return nullptr;
+  int fraction = 0;
+  if (p < end && *p == '.') {
+    const char* const first = ++p;
+    read_digits();
+    fraction = int(p - first);
+    if (fraction == 0) return nullptr;
+  }
+  // (kDigitLoopMaxDigits keeps m from wrapping before it is compared.)
+  if (digits > kDigitLoopMaxDigits || m >= kExactFloatSignificandLimit || fraction > kMaxExactFloatPowerOfTen)
+    return nullptr;
+  const float value = float(m) / kExactFloatPowersOfTen[fraction];
+  out = negative ? -value : value;
+  return p;
+}
+inline bool parse_float(std::string_view t, float& out) {
+  const char* const end = t.data() + t.size();
+  if (float v = 0.0f; read_short_decimal(t.data(), end, v) == end) {
+    out = v;
+    return true;
+  }
+  return parse_number(t, out);
+}
 inline bool parse_double(std::string_view t, double& out) { return parse_number(t, out); }
 
-// Unsigned decimal tokens this long or shorter cannot overflow int64_t (10^18 - 1 < 2^63).
-inline constexpr size_t kDigitLoopMaxDigits = 18;
 
 // The digits of `t` as a number when `t` is 1..kDigitLoopMaxDigits decimal digits and nothing
 // else (every count and index a mesh file holds); false, `out` untouched, otherwise. The same
