@@ -12,7 +12,10 @@
 
 #include "vgeo/core/surface_distance.h"
 #include "vgeo/core/thread_pool.h"
+#include "support/shapes.h"
+#include "vgeo/dag/build.h"
 #include "vgeo/dag/build_internal.h"
+#include "vgeo/dag/dag_io.h"
 
 namespace vgeo::test {
 namespace {
@@ -35,7 +38,9 @@ uint32_t bits(float f) {
 
 // `in_order`: with a peak and a record, which make the measurement search every point in
 // visiting order; without them it defers its tree searches (deviation_squared: every point's
-// walk first, then the largest walk bound's exact nearest). Both must give the same value.
+// walk first, then the largest walk bound's exact nearest), and with more than one thread it
+// is cut into pieces measured on the pool (decided_deviation_squared). All must give the same
+// value.
 float leaf_deviation_of(const Mesh& mesh, const TriangleSet& leaves, const TriangleSet& input,
                         const TriangleSet& simplified, float floor, unsigned threads, bool in_order = false) {
   ThreadPool pool(threads);
@@ -44,7 +49,8 @@ float leaf_deviation_of(const Mesh& mesh, const TriangleSet& leaves, const Trian
   build_detail::LatticePeak peak;
   build_detail::LatticeRecord record;
   return in_order ? build_detail::leaf_deviation(surface, mesh, input, simplified, floor, &peak, &record)
-                  : build_detail::leaf_deviation(surface, mesh, input, simplified, floor);
+                  : build_detail::leaf_deviation(surface, mesh, input, simplified, floor, nullptr, nullptr, nullptr,
+                                                 threads > 1 ? &pool : nullptr);
 }
 
 // Triangles over vertices drawn from `from` (corners of leaf triangles: both backends only
@@ -156,8 +162,32 @@ RC_GTEST_PROP(LeafError, ConnectedSheetWithSeamBitIdentical, ()) {
   const TriangleSet simplified = random_triangles(uint32_t(mesh.vertex_count()), &leaves, 1, 60);
   const float reference = build_detail::round_up_to_float(reference_distance(mesh, leaves, simplified));
   const float floor = *rc::gen::element(0.0f, reference * 0.5f, reference, reference * 2.0f);
-  const unsigned threads = *rc::gen::inRange(1u, 3u);
+  const unsigned threads = *rc::gen::inRange(1u, 4u);
   RC_ASSERT(bits(leaf_deviation_of(mesh, leaves, leaves, simplified, floor, threads)) == bits(std::max(floor, reference)));
+}
+
+// A mesh's last levels hold fewer groups than threads; their groups run one after another,
+// each measuring its error in pieces on the whole pool (run_lone_block, leaf_deviation's
+// `pool`): the bytes must be the one-thread build's, with edge flips (their re-measurement
+// of the flipped triangles runs in pieces) and with vertex placement (moved corners).
+TEST(LeafError, LoneGroupLevelsMeasuredOnThePoolKeepTheBytes) {
+  const Mesh m = generated_mesh(GenShape::kSphere, 40000);
+  for (bool placement : {false, true}) {
+    BuildOptions o;
+    o.vertex_placement = placement;
+    BuiltScene one, more;
+    o.threads = 1;
+    one.meshes.push_back(build_dag(m, o));
+    for (unsigned threads : {2u, 3u}) {
+      o.threads = threads;
+      BuildReport r;
+      more.meshes.assign(1, build_dag(m, o, &r));
+      size_t lone = 0;  // simplified levels with fewer groups than threads
+      for (size_t l = 0; l + 1 < r.levels.size(); ++l) lone += r.levels[l].groups < threads;
+      EXPECT_GE(lone, 3u) << "levels that take the lone path";
+      EXPECT_EQ(encode_dag_file(one), encode_dag_file(more)) << threads << " threads, placement " << placement;
+    }
+  }
 }
 
 }  // namespace

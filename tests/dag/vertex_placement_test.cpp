@@ -242,6 +242,7 @@ TEST(VertexPlacement, FlipsOnThePlacedSurfaceMeasureAsTheWholeSurfaceDoes) {
   // them) and many (the maximum falls below skipped places' bounds).
   const double kFarShare = 8 * kPlacementShare;
   size_t corner_peaks = 0;
+  ThreadPool pool(3);  // the measurements without a record also in pieces on a pool: the same value
   for (const double share : {kPlacementShare, kFarShare})
     for (const uint32_t stride : {3u, 41u}) {  // triangles between the pairs flipped
       const VertexMoves moves = s.place(share);
@@ -289,6 +290,7 @@ TEST(VertexPlacement, FlipsOnThePlacedSurfaceMeasureAsTheWholeSurfaceDoes) {
         LatticeRecord record;
         const float error = leaf_deviation(s.leaves, m, s.tris, placed, floor, &peak, &record, &fresh);
         EXPECT_EQ(error, leaf_deviation(s.leaves, m, s.tris, placed, floor, nullptr, nullptr, &fresh)) << floor;
+        EXPECT_EQ(error, leaf_deviation(s.leaves, m, s.tris, placed, floor, nullptr, nullptr, &fresh, &pool)) << floor;
         // Every moved corner is recorded (visited, or skipped at its bound) at or above its distance.
         ASSERT_EQ(record.fresh.size(), moves.vertex.size());
         for (size_t i = 0; i < moves.vertex.size(); ++i) {
@@ -297,9 +299,12 @@ TEST(VertexPlacement, FlipsOnThePlacedSurfaceMeasureAsTheWholeSurfaceDoes) {
           EXPECT_GE(record.fresh[i].d2, s.leaves.tree.nearest_distance_squared(DVec3{p[0], p[1], p[2]}, &hint)) << i;
         }
         corner_peaks += peak.corner;
-        EXPECT_EQ(leaf_deviation_after_change(s.leaves, m, s.tris, flipped, changed, record, floor, &fresh),
-                  leaf_deviation(s.leaves, m, s.tris, flipped, floor, nullptr, nullptr, &fresh))
+        const float whole_flipped = leaf_deviation(s.leaves, m, s.tris, flipped, floor, nullptr, nullptr, &fresh);
+        EXPECT_EQ(leaf_deviation_after_change(s.leaves, m, s.tris, flipped, changed, record, floor, &fresh), whole_flipped)
             << "share " << share << " stride " << stride << " floor " << floor;
+        EXPECT_EQ(leaf_deviation_after_change(s.leaves, m, s.tris, flipped, changed, record, floor, &fresh, &pool),
+                  whole_flipped)
+            << "share " << share << " stride " << stride << " floor " << floor << " on a pool";
       }
     }
   EXPECT_GT(corner_peaks, 0u) << "a moved corner is the farthest point";

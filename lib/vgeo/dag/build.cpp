@@ -992,18 +992,21 @@ bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, c
 // flipped surface's error is measured from the changed triangles and the record of the
 // others (leaf_deviation_after_change: the same value a full measurement gives), and the
 // flips are kept when it is lower. Either way the stored error is the measured one of the
-// triangles kept: stored ≥ measured exactly.
-float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, float floor, TriangleSet& triangles) {
+// triangles kept: stored ≥ measured exactly. `pool` (null: none): the measurements without a
+// peak or record run on it (leaf_deviation).
+float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, float floor, TriangleSet& triangles,
+                              ThreadPool* pool) {
   // The first simplification of the leaves (floor 0) is never flipped (flip_edges_towards_leaves):
   // no peak or record to keep (half the groups).
-  if (!(floor > 0)) return leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor);
+  if (!(floor > 0)) return leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, nullptr, nullptr, nullptr, pool);
   LatticePeak peak;
   LatticeRecord record;
   const float error = leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, &peak, &record);
   std::vector<uint8_t> changed;
   TriangleSet flipped = triangles;
   if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed)) return error;
-  const float flipped_error = leaf_deviation_after_change(s.leaf_surface, *s.positions, input, flipped, changed, record, floor);
+  const float flipped_error =
+      leaf_deviation_after_change(s.leaf_surface, *s.positions, input, flipped, changed, record, floor, nullptr, pool);
   if (!(flipped_error < error)) return error;
   triangles = std::move(flipped);
   return flipped_error;
@@ -1014,9 +1017,11 @@ float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, flo
 // order of their final ids, combine_level's, so the lattice points are those of the final ids).
 // With `flips`, edges are then flipped on the placed surface as measure_with_edge_flips does on
 // the collapsed one, from the one measurement of the placed surface (its peak and record), and
-// kept where they lower its error; `triangles` gets the flips kept (old ids).
+// kept where they lower its error; `triangles` gets the flips kept (old ids). `pool`: as
+// measure_with_edge_flips'.
 float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet& input, float floor,
-                     TriangleSet& triangles, bool flips, std::vector<uint32_t>& scratch, VertexMoves& moves) {
+                     TriangleSet& triangles, bool flips, std::vector<uint32_t>& scratch, VertexMoves& moves,
+                     ThreadPool* pool) {
   PlacementContext ctx;
   ctx.welded = &s.welded;
   ctx.mesh = s.positions;
@@ -1028,8 +1033,8 @@ float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet
   ctx.share = s.internal.placement_share;
   moves = place_vertices(ctx, triangles, scratch);
   if (moves.vertex.empty())
-    return flips ? measure_with_edge_flips(s, input, floor, triangles)
-                 : leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor);
+    return flips ? measure_with_edge_flips(s, input, floor, triangles, pool)
+                 : leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, nullptr, nullptr, nullptr, pool);
   TriangleSet renamed = triangles;
   rename_moved(moves, L.first_fresh, scratch, renamed.corners);
   std::vector<uint32_t> origin(moves.vertex.size());
@@ -1038,7 +1043,7 @@ float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet
                             moves.vertex.data()};
   // No flips at floor 0, as measure_with_edge_flips.
   if (!flips || !(floor > 0))
-    return leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, nullptr, nullptr, &fresh);
+    return leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, nullptr, nullptr, &fresh, pool);
   LatticePeak peak;
   LatticeRecord record;
   const float error = leaf_deviation(s.leaf_surface, *s.positions, input, renamed, floor, &peak, &record, &fresh);
@@ -1048,7 +1053,7 @@ float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet
   if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed, &fresh))
     return error;
   const float flipped_error =
-      leaf_deviation_after_change(s.leaf_surface, *s.positions, input, flipped, changed, record, floor, &fresh);
+      leaf_deviation_after_change(s.leaf_surface, *s.positions, input, flipped, changed, record, floor, &fresh, pool);
   if (!(flipped_error < error)) return error;
   for (size_t k = 0; k < flipped.corners.size(); ++k) {
     const uint32_t v = flipped.corners[k];
@@ -1057,7 +1062,9 @@ float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet
   return flipped_error;
 }
 
-void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
+// `measure_pool` (null: none): a pool whose threads are idle while this group runs (it runs
+// alone: run_lone_block), on which its error measurements run in pieces.
+void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g, ThreadPool* measure_pool) {
   const Block& blk = L.blocks[b];
   GroupResult& r = L.blocks[b].results[g];
   const double ts = steady_seconds();
@@ -1104,11 +1111,13 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
   // error is a floor (the parent's error takes the max with it anyway).
   // With placement the vertices are placed first, then the flips chosen on the placed surface.
   if (sealed && s.placement)
-    error = measure_placed(s, L, merged, max_member_error, simplified.triangles, s.options.edge_flips, scratch, r.moves);
+    error = measure_placed(s, L, merged, max_member_error, simplified.triangles, s.options.edge_flips, scratch, r.moves,
+                           measure_pool);
   else if (sealed && s.options.edge_flips)
-    error = measure_with_edge_flips(s, merged, max_member_error, simplified.triangles);
+    error = measure_with_edge_flips(s, merged, max_member_error, simplified.triangles, measure_pool);
   else if (sealed)
-    error = leaf_deviation(s.leaf_surface, *s.positions, merged, simplified.triangles, max_member_error);
+    error = leaf_deviation(s.leaf_surface, *s.positions, merged, simplified.triangles, max_member_error, nullptr,
+                           nullptr, nullptr, measure_pool);
   seconds_error += steady_seconds() - tv0;
   // A candidate simplification of the group (simplify_sealed with `other`) replaces the kept
   // one when its product of measured error and triangles is smaller (on a surface the error
@@ -1128,10 +1137,12 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
     tv0 = steady_seconds();
     VertexMoves moves;
     const float alternative_error =
-        s.placement ? measure_placed(s, L, merged, max_member_error, alternative.triangles, false, scratch, moves)
+        s.placement
+            ? measure_placed(s, L, merged, max_member_error, alternative.triangles, false, scratch, moves, measure_pool)
         : s.options.edge_flips
-            ? measure_with_edge_flips(s, merged, max_member_error, alternative.triangles)
-            : leaf_deviation(s.leaf_surface, *s.positions, merged, alternative.triangles, max_member_error);
+            ? measure_with_edge_flips(s, merged, max_member_error, alternative.triangles, measure_pool)
+            : leaf_deviation(s.leaf_surface, *s.positions, merged, alternative.triangles, max_member_error, nullptr,
+                             nullptr, nullptr, measure_pool);
     seconds_error += steady_seconds() - tv0;
     if (double(alternative_error) * double(alternative.triangles.triangle_count()) <
         double(error) * double(simplified.triangles.triangle_count()))
@@ -1205,9 +1216,17 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g) {
 // ---- 3e. the level scheduler: one pipelined parallel region per level ----
 // A level of one block (every level but the first few of a large mesh: kGroupBlockClusters):
 // its grouping runs on one thread, its locks and shared edges on the pool, then its groups.
+// With fewer groups than threads (a mesh's last levels: one group each) the groups run one
+// after another, each measuring its error on the whole pool (simplify_one_group's
+// measure_pool): a group task would leave the other threads idle (docs/acceptance/issue23_lone39.md).
 void run_lone_block(BuildState& s, LevelState& L) {
   group_and_lock_block(s, L, 0, &s.pool);
-  s.pool.parallel_for(L.blocks[0].groups.size(), [&](size_t g) { simplify_one_group(s, L, 0, g); });
+  const size_t groups = L.blocks[0].groups.size();
+  if (s.pool.size() > 1 && groups < s.pool.size()) {
+    for (size_t g = 0; g < groups; ++g) simplify_one_group(s, L, 0, g, &s.pool);
+    return;
+  }
+  s.pool.parallel_for(groups, [&](size_t g) { simplify_one_group(s, L, 0, g, nullptr); });
 }
 
 // Several blocks: a block task whenever no block task runs or no group task is ready,
@@ -1249,7 +1268,7 @@ void run_level(BuildState& s, LevelState& L) {
         ready.pop_back();
         lock.unlock();
         try {
-          simplify_one_group(s, L, b, g);
+          simplify_one_group(s, L, b, g, nullptr);
         } catch (...) {
           std::lock_guard<std::mutex> guard(queue_mutex);
           if (!first_error) first_error = std::current_exception();

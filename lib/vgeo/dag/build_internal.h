@@ -410,18 +410,22 @@ struct LatticeRecord {
 };
 // `fresh`: corners with ids from fresh->first on are moved vertices (not leaf vertices: their
 // points are measured, corners included; their edges are no edge of the input).
+// `pool`: a measurement without a peak or record is cut into pieces measured on it (the same
+// value, bit for bit); not to be called from a task of that pool (no nested parallel_for).
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
                      float floor, LatticePeak* peak = nullptr, LatticeRecord* record = nullptr,
-                     const FreshVertices* fresh = nullptr);
+                     const FreshVertices* fresh = nullptr, ThreadPool* pool = nullptr);
 // leaf_deviation(leaves, mesh, input, changed_surface, floor), bit for bit, where
 // `changed_surface` is a surface leaf_deviation measured with `record`, with the triangles
 // marked in `changed` replaced (same count; an edge of a replaced triangle that is still used
 // is used by a replaced one): only the replaced triangles' points are visited, and the
 // others' recorded bounds decide which of them need a search.
-// `fresh`: as leaf_deviation's, the same as the measurement that recorded `record`.
+// `fresh`: as leaf_deviation's, the same as the measurement that recorded `record`. `pool`: as
+// leaf_deviation's (the replaced triangles' points are measured on it).
 float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input,
                                   const TriangleSet& changed_surface, const std::vector<uint8_t>& changed,
-                                  const LatticeRecord& record, float floor, const FreshVertices* fresh = nullptr);
+                                  const LatticeRecord& record, float floor, const FreshVertices* fresh = nullptr,
+                                  ThreadPool* pool = nullptr);
 // Flips edges inside a simplified group where the other diagonal lies clearly closer to the
 // leaves; never an edge with both ends locked, never onto an existing edge (edge_flip.cpp).
 // Only flips that can lower the group's measured error are wanted (spec/dag.md §3, edge

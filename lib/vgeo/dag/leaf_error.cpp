@@ -23,6 +23,7 @@
 // A measurement without a record or peak walks every point first and asks the tree for the
 // largest walk bound first (deviation_squared; docs/acceptance/issue23_walk38.md).
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <limits>
@@ -37,8 +38,23 @@ namespace {
 
 // Empty slot of the edge set (no edge has both ends ~0u: vertex ids are < 2^32 - 1).
 constexpr uint64_t kNoEdge = ~uint64_t(0);
-// Vertices (or triangles) per chunk of the parallel adjacency passes (a few ns each: large chunks).
+// Vertices per chunk of the parallel adjacency passes (a few ns each: large chunks), at most.
 constexpr size_t kAdjacencyChunk = size_t(1) << 16;
+// A mesh under kAdjacencyChunk welded vertices (bunny00 ~35k, armadillo ~26k) was one chunk:
+// one thread linked it while the others waited. On a pool the chunks are cut smaller, so each
+// thread gets kAdjacencyChunksPerThread of them (uneven lists balance), but not below
+// kMinAdjacencyChunk vertices (~50 ns each to link: a chunk stays far above a pool round).
+constexpr size_t kAdjacencyChunksPerThread = 4;
+constexpr size_t kMinAdjacencyChunk = size_t(1) << 12;
+
+// The chunk of the adjacency passes over `vertices` welded ids on `pool` (the chunks change
+// who computes what, not the result: each vertex's lists and links are its own, and the
+// prefix sums add the chunks' totals in chunk order).
+size_t adjacency_chunk(size_t vertices, const ThreadPool& pool) {
+  if (pool.size() <= 1) return kAdjacencyChunk;
+  const size_t even = (vertices + kAdjacencyChunksPerThread * pool.size() - 1) / (kAdjacencyChunksPerThread * pool.size());
+  return std::clamp(even, kMinAdjacencyChunk, kAdjacencyChunk);
+}
 // Triangles a walk visits before the tree takes over. A walk's length is the point's
 // distance from its start in leaf triangles, which grows with the level; on the 1M sphere a
 // limit of 8 stopped 4.4% of the walks (each then a tree search, over 10× a walk), 64 stopped
@@ -116,17 +132,18 @@ void sort_triangles_by_vertex(const std::vector<uint32_t>& weld, const std::vect
   });
   // Starts: an exclusive prefix sum over (vertex, part), by chunks of vertices (their totals
   // first, then each chunk from its start).
-  const size_t chunks = (vertices + kAdjacencyChunk - 1) / kAdjacencyChunk;
+  const size_t chunk = adjacency_chunk(vertices, pool);
+  const size_t chunks = (vertices + chunk - 1) / chunk;
   std::vector<uint32_t> chunk_start(chunks + 1, 0);
-  for_chunks(&pool, vertices, kAdjacencyChunk, [&](size_t begin, size_t end) {
+  for_chunks(&pool, vertices, chunk, [&](size_t begin, size_t end) {
     uint32_t total = 0;
     for (size_t w = begin; w < end; ++w)
       for (size_t p = 0; p < parts; ++p) total += next[p][w];
-    chunk_start[begin / kAdjacencyChunk + 1] = total;
+    chunk_start[begin / chunk + 1] = total;
   });
   for (size_t c = 0; c < chunks; ++c) chunk_start[c + 1] += chunk_start[c];
-  for_chunks(&pool, vertices, kAdjacencyChunk, [&](size_t begin, size_t end) {
-    uint32_t at = chunk_start[begin / kAdjacencyChunk];
+  for_chunks(&pool, vertices, chunk, [&](size_t begin, size_t end) {
+    uint32_t at = chunk_start[begin / chunk];
     for (size_t w = begin; w < end; ++w) {
       first[w] = at;
       for (size_t p = 0; p < parts; ++p) {
@@ -202,7 +219,8 @@ void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector
   s.neighbour.resize(ids.size());
   if (normals) s.normal.assign(3 * vertices, 0.0f);
   const float* positions = welded.mesh->positions.data();
-  for_chunks(&pool, vertices, kAdjacencyChunk, [&](size_t begin, size_t end) {
+  const size_t chunk = adjacency_chunk(vertices, pool);
+  for_chunks(&pool, vertices, chunk, [&](size_t begin, size_t end) {
     std::vector<uint32_t> corners;  // welded corners of the vertex's triangles, 3 per list entry
     std::vector<DVec3> face;        // their area vectors (normals only)
     for (size_t u = begin; u < end; ++u) {
@@ -214,7 +232,7 @@ void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector
     }
   });
   s.vertex_triangle.resize(welded.weld.size());
-  for_chunks(&pool, vertices, kAdjacencyChunk, [&](size_t begin, size_t end) {
+  for_chunks(&pool, vertices, chunk, [&](size_t begin, size_t end) {
     for (size_t v = begin; v < end; ++v) {
       const uint32_t w = weld[v];
       s.vertex_triangle[v] = first[w] < first[w + 1] ? triangles[first[w]] : kNone;
@@ -253,6 +271,14 @@ struct DeferredPoint {
 // points), and later points enter only beyond it. 256 keeps the batch (10 KB) on the stack:
 // a buffer of all of a group's points cost armadillo 0.4 MB of peak memory.
 constexpr size_t kDeferredBatch = 256;
+
+// A decision-only measurement on a pool (decided_deviation_squared) is cut into this many
+// pieces per thread, each of at least this many triangles: a piece's cost varies (a coarse
+// level's points mostly need tree searches, some many), so more pieces than threads balance
+// them; a piece re-marks the edges of the triangles before it (a hash insert each) and a
+// pool round costs some microseconds, small against a top level's ~25 us per triangle.
+constexpr size_t kMeasurePiecesPerThread = 4;
+constexpr size_t kMinMeasurePieceTriangles = 16;
 
 }  // namespace
 
@@ -333,11 +359,33 @@ void for_each_place_point(const VertexSource& mesh_vertex, const uint32_t* tri, 
     }
 }
 
+// The triangles [begin, end) of a simplified set: one piece of a measurement.
+struct TriangleRange {
+  size_t begin = 0, end = 0;
+};
+
+// The running maximum of the pieces of one decision-only measurement measured in parallel
+// (decided_deviation_squared): each piece's points skip what cannot raise it, whichever piece
+// found it. Only exact nearest distances enter it, so every value it holds is one the whole
+// measurement reaches.
+struct SharedMaximum {
+  std::atomic<double> d2{0.0};
+  double load() const { return d2.load(std::memory_order_relaxed); }
+  void raise(double v) {
+    double now = load();
+    while (v > now && !d2.compare_exchange_weak(now, v, std::memory_order_relaxed)) {
+    }
+  }
+};
+
 // leaf_deviation's search (below) before the rounding: the largest squared distance of the
 // points beyond floor_d2, or 0 when none lies beyond it. `record` (optional) gets every point
-// visited.
+// visited. Only the points of the triangles in `range` are visited, as the whole set's
+// measurement visits them (the edges of the triangles before it count as visited); with
+// `shared` (decision-only: no peak, no record) the running maximum is also the other pieces'.
 double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, const TriangleSet& input,
-                         const TriangleSet& simplified, double floor_d2, LatticePeak* peak, LatticeRecord* record) {
+                         const TriangleSet& simplified, double floor_d2, LatticePeak* peak, LatticeRecord* record,
+                         TriangleRange range, SharedMaximum* shared = nullptr) {
   // Edges (by original vertex ids, smaller first: the lattice points depend on both) whose
   // points need no visit: edges of the input when the input is itself simplified (floor > 0)
   // — the same points were measured for the members, within their stored error ≤ floor —
@@ -370,6 +418,12 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
       for (int j = 0; j < 3; ++j) insert_edge(input.corners[3 * t + j], input.corners[3 * t + (j + 1) % 3]);
 
   double best2 = 0.0;
+  // The running threshold: a point within it cannot raise the maximum.
+  auto running = [&]() { return std::max({best2, floor_d2, shared ? shared->load() : 0.0}); };
+  auto raise = [&](double d2) {
+    best2 = d2;
+    if (shared) shared->raise(d2);
+  };
   // A point's search starts from `at`: a leaf triangle at its simplified triangle's first
   // corner (every corner is a leaf vertex), then the triangle where the previous point's
   // search ended (the points of a triangle are visited in a tour around it), or a leaf
@@ -386,7 +440,7 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     const double bound = (floor_distance + displacement) * (1.0 + kDisplacedBoundMargin) + kDisplacedBoundMargin * scale;
     return bound * bound;
   };
-  auto cannot_raise = [&](double bound2) { return bound2 <= std::max(best2, floor_d2); };
+  auto cannot_raise = [&](double bound2) { return bound2 <= running(); };
   // The record's entry for the points being visited: a moved corner's own, else its place's.
   auto record_place = [&]() -> LatticeRecord::Place& {
     return here.corner ? record->fresh[size_t(here.place)] : record->places[4 * size_t(here.triangle) + size_t(here.place)];
@@ -396,13 +450,13 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     if (d2 > r.d2) r.d2 = d2, r.leaf = leaf;
   };
   auto visit = [&](DVec3 p) {
-    const double threshold = std::max(best2, floor_d2);
+    const double threshold = running();
     double d2;
     if (at == kNone || !walk_within(leaves, p, threshold, &at, &d2)) {
       // One tree search: "within" or, when not, the nearest distance.
       d2 = leaves.tree.nearest_or_within_squared(p, threshold, &at);
       if (d2 > threshold) {
-        best2 = d2;
+        raise(d2);
         if (peak) *peak = here;
       }
     }
@@ -423,9 +477,9 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   auto resolve_deferred = [&]() {
     if (deferred_count == 0) return;
     auto search = [&](DeferredPoint& d) {  // as `visit`'s search: best2 rises to d's nearest beyond the threshold
-      const double threshold = std::max(best2, floor_d2);
+      const double threshold = running();
       const double d2 = leaves.tree.nearest_or_within_squared(d.p, threshold, &d.at);
-      if (d2 > threshold) best2 = d2;
+      if (d2 > threshold) raise(d2);
     };
     size_t largest = 0;
     for (size_t i = 1; i < deferred_count; ++i)
@@ -433,7 +487,7 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     search(deferred[largest]);
     deferred[largest].bound = 0;  // searched
     for (size_t i = 0; i < deferred_count; ++i)
-      if (deferred[i].bound > std::max(best2, floor_d2)) search(deferred[i]);
+      if (deferred[i].bound > running()) search(deferred[i]);
     deferred_count = 0;
   };
   auto defer = [&](DVec3 p) {
@@ -446,7 +500,7 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     } else {
       bound = leaves.tree.nearest_distance_squared(p, &at);  // no walk start: the exact distance
     }
-    if (!(bound > std::max(best2, floor_d2))) return;  // within the maximum: it cannot raise it
+    if (!(bound > running())) return;  // within the maximum: it cannot raise it
     if (deferred_count == kDeferredBatch) resolve_deferred();
     deferred[deferred_count++] = {p, bound, at};
   };
@@ -480,7 +534,14 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
     if (d < 0) d = mesh.displacement(v);
     return d;
   };
-  for (size_t t = 0; t < simplified.triangle_count(); ++t) {
+  for (size_t t = 0; t < range.begin; ++t) {  // (as the loop below marks them)
+    const uint32_t* tri = &simplified.corners[3 * t];
+    for (int j = 0; j < 3; ++j) {
+      if (mesh.is_fresh(tri[j])) first_corner_use(tri[j]);
+      insert_edge(tri[j], tri[(j + 1) % 3]);
+    }
+  }
+  for (size_t t = range.begin; t < range.end; ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
     at = mesh.start_triangle(tri[0]);
     here.triangle = uint32_t(t);
@@ -545,21 +606,49 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   return best2;
 }
 
+// A decision-only measurement (no peak, no record) with `pool`: the triangles cut into
+// consecutive pieces (kMeasurePiecesPerThread per thread, at least kMinMeasurePieceTriangles
+// each) measured in parallel with one running maximum (SharedMaximum), the largest of their
+// results kept. The value is deviation_squared's over the whole set, bit for bit: every value
+// a piece keeps is an exact nearest distance beyond the floor, every point skipped lies within
+// some such value or the floor, and a maximum does not depend on the order it was found in.
+// The pieces visit the points the whole set's measurement visits (TriangleRange).
+double decided_deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, const TriangleSet& input,
+                                 const TriangleSet& simplified, double floor_d2, ThreadPool* pool) {
+  const size_t n = simplified.triangle_count();
+  const size_t pieces =
+      pool && pool->size() > 1 ? std::min(size_t(pool->size()) * kMeasurePiecesPerThread, n / kMinMeasurePieceTriangles) : 1;
+  if (pieces <= 1) return deviation_squared(leaves, mesh, input, simplified, floor_d2, nullptr, nullptr, {0, n});
+  SharedMaximum shared;
+  std::vector<double> best(pieces, 0.0);
+  pool->parallel_for(pieces, [&](size_t k) {
+    best[k] = deviation_squared(leaves, mesh, input, simplified, floor_d2, nullptr, nullptr,
+                                {n * k / pieces, n * (k + 1) / pieces}, &shared);
+  });
+  return *std::max_element(best.begin(), best.end());
+}
+
 }  // namespace
 
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
-                     float floor, LatticePeak* peak, LatticeRecord* record, const FreshVertices* fresh) {
+                     float floor, LatticePeak* peak, LatticeRecord* record, const FreshVertices* fresh,
+                     ThreadPool* pool) {
   if (peak) *peak = LatticePeak{};
   if (record) record->places.clear();
   if (leaves.tree.empty() || simplified.triangle_count() == 0) return floor;
   const VertexSource source{leaves, mesh, fresh};
-  const double best2 = deviation_squared(leaves, source, input, simplified, floor_squared(floor), peak, record);
+  const double floor_d2 = floor_squared(floor);
+  const double best2 =
+      peak || record
+          ? deviation_squared(leaves, source, input, simplified, floor_d2, peak, record, {0, simplified.triangle_count()})
+          : decided_deviation_squared(leaves, source, input, simplified, floor_d2, pool);
   return std::max(floor, round_up_to_float(std::sqrt(best2)));
 }
 
 float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input,
                                   const TriangleSet& changed_surface, const std::vector<uint8_t>& changed,
-                                  const LatticeRecord& record, float floor, const FreshVertices* fresh) {
+                                  const LatticeRecord& record, float floor, const FreshVertices* fresh,
+                                  ThreadPool* pool) {
   if (leaves.tree.empty() || changed_surface.triangle_count() == 0) return floor;
   const double floor_d2 = floor_squared(floor);
   const VertexSource source{leaves, mesh, fresh};
@@ -570,7 +659,7 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
       now.corners.insert(now.corners.end(), &changed_surface.corners[3 * t], &changed_surface.corners[3 * t + 3]);
       now.materials.push_back(changed_surface.materials[t]);
     }
-  double best2 = now.triangle_count() ? deviation_squared(leaves, source, input, now, floor_d2, nullptr, nullptr) : 0.0;
+  double best2 = now.triangle_count() ? decided_deviation_squared(leaves, source, input, now, floor_d2, pool) : 0.0;
   // Every other point was visited from an unchanged triangle (or is a moved corner): its
   // place's recorded value bounds its distance, so only places recorded beyond the running
   // maximum are searched, largest first.
