@@ -38,12 +38,13 @@ namespace {
 
 // Empty slot of the edge set (no edge has both ends ~0u: vertex ids are < 2^32 - 1).
 constexpr uint64_t kNoEdge = ~uint64_t(0);
-// Vertices per chunk of the parallel adjacency passes (a few ns each: large chunks), at most.
+// Vertices per chunk of the parallel adjacency passes, at most (cheap per vertex: large chunks).
 constexpr size_t kAdjacencyChunk = size_t(1) << 16;
-// A mesh under kAdjacencyChunk welded vertices (bunny00 ~35k, armadillo ~26k) was one chunk:
+// A mesh under kAdjacencyChunk vertex ids (bunny00 37,706, armadillo 26,002) was one chunk:
 // one thread linked it while the others waited. On a pool the chunks are cut smaller, so each
 // thread gets kAdjacencyChunksPerThread of them (uneven lists balance), but not below
-// kMinAdjacencyChunk vertices (~50 ns each to link: a chunk stays far above a pool round).
+// kMinAdjacencyChunk vertices (bunny00's adjacency: ~12 ms of CPU for ~38k vertex ids, ~0.3 us
+// each, so a chunk is ~1 ms, far above a pool round's few microseconds).
 constexpr size_t kAdjacencyChunksPerThread = 4;
 constexpr size_t kMinAdjacencyChunk = size_t(1) << 12;
 
@@ -276,7 +277,8 @@ constexpr size_t kDeferredBatch = 256;
 // pieces per thread, each of at least this many triangles: a piece's cost varies (a coarse
 // level's points mostly need tree searches, some many), so more pieces than threads balance
 // them; a piece re-marks the edges of the triangles before it (a hash insert each) and a
-// pool round costs some microseconds, small against a top level's ~25 us per triangle.
+// pool round costs some microseconds, small against a top level's 15-25 us per triangle (the
+// 1M sphere's levels 10-11: docs/acceptance/issue23_lone39.md).
 constexpr size_t kMeasurePiecesPerThread = 4;
 constexpr size_t kMinMeasurePieceTriangles = 16;
 
