@@ -60,6 +60,33 @@ TEST(Build, DropReversedPairsRemovesOnlyFacePairs) {
   EXPECT_EQ(t.corners, (std::vector<uint32_t>{4, 0, 1, 1, 2, 5, 3, 3, 4}));
 }
 
+// weld[v] is the smallest vertex with v's position bits (-0.0 and +0.0 differ), copies[w] counts
+// them up to 255, against a map over the bits. Copies are spread over many prefetch batches of
+// the weld's loop (kWeldPrefetchVertices), one position has 300 copies (the saturation).
+TEST(Build, WeldKeepsTheSmallestVertexOfEqualBits) {
+  Mesh m;
+  const float values[] = {0.0f, -0.0f, 1.0f, -1.0f, 0.5f, 1e-38f, -1e-38f, 3.4e38f};
+  uint64_t state = 12345;
+  auto next = [&state] { return uint32_t((state = state * 6364136223846793005ull + 1442695040888963407ull) >> 33); };
+  for (size_t v = 0; v < 5000; ++v)
+    for (int k = 0; k < 3; ++k) m.positions.push_back(v % 17 == 0 ? 0.25f : values[next() % 8]);
+  m.indices = {0, 1, 2};
+  const build_detail::WeldedMesh w = build_detail::weld_positions(m);
+  std::map<std::array<uint32_t, 3>, uint32_t> first;
+  std::map<uint32_t, uint32_t> count;
+  for (size_t v = 0; v < m.vertex_count(); ++v) {
+    std::array<uint32_t, 3> bits;
+    std::memcpy(bits.data(), &m.positions[3 * v], 12);
+    const uint32_t rep = first.emplace(bits, uint32_t(v)).first->second;
+    ASSERT_EQ(w.weld[v], rep) << "vertex " << v;
+    ++count[rep];
+  }
+  EXPECT_EQ(first.size(), 8u * 8u * 8u + 1u);  // every combination, and the 0.25 point
+  ASSERT_GT(count[0], 255u);
+  for (size_t v = 0; v < m.vertex_count(); ++v)
+    EXPECT_EQ(w.copies[v], count.count(uint32_t(v)) ? std::min<uint32_t>(count[uint32_t(v)], 255) : 0u) << "vertex " << v;
+}
+
 class BothSimplifiers : public ::testing::TestWithParam<Simplifier> {};
 
 TEST_P(BothSimplifiers, SphereDagProperties) { expect_all(make_sphere(40, 64), GetParam()); }

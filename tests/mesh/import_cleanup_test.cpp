@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -80,6 +81,38 @@ TEST(ImportCleanup, DegenerateRemovalOnAPoolEqualsOneThread) {
       EXPECT_EQ(vgeo::remove_degenerate_triangles(pooled, &pool), removed) << threads;
       EXPECT_EQ(pooled.indices, serial.indices) << threads;
       EXPECT_EQ(pooled.materials, serial.materials) << threads;
+    }
+  }
+}
+
+// The value scans (by blocks, by parts on a pool) give a plain loop's first bad index: bad values
+// at block and part edges, several parts with one (the first wins), none; finite edge values
+// (-0.0, the largest float, a subnormal) are not bad.
+TEST(ImportCleanup, ValueScansFindTheFirstBadValueOnAnyPool) {
+  const size_t n = (size_t(1) << 20) + 4097;  // 4+ parts of 2^18 values, a partial block at the end
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  const std::vector<std::vector<std::pair<size_t, float>>> plants = {
+      {}, {{0, nan}}, {{1023, inf}}, {{1024, -inf}}, {{n - 1, nan}}, {{(size_t(1) << 18) - 1, nan}},
+      {{(size_t(1) << 18) * 3 + 5, inf}, {(size_t(1) << 18) + 7, nan}, {(size_t(1) << 18) * 2, -inf}}};
+  for (const auto& plant : plants) {
+    vgeo::Mesh m;
+    m.positions.assign(n - n % 3, 1.0f);
+    m.positions[1] = -0.0f, m.positions[2] = std::numeric_limits<float>::max(), m.positions[4] = 1e-45f;
+    m.indices.assign(n - n % 3, 7);
+    for (auto [at, value] : plant) {
+      if (at >= m.positions.size()) at = m.positions.size() - 1;
+      m.positions[at] = value;
+      m.indices[at] = uint32_t(m.vertex_count() + at % 3);  // out of range by 0, 1 or 2
+    }
+    size_t want = m.positions.size();
+    for (size_t i = 0; i < m.positions.size() && want == m.positions.size(); ++i)
+      if (!std::isfinite(m.positions[i])) want = i;
+    EXPECT_EQ(vgeo::first_non_finite(m.positions), want);
+    EXPECT_EQ(vgeo::first_index_out_of_range(m), want);
+    for (unsigned threads : {2u, 3u, 0u}) {
+      vgeo::ThreadPool pool(threads);
+      EXPECT_EQ(vgeo::first_non_finite(m.positions, &pool), want) << threads;
+      EXPECT_EQ(vgeo::first_index_out_of_range(m, &pool), want) << threads;
     }
   }
 }

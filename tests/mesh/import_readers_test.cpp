@@ -226,9 +226,11 @@ std::string code_with_threads(const std::string& bytes, unsigned threads) {
 
 TEST(ImportReaders, OffByLineRangesEqualsOneThread) {
   // Plain, with a comment line among the vertices (the parallel read refuses it and the serial
-  // loop reads it), and with a blank line among the faces.
+  // loop reads it), with a blank line among the faces, and with empty lines before the first
+  // vertex (CGAL's blank line after the counts: the ranges start past them).
   const int n = 300;
   for (const std::string& bytes : {grid_off(n), grid_off(n, "# a comment", 1000), grid_off(n, "", 0),
+                                   grid_off(n, " \t\n# a comment\n", 0), grid_off(n, "# a comment\n\n   ", 0),
                                    grid_off(n, "   ", size_t(n + 1) * (n + 1) + 5000)}) {
     ASSERT_GT(bytes.size(), size_t(3) << 20);
     const vgeo::ImportResult one = import_with_threads(bytes, 1);

@@ -24,12 +24,16 @@ uint64_t hash_position(const float* p) {
   return h;
 }
 
+// Vertices whose first slots are prefetched together: their misses overlap (the 1M sphere's weld
+// took 7.2-8.3 CPU-ms without, 4.7-5.5 with (minimum of 20 runs, 4 rounds); 32 the same).
+constexpr size_t kWeldPrefetchVertices = 16;
+
 }  // namespace
 
 WeldedMesh weld_positions(const Mesh& mesh) {
+  const size_t n = mesh.vertex_count();
   WeldedMesh w;
   w.mesh = &mesh;
-  size_t n = mesh.vertex_count();
   reserve_huge_pages(w.weld, n);
   w.weld.resize(n);
   // Open addressing, table at least twice the vertex count: expected O(1) probes.
@@ -39,20 +43,27 @@ WeldedMesh weld_positions(const Mesh& mesh) {
   reserve_huge_pages(table, cap);
   table.assign(cap, kNone);
   const float* pos = mesh.positions.data();
-  for (size_t v = 0; v < n; ++v) {
-    size_t slot = hash_position(pos + 3 * v) & (cap - 1);
-    for (;;) {
-      uint32_t e = table[slot];
-      if (e == kNone) {
-        table[slot] = uint32_t(v);
-        w.weld[v] = uint32_t(v);
-        break;
+  size_t first_slot[kWeldPrefetchVertices];
+  for (size_t batch = 0; batch < n; batch += kWeldPrefetchVertices) {
+    const size_t count = std::min(kWeldPrefetchVertices, n - batch);
+    for (size_t i = 0; i < count; ++i) {
+      first_slot[i] = hash_position(pos + 3 * (batch + i)) & (cap - 1);
+      __builtin_prefetch(&table[first_slot[i]], 1);
+    }
+    for (size_t i = 0; i < count; ++i) {
+      const size_t v = batch + i;
+      for (size_t slot = first_slot[i];; slot = (slot + 1) & (cap - 1)) {
+        const uint32_t e = table[slot];
+        if (e == kNone) {
+          table[slot] = uint32_t(v);
+          w.weld[v] = uint32_t(v);
+          break;
+        }
+        if (std::memcmp(pos + 3 * e, pos + 3 * v, 12) == 0) {
+          w.weld[v] = e;
+          break;
+        }
       }
-      if (std::memcmp(pos + 3 * e, pos + 3 * v, 12) == 0) {
-        w.weld[v] = e;
-        break;
-      }
-      slot = (slot + 1) & (cap - 1);
     }
   }
   reserve_huge_pages(w.copies, n);

@@ -27,20 +27,21 @@ std::string lower_extension(const std::string& path) {
 // Shared post-processing: validate, remove degenerates, weld, drop meshes left empty.
 void finish(ImportResult& r, const ImportOptions& options, const std::string& where) {
   Scene& scene = r.scene;
-  // The degenerate-triangle test on the import's threads (a large mesh's last serial pass here).
+  // The value checks and the degenerate-triangle test on the import's threads (a large mesh's
+  // last serial passes here).
   std::unique_ptr<ThreadPool> pool;
   std::vector<int> new_slot(scene.meshes.size(), -1);
   std::vector<Mesh> kept;
   kept.reserve(scene.meshes.size());
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     Mesh& mesh = scene.meshes[m];
-    check_mesh_attributes(mesh, where);
-    check_mesh_indices(mesh, where);
+    if (options.threads != 1 && !pool && mesh.triangle_count() > kDegenerateTestTriangles)
+      pool = std::make_unique<ThreadPool>(options.threads);
+    check_mesh_attributes(mesh, where, pool.get());
+    check_mesh_indices(mesh, where, pool.get());
     for (uint32_t mat : mesh.materials)
       if (mat >= scene.materials.size())
         fail("MATERIAL_INDEX_OUT_OF_RANGE", where, "mesh '" + mesh.name + "' uses material " + std::to_string(mat));
-    if (options.threads != 1 && !pool && mesh.triangle_count() > kDegenerateTestTriangles)
-      pool = std::make_unique<ThreadPool>(options.threads);
     r.stats.degenerate_removed += remove_degenerate_triangles(mesh, pool.get());
     if (mesh.triangle_count() == 0) {
       r.warnings.push_back({"MESH_EMPTY", "mesh '" + mesh.name + "' has only degenerate triangles; dropped"});

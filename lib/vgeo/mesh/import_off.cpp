@@ -179,9 +179,30 @@ float number(std::string_view t, const std::string& where, uint64_t line, const 
 }
 
 // ---- the body read by line ranges on a pool (ImportOptions::threads > 1) ----
-// Bytes of the body per task: 1 MiB is ~30,000 lines, ~1 ms of parsing against a task's
-// ~1 µs hand-out; a 39 MB 1M-triangle body gives ~40 tasks to balance.
-constexpr size_t kBodyBytesPerTask = size_t(1) << 20;
+// A body of more than this is read by ranges: ~1.2 ms of parsing per MiB, against the pool's
+// start (a thread) and the ranges' line count.
+constexpr size_t kParallelBodyBytes = size_t(1) << 20;
+// Bytes of the body per task: 256 KiB is ~8,000 lines, ~0.3 ms of parsing against a task's ~1 µs
+// hand-out; a 1-3 MB body (armadillo, bunny00) gives 7-11 tasks, where 1 MiB ranges gave 2-3
+// (1 + 0.6 MiB on two threads: one range's time, not half the body's), and the 39 MB of the 1M
+// sphere ~150.
+constexpr size_t kBodyBytesPerTask = size_t(256) << 10;
+
+// The cursor past the empty lines (blanks, a comment) before the first record, which next_record
+// skips: the body's ranges then start at the first vertex line (CGAL's files have a blank line
+// after the header counts).
+TextCursor past_empty_lines(TextCursor in) {
+  for (;;) {
+    const char* p = skip_line_blanks(in.p, in.end);
+    if (p < in.end && kByteClass[uint8_t(*p)] == kCommentByte) {
+      const void* nl = std::memchr(p, '\n', size_t(in.end - p));
+      p = nl ? static_cast<const char*>(nl) : in.end;
+    }
+    if (p >= in.end || *p != '\n') return in;
+    in.p = p + 1;
+    ++in.line;
+  }
+}
 
 // One byte range of the body, cut after a '\n' so every line lies in one range.
 struct BodyRange {
@@ -315,11 +336,11 @@ void import_off(const uint8_t* data, size_t size, const std::string& where, Impo
                                       " faces, more than a " + std::to_string(size) + "-byte file can hold");
   Mesh mesh;
   const size_t needed = 3 + (kw.normals ? 3 : 0) + (kw.uvs ? 2 : 0);
-  if (threads != 1 && !kw.colors && in.remaining() > kBodyBytesPerTask) {
+  if (threads != 1 && !kw.colors && in.remaining() > kParallelBodyBytes) {
     ThreadPool pool(threads);
     PolygonSink sink(mesh);  // its count: the sum of the ranges' (the serial sink counts the same faces)
-    if (pool.size() > 1 &&
-        read_plain_body_in_parallel(in, nv, nf, needed, kw.normals, kw.uvs, pool, mesh, sink.repeated_vertex_faces)) {
+    if (pool.size() > 1 && read_plain_body_in_parallel(past_empty_lines(in), nv, nf, needed, kw.normals, kw.uvs, pool,
+                                                       mesh, sink.repeated_vertex_faces)) {
       sink.finish(out);
       push_single_mesh_scene(std::move(mesh), where, out);
       return;

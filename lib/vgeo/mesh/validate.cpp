@@ -37,40 +37,61 @@ std::string mesh_array_size_defect(const Mesh& mesh) {
   return {};
 }
 
-size_t first_non_finite(const std::vector<float>& values) {
-  for (size_t i = 0; i < values.size(); ++i)
-    if (!std::isfinite(values[i])) return i;
-  return values.size();
+namespace {
+
+// Values per task of a scan on a pool: 2^18 (1 MiB, ~0.1 ms: the scans run at memory speed, a
+// 1M-triangle mesh's positions and indices took 1.7 ms on one thread), so a 1M-triangle mesh's
+// 3M indices are 12 tasks.
+constexpr size_t kScanTaskValues = size_t(1) << 18;
+
+// The first i in [0, n) with bad(values[i]), or n; by parts on `pool` when there is one.
+template <class T, class Bad>
+size_t first_bad(const T* values, size_t n, ThreadPool* pool, Bad bad) {
+  auto scan = [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i)
+      if (bad(values[i])) return i;
+    return end;
+  };
+  if (!pool || pool->size() == 1 || n <= kScanTaskValues) return scan(0, n);
+  std::vector<size_t> first((n + kScanTaskValues - 1) / kScanTaskValues, n);
+  for_chunks(pool, n, kScanTaskValues, [&](size_t begin, size_t end) {
+    if (const size_t i = scan(begin, end); i < end) first[begin / kScanTaskValues] = i;
+  });
+  return *std::min_element(first.begin(), first.end());
 }
 
-size_t first_index_out_of_range(const Mesh& mesh) {
+}  // namespace
+
+size_t first_non_finite(const std::vector<float>& values, ThreadPool* pool) {
+  return first_bad(values.data(), values.size(), pool, [](float v) { return !std::isfinite(v); });
+}
+
+size_t first_index_out_of_range(const Mesh& mesh, ThreadPool* pool) {
   const size_t n = mesh.vertex_count();
-  for (size_t i = 0; i < mesh.indices.size(); ++i)
-    if (mesh.indices[i] >= n) return i;
-  return mesh.indices.size();
+  return first_bad(mesh.indices.data(), mesh.indices.size(), pool, [n](uint32_t i) { return size_t(i) >= n; });
 }
 
-void check_mesh_attributes(const Mesh& mesh, const std::string& where) {
+void check_mesh_attributes(const Mesh& mesh, const std::string& where, ThreadPool* pool) {
   if (!mesh_array_size_defect(mesh).empty()) {
     fail("INTERNAL_SIZE_MISMATCH", where, "mesh '" + mesh.name + "' has inconsistent array sizes",
          kExitInternal);
   }
-  if (size_t i = first_non_finite(mesh.positions); i < mesh.positions.size()) {
+  if (size_t i = first_non_finite(mesh.positions, pool); i < mesh.positions.size()) {
     fail("POSITION_NOT_FINITE", where,
          "mesh '" + mesh.name + "' vertex " + std::to_string(i / 3) + " has a non-finite position");
   }
-  if (size_t i = first_non_finite(mesh.normals); i < mesh.normals.size()) {
+  if (size_t i = first_non_finite(mesh.normals, pool); i < mesh.normals.size()) {
     fail("ATTRIBUTE_NOT_FINITE", where,
          "mesh '" + mesh.name + "' vertex " + std::to_string(i / 3) + " has a non-finite normal");
   }
-  if (size_t i = first_non_finite(mesh.uvs); i < mesh.uvs.size()) {
+  if (size_t i = first_non_finite(mesh.uvs, pool); i < mesh.uvs.size()) {
     fail("ATTRIBUTE_NOT_FINITE", where,
          "mesh '" + mesh.name + "' vertex " + std::to_string(i / 2) + " has a non-finite uv");
   }
 }
 
-void check_mesh_indices(const Mesh& mesh, const std::string& where) {
-  if (size_t i = first_index_out_of_range(mesh); i < mesh.indices.size()) {
+void check_mesh_indices(const Mesh& mesh, const std::string& where, ThreadPool* pool) {
+  if (size_t i = first_index_out_of_range(mesh, pool); i < mesh.indices.size()) {
     fail("INDEX_OUT_OF_RANGE", where,
          "mesh '" + mesh.name + "' index " + std::to_string(i) + " = " + std::to_string(mesh.indices[i]) +
              " >= vertex count " + std::to_string(mesh.vertex_count()));

@@ -35,17 +35,19 @@ struct OutputBudget {
 // spec/dag.md §6): each returns what is wrong, so each caller raises its own stable code.
 // Empty when every array has the length the mesh's counts imply, else which one does not.
 std::string mesh_array_size_defect(const Mesh& mesh);
-// Index of the first non-finite value, or values.size() when all are finite.
-size_t first_non_finite(const std::vector<float>& values);
-// Corner of the first index >= vertex_count(), or indices.size() when all are in range.
-size_t first_index_out_of_range(const Mesh& mesh);
+// Index of the first non-finite value, or values.size() when all are finite. With a `pool` of
+// more than one thread a long array is scanned by parts on it (the same index).
+size_t first_non_finite(const std::vector<float>& values, ThreadPool* pool = nullptr);
+// Corner of the first index >= vertex_count(), or indices.size() when all are in range (`pool`
+// as above).
+size_t first_index_out_of_range(const Mesh& mesh, ThreadPool* pool = nullptr);
 
 // POSITION_NOT_FINITE for the first non-finite position coordinate; ATTRIBUTE_NOT_FINITE for
 // a non-finite normal or uv. Also asserts (fails INTERNAL_SIZE_MISMATCH) array-size contracts.
-void check_mesh_attributes(const Mesh& mesh, const std::string& where);
+void check_mesh_attributes(const Mesh& mesh, const std::string& where, ThreadPool* pool = nullptr);
 
 // INDEX_OUT_OF_RANGE for the first index >= vertex_count().
-void check_mesh_indices(const Mesh& mesh, const std::string& where);
+void check_mesh_indices(const Mesh& mesh, const std::string& where, ThreadPool* pool = nullptr);
 
 // True when the triangle's edge cross product, computed in double from the float positions,
 // is exactly zero (collinear or coincident corners).
