@@ -850,7 +850,7 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
     }
     const uint32_t target = s.internal.group_target_clusters ? s.internal.group_target_clusters
                                                              : default_group_target_clusters(s.options.simplifier);
-    blk.groups = group_clusters(sets, keys, bounds, target, s.internal.group_method);
+    blk.groups = group_clusters(sets, keys, bounds, target, s.internal.group_method, inner);
     for (auto& g : blk.groups)
       for (uint32_t& m : g) m = L.active[blk.items[m]];
   }
@@ -888,9 +888,9 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
   // borders). Listed per group with one entry per use (a candidate is one use of an edge by a
   // triangle of the group), so the border check needs no search of the block's edges; the
   // locks of this block's vertices are final here (other blocks lock only their own).
-  // Collected per group (in parallel with `inner`), then joined in group order: the list the
-  // sort gets is the same for any thread count.
-  std::vector<std::vector<std::pair<uint64_t, uint32_t>>> group_candidates(group_count);
+  // Collected per group (in parallel with `inner`), then sorted by edge, then group (the
+  // same order for any thread count: sorted_edge_uses).
+  std::vector<std::vector<uint64_t>> group_candidates(group_count);
   for_chunks(inner, group_count, kLockGroupsPerTask, [&](size_t begin, size_t end) {
     for (size_t g = begin; g < end; ++g)
       for (uint32_t m : blk.groups[g]) {
@@ -902,30 +902,26 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
           const bool l[3] = {locked[w[0]] != 0, locked[w[1]] != 0, locked[w[2]] != 0};
           for (int k = 0; k < 3; ++k) {
             const int next = k == 2 ? 0 : k + 1;
-            if (l[k] && l[next] && w[k] != w[next]) group_candidates[g].push_back({edge_key(w[k], w[next]), uint32_t(g)});
+            if (l[k] && l[next] && w[k] != w[next]) group_candidates[g].push_back(edge_key(w[k], w[next]));
           }
         }
       }
   });
-  size_t candidate_count = 0;
-  for (const auto& gc : group_candidates) candidate_count += gc.size();
-  std::vector<std::pair<uint64_t, uint32_t>> candidates;
-  candidates.reserve(candidate_count);
-  for (auto& gc : group_candidates) {
-    candidates.insert(candidates.end(), gc.begin(), gc.end());
-    gc = {};
-  }
-  std::sort(candidates.begin(), candidates.end());
+  const SortedEdgeUses candidates = sorted_edge_uses(group_candidates, inner);
+  group_candidates = {};
   const std::vector<uint64_t>& retired_edges = s.locks.retired_edges;
   blk.group_shared_edges.resize(blk.groups.size());
-  const std::pair<uint64_t, uint32_t>* next_use = candidates.data();
-  for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
-    const std::pair<uint64_t, uint32_t>* first_use = next_use;
-    while (next_use != candidates.data() + candidates.size() && next_use->first == e) ++next_use;
+  const std::vector<KeyedUse>& uses = candidates.uses;
+  for (size_t i = 0; i < uses.size();) {
+    size_t j = i;
+    bool shared = false;
+    for (; j < uses.size() && uses[j].key == uses[i].key; ++j) shared |= uses[j].list != uses[i].list;
+    const uint64_t e = candidates.edge(i);
     if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), e) ||
         std::binary_search(L.cross_edges.begin(), L.cross_edges.end(), e))
-      for (const auto* use = first_use; use != next_use; ++use) blk.group_shared_edges[use->second].push_back(e);
-  });
+      for (size_t use = i; use < j; ++use) blk.group_shared_edges[uses[use].list].push_back(e);
+    i = j;
+  }
   blk.results.resize(blk.groups.size());
   blk.seconds_locks = steady_seconds() - tl;
 }
