@@ -145,6 +145,19 @@ constexpr size_t kTrianglesPerTask = size_t(1) << 16;
 // hand-out, and a 4,096-cluster block still gives ~30 tasks to balance.
 constexpr size_t kLockGroupsPerTask = 8;
 
+// Clusters per task of count_level_edges' counts (count_cluster_edges, with vertex placement:
+// ~13 µs per cluster on the 1M sphere at one thread), so a task is ~1 ms against a wake-up of
+// the pool.
+constexpr size_t kCountEdgesClustersPerTask = 64;
+
+// Groups and clusters per task of combine_level's passes: ~100 µs of work per task (a group's
+// spheres ~0.9 µs, its new clusters ~0.7 µs; a cluster's lock reset ~0.2 µs: the 1M sphere,
+// one thread), so the levels whose passes take less than a wake-up of the pool's threads
+// (~0.05-1 ms on a 2-vCPU VM, docs/acceptance/issue23_group39.md) run them on one task, in
+// order, on the calling thread: the 1M sphere's levels 3-13 of the groups' passes.
+constexpr size_t kCombineGroupsPerTask = 128;
+constexpr size_t kCombineClustersPerTask = 512;
+
 // Clusters per task of the layout's passes (lay_out): ~128 triangles each, so ~50 µs of work
 // per task against ~1 µs of hand-out, and a 64k-cluster DAG (the 4M sphere) gives 256 tasks
 // to balance.
@@ -770,15 +783,21 @@ void count_level_edges(BuildState& s, LevelState& L) {
   L.report.clusters = active.size();
   std::vector<uint64_t> open(active.size()), all(active.size());
   L.open_keys.assign(active.size(), {});
-  s.pool.parallel_for(active.size(), [&](size_t i) {
-    if (L.facts.empty() || !L.facts[i].counted) {
-      count_cluster_edges(s.welded, s.clusters[active[i]].triangles, &open[i], &all[i], &L.open_keys[i]);
-      return;
+  // Clusters whose facts were counted when they were made only hand them over (the 1M sphere's
+  // 14 levels: ~1 ms at one thread, less than the pool's wake-ups): on this thread, then.
+  const bool all_counted =
+      !L.facts.empty() && std::all_of(L.facts.begin(), L.facts.end(), [](const ClusterFacts& f) { return f.counted; });
+  for_chunks(all_counted ? nullptr : &s.pool, active.size(), kCountEdgesClustersPerTask, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      if (L.facts.empty() || !L.facts[i].counted) {
+        count_cluster_edges(s.welded, s.clusters[active[i]].triangles, &open[i], &all[i], &L.open_keys[i]);
+        continue;
+      }
+      ClusterFacts& f = L.facts[i];
+      open[i] = f.open, all[i] = f.all;
+      L.open_keys[i] = std::move(f.open_keys);
+      f.open_keys = {};
     }
-    ClusterFacts& f = L.facts[i];
-    open[i] = f.open, all[i] = f.all;
-    L.open_keys[i] = std::move(f.open_keys);
-    f.open_keys = {};
   });
   uint64_t so = 0, sa = 0;
   for (size_t i = 0; i < active.size(); ++i) {
@@ -1352,22 +1371,24 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   // The level's groups from their members, on the pool (a cluster is a member of one group);
   // this and the new clusters below ran on one thread, ~0.1 s per 4M-triangle build.
   groups.resize(size_t(first_group) + group_count);
-  s.pool.parallel_for(group_count, [&](size_t i) {
-    WorkGroup& g = groups[first_group + i];
-    g.members = std::move(level_groups[i]);
-    g.level = L.level;
-    uint32_t gi = first_group + uint32_t(i);
-    std::vector<Sphere> b, lb;
-    float max_child = 0.0f;
-    for (uint32_t m : g.members) {
-      clusters[m].group = gi;
-      b.push_back(clusters[m].bounds);
-      lb.push_back(clusters[m].lod_bounds);
-      max_child = std::max(max_child, clusters[m].lod_error);
+  for_chunks(&s.pool, group_count, kCombineGroupsPerTask, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      WorkGroup& g = groups[first_group + i];
+      g.members = std::move(level_groups[i]);
+      g.level = L.level;
+      uint32_t gi = first_group + uint32_t(i);
+      std::vector<Sphere> b, lb;
+      float max_child = 0.0f;
+      for (uint32_t m : g.members) {
+        clusters[m].group = gi;
+        b.push_back(clusters[m].bounds);
+        lb.push_back(clusters[m].lod_bounds);
+        max_child = std::max(max_child, clusters[m].lod_error);
+      }
+      g.bounds = enclose_spheres(b.data(), b.size());
+      g.parent_bounds = enclose_spheres(lb.data(), lb.size());
+      g.parent_error = max_child;
     }
-    g.bounds = enclose_spheres(b.data(), b.size());
-    g.parent_bounds = enclose_spheres(lb.data(), lb.size());
-    g.parent_error = max_child;
   });
   L.report.groups = group_count;
 
@@ -1401,34 +1422,38 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   clusters.resize(old_count + new_count);
   std::vector<uint32_t> next(new_count);
   std::vector<ClusterFacts> next_facts(new_count);  // (s.next_facts)
-  s.pool.parallel_for(group_count, [&](size_t i) {
-    GroupResult& r = results[i];
-    if (r.terminal) return;
-    const uint32_t gi = first_group + uint32_t(i);
-    WorkGroup& g = groups[gi];
-    g.generated.resize(r.clusters.size());
-    for (size_t k = 0; k < r.clusters.size(); ++k) {
-      const size_t index = first_new[i] + k;
-      WorkCluster& c = clusters[index];
-      ClusterFacts& f = next_facts[index - old_count];
-      c.triangles = std::move(r.clusters[k]);
-      if (!r.facts.empty()) c.bounds = r.bounds[k], f = std::move(r.facts[k]);
-      if (!f.counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
-      c.level = L.level + 1;
-      c.generating_group = gi;
-      c.lod_bounds = g.parent_bounds;
-      c.lod_error = g.parent_error;
-      g.generated[k] = uint32_t(index);
-      next[index - old_count] = uint32_t(index);
+  for_chunks(&s.pool, group_count, kCombineGroupsPerTask, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      GroupResult& r = results[i];
+      if (r.terminal) continue;
+      const uint32_t gi = first_group + uint32_t(i);
+      WorkGroup& g = groups[gi];
+      g.generated.resize(r.clusters.size());
+      for (size_t k = 0; k < r.clusters.size(); ++k) {
+        const size_t index = first_new[i] + k;
+        WorkCluster& c = clusters[index];
+        ClusterFacts& f = next_facts[index - old_count];
+        c.triangles = std::move(r.clusters[k]);
+        if (!r.facts.empty()) c.bounds = r.bounds[k], f = std::move(r.facts[k]);
+        if (!f.counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
+        c.level = L.level + 1;
+        c.generating_group = gi;
+        c.lod_bounds = g.parent_bounds;
+        c.lod_error = g.parent_error;
+        g.generated[k] = uint32_t(index);
+        next[index - old_count] = uint32_t(index);
+      }
     }
   });
   // Reset per-level lock state (only the touched entries; the same values from any task).
-  s.pool.parallel_for(L.active.size(), [&](size_t i) {
-    const ClusterFacts* f = L.facts.empty() ? nullptr : &L.facts[i];
-    for_each_cluster_vertex(s.welded, clusters[L.active[i]], f, [&](uint32_t w) {
-      std::atomic_ref<uint32_t>(s.locks.owner[w]).store(kNone, std::memory_order_relaxed);
-      std::atomic_ref<uint8_t>(s.locks.locked[w]).store(0, std::memory_order_relaxed);
-    });
+  for_chunks(&s.pool, L.active.size(), kCombineClustersPerTask, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      const ClusterFacts* f = L.facts.empty() ? nullptr : &L.facts[i];
+      for_each_cluster_vertex(s.welded, clusters[L.active[i]], f, [&](uint32_t w) {
+        std::atomic_ref<uint32_t>(s.locks.owner[w]).store(kNone, std::memory_order_relaxed);
+        std::atomic_ref<uint8_t>(s.locks.locked[w]).store(0, std::memory_order_relaxed);
+      });
+    }
   });
   L.facts = {};
   s.next_facts = std::move(next_facts);
