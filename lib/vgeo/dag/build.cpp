@@ -340,17 +340,16 @@ struct BvhBuilder {
   }
 };
 
-// Calls fn(key, owned_by_several) once per distinct key of sorted (key, owner) pairs.
-template <class Fn>
-void for_each_key_of_sorted_pairs(const std::vector<std::pair<uint64_t, uint32_t>>& sorted, Fn&& fn) {
-  for (size_t i = 0; i < sorted.size();) {
+// Calls fn(edge, begin, end, used_by_several) once per distinct edge of `sorted`, with its uses
+// [begin, end); used_by_several: owner(list) differs between two of them.
+template <class Owner, class Fn>
+void for_each_edge_of_sorted_uses(const SortedEdgeUses& sorted, Owner&& owner, Fn&& fn) {
+  const std::vector<KeyedUse>& uses = sorted.uses;
+  for (size_t i = 0; i < uses.size();) {
     size_t j = i;
     bool shared = false;
-    while (j < sorted.size() && sorted[j].first == sorted[i].first) {
-      shared |= sorted[j].second != sorted[i].second;
-      ++j;
-    }
-    fn(sorted[i].first, shared);
+    for (; j < uses.size() && uses[j].key == uses[i].key; ++j) shared |= owner(uses[j].list) != owner(uses[i].list);
+    fn(sorted.edge(i), i, j, shared);
     i = j;
   }
 }
@@ -407,15 +406,13 @@ std::vector<uint64_t> build_detail::lock_cross_block_vertices(const WeldedMesh& 
       }
     }
   });
-  // (edge, block) pairs; an edge used by two blocks is shared.
-  std::vector<std::pair<uint64_t, uint32_t>> candidates;
-  for (size_t i = 0; i < clusters.size(); ++i)
-    for (uint64_t e : per_cluster[i]) candidates.push_back({e, block_of[i]});
-  std::sort(candidates.begin(), candidates.end());
+  // An edge used by clusters of two blocks is shared.
   std::vector<uint64_t> cross_edges;
-  for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
-    if (shared) cross_edges.push_back(e);
-  });
+  for_each_edge_of_sorted_uses(
+      sorted_edge_uses(per_cluster, &pool), [&](uint32_t cluster) { return block_of[cluster]; },
+      [&](uint64_t e, size_t, size_t, bool shared) {
+        if (shared) cross_edges.push_back(e);
+      });
   return cross_edges;
 }
 
@@ -930,17 +927,13 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
   group_candidates = {};
   const std::vector<uint64_t>& retired_edges = s.locks.retired_edges;
   blk.group_shared_edges.resize(blk.groups.size());
-  const std::vector<KeyedUse>& uses = candidates.uses;
-  for (size_t i = 0; i < uses.size();) {
-    size_t j = i;
-    bool shared = false;
-    for (; j < uses.size() && uses[j].key == uses[i].key; ++j) shared |= uses[j].list != uses[i].list;
-    const uint64_t e = candidates.edge(i);
-    if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), e) ||
-        std::binary_search(L.cross_edges.begin(), L.cross_edges.end(), e))
-      for (size_t use = i; use < j; ++use) blk.group_shared_edges[uses[use].list].push_back(e);
-    i = j;
-  }
+  for_each_edge_of_sorted_uses(
+      candidates, [](uint32_t group) { return group; },
+      [&](uint64_t e, size_t begin, size_t end, bool shared) {
+        if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), e) ||
+            std::binary_search(L.cross_edges.begin(), L.cross_edges.end(), e))
+          for (size_t use = begin; use < end; ++use) blk.group_shared_edges[candidates.uses[use].list].push_back(e);
+      });
   blk.results.resize(blk.groups.size());
   blk.seconds_locks = steady_seconds() - tl;
 }

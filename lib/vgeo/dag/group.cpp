@@ -29,12 +29,13 @@ namespace {
 constexpr uint32_t kEdgeRadixBits = 11;
 constexpr uint32_t kEdgeRadixBuckets = 1u << kEdgeRadixBits;
 
-// Edge uses below this many are sorted on one thread even with a pool: a parallel pass costs a
-// wake-up of the pool (~10-50 µs on the 2-vCPU VM of docs/acceptance/issue23_group39.md, more
-// under load) and a sort runs ~10 of them; 2^16 uses are ~0.5 ms of sorting on one thread.
+// Edge uses below this many are sorted on one thread even with a pool: each parallel pass
+// wakes the pool's threads (10 µs back to back, up to ~1 ms after a stretch of serial work on
+// the loaded 2-vCPU VM of docs/acceptance/issue23_group39.md) and a sort runs ~10 of them;
+// 2^16 uses are ~1 ms of sorting on one thread (the 1M sphere's level 2: 104k uses, 1.5 ms).
 constexpr size_t kParallelEdgeUses = size_t(1) << 16;
-// Blocks below this many clusters build their pair rows and spatial edges on one thread: 2,048
-// clusters are ~3 ms of those passes on one thread, two parallel regions cost ~0.1 ms.
+// Blocks below this many clusters build their pair rows and spatial edges on one thread: the
+// 1M sphere's level 2 (2,065 clusters) spent ~3 ms in them at one thread.
 constexpr size_t kParallelGraphClusters = 2048;
 // Tasks per pool thread in the graph's parallel passes: a thread that another process holds
 // up leaves its few tasks to the others.
