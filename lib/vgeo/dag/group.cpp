@@ -118,7 +118,7 @@ SortedEdgeUses sorted_edge_uses(const std::vector<std::vector<uint64_t>>& lists,
   uses.resize(total);
   for_chunks(pool, n, list_part, [&](size_t begin, size_t end) {
     for (size_t c = begin; c < end; ++c) {
-      KeyedUse* at = &uses[first[c]];
+      KeyedUse* at = uses.data() + first[c];
       for (uint64_t k : lists[c]) *at++ = {((k >> 32) << out.low_bits) | (k & 0xFFFFFFFFu), uint32_t(c)};
     }
   });
