@@ -3,7 +3,11 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <random>
+#include <utility>
 #include <vector>
+
+#include "vgeo/core/thread_pool.h"
 
 #include "vgeo/dag/build_internal.h"
 
@@ -12,6 +16,95 @@ namespace {
 
 using build_detail::ClusterAdjacency;
 using build_detail::partition_clusters;
+using build_detail::TriangleSet;
+
+// A side × side grid of clusters for group_clusters: neighbours share `shared` welded edges,
+// every 7th cluster is an island (no shared edge: only spatial edges reach it), every 13th
+// shares a fan edge with its next 5 clusters (a non-manifold edge of 6 uses), each has a few
+// open edges of its own (mesh border); keys in a scrambled order per cluster, vertex ids
+// scrambled so the keys' high and low halves both vary.
+struct ClusterGrid {
+  std::vector<TriangleSet> sets;
+  std::vector<const TriangleSet*> clusters;
+  std::vector<std::vector<uint64_t>> open_edges;
+  std::vector<Sphere> bounds;
+};
+ClusterGrid cluster_grid(uint32_t side, uint32_t shared) {
+  ClusterGrid g;
+  const uint32_t n = side * side;
+  std::mt19937 rng(7);
+  uint32_t next_vertex = 0;
+  auto fresh_edge = [&] {
+    const uint32_t a = (next_vertex++ * 2654435761u) % 1000003u, b = (next_vertex++ * 2654435761u) % 1000003u;
+    return build_detail::edge_key(a, b);
+  };
+  g.open_edges.resize(n);
+  auto island = [](uint32_t c) { return c % 7 == 3; };
+  for (uint32_t c = 0; c < n; ++c) {
+    const uint32_t x = c % side, y = c / side;
+    for (uint32_t d : {x + 1 < side ? c + 1 : c, y + 1 < side ? c + side : c}) {
+      if (d == c || island(c) || island(d)) continue;
+      for (uint32_t k = 0; k < shared; ++k) {
+        const uint64_t e = fresh_edge();
+        g.open_edges[c].push_back(e);
+        g.open_edges[d].push_back(e);
+      }
+    }
+    if (c % 13 == 0 && c + 5 < n) {
+      const uint64_t e = fresh_edge();
+      for (uint32_t d = c; d <= c + 5; ++d) g.open_edges[d].push_back(e);
+    }
+    for (uint32_t k = 0; k < 3; ++k) g.open_edges[c].push_back(fresh_edge());
+  }
+  g.sets.resize(n);
+  g.bounds.resize(n);
+  std::uniform_real_distribution<float> jitter(-0.2f, 0.2f);
+  for (uint32_t c = 0; c < n; ++c) {
+    std::shuffle(g.open_edges[c].begin(), g.open_edges[c].end(), rng);
+    g.sets[c].materials.resize(100 + c % 29);  // uneven weights, as at coarse levels
+    g.bounds[c].center = Vec3{float(c % side) + jitter(rng), float(c / side) + jitter(rng), jitter(rng)};
+    g.bounds[c].radius = 0.7f;
+  }
+  for (const TriangleSet& t : g.sets) g.clusters.push_back(&t);
+  return g;
+}
+
+// The grouping of a level of one block runs its edge sort, pair rows and spatial edges in
+// tasks on the block's pool when the block is large (kParallelEdgeUses, kParallelGraphClusters):
+// the same groups, and the same sorted edge uses, as on one thread.
+TEST(ClusterGrouping, PoolTasksGiveTheOneThreadGroups) {
+  const ClusterGrid g = cluster_grid(64, 10);  // 4,096 clusters, ~95,000 edge uses
+  size_t uses = 0;
+  for (const auto& keys : g.open_edges) uses += keys.size();
+  ASSERT_GE(uses, size_t(1) << 16);
+  const build_detail::SortedEdgeUses serial = build_detail::sorted_edge_uses(g.open_edges, nullptr);
+  // One thread: what a sort of the (key, list) pairs gives.
+  std::vector<std::pair<uint64_t, uint32_t>> pairs;
+  for (uint32_t c = 0; c < g.open_edges.size(); ++c)
+    for (uint64_t e : g.open_edges[c]) pairs.push_back({e, c});
+  std::sort(pairs.begin(), pairs.end());
+  ASSERT_EQ(serial.uses.size(), pairs.size());
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    ASSERT_EQ(serial.edge(i), pairs[i].first) << i;
+    ASSERT_EQ(serial.uses[i].list, pairs[i].second) << i;
+  }
+  const std::vector<std::vector<uint32_t>> one_thread =
+      build_detail::group_clusters(g.clusters, g.open_edges, g.bounds, 16, build_detail::GroupMethod::kGreedy, nullptr);
+  EXPECT_GE(one_thread.size(), size_t(4096 / 16 * 3 / 4));
+  for (unsigned threads : {2u, 3u, 5u}) {
+    ThreadPool pool(threads);
+    const build_detail::SortedEdgeUses parallel = build_detail::sorted_edge_uses(g.open_edges, &pool);
+    ASSERT_EQ(parallel.uses.size(), serial.uses.size());
+    for (size_t i = 0; i < serial.uses.size(); ++i) {
+      ASSERT_EQ(parallel.edge(i), serial.edge(i)) << threads << " threads, use " << i;
+      ASSERT_EQ(parallel.uses[i].list, serial.uses[i].list) << threads << " threads, use " << i;
+    }
+    EXPECT_EQ(build_detail::group_clusters(g.clusters, g.open_edges, g.bounds, 16, build_detail::GroupMethod::kGreedy,
+                                           &pool),
+              one_thread)
+        << threads << " threads";
+  }
+}
 
 // A side × side grid graph, 4-neighbour, every edge of weight `edge_weight` (a cluster shares
 // ~10 welded edges with each neighbour).

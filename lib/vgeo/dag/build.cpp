@@ -145,6 +145,19 @@ constexpr size_t kTrianglesPerTask = size_t(1) << 16;
 // hand-out, and a 4,096-cluster block still gives ~30 tasks to balance.
 constexpr size_t kLockGroupsPerTask = 8;
 
+// Clusters per task of count_level_edges' counts (count_cluster_edges, with vertex placement:
+// ~13 µs per cluster on the 1M sphere at one thread), so a task is ~1 ms against a wake-up of
+// the pool.
+constexpr size_t kCountEdgesClustersPerTask = 64;
+
+// Groups and clusters per task of combine_level's passes: ~100 µs of work per task (a group's
+// spheres ~0.9 µs, its new clusters ~0.7 µs; a cluster's lock reset ~0.2 µs: the 1M sphere,
+// one thread), so the levels whose passes take less than a wake-up of the pool's threads
+// (~0.05-1 ms on a 2-vCPU VM, docs/acceptance/issue23_group39.md) run them on one task, in
+// order, on the calling thread: the 1M sphere's levels 3-13 of the groups' passes.
+constexpr size_t kCombineGroupsPerTask = 128;
+constexpr size_t kCombineClustersPerTask = 512;
+
 // Clusters per task of the layout's passes (lay_out): ~128 triangles each, so ~50 µs of work
 // per task against ~1 µs of hand-out, and a 64k-cluster DAG (the 4M sphere) gives 256 tasks
 // to balance.
@@ -328,17 +341,16 @@ struct BvhBuilder {
   }
 };
 
-// Calls fn(key, owned_by_several) once per distinct key of sorted (key, owner) pairs.
-template <class Fn>
-void for_each_key_of_sorted_pairs(const std::vector<std::pair<uint64_t, uint32_t>>& sorted, Fn&& fn) {
-  for (size_t i = 0; i < sorted.size();) {
+// Calls fn(edge, begin, end, used_by_several) once per distinct edge of `sorted`, with its uses
+// [begin, end); used_by_several: owner(list) differs between two of them.
+template <class Owner, class Fn>
+void for_each_edge_of_sorted_uses(const SortedEdgeUses& sorted, Owner&& owner, Fn&& fn) {
+  const std::vector<KeyedUse>& uses = sorted.uses;
+  for (size_t i = 0; i < uses.size();) {
     size_t j = i;
     bool shared = false;
-    while (j < sorted.size() && sorted[j].first == sorted[i].first) {
-      shared |= sorted[j].second != sorted[i].second;
-      ++j;
-    }
-    fn(sorted[i].first, shared);
+    for (; j < uses.size() && uses[j].key == uses[i].key; ++j) shared |= owner(uses[j].list) != owner(uses[i].list);
+    fn(sorted.edge(i), i, j, shared);
     i = j;
   }
 }
@@ -395,15 +407,13 @@ std::vector<uint64_t> build_detail::lock_cross_block_vertices(const WeldedMesh& 
       }
     }
   });
-  // (edge, block) pairs; an edge used by two blocks is shared.
-  std::vector<std::pair<uint64_t, uint32_t>> candidates;
-  for (size_t i = 0; i < clusters.size(); ++i)
-    for (uint64_t e : per_cluster[i]) candidates.push_back({e, block_of[i]});
-  std::sort(candidates.begin(), candidates.end());
+  // An edge used by clusters of two blocks is shared.
   std::vector<uint64_t> cross_edges;
-  for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
-    if (shared) cross_edges.push_back(e);
-  });
+  for_each_edge_of_sorted_uses(
+      sorted_edge_uses(per_cluster, &pool), [&](uint32_t cluster) { return block_of[cluster]; },
+      [&](uint64_t e, size_t, size_t, bool shared) {
+        if (shared) cross_edges.push_back(e);
+      });
   return cross_edges;
 }
 
@@ -773,15 +783,21 @@ void count_level_edges(BuildState& s, LevelState& L) {
   L.report.clusters = active.size();
   std::vector<uint64_t> open(active.size()), all(active.size());
   L.open_keys.assign(active.size(), {});
-  s.pool.parallel_for(active.size(), [&](size_t i) {
-    if (L.facts.empty() || !L.facts[i].counted) {
-      count_cluster_edges(s.welded, s.clusters[active[i]].triangles, &open[i], &all[i], &L.open_keys[i]);
-      return;
+  // Clusters whose facts were counted when they were made only hand them over (the 1M sphere's
+  // 14 levels: ~1 ms at one thread, less than the pool's wake-ups): on this thread, then.
+  const bool all_counted =
+      !L.facts.empty() && std::all_of(L.facts.begin(), L.facts.end(), [](const ClusterFacts& f) { return f.counted; });
+  for_chunks(all_counted ? nullptr : &s.pool, active.size(), kCountEdgesClustersPerTask, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      if (L.facts.empty() || !L.facts[i].counted) {
+        count_cluster_edges(s.welded, s.clusters[active[i]].triangles, &open[i], &all[i], &L.open_keys[i]);
+        continue;
+      }
+      ClusterFacts& f = L.facts[i];
+      open[i] = f.open, all[i] = f.all;
+      L.open_keys[i] = std::move(f.open_keys);
+      f.open_keys = {};
     }
-    ClusterFacts& f = L.facts[i];
-    open[i] = f.open, all[i] = f.all;
-    L.open_keys[i] = std::move(f.open_keys);
-    f.open_keys = {};
   });
   uint64_t so = 0, sa = 0;
   for (size_t i = 0; i < active.size(); ++i) {
@@ -853,7 +869,7 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
     }
     const uint32_t target = s.internal.group_target_clusters ? s.internal.group_target_clusters
                                                              : default_group_target_clusters(s.options.simplifier);
-    blk.groups = group_clusters(sets, keys, bounds, target, s.internal.group_method);
+    blk.groups = group_clusters(sets, keys, bounds, target, s.internal.group_method, inner);
     for (auto& g : blk.groups)
       for (uint32_t& m : g) m = L.active[blk.items[m]];
   }
@@ -891,9 +907,9 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
   // borders). Listed per group with one entry per use (a candidate is one use of an edge by a
   // triangle of the group), so the border check needs no search of the block's edges; the
   // locks of this block's vertices are final here (other blocks lock only their own).
-  // Collected per group (in parallel with `inner`), then joined in group order: the list the
-  // sort gets is the same for any thread count.
-  std::vector<std::vector<std::pair<uint64_t, uint32_t>>> group_candidates(group_count);
+  // Collected per group (in parallel with `inner`), then sorted by edge, then group (the
+  // same order for any thread count: sorted_edge_uses).
+  std::vector<std::vector<uint64_t>> group_candidates(group_count);
   for_chunks(inner, group_count, kLockGroupsPerTask, [&](size_t begin, size_t end) {
     for (size_t g = begin; g < end; ++g)
       for (uint32_t m : blk.groups[g]) {
@@ -905,30 +921,22 @@ void group_and_lock_block(BuildState& s, LevelState& L, size_t b, ThreadPool* in
           const bool l[3] = {locked[w[0]] != 0, locked[w[1]] != 0, locked[w[2]] != 0};
           for (int k = 0; k < 3; ++k) {
             const int next = k == 2 ? 0 : k + 1;
-            if (l[k] && l[next] && w[k] != w[next]) group_candidates[g].push_back({edge_key(w[k], w[next]), uint32_t(g)});
+            if (l[k] && l[next] && w[k] != w[next]) group_candidates[g].push_back(edge_key(w[k], w[next]));
           }
         }
       }
   });
-  size_t candidate_count = 0;
-  for (const auto& gc : group_candidates) candidate_count += gc.size();
-  std::vector<std::pair<uint64_t, uint32_t>> candidates;
-  candidates.reserve(candidate_count);
-  for (auto& gc : group_candidates) {
-    candidates.insert(candidates.end(), gc.begin(), gc.end());
-    gc = {};
-  }
-  std::sort(candidates.begin(), candidates.end());
+  const SortedEdgeUses candidates = sorted_edge_uses(group_candidates, inner);
+  group_candidates = {};
   const std::vector<uint64_t>& retired_edges = s.locks.retired_edges;
   blk.group_shared_edges.resize(blk.groups.size());
-  const std::pair<uint64_t, uint32_t>* next_use = candidates.data();
-  for_each_key_of_sorted_pairs(candidates, [&](uint64_t e, bool shared) {
-    const std::pair<uint64_t, uint32_t>* first_use = next_use;
-    while (next_use != candidates.data() + candidates.size() && next_use->first == e) ++next_use;
-    if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), e) ||
-        std::binary_search(L.cross_edges.begin(), L.cross_edges.end(), e))
-      for (const auto* use = first_use; use != next_use; ++use) blk.group_shared_edges[use->second].push_back(e);
-  });
+  for_each_edge_of_sorted_uses(
+      candidates, [](uint32_t group) { return group; },
+      [&](uint64_t e, size_t begin, size_t end, bool shared) {
+        if (shared || std::binary_search(retired_edges.begin(), retired_edges.end(), e) ||
+            std::binary_search(L.cross_edges.begin(), L.cross_edges.end(), e))
+          for (size_t use = begin; use < end; ++use) blk.group_shared_edges[candidates.uses[use].list].push_back(e);
+      });
   blk.results.resize(blk.groups.size());
   blk.seconds_locks = steady_seconds() - tl;
 }
@@ -1378,22 +1386,24 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   // The level's groups from their members, on the pool (a cluster is a member of one group);
   // this and the new clusters below ran on one thread, ~0.1 s per 4M-triangle build.
   groups.resize(size_t(first_group) + group_count);
-  s.pool.parallel_for(group_count, [&](size_t i) {
-    WorkGroup& g = groups[first_group + i];
-    g.members = std::move(level_groups[i]);
-    g.level = L.level;
-    uint32_t gi = first_group + uint32_t(i);
-    std::vector<Sphere> b, lb;
-    float max_child = 0.0f;
-    for (uint32_t m : g.members) {
-      clusters[m].group = gi;
-      b.push_back(clusters[m].bounds);
-      lb.push_back(clusters[m].lod_bounds);
-      max_child = std::max(max_child, clusters[m].lod_error);
+  for_chunks(&s.pool, group_count, kCombineGroupsPerTask, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      WorkGroup& g = groups[first_group + i];
+      g.members = std::move(level_groups[i]);
+      g.level = L.level;
+      uint32_t gi = first_group + uint32_t(i);
+      std::vector<Sphere> b, lb;
+      float max_child = 0.0f;
+      for (uint32_t m : g.members) {
+        clusters[m].group = gi;
+        b.push_back(clusters[m].bounds);
+        lb.push_back(clusters[m].lod_bounds);
+        max_child = std::max(max_child, clusters[m].lod_error);
+      }
+      g.bounds = enclose_spheres(b.data(), b.size());
+      g.parent_bounds = enclose_spheres(lb.data(), lb.size());
+      g.parent_error = max_child;
     }
-    g.bounds = enclose_spheres(b.data(), b.size());
-    g.parent_bounds = enclose_spheres(lb.data(), lb.size());
-    g.parent_error = max_child;
   });
   L.report.groups = group_count;
 
@@ -1427,34 +1437,38 @@ std::vector<uint32_t> combine_level(BuildState& s, LevelState& L) {
   clusters.resize(old_count + new_count);
   std::vector<uint32_t> next(new_count);
   std::vector<ClusterFacts> next_facts(new_count);  // (s.next_facts)
-  s.pool.parallel_for(group_count, [&](size_t i) {
-    GroupResult& r = results[i];
-    if (r.terminal) return;
-    const uint32_t gi = first_group + uint32_t(i);
-    WorkGroup& g = groups[gi];
-    g.generated.resize(r.clusters.size());
-    for (size_t k = 0; k < r.clusters.size(); ++k) {
-      const size_t index = first_new[i] + k;
-      WorkCluster& c = clusters[index];
-      ClusterFacts& f = next_facts[index - old_count];
-      c.triangles = std::move(r.clusters[k]);
-      if (!r.facts.empty()) c.bounds = r.bounds[k], f = std::move(r.facts[k]);
-      if (!f.counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
-      c.level = L.level + 1;
-      c.generating_group = gi;
-      c.lod_bounds = g.parent_bounds;
-      c.lod_error = g.parent_error;
-      g.generated[k] = uint32_t(index);
-      next[index - old_count] = uint32_t(index);
+  for_chunks(&s.pool, group_count, kCombineGroupsPerTask, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      GroupResult& r = results[i];
+      if (r.terminal) continue;
+      const uint32_t gi = first_group + uint32_t(i);
+      WorkGroup& g = groups[gi];
+      g.generated.resize(r.clusters.size());
+      for (size_t k = 0; k < r.clusters.size(); ++k) {
+        const size_t index = first_new[i] + k;
+        WorkCluster& c = clusters[index];
+        ClusterFacts& f = next_facts[index - old_count];
+        c.triangles = std::move(r.clusters[k]);
+        if (!r.facts.empty()) c.bounds = r.bounds[k], f = std::move(r.facts[k]);
+        if (!f.counted) c.bounds = cluster_sphere(*s.positions, c.triangles);
+        c.level = L.level + 1;
+        c.generating_group = gi;
+        c.lod_bounds = g.parent_bounds;
+        c.lod_error = g.parent_error;
+        g.generated[k] = uint32_t(index);
+        next[index - old_count] = uint32_t(index);
+      }
     }
   });
   // Reset per-level lock state (only the touched entries; the same values from any task).
-  s.pool.parallel_for(L.active.size(), [&](size_t i) {
-    const ClusterFacts* f = L.facts.empty() ? nullptr : &L.facts[i];
-    for_each_cluster_vertex(s.welded, clusters[L.active[i]], f, [&](uint32_t w) {
-      std::atomic_ref<uint32_t>(s.locks.owner[w]).store(kNone, std::memory_order_relaxed);
-      std::atomic_ref<uint8_t>(s.locks.locked[w]).store(0, std::memory_order_relaxed);
-    });
+  for_chunks(&s.pool, L.active.size(), kCombineClustersPerTask, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      const ClusterFacts* f = L.facts.empty() ? nullptr : &L.facts[i];
+      for_each_cluster_vertex(s.welded, clusters[L.active[i]], f, [&](uint32_t w) {
+        std::atomic_ref<uint32_t>(s.locks.owner[w]).store(kNone, std::memory_order_relaxed);
+        std::atomic_ref<uint8_t>(s.locks.locked[w]).store(0, std::memory_order_relaxed);
+      });
+    }
   });
   L.facts = {};
   s.next_facts = std::move(next_facts);

@@ -215,11 +215,31 @@ enum class GroupMethod { kGreedy, kMetis };
 // Deterministic (kGreedy: serial, ties broken by index; kMetis: fixed seed, single call).
 // `open_edges[i]`: the welded edge keys used once inside cluster i, in any order
 // (count_cluster_edges; the graph is built from all of them sorted together).
+// `pool`: a pool of idle threads for the graph's passes on large blocks (a level of one block),
+// or null (one thread); the groups are the same either way.
 std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const TriangleSet*>& clusters,
                                                   const std::vector<std::vector<uint64_t>>& open_edges,
                                                   const std::vector<Sphere>& bounds,
                                                   uint32_t target_clusters = kGroupTargetClusters,
-                                                  GroupMethod method = GroupMethod::kGreedy);
+                                                  GroupMethod method = GroupMethod::kGreedy, ThreadPool* pool = nullptr);
+
+// One use of a welded edge by list `list` of sorted_edge_uses' input, the edge key compressed
+// to (high << low_bits) | low (SortedEdgeUses::edge gives edge_key back).
+struct KeyedUse {
+  uint64_t key;
+  uint32_t list;
+};
+struct SortedEdgeUses {
+  std::vector<KeyedUse> uses;
+  uint32_t low_bits = 0;
+  uint64_t edge(size_t i) const {
+    return (uses[i].key >> low_bits) << 32 | (uses[i].key & ((uint64_t(1) << low_bits) - 1));
+  }
+};
+// Every edge key of lists[i] paired with i, sorted by key, then i (group.cpp): what a sort of
+// the (key, i) pairs gives. `pool` (may be null): a pool of idle threads for large inputs; the
+// same order either way.
+SortedEdgeUses sorted_edge_uses(const std::vector<std::vector<uint64_t>>& lists, ThreadPool* pool);
 
 // The cluster graph of a block: row c = [first[c], first[c + 1]) of (to, weight), neighbours
 // ascending, weight = shared welded edges (+ the weak spatial edges, kSpatialEdgeWeight).

@@ -9,6 +9,7 @@
 #include <metis.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cassert>
 #include <cmath>
@@ -24,62 +25,160 @@ namespace vgeo::build_detail {
 
 namespace {
 
-struct WeightedEdge {
-  uint32_t a, b;
-  int weight;
-  bool operator<(const WeightedEdge& o) const { return a != o.a ? a < o.a : b < o.b; }
-};
-
-// Bits per pass of the open edges' radix sort: 2,048 counters (8 KiB) stay in L1.
+// Bits per pass of the edge uses' radix sort: 2,048 counters (8 KiB) stay in L1.
 constexpr uint32_t kEdgeRadixBits = 11;
+constexpr uint32_t kEdgeRadixBuckets = 1u << kEdgeRadixBits;
 
-// An open edge of a cluster: its welded edge key (compressed, below) and the cluster.
-struct OpenEdge {
-  uint64_t key;
-  uint32_t cluster;
-};
+// Edge uses below this many are sorted on one thread even with a pool: each parallel pass
+// wakes the pool's threads (10 µs back to back, up to ~1 ms after a stretch of serial work on
+// the loaded 2-vCPU VM of docs/acceptance/issue23_group39.md) and a sort runs ~10 of them;
+// 2^16 uses are ~1 ms of sorting on one thread (the 1M sphere's level 2: 104k uses, 1.5 ms).
+constexpr size_t kParallelEdgeUses = size_t(1) << 16;
+// Blocks below this many clusters build their pair rows and spatial edges on one thread: the
+// 1M sphere's level 2 (2,065 clusters) spent ~3 ms in them at one thread.
+constexpr size_t kParallelGraphClusters = 2048;
+// Tasks per pool thread in the graph's parallel passes: a thread that another process holds
+// up leaves its few tasks to the others.
+constexpr size_t kTasksPerThread = 4;
 
-// Every cluster's open edges sorted by key, then cluster. The edges are listed in cluster
-// order, so a stable sort by key alone gives that order: an LSD radix sort of the keys
-// compressed to (high << bits of the largest low) | low, which keeps their order and
-// equality, over as many passes as the compressed keys have bits (40 on a 2^20-vertex mesh:
-// 4 passes instead of a comparison sort of the pairs).
-std::vector<OpenEdge> sorted_open_edges(const std::vector<std::vector<uint64_t>>& cluster_open_edges) {
-  size_t total = 0;
-  uint64_t max_high = 0, max_low = 0;
-  for (const auto& keys : cluster_open_edges) {
-    total += keys.size();
-    for (uint64_t k : keys) max_high = std::max(max_high, k >> 32), max_low = std::max(max_low, k & 0xFFFFFFFFu);
-  }
-  const uint32_t low_bits = uint32_t(std::bit_width(max_low)), key_bits = low_bits + uint32_t(std::bit_width(max_high));
-  std::vector<OpenEdge> edges, sorted;
-  edges.reserve(total);
-  for (size_t c = 0; c < cluster_open_edges.size(); ++c)
-    for (uint64_t k : cluster_open_edges[c]) edges.push_back({((k >> 32) << low_bits) | (k & 0xFFFFFFFFu), uint32_t(c)});
-  sorted.resize(edges.size());
-  constexpr uint32_t kBuckets = 1u << kEdgeRadixBits;
-  for (uint32_t shift = 0; shift < key_bits; shift += kEdgeRadixBits) {
-    uint32_t start[kBuckets + 1] = {};
-    for (const OpenEdge& e : edges) ++start[((e.key >> shift) & (kBuckets - 1)) + 1];
-    for (uint32_t b = 0; b < kBuckets; ++b) start[b + 1] += start[b];
-    for (const OpenEdge& e : edges) sorted[start[(e.key >> shift) & (kBuckets - 1)]++] = e;
-    edges.swap(sorted);
-  }
-  return edges;
+// The pool to run a pass of `items` on: `pool` when it has more than one thread and the pass
+// is large enough, else null (for_chunks then runs it in order on this thread).
+ThreadPool* pool_for(ThreadPool* pool, size_t items, size_t min_items) {
+  return pool && pool->size() > 1 && items >= min_items ? pool : nullptr;
 }
 
-// Rows of (neighbour, weight) pairs: row a = [first[a], first[a + 1]).
+// Items per task of a pass over `items` (one task without a pool).
+size_t task_items(const ThreadPool* pool, size_t items) {
+  const size_t tasks = pool ? kTasksPerThread * pool->size() : 1;
+  return std::max<size_t>(1, (items + tasks - 1) / tasks);
+}
+
+// A stable LSD radix sort of `items` by key (the lists' order kept among equal keys), over
+// as many passes as keys have bits. With a pool each pass runs in parts of consecutive items:
+// the parts count their digits, then each places its items of a digit after the earlier
+// parts' (the one-part order).
+void radix_sort_by_key(std::vector<KeyedUse>& items, uint32_t key_bits, ThreadPool* pool) {
+  const size_t n = items.size(), part = task_items(pool, n), parts = (n + part - 1) / std::max<size_t>(part, 1);
+  std::vector<KeyedUse> sorted;
+  sorted.reserve(n);
+  if (pool) prefault_parallel({{sorted.data(), n * sizeof(KeyedUse)}}, *pool);
+  sorted.resize(n);
+  std::vector<std::array<uint32_t, kEdgeRadixBuckets>> start(parts);
+  for (uint32_t shift = 0; shift < key_bits; shift += kEdgeRadixBits) {
+    auto digit = [&](const KeyedUse& e) { return uint32_t(e.key >> shift) & (kEdgeRadixBuckets - 1); };
+    for_chunks(pool, n, part, [&](size_t begin, size_t end) {
+      std::array<uint32_t, kEdgeRadixBuckets>& count = start[begin / part];
+      count.fill(0);
+      for (size_t i = begin; i < end; ++i) ++count[digit(items[i])];
+    });
+    uint32_t at = 0;
+    for (uint32_t b = 0; b < kEdgeRadixBuckets; ++b)
+      for (size_t p = 0; p < parts; ++p) {
+        const uint32_t count = start[p][b];
+        start[p][b] = at;
+        at += count;
+      }
+    for_chunks(pool, n, part, [&](size_t begin, size_t end) {
+      std::array<uint32_t, kEdgeRadixBuckets>& next = start[begin / part];
+      for (size_t i = begin; i < end; ++i) sorted[next[digit(items[i])]++] = items[i];
+    });
+    items.swap(sorted);
+  }
+}
+
+}  // namespace
+
+// The keys compressed to (high << bits of the largest low) | low, which keeps their order and
+// equality, sorted by an LSD radix sort over as many passes as the compressed keys have bits
+// (40 on a 2^20-vertex mesh: 4 passes instead of a comparison sort of the pairs). The uses are
+// listed in list order, so a stable sort by key alone gives the (key, list) order.
+SortedEdgeUses sorted_edge_uses(const std::vector<std::vector<uint64_t>>& lists, ThreadPool* pool) {
+  const size_t n = lists.size();
+  std::vector<size_t> first(n + 1, 0);
+  for (size_t c = 0; c < n; ++c) first[c + 1] = first[c] + lists[c].size();
+  const size_t total = first[n];
+  pool = pool_for(pool, total, kParallelEdgeUses);
+  // The largest high and low halves, per task of lists, then combined.
+  const size_t list_part = task_items(pool, n), list_parts = (n + list_part - 1) / list_part;
+  std::vector<std::pair<uint64_t, uint64_t>> max_part(list_parts, {0, 0});
+  for_chunks(pool, n, list_part, [&](size_t begin, size_t end) {
+    uint64_t max_high = 0, max_low = 0;
+    for (size_t c = begin; c < end; ++c)
+      for (uint64_t k : lists[c]) max_high = std::max(max_high, k >> 32), max_low = std::max(max_low, k & 0xFFFFFFFFu);
+    max_part[begin / list_part] = {max_high, max_low};
+  });
+  uint64_t max_high = 0, max_low = 0;
+  for (const auto& [high, low] : max_part) max_high = std::max(max_high, high), max_low = std::max(max_low, low);
+  SortedEdgeUses out;
+  out.low_bits = uint32_t(std::bit_width(max_low));
+  const uint32_t key_bits = out.low_bits + uint32_t(std::bit_width(max_high));
+  std::vector<KeyedUse>& uses = out.uses;
+  uses.reserve(total);
+  if (pool) prefault_parallel({{uses.data(), total * sizeof(KeyedUse)}}, *pool);
+  uses.resize(total);
+  for_chunks(pool, n, list_part, [&](size_t begin, size_t end) {
+    for (size_t c = begin; c < end; ++c) {
+      KeyedUse* at = uses.data() + first[c];
+      for (uint64_t k : lists[c]) *at++ = {((k >> 32) << out.low_bits) | (k & 0xFFFFFFFFu), uint32_t(c)};
+    }
+  });
+  radix_sort_by_key(uses, key_bits, pool);
+  return out;
+}
+
+namespace {
+
+// Rows of (neighbour, weight) pairs: row a = [first[a], end[a]) of to and weight.
 struct WeightedRows {
-  std::vector<size_t> first;
+  std::vector<size_t> first, end;
   std::vector<uint32_t> to;
   std::vector<int> weight;
 };
 
+// Sorts each row of `rows` (to: one entry per use, weight: room for as many) and merges equal
+// neighbours into one entry weighing their count; rows in tasks of the pool when there is one.
+void sort_and_count_rows(WeightedRows& rows, ThreadPool* pool) {
+  const size_t n = rows.first.size() - 1;
+  rows.end.resize(n);
+  rows.weight.resize(rows.to.size());
+  for_chunks(pool, n, task_items(pool, n), [&](size_t begin, size_t end) {
+    for (size_t a = begin; a < end; ++a) {
+      uint32_t* to = rows.to.data();
+      std::sort(to + rows.first[a], to + rows.first[a + 1]);
+      size_t out = rows.first[a];
+      for (size_t i = rows.first[a]; i < rows.first[a + 1];) {
+        size_t j = i;
+        while (j < rows.first[a + 1] && to[j] == to[i]) ++j;
+        to[out] = to[i];
+        rows.weight[out++] = int(j - i);
+        i = j;
+      }
+      rows.end[a] = out;
+    }
+  });
+}
+
+// Rows from (a, b) pairs listed by for_each(fn): row a holds each b once per pair, in the
+// pairs' order (a counting sort by a); n rows.
+template <class ForEachPair>
+WeightedRows rows_of_pairs(size_t n, ForEachPair&& for_each) {
+  WeightedRows rows;
+  std::vector<size_t>& fill = rows.first;
+  fill.assign(n + 1, 0);
+  for_each([&](uint32_t a, uint32_t) { ++fill[a + 1]; });
+  for (size_t i = 0; i < n; ++i) fill[i + 1] += fill[i];
+  rows.to.resize(fill[n]);
+  for_each([&](uint32_t a, uint32_t b) { rows.to[fill[a]++] = b; });
+  for (size_t i = n; i > 0; --i) fill[i] = fill[i - 1];  // back to each row's start
+  fill[0] = 0;
+  return rows;
+}
+
 // Per cluster, the clusters it shares welded edges with and how many, neighbours ascending
 // (the same graph as a sort of every (a, b) use and a sum of equal pairs, built by rows).
-WeightedRows shared_edge_rows(const std::vector<std::vector<uint64_t>>& cluster_open_edges) {
+WeightedRows shared_edge_rows(const std::vector<std::vector<uint64_t>>& cluster_open_edges, ThreadPool* pool) {
   const size_t n = cluster_open_edges.size();
-  const std::vector<OpenEdge> open_edges = sorted_open_edges(cluster_open_edges);
+  const std::vector<KeyedUse> open_edges = sorted_edge_uses(cluster_open_edges, pool).uses;
   // Pairs (a, b), one per use: a welded edge is shared by 2 clusters on a manifold;
   // non-manifold fans link all pairs up to a small bound, then consecutive ones (keeps the
   // graph linear in size).
@@ -90,7 +189,7 @@ WeightedRows shared_edge_rows(const std::vector<std::vector<uint64_t>>& cluster_
       const bool fan = j - i > 4;
       for (size_t x = i; x < j; ++x)
         for (size_t y = x + 1; y < (fan ? std::min(j, x + 2) : j); ++y) {
-          const uint32_t a = open_edges[x].cluster, b = open_edges[y].cluster;
+          const uint32_t a = open_edges[x].list, b = open_edges[y].list;
           if (a == b) continue;
           fn(a, b);
           fn(b, a);
@@ -98,34 +197,16 @@ WeightedRows shared_edge_rows(const std::vector<std::vector<uint64_t>>& cluster_
       i = j;
     }
   };
-  std::vector<size_t> fill(n + 1, 0);
-  for_each_pair([&](uint32_t a, uint32_t) { ++fill[a + 1]; });
-  for (size_t i = 0; i < n; ++i) fill[i + 1] += fill[i];
-  std::vector<uint32_t> uses(fill[n]);
-  std::vector<size_t> first = fill;
-  for_each_pair([&](uint32_t a, uint32_t b) { uses[fill[a]++] = b; });
-  WeightedRows rows;
-  rows.first.assign(n + 1, 0);
-  rows.to.reserve(uses.size() / 2);
-  rows.weight.reserve(uses.size() / 2);
-  for (size_t a = 0; a < n; ++a) {
-    std::sort(uses.begin() + first[a], uses.begin() + first[a + 1]);
-    for (size_t i = first[a]; i < first[a + 1];) {
-      size_t j = i;
-      while (j < first[a + 1] && uses[j] == uses[i]) ++j;
-      rows.to.push_back(uses[i]);
-      rows.weight.push_back(int(j - i));
-      i = j;
-    }
-    rows.first[a + 1] = rows.to.size();
-  }
+  WeightedRows rows = rows_of_pairs(n, for_each_pair);
+  sort_and_count_rows(rows, pool_for(pool, n, kParallelGraphClusters));
   return rows;
 }
 
 // Weak spatial edges between clusters near in Morton order that share no edge (both
-// directions, deduplicated, sorted by (a, b)).
-std::vector<WeightedEdge> spatial_edges(const WeightedRows& shared, const std::vector<Sphere>& bounds) {
+// directions, deduplicated): rows of neighbours ascending (weights unused).
+WeightedRows spatial_edges(const WeightedRows& shared, const std::vector<Sphere>& bounds, ThreadPool* pool) {
   const size_t n = bounds.size();
+  pool = pool_for(pool, n, kParallelGraphClusters);
   double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
   for (const Sphere& s : bounds)
     for (int k = 0; k < 3; ++k) {
@@ -142,55 +223,61 @@ std::vector<WeightedEdge> spatial_edges(const WeightedRows& shared, const std::v
   }
   std::sort(order.begin(), order.end());
   auto adjacent = [&](uint32_t a, uint32_t b) {
-    return std::binary_search(shared.to.begin() + shared.first[a], shared.to.begin() + shared.first[a + 1], b);
+    return std::binary_search(shared.to.begin() + shared.first[a], shared.to.begin() + shared.end[a], b);
   };
-  std::vector<WeightedEdge> spatial;
-  std::vector<std::pair<double, uint32_t>> cand;
-  for (size_t i = 0; i < n; ++i) {
-    uint32_t c = order[i].second;
-    cand.clear();
-    size_t from = i >= kSpatialWindow ? i - kSpatialWindow : 0, to = std::min(n, i + kSpatialWindow + 1);
-    for (size_t j = from; j < to; ++j) {
-      uint32_t d = order[j].second;
-      if (d == c || adjacent(c, d)) continue;
-      cand.push_back({distance_d(bounds[c].center, bounds[d].center), d});
+  // Each cluster's picks (its nearest non-adjacent ones in the window), per task of Morton
+  // positions, joined in task order: the one-thread order.
+  const size_t part = task_items(pool, n);
+  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> picks((n + part - 1) / part);
+  for_chunks(pool, n, part, [&](size_t begin, size_t end) {
+    std::vector<std::pair<uint32_t, uint32_t>>& out = picks[begin / part];
+    std::vector<std::pair<double, uint32_t>> cand;
+    for (size_t i = begin; i < end; ++i) {
+      uint32_t c = order[i].second;
+      cand.clear();
+      size_t from = i >= kSpatialWindow ? i - kSpatialWindow : 0, to = std::min(n, i + kSpatialWindow + 1);
+      for (size_t j = from; j < to; ++j) {
+        uint32_t d = order[j].second;
+        if (d == c || adjacent(c, d)) continue;
+        cand.push_back({distance_d(bounds[c].center, bounds[d].center), d});
+      }
+      std::sort(cand.begin(), cand.end());
+      for (size_t k = 0; k < cand.size() && k < kSpatialNeighbors; ++k) out.push_back({c, cand[k].second});
     }
-    std::sort(cand.begin(), cand.end());
-    for (size_t k = 0; k < cand.size() && k < kSpatialNeighbors; ++k) {
-      spatial.push_back({c, cand[k].second, kSpatialEdgeWeight});
-      spatial.push_back({cand[k].second, c, kSpatialEdgeWeight});
-    }
-  }
-  // Both ends may pick each other.
-  std::sort(spatial.begin(), spatial.end());
-  spatial.erase(std::unique(spatial.begin(), spatial.end(),
-                            [](const WeightedEdge& x, const WeightedEdge& y) { return x.a == y.a && x.b == y.b; }),
-                spatial.end());
-  return spatial;
+  });
+  // Both ends may pick each other: each row sorted, each neighbour once.
+  WeightedRows rows = rows_of_pairs(n, [&](auto&& fn) {
+    for (const auto& task : picks)
+      for (const auto& [c, d] : task) {
+        fn(c, d);
+        fn(d, c);
+      }
+  });
+  sort_and_count_rows(rows, pool);
+  return rows;
 }
 
 // The shared-edge rows and the spatial edges merged row by row (weights of equal pairs
 // summed; none are equal, spatial edges join only non-adjacent clusters).
 ClusterAdjacency cluster_graph(const std::vector<std::vector<uint64_t>>& cluster_open_edges,
-                               const std::vector<Sphere>& bounds) {
+                               const std::vector<Sphere>& bounds, ThreadPool* pool) {
   const size_t n = cluster_open_edges.size();
-  const WeightedRows shared = shared_edge_rows(cluster_open_edges);
-  const std::vector<WeightedEdge> spatial = spatial_edges(shared, bounds);
+  const WeightedRows shared = shared_edge_rows(cluster_open_edges, pool);
+  const WeightedRows spatial = spatial_edges(shared, bounds, pool);
   ClusterAdjacency g;
   g.first.assign(n + 1, 0);
-  g.to.reserve(shared.to.size() + spatial.size());
-  g.weight.reserve(shared.to.size() + spatial.size());
-  size_t s = 0;
+  g.to.reserve(shared.to.size() + spatial.to.size());
+  g.weight.reserve(shared.to.size() + spatial.to.size());
   for (size_t a = 0; a < n; ++a) {
-    size_t i = shared.first[a];
-    const size_t end = shared.first[a + 1];
-    while (i < end || (s < spatial.size() && spatial[s].a == a)) {
-      const bool take_spatial = s < spatial.size() && spatial[s].a == a && (i == end || spatial[s].b <= shared.to[i]);
-      const bool take_shared = i < end && (!take_spatial || shared.to[i] == spatial[s].b);
-      const uint32_t b = take_shared ? shared.to[i] : spatial[s].b;
+    size_t i = shared.first[a], s = spatial.first[a];
+    const size_t end = shared.end[a], spatial_end = spatial.end[a];
+    while (i < end || s < spatial_end) {
+      const bool take_spatial = s < spatial_end && (i == end || spatial.to[s] <= shared.to[i]);
+      const bool take_shared = i < end && (!take_spatial || shared.to[i] == spatial.to[s]);
+      const uint32_t b = take_shared ? shared.to[i] : spatial.to[s];
       int w = 0;
       if (take_shared) w += shared.weight[i++];
-      if (take_spatial) w += spatial[s++].weight;
+      if (take_spatial) w += kSpatialEdgeWeight, ++s;
       g.to.push_back(b);
       g.weight.push_back(uint32_t(w));
     }
@@ -270,7 +357,7 @@ std::vector<uint32_t> partition_clusters_metis(const ClusterAdjacency& graph, co
 std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const TriangleSet*>& clusters,
                                                   const std::vector<std::vector<uint64_t>>& cluster_open_edges,
                                                   const std::vector<Sphere>& bounds, uint32_t target_clusters,
-                                                  GroupMethod method) {
+                                                  GroupMethod method, ThreadPool* pool) {
   size_t n = clusters.size();
   std::vector<std::vector<uint32_t>> groups;
   if (n == 0) return groups;
@@ -281,7 +368,7 @@ std::vector<std::vector<uint32_t>> group_clusters(const std::vector<const Triang
     return groups;
   }
 
-  const ClusterAdjacency graph = cluster_graph(cluster_open_edges, bounds);
+  const ClusterAdjacency graph = cluster_graph(cluster_open_edges, bounds, pool);
   std::vector<uint32_t> weight(n);
   for (size_t i = 0; i < n; ++i) weight[i] = uint32_t(std::max<size_t>(1, clusters[i]->triangle_count()));
   std::vector<uint32_t> part = method == GroupMethod::kMetis ? partition_clusters_metis(graph, weight, nparts)
