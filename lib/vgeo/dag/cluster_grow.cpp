@@ -484,7 +484,7 @@ uint32_t first_seed(const Grower& g) {
 }  // namespace
 
 std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch,
-                                   bool along_curve) {
+                                   bool along_curve, ClusterSink* sink) {
   if (tris.triangle_count() == 0) return {};
   Grower g(tris, scratch);
   index_triangles(g, welded, along_curve);
@@ -500,12 +500,20 @@ std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet&
       // with none, the unclustered triangle nearest the full cluster's centroid.
       const uint32_t nearest = next == kNone ? nearest_to_cluster(g) : kNone;
       finish_cluster(g);
+      if (sink && g.out.size() >= kSinkBatchClusters) {
+        sink->take(g.out.data(), g.out.size());
+        g.out.clear();
+      }
       if (next == kNone) next = nearest;
     } else if (next == kNone) {
       next = nearest_to_cluster(g);
     }
   }
   finish_cluster(g);
+  if (sink && !g.out.empty()) {
+    sink->take(g.out.data(), g.out.size());
+    g.out.clear();
+  }
   return std::move(g.out);
 }
 
