@@ -484,6 +484,75 @@ TEST(Build, GrowerClustersDoNotDependOnItsTriangleOrder) {
   }
 }
 
+// A sphere with a strip of repeated-corner triangles along one meridian: degenerate ones,
+// which the split attaches to the clusters after the grower (split_into_clusters).
+Mesh sphere_with_degenerate_triangles(uint32_t rings, uint32_t segments) {
+  Mesh m = make_sphere(rings, segments);
+  const uint32_t n = uint32_t(m.triangle_count());
+  for (uint32_t t = 0; t < n; t += 97) {
+    const uint32_t a = m.indices[3 * size_t(t)], b = m.indices[3 * size_t(t) + 1];
+    m.indices.insert(m.indices.end(), {a, a, b});
+  }
+  return m;
+}
+
+// Records the batches a split hands over (ClusterSink).
+struct RecordingSink final : build_detail::ClusterSink {
+  std::vector<build_detail::TriangleSet> clusters;
+  std::vector<size_t> batch_sizes;
+  void take(build_detail::TriangleSet* batch, size_t count) override {
+    batch_sizes.push_back(count);
+    for (size_t i = 0; i < count; ++i) clusters.push_back(std::move(batch[i]));
+  }
+};
+
+// A split with a sink (the leaf pass: the facts are computed on another thread as the grower
+// goes) hands over the clusters it returns without one, in order, in batches of at most
+// kSinkBatchClusters: the grower's own hand-over, the degenerate triangles' (attached after the
+// grower, then handed over) and another method's.
+TEST(Build, SplitHandsItsClustersToASinkInOrder) {
+  const Mesh plain = make_sphere(64, 96), with_degenerate = sphere_with_degenerate_triangles(64, 96);
+  for (const Mesh* m : {&plain, &with_degenerate})
+    for (auto method : {build_detail::SplitMethod::kGrow, build_detail::SplitMethod::kMeshopt}) {
+      const build_detail::WeldedMesh welded = build_detail::weld_positions(*m);
+      build_detail::TriangleSet all;
+      all.corners = m->indices;
+      all.materials.assign(m->triangle_count(), 0);
+      std::vector<uint32_t> scratch(welded.weld.size(), kNone);
+      const std::vector<build_detail::TriangleSet> expected =
+          build_detail::split_into_clusters(welded, all, scratch, method);
+      ASSERT_GT(expected.size(), 2 * build_detail::kSinkBatchClusters) << "several batches (precondition)";
+      RecordingSink sink;
+      EXPECT_TRUE(build_detail::split_into_clusters(welded, all, scratch, method, nullptr, &sink).empty());
+      ASSERT_EQ(sink.clusters.size(), expected.size()) << "method " << int(method);
+      for (size_t i = 0; i < expected.size(); ++i) {
+        EXPECT_EQ(sink.clusters[i].corners, expected[i].corners) << "cluster " << i;
+        EXPECT_EQ(sink.clusters[i].materials, expected[i].materials) << "cluster " << i;
+      }
+      for (size_t size : sink.batch_sizes) {
+        EXPECT_GE(size, 1u);
+        EXPECT_LE(size, build_detail::kSinkBatchClusters);
+      }
+      EXPECT_TRUE(std::all_of(scratch.begin(), scratch.end(), [](uint32_t v) { return v == kNone; }));
+    }
+}
+
+// A mesh of one leaf chunk: with two or more threads the leaves' facts are computed on one
+// thread while the grower runs on another (build_leaves); the DAG is the one-thread DAG, with
+// and without degenerate triangles (handed over after the grower).
+TEST(Build, OneChunkLeafFactsBesideTheGrowerKeepDeterminism) {
+  for (const Mesh& m : {make_sphere(64, 96), sphere_with_degenerate_triangles(64, 96)}) {
+    BuiltScene one;
+    one.meshes.push_back(build(m, Simplifier::kMeshopt, 1));
+    expect_dag_properties(one.meshes[0], m.triangle_count());
+    for (unsigned threads : {2u, 3u}) {
+      BuiltScene many;
+      many.meshes.push_back(build(m, Simplifier::kMeshopt, threads));
+      EXPECT_EQ(encode_dag_file(one), encode_dag_file(many)) << threads << " threads";
+    }
+  }
+}
+
 TEST(Build, SingleTriangle) {
   Mesh m;
   m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0};

@@ -16,6 +16,9 @@
 #include <exception>
 #include <cmath>
 #include <cstring>
+#include <deque>
+#include <memory>
+#include <mutex>
 
 #include "vgeo/dag/build_internal.h"
 #include "vgeo/core/error.h"
@@ -222,9 +225,10 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
   // the order is the serial sort's on any thread count.
   constexpr size_t kCellCount = size_t(kCells) * kCells * kCells;
   const size_t tasks = (n + kTrianglesPerTask - 1) / kTrianglesPerTask;
-  std::vector<uint16_t> cell;
-  reserve_huge_pages(cell, n);
-  cell.resize(n);
+  // `cell` and `order` are written whole by the parallel passes: left uninitialized (a vector's
+  // zero fill of their 6 MB on the 1M sphere ran on one thread before them).
+  const std::unique_ptr<uint16_t[]> cell(new uint16_t[n]);
+  advise_huge_pages(cell.get(), n * sizeof(uint16_t));
   std::vector<uint32_t> task_count(tasks * kCellCount, 0);  // [task][cell]
   pool.parallel_for(tasks, [&](size_t k) {
     uint32_t* histogram = &task_count[k * kCellCount];
@@ -240,9 +244,8 @@ std::vector<TriangleSet> leaf_chunks(const Mesh& mesh, const Aabb& box, ThreadPo
     for (size_t k = 0; k < tasks; ++k) task_fill[k * kCellCount + c] = at, at += task_count[k * kCellCount + c];
   }
   count[kCellCount] = n;
-  std::vector<uint32_t> order;
-  reserve_huge_pages(order, n);
-  order.resize(n);
+  const std::unique_ptr<uint32_t[]> order(new uint32_t[n]);
+  advise_huge_pages(order.get(), n * sizeof(uint32_t));
   pool.parallel_for(tasks, [&](size_t k) {
     size_t* fill = &task_fill[k * kCellCount];
     for (size_t t = k * kTrianglesPerTask; t < std::min(n, (k + 1) * kTrianglesPerTask); ++t) order[fill[cell[t]]++] = uint32_t(t);
@@ -705,55 +708,156 @@ void prepare(BuildState& s) {
 }
 
 // ---- 2. leaf clusters ----
+// A batch of a chunk's leaves as its split hands them over (ClusterSink), with their facts
+// once computed.
+struct LeafBatch {
+  std::vector<WorkCluster> leaves;
+  std::vector<ClusterFacts> facts;
+};
+
+// The leaf pass's tasks, run on every pool thread: a chunk's split (the grower, sequential by
+// nature: one thread per chunk) and the facts of a batch of its leaves (cluster_facts), which
+// the split hands over as it goes, so a free thread computes them beside the grower: those of a
+// mesh of one chunk, and of a larger mesh's last chunks, no longer follow their grower on its
+// thread. A thread takes a ready batch first (one thread then gives a chunk's leaves their
+// facts right after its split, while they are in cache, as before), else the next chunk
+// (largest first: the longest split starts first), else waits while a chunk is being split.
+// Batches land in per-chunk slots in order, so the leaves' order does not depend on threads.
+struct LeafTasks {
+  explicit LeafTasks(BuildState& state) : s(state) {}
+  BuildState& s;
+  std::vector<TriangleSet> chunks;  // leaf_chunks; each freed once split
+  std::vector<std::vector<uint8_t>> chunk_degenerate;
+  std::vector<uint32_t> dispatch;  // chunk indices in the order they are handed out
+  std::vector<std::vector<std::unique_ptr<LeafBatch>>> batches;  // per chunk, in order
+  std::mutex mutex;  // guards what follows and `batches`' lists
+  std::condition_variable changed;
+  std::deque<LeafBatch*> ready;  // batches without facts, oldest first
+  size_t next_chunk = 0, splitting = 0;
+  std::exception_ptr first_error;
+
+  void plan();
+  void run();
+  void split_chunk(size_t chunk, std::vector<uint32_t>& scratch);
+  void publish(size_t chunk, TriangleSet* clusters, size_t count);
+  void give_facts(LeafBatch& batch, std::vector<uint32_t>& scratch) const;
+};
+
+// Hands a chunk's clusters to LeafTasks::publish.
+struct LeafChunkSink final : ClusterSink {
+  LeafChunkSink(LeafTasks& t, size_t c) : tasks(t), chunk(c) {}
+  LeafTasks& tasks;
+  size_t chunk;
+  void take(TriangleSet* clusters, size_t count) override { tasks.publish(chunk, clusters, count); }
+};
+
+void LeafTasks::plan() {
+  dispatch.resize(chunks.size());
+  for (uint32_t i = 0; i < dispatch.size(); ++i) dispatch[i] = i;
+  std::stable_sort(dispatch.begin(), dispatch.end(), [&](uint32_t a, uint32_t b) {
+    return chunks[a].triangle_count() > chunks[b].triangle_count();
+  });
+  batches.resize(chunks.size());
+}
+
+void LeafTasks::run() {
+  std::vector<uint32_t> scratch = s.scratch.take();
+  std::unique_lock<std::mutex> lock(mutex);
+  for (;;) {
+    std::exception_ptr error;
+    if (!ready.empty()) {
+      LeafBatch* batch = ready.front();
+      ready.pop_front();
+      lock.unlock();
+      try {
+        give_facts(*batch, scratch);
+      } catch (...) {
+        error = std::current_exception();
+      }
+      lock.lock();
+    } else if (next_chunk < dispatch.size()) {
+      const size_t chunk = dispatch[next_chunk++];
+      ++splitting;
+      lock.unlock();
+      try {
+        split_chunk(chunk, scratch);
+      } catch (...) {
+        error = std::current_exception();
+      }
+      lock.lock();
+      if (--splitting == 0) changed.notify_all();  // the waiting threads may be done
+    } else if (splitting == 0) {
+      break;
+    } else {
+      changed.wait(lock);
+    }
+    if (error && !first_error) first_error = error;
+  }
+  lock.unlock();
+  s.scratch.give(std::move(scratch));
+}
+
+void LeafTasks::split_chunk(size_t chunk, std::vector<uint32_t>& scratch) {
+  LeafChunkSink sink(*this, chunk);
+  split_into_clusters(s.welded, chunks[chunk], scratch, s.internal.leaf_split, chunk_degenerate[chunk].data(), &sink);
+  chunks[chunk] = TriangleSet();
+  chunk_degenerate[chunk] = {};
+}
+
+void LeafTasks::publish(size_t chunk, TriangleSet* clusters, size_t count) {
+  auto batch = std::make_unique<LeafBatch>();
+  batch->leaves.resize(count);
+  for (size_t k = 0; k < count; ++k) batch->leaves[k].triangles = std::move(clusters[k]);
+  {
+    std::lock_guard<std::mutex> guard(mutex);
+    ready.push_back(batch.get());
+    batches[chunk].push_back(std::move(batch));
+  }
+  changed.notify_one();
+}
+
+void LeafTasks::give_facts(LeafBatch& batch, std::vector<uint32_t>& scratch) const {
+  batch.facts.resize(batch.leaves.size());
+  for (size_t k = 0; k < batch.leaves.size(); ++k) {
+    WorkCluster& c = batch.leaves[k];
+    batch.facts[k] = cluster_facts(s.mesh, s.welded, c.triangles, scratch, c.bounds);
+    c.lod_bounds = c.bounds;
+  }
+}
+
 void build_leaves(BuildState& s) {
   const double t0 = steady_seconds();
   // Large meshes are cut into spatially coherent chunks (cells of a 16^3 grid in Morton
   // order, consecutive cells merged up to kLeafChunkTriangles) clustered in parallel.
   // The chunking depends only on the mesh, so the output does not depend on threads.
-  std::vector<std::vector<uint8_t>> chunk_degenerate;
-  std::vector<TriangleSet> chunks =
-      leaf_chunks(s.mesh, s.mesh_box, s.pool, s.leaf_degenerate, chunk_degenerate, s.released_indices);
+  LeafTasks tasks(s);
+  tasks.chunks = leaf_chunks(s.mesh, s.mesh_box, s.pool, s.leaf_degenerate, tasks.chunk_degenerate, s.released_indices);
   s.leaf_degenerate = {};
-  // Each chunk's task also gives its leaves their spheres and facts (ClusterFacts).
-  std::vector<std::vector<WorkCluster>> chunk_leaves(chunks.size());
-  std::vector<std::vector<ClusterFacts>> chunk_facts(chunks.size());
-  s.pool.parallel_for(chunks.size(), [&](size_t i) {
-    std::vector<uint32_t> scratch = s.scratch.take();
-    std::vector<TriangleSet> split =
-        split_into_clusters(s.welded, chunks[i], scratch, s.internal.leaf_split, chunk_degenerate[i].data());
-    chunks[i] = TriangleSet();
-    chunk_degenerate[i] = {};
-    chunk_leaves[i].resize(split.size());
-    chunk_facts[i].resize(split.size());
-    for (size_t k = 0; k < split.size(); ++k) {
-      WorkCluster& c = chunk_leaves[i][k];
-      c.triangles = std::move(split[k]);
-      chunk_facts[i][k] = cluster_facts(s.mesh, s.welded, c.triangles, scratch, c.bounds);
-      c.lod_bounds = c.bounds;
-    }
-    s.scratch.give(std::move(scratch));
-  });
+  tasks.plan();
+  s.pool.run_on_all([&](unsigned) { tasks.run(); });
+  if (tasks.first_error) std::rethrow_exception(tasks.first_error);
   size_t leaf_count = 0;
-  for (const auto& cl : chunk_leaves) leaf_count += cl.size();
+  for (const auto& chunk : tasks.batches)
+    for (const auto& batch : chunk) leaf_count += batch->leaves.size();
   // Room for the whole DAG's clusters: each level halves its input (kSimplifyTargetRatio), so
   // the DAG holds about twice the leaves (4M sphere: 2.05x); growing as a vector moved every
   // cluster record into fresh memory at the levels that crossed the capacity.
   reserve_huge_pages(s.clusters, size_t(kReservedClustersPerLeaf * double(leaf_count)));
   s.next_facts.reserve(leaf_count);
-  for (size_t i = 0; i < chunks.size(); ++i)
-    for (size_t k = 0; k < chunk_leaves[i].size(); ++k) {
-      s.clusters.push_back(std::move(chunk_leaves[i][k]));
-      s.next_facts.push_back(std::move(chunk_facts[i][k]));
-    }
-  chunk_leaves.clear();
-  chunk_facts.clear();
+  for (const auto& chunk : tasks.batches)
+    for (const auto& batch : chunk)
+      for (size_t k = 0; k < batch->leaves.size(); ++k) {
+        s.clusters.push_back(std::move(batch->leaves[k]));
+        s.next_facts.push_back(std::move(batch->facts[k]));
+      }
+  tasks.batches.clear();
   s.report.seconds_cluster = steady_seconds() - t0;
   // A mesh of one chunk (or none: split in place) peaked just now, in its grower's per-triangle
   // arrays; the later phases allocate less but fault in their code: returning the freed pages
   // keeps that code off this peak (armadillo -0.4 MiB, +800 page faults). Several chunks reuse
   // each other's memory, and the levels reuse it: no gain there, only page faults (1M sphere:
   // same peak, +2,900 faults).
-  if (chunks.size() <= 1) release_free_heap();
+  if (tasks.chunks.size() <= 1) release_free_heap();
   const double te = steady_seconds();
   std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
   for (size_t i = 0; i < s.clusters.size(); ++i) leaf_sets[i] = &s.clusters[i].triangles;

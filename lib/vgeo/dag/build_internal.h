@@ -178,11 +178,30 @@ FinSet find_fins(const WeldedMesh& welded, ThreadPool& pool, std::vector<uint8_t
 // (the default; meshopt_buildMeshlets 0.18's rule, cluster_grow.cpp); kMeshopt:
 // meshopt_buildMeshlets itself; kMetis: recursive bisection (both kept for measurement).
 // `degenerate`, when given: is_degenerate of each triangle of `tris`, known already.
+// `sink`, when given, gets the clusters instead of the result (which is then empty): in
+// order, in batches, each as soon as it is final (ClusterSink).
 enum class SplitMethod : uint8_t { kMeshopt = 0, kMetis = 1, kGrow = 2 };
+class ClusterSink;
 std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const TriangleSet& tris,
                                              std::vector<uint32_t>& scratch,
                                              SplitMethod method = SplitMethod::kGrow,
-                                             const uint8_t* degenerate = nullptr);
+                                             const uint8_t* degenerate = nullptr, ClusterSink* sink = nullptr);
+// Takes a split's clusters as the splitter finishes them (split_into_clusters with a sink), so
+// the leaf pass gives them their facts on another thread while the grower goes on
+// (build_leaves). The grower hands them over every kSinkBatchClusters clusters; a split that
+// rewrites its clusters afterwards (degenerate triangles attached) or another method, at the
+// end, in batches of that size.
+class ClusterSink {
+ public:
+  virtual ~ClusterSink() = default;
+  // The next `count` clusters in order: the sink moves them out.
+  virtual void take(TriangleSet* clusters, size_t count) = 0;
+};
+// ~150 µs of facts per batch (cluster_facts: ~5 µs a cluster on the 1M sphere, measured), which
+// is what is left after a chunk's grower ends, against a few µs (estimated) of hand-over on the
+// grower's thread: a lock, and a futex wake-up where the other thread waits. bunny00's 590
+// leaves are 19 batches.
+inline constexpr size_t kSinkBatchClusters = 32;
 
 // The splitters' shared steps (cluster_split.cpp), the grower (cluster_grow.cpp) and the two
 // kept for measurement (cluster_split_alternatives.cpp), which split_into_clusters calls.
@@ -200,8 +219,9 @@ void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, st
                   std::vector<TriangleSet>& out);
 // along_curve = false: the grower keeps the input order of a large split instead of the curve
 // order (slower; the same clusters: tests compare the two).
+// `sink`: as split_into_clusters'.
 std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch,
-                                   bool along_curve = true);
+                                   bool along_curve = true, ClusterSink* sink = nullptr);
 std::vector<TriangleSet> split_meshopt(const WeldedMesh& welded, const TriangleSet& tris,
                                        std::vector<uint32_t>& scratch);
 std::vector<TriangleSet> split_metis(const WeldedMesh& welded, const TriangleSet& tris,

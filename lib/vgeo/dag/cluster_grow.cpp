@@ -481,10 +481,17 @@ uint32_t first_seed(const Grower& g) {
     if (g.id_of(t) == 0) return t;
 }
 
+// Hands the grown clusters to `sink` (when given) once there are at least `batch` of them.
+void hand_over(Grower& g, ClusterSink* sink, size_t batch) {
+  if (!sink || g.out.empty() || g.out.size() < batch) return;
+  sink->take(g.out.data(), g.out.size());
+  g.out.clear();
+}
+
 }  // namespace
 
 std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch,
-                                   bool along_curve) {
+                                   bool along_curve, ClusterSink* sink) {
   if (tris.triangle_count() == 0) return {};
   Grower g(tris, scratch);
   index_triangles(g, welded, along_curve);
@@ -500,12 +507,14 @@ std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet&
       // with none, the unclustered triangle nearest the full cluster's centroid.
       const uint32_t nearest = next == kNone ? nearest_to_cluster(g) : kNone;
       finish_cluster(g);
+      hand_over(g, sink, kSinkBatchClusters);
       if (next == kNone) next = nearest;
     } else if (next == kNone) {
       next = nearest_to_cluster(g);
     }
   }
   finish_cluster(g);
+  hand_over(g, sink, 1);
   return std::move(g.out);
 }
 

@@ -67,12 +67,22 @@ void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, st
 
 namespace {
 
+// Hands `clusters` to `sink` (when given) in batches of kSinkBatchClusters; returns what is
+// left: none with a sink.
+std::vector<TriangleSet> deliver(std::vector<TriangleSet> clusters, ClusterSink* sink) {
+  if (!sink) return clusters;
+  for (size_t i = 0; i < clusters.size(); i += kSinkBatchClusters)
+    sink->take(&clusters[i], std::min(kSinkBatchClusters, clusters.size() - i));
+  return {};
+}
+
+// `sink`: the grower hands its clusters over as it goes; the other methods at the end.
 std::vector<TriangleSet> split_proper(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch,
-                                      SplitMethod method) {
+                                      SplitMethod method, ClusterSink* sink) {
   switch (method) {
-    case SplitMethod::kMetis: return split_metis(welded, tris, scratch);
-    case SplitMethod::kMeshopt: return split_meshopt(welded, tris, scratch);
-    default: return split_grow(welded, tris, scratch);
+    case SplitMethod::kMetis: return deliver(split_metis(welded, tris, scratch), sink);
+    case SplitMethod::kMeshopt: return deliver(split_meshopt(welded, tris, scratch), sink);
+    default: return split_grow(welded, tris, scratch, true, sink);
   }
 }
 
@@ -257,7 +267,7 @@ std::vector<TriangleSet> attach_degenerate(const WeldedMesh& welded, const Trian
     emit_units(grown, order.data(), 0, order.size(), units, scratch, out);
   }
   if (leftover.triangle_count() > 0)
-    for (TriangleSet& t : split_proper(welded, leftover, scratch, method)) out.push_back(std::move(t));
+    for (TriangleSet& t : split_proper(welded, leftover, scratch, method, nullptr)) out.push_back(std::move(t));
   return out;
 }
 
@@ -265,7 +275,7 @@ std::vector<TriangleSet> attach_degenerate(const WeldedMesh& welded, const Trian
 
 std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const TriangleSet& tris,
                                              std::vector<uint32_t>& scratch, SplitMethod method,
-                                             const uint8_t* known_degenerate) {
+                                             const uint8_t* known_degenerate, ClusterSink* sink) {
   const size_t n = tris.triangle_count();
   if (n == 0) return {};
   // Degenerate triangles are left out of the clusterizer and attached afterwards: meshopt
@@ -275,7 +285,7 @@ std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const Tri
   for (size_t t = 0; t < n; ++t)
     if (known_degenerate ? known_degenerate[t] != 0 : is_degenerate(welded, &tris.corners[3 * t]))
       degenerate.push_back(uint32_t(t));
-  if (degenerate.empty() || degenerate.size() == n) return split_proper(welded, tris, scratch, method);
+  if (degenerate.empty() || degenerate.size() == n) return split_proper(welded, tris, scratch, method, sink);
   TriangleSet proper;
   proper.corners.reserve(3 * (n - degenerate.size()));
   proper.materials.reserve(n - degenerate.size());
@@ -287,8 +297,8 @@ std::vector<TriangleSet> split_into_clusters(const WeldedMesh& welded, const Tri
     proper.corners.insert(proper.corners.end(), &tris.corners[3 * t], &tris.corners[3 * t] + 3);
     proper.materials.push_back(tris.materials[t]);
   }
-  std::vector<TriangleSet> clusters = split_proper(welded, proper, scratch, method);
-  return attach_degenerate(welded, tris, degenerate, std::move(clusters), scratch, method);
+  std::vector<TriangleSet> clusters = split_proper(welded, proper, scratch, method, nullptr);
+  return deliver(attach_degenerate(welded, tris, degenerate, std::move(clusters), scratch, method), sink);
 }
 
 }  // namespace vgeo::build_detail
