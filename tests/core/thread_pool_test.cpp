@@ -1,7 +1,10 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <mutex>
+#include <set>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
 #include "vgeo/core/lod.h"
@@ -26,6 +29,42 @@ TEST(ThreadPool, ParallelForRethrows) {
   std::atomic<int> n{0};
   pool.parallel_for(10, [&](size_t) { n++; });
   EXPECT_EQ(n.load(), 10);
+}
+
+// A single index runs on the calling thread (no worker is woken for it).
+TEST(ThreadPool, ParallelForOfOneIndexRunsOnTheCallingThread) {
+  ThreadPool pool(3);
+  std::thread::id ran_on;
+  pool.parallel_for(1, [&](size_t) { ran_on = std::this_thread::get_id(); });
+  EXPECT_EQ(ran_on, std::this_thread::get_id());
+}
+
+// Short parallel_fors return while workers may still be asleep (they are not waited for when
+// the calling thread took every index); every index still runs once, and run_on_all after them
+// still runs on every thread once, with each worker index once.
+TEST(ThreadPool, WorkersThatWakeLateSkipAFinishedParallelFor) {
+  for (unsigned threads : {2u, 3u, 5u}) {
+    ThreadPool pool(threads);
+    for (int round = 0; round < 300; ++round) {
+      std::atomic<int> hits[2] = {0, 0};
+      pool.parallel_for(2, [&](size_t i) { hits[i]++; });
+      EXPECT_EQ(hits[0].load(), 1);
+      EXPECT_EQ(hits[1].load(), 1);
+      if (round % 50 == 0) {
+        std::mutex m;
+        std::multiset<unsigned> workers;
+        std::set<std::thread::id> ids;
+        pool.run_on_all([&](unsigned w) {
+          std::lock_guard<std::mutex> lock(m);
+          workers.insert(w);
+          ids.insert(std::this_thread::get_id());
+        });
+        ASSERT_EQ(workers.size(), threads);
+        for (unsigned w = 0; w < threads; ++w) EXPECT_EQ(workers.count(w), 1u);
+        EXPECT_EQ(ids.size(), threads);
+      }
+    }
+  }
 }
 
 TEST(Lod, ProjectedErrorFiniteWithEyeInsideSphere) {

@@ -25,20 +25,27 @@ class ThreadPool {
   unsigned size() const { return unsigned(workers_.size()) + 1; }  // + the calling thread
 
   // Runs fn(i) for i in [0, n); the calling thread participates. Rethrows the first
-  // exception thrown by fn (after all indices were handed out).
+  // exception thrown by fn (after all indices were handed out). One index runs on the calling
+  // thread alone; a worker that wakes after the calling thread has handed out every index is
+  // not waited for (it finds nothing to run).
   void parallel_for(size_t n, const std::function<void(size_t)>& fn);
 
   // Runs fn(worker_index) once on every thread of the pool (persistent-thread style).
   void run_on_all(const std::function<void(unsigned)>& fn);
 
  private:
+  // Runs fn(0) here and fn(worker_index) on the workers; returns once every worker that took the
+  // job has finished it. every_worker: wait until each worker has taken it; otherwise workers that
+  // have not taken it when fn(0) returns skip it.
+  void run(const std::function<void(unsigned)>& fn, bool every_worker);
   void worker_loop(unsigned index);
   std::vector<std::thread> workers_;
   std::mutex mutex_;
   std::condition_variable wake_, done_;
-  const std::function<void(unsigned)>* job_ = nullptr;
+  const std::function<void(unsigned)>* job_ = nullptr;  // null: no job to take
   unsigned long generation_ = 0;
-  unsigned running_ = 0;
+  unsigned taken_ = 0;    // workers that took the current job
+  unsigned running_ = 0;  // of those, the ones still running it
   bool stop_ = false;
 };
 
