@@ -722,6 +722,11 @@ struct LeafBatch {
 // thread. A thread takes a ready batch first (one thread then gives a chunk's leaves their
 // facts right after its split, while they are in cache, as before), else the next chunk
 // (largest first: the longest split starts first), else waits while a chunk is being split.
+// The first chunk is the calling thread's (thread 0): its heap holds the memory that the
+// import and the weld freed, so the grower's per-triangle arrays (~6 MB on a 2^17-triangle
+// chunk) land on resident pages; a pool thread's heap had to fault them in first (bunny00 at
+// two threads, one chunk: the grower's index_triangles took 15-21 CPU-ms when a pool thread
+// won the race for the chunk, 3-5 on the calling thread; docs/acceptance/issue23_leaf40.md).
 // Batches land in per-chunk slots in order, so the leaves' order does not depend on threads.
 struct LeafTasks {
   explicit LeafTasks(BuildState& state) : s(state) {}
@@ -737,7 +742,7 @@ struct LeafTasks {
   std::exception_ptr first_error;
 
   void plan();
-  void run();
+  void run(unsigned thread);
   void split_chunk(size_t chunk, std::vector<uint32_t>& scratch);
   void publish(size_t chunk, TriangleSet* clusters, size_t count);
   void give_facts(LeafBatch& batch, std::vector<uint32_t>& scratch) const;
@@ -760,7 +765,7 @@ void LeafTasks::plan() {
   batches.resize(chunks.size());
 }
 
-void LeafTasks::run() {
+void LeafTasks::run(unsigned thread) {
   std::vector<uint32_t> scratch = s.scratch.take();
   std::unique_lock<std::mutex> lock(mutex);
   for (;;) {
@@ -775,9 +780,10 @@ void LeafTasks::run() {
         error = std::current_exception();
       }
       lock.lock();
-    } else if (next_chunk < dispatch.size()) {
+    } else if (next_chunk < dispatch.size() && (next_chunk > 0 || thread == 0)) {
       const size_t chunk = dispatch[next_chunk++];
       ++splitting;
+      if (next_chunk == 1) changed.notify_all();  // the next chunks are free to take now
       lock.unlock();
       try {
         split_chunk(chunk, scratch);
@@ -786,7 +792,7 @@ void LeafTasks::run() {
       }
       lock.lock();
       if (--splitting == 0) changed.notify_all();  // the waiting threads may be done
-    } else if (splitting == 0) {
+    } else if (splitting == 0 && next_chunk == dispatch.size()) {
       break;
     } else {
       changed.wait(lock);
@@ -834,7 +840,7 @@ void build_leaves(BuildState& s) {
   tasks.chunks = leaf_chunks(s.mesh, s.mesh_box, s.pool, s.leaf_degenerate, tasks.chunk_degenerate, s.released_indices);
   s.leaf_degenerate = {};
   tasks.plan();
-  s.pool.run_on_all([&](unsigned) { tasks.run(); });
+  s.pool.run_on_all([&](unsigned thread) { tasks.run(thread); });
   if (tasks.first_error) std::rethrow_exception(tasks.first_error);
   size_t leaf_count = 0;
   for (const auto& chunk : tasks.batches)
@@ -852,17 +858,19 @@ void build_leaves(BuildState& s) {
       }
   tasks.batches.clear();
   s.report.seconds_cluster = steady_seconds() - t0;
-  // A mesh of one chunk (or none: split in place) peaked just now, in its grower's per-triangle
-  // arrays; the later phases allocate less but fault in their code: returning the freed pages
-  // keeps that code off this peak (armadillo -0.4 MiB, +800 page faults). Several chunks reuse
-  // each other's memory, and the levels reuse it: no gain there, only page faults (1M sphere:
-  // same peak, +2,900 faults).
-  if (tasks.chunks.size() <= 1) release_free_heap();
   const double te = steady_seconds();
   std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
   for (size_t i = 0; i < s.clusters.size(); ++i) leaf_sets[i] = &s.clusters[i].triangles;
   s.leaf_surface = build_leaf_surface(s.welded, leaf_sets, s.pool, s.placement);
   s.report.seconds_error += steady_seconds() - te;
+  // A mesh of one chunk (or none: split in place) peaked in its grower's per-triangle arrays;
+  // the later phases allocate less but fault in their code: returning the freed pages
+  // keeps that code off this peak (armadillo -0.4 MiB). The leaf surface is built first, in
+  // those freed pages: trimmed before it, its arrays were faulted in again, ~3-4 ms on the
+  // calling thread alone before its first parallel pass (bunny00,
+  // docs/acceptance/issue23_leaf40.md). Several chunks reuse each other's memory, and the
+  // levels reuse it: no gain there, only page faults (1M sphere: same peak, +2,900 faults).
+  if (tasks.chunks.size() <= 1) release_free_heap();
   if (s.placement) {
     // From here on positions are read by id through `vertices` (the leaf tree keeps the mesh's).
     const size_t capacity = placement_capacity(s);
