@@ -537,6 +537,67 @@ TEST(Build, SplitHandsItsClustersToASinkInOrder) {
     }
 }
 
+// Records the lists the grower hands over (ClusterSink::take_lists) as the sets they describe.
+struct ListSink final : build_detail::ClusterSink {
+  const build_detail::TriangleSet* expected_source = nullptr;
+  std::vector<build_detail::TriangleSet> clusters;
+  size_t list_batches = 0, set_batches = 0;
+  bool same_source = true;
+  void take(build_detail::TriangleSet* batch, size_t count) override {
+    ++set_batches;
+    for (size_t i = 0; i < count; ++i) clusters.push_back(std::move(batch[i]));
+  }
+  void take_lists(const build_detail::TriangleSet& tris, const uint32_t* ids, const uint32_t* ends,
+                  size_t count) override {
+    ++list_batches;
+    same_source &= &tris == expected_source;
+    for (size_t k = 0, begin = 0; k < count; begin = ends[k++]) {
+      EXPECT_LT(begin, ends[k]) << "an empty list";
+      build_detail::append_cluster(tris, ids + begin, ends[k] - begin, clusters);
+    }
+  }
+};
+
+// The grower hands its clusters over as lists of the split's own triangles (the leaf pass
+// builds their sets on the facts thread): the lists describe exactly the clusters it returns
+// without a sink, in order, with and without vertex copies (a triangle soup, whose grown
+// clusters cluster_pieces cuts where copies push one over the vertex limit: one list a piece).
+TEST(Build, GrowerHandsItsClustersOverAsListsOfItsTriangles) {
+  const Mesh plain = make_sphere(64, 96);
+  // A triangle soup of the same sphere: every corner its own vertex (welded copies), so a grown
+  // cluster of more than 85 triangles has more than 255 vertices and is cut into pieces.
+  Mesh soup;
+  for (uint32_t v : plain.indices) {
+    soup.positions.insert(soup.positions.end(), &plain.positions[3 * size_t(v)], &plain.positions[3 * size_t(v)] + 3);
+    soup.indices.push_back(uint32_t(soup.indices.size()));
+  }
+  size_t plain_clusters = 0;
+  for (const Mesh* m : {&plain, static_cast<const Mesh*>(&soup)}) {
+    const build_detail::WeldedMesh welded = build_detail::weld_positions(*m);
+    build_detail::TriangleSet all;
+    all.corners = m->indices;
+    all.materials.assign(m->triangle_count(), 0);
+    std::vector<uint32_t> scratch(welded.weld.size(), kNone);
+    const std::vector<build_detail::TriangleSet> expected = build_detail::split_grow(welded, all, scratch);
+    ListSink sink;
+    sink.expected_source = &all;
+    EXPECT_TRUE(build_detail::split_grow(welded, all, scratch, true, &sink).empty());
+    EXPECT_GT(sink.list_batches, 2u);
+    EXPECT_EQ(sink.set_batches, 0u);
+    EXPECT_TRUE(sink.same_source);
+    ASSERT_EQ(sink.clusters.size(), expected.size());
+    for (size_t i = 0; i < expected.size(); ++i) {
+      EXPECT_EQ(sink.clusters[i].corners, expected[i].corners) << "cluster " << i;
+      EXPECT_EQ(sink.clusters[i].materials, expected[i].materials) << "cluster " << i;
+    }
+    EXPECT_TRUE(std::all_of(scratch.begin(), scratch.end(), [](uint32_t v) { return v == kNone; }));
+    if (m == &plain)
+      plain_clusters = expected.size();
+    else
+      EXPECT_GT(expected.size(), plain_clusters) << "the soup's clusters were cut (precondition)";
+  }
+}
+
 // A mesh of one leaf chunk: with two or more threads the leaves' facts are computed on one
 // thread while the grower runs on another (build_leaves); the DAG is the one-thread DAG, with
 // and without degenerate triangles (handed over after the grower).

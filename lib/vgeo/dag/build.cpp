@@ -709,8 +709,12 @@ void prepare(BuildState& s) {
 
 // ---- 2. leaf clusters ----
 // A batch of a chunk's leaves as its split hands them over (ClusterSink), with their facts
-// once computed.
+// once computed. The grower hands over lists of the chunk's triangles (`ids`, `ends`: as
+// ClusterSink::take_lists), and the thread that computes the facts builds the leaves' triangle
+// sets from them first; other splits hand over the sets (`leaves` filled).
 struct LeafBatch {
+  size_t chunk = 0;
+  std::vector<uint32_t> ids, ends;
   std::vector<WorkCluster> leaves;
   std::vector<ClusterFacts> facts;
 };
@@ -722,11 +726,17 @@ struct LeafBatch {
 // thread. A thread takes a ready batch first (one thread then gives a chunk's leaves their
 // facts right after its split, while they are in cache, as before), else the next chunk
 // (largest first: the longest split starts first), else waits while a chunk is being split.
+// The first chunk is the calling thread's (thread 0): its heap holds the memory that the
+// import and the weld freed, so the grower's per-triangle arrays (~6 MB on a 2^17-triangle
+// chunk) land on resident pages; a pool thread's heap had to fault them in first (bunny00 at
+// two threads, one chunk: the grower's index_triangles took 15-21 CPU-ms when a pool thread
+// won the race for the chunk, 3-5 on the calling thread; docs/acceptance/issue23_leaf40.md).
 // Batches land in per-chunk slots in order, so the leaves' order does not depend on threads.
+// A chunk's triangles are freed once it is split and its last batch has its leaves.
 struct LeafTasks {
   explicit LeafTasks(BuildState& state) : s(state) {}
   BuildState& s;
-  std::vector<TriangleSet> chunks;  // leaf_chunks; each freed once split
+  std::vector<TriangleSet> chunks;  // leaf_chunks; each freed once split and its batches done
   std::vector<std::vector<uint8_t>> chunk_degenerate;
   std::vector<uint32_t> dispatch;  // chunk indices in the order they are handed out
   std::vector<std::vector<std::unique_ptr<LeafBatch>>> batches;  // per chunk, in order
@@ -734,13 +744,17 @@ struct LeafTasks {
   std::condition_variable changed;
   std::deque<LeafBatch*> ready;  // batches without facts, oldest first
   size_t next_chunk = 0, splitting = 0;
+  std::vector<uint32_t> unfinished;  // per chunk: its split (1 while running) + batches without facts
   std::exception_ptr first_error;
 
   void plan();
-  void run();
+  void run(unsigned thread);
   void split_chunk(size_t chunk, std::vector<uint32_t>& scratch);
   void publish(size_t chunk, TriangleSet* clusters, size_t count);
+  void publish_lists(size_t chunk, const uint32_t* ids, const uint32_t* ends, size_t count);
+  void queue(std::unique_ptr<LeafBatch> batch);
   void give_facts(LeafBatch& batch, std::vector<uint32_t>& scratch) const;
+  void finish_part(size_t chunk);
 };
 
 // Hands a chunk's clusters to LeafTasks::publish.
@@ -749,6 +763,14 @@ struct LeafChunkSink final : ClusterSink {
   LeafTasks& tasks;
   size_t chunk;
   void take(TriangleSet* clusters, size_t count) override { tasks.publish(chunk, clusters, count); }
+  void take_lists(const TriangleSet& tris, const uint32_t* ids, const uint32_t* ends, size_t count) override {
+    // Lists of the chunk itself, which LeafTasks keeps until their leaves are built; of any
+    // other set (none today), built here.
+    if (&tris == &tasks.chunks[chunk])
+      tasks.publish_lists(chunk, ids, ends, count);
+    else
+      ClusterSink::take_lists(tris, ids, ends, count);
+  }
 };
 
 void LeafTasks::plan() {
@@ -758,9 +780,10 @@ void LeafTasks::plan() {
     return chunks[a].triangle_count() > chunks[b].triangle_count();
   });
   batches.resize(chunks.size());
+  unfinished.assign(chunks.size(), 1);
 }
 
-void LeafTasks::run() {
+void LeafTasks::run(unsigned thread) {
   std::vector<uint32_t> scratch = s.scratch.take();
   std::unique_lock<std::mutex> lock(mutex);
   for (;;) {
@@ -775,9 +798,11 @@ void LeafTasks::run() {
         error = std::current_exception();
       }
       lock.lock();
-    } else if (next_chunk < dispatch.size()) {
+      finish_part(batch->chunk);
+    } else if (next_chunk < dispatch.size() && (next_chunk > 0 || thread == 0)) {
       const size_t chunk = dispatch[next_chunk++];
       ++splitting;
+      if (next_chunk == 1) changed.notify_all();  // the next chunks are free to take now
       lock.unlock();
       try {
         split_chunk(chunk, scratch);
@@ -785,8 +810,9 @@ void LeafTasks::run() {
         error = std::current_exception();
       }
       lock.lock();
+      finish_part(chunk);
       if (--splitting == 0) changed.notify_all();  // the waiting threads may be done
-    } else if (splitting == 0) {
+    } else if (splitting == 0 && next_chunk == dispatch.size()) {
       break;
     } else {
       changed.wait(lock);
@@ -800,23 +826,50 @@ void LeafTasks::run() {
 void LeafTasks::split_chunk(size_t chunk, std::vector<uint32_t>& scratch) {
   LeafChunkSink sink(*this, chunk);
   split_into_clusters(s.welded, chunks[chunk], scratch, s.internal.leaf_split, chunk_degenerate[chunk].data(), &sink);
-  chunks[chunk] = TriangleSet();
   chunk_degenerate[chunk] = {};
 }
 
 void LeafTasks::publish(size_t chunk, TriangleSet* clusters, size_t count) {
   auto batch = std::make_unique<LeafBatch>();
+  batch->chunk = chunk;
   batch->leaves.resize(count);
   for (size_t k = 0; k < count; ++k) batch->leaves[k].triangles = std::move(clusters[k]);
+  queue(std::move(batch));
+}
+
+void LeafTasks::publish_lists(size_t chunk, const uint32_t* ids, const uint32_t* ends, size_t count) {
+  auto batch = std::make_unique<LeafBatch>();
+  batch->chunk = chunk;
+  batch->ids.assign(ids, ids + ends[count - 1]);
+  batch->ends.assign(ends, ends + count);
+  queue(std::move(batch));
+}
+
+void LeafTasks::queue(std::unique_ptr<LeafBatch> batch) {
   {
     std::lock_guard<std::mutex> guard(mutex);
+    ++unfinished[batch->chunk];
     ready.push_back(batch.get());
-    batches[chunk].push_back(std::move(batch));
+    batches[batch->chunk].push_back(std::move(batch));
   }
   changed.notify_one();
 }
 
+// Under the lock: chunk's split or one of its batches is done; the last one frees its triangles.
+void LeafTasks::finish_part(size_t chunk) {
+  if (--unfinished[chunk] == 0) chunks[chunk] = TriangleSet();
+}
+
 void LeafTasks::give_facts(LeafBatch& batch, std::vector<uint32_t>& scratch) const {
+  if (!batch.ends.empty()) {
+    std::vector<TriangleSet> sets;
+    sets.reserve(batch.ends.size());
+    for (size_t k = 0, begin = 0; k < batch.ends.size(); begin = batch.ends[k++])
+      append_cluster(chunks[batch.chunk], &batch.ids[begin], batch.ends[k] - begin, sets);
+    batch.leaves.resize(sets.size());
+    for (size_t k = 0; k < sets.size(); ++k) batch.leaves[k].triangles = std::move(sets[k]);
+    batch.ids = {}, batch.ends = {};
+  }
   batch.facts.resize(batch.leaves.size());
   for (size_t k = 0; k < batch.leaves.size(); ++k) {
     WorkCluster& c = batch.leaves[k];
@@ -834,7 +887,7 @@ void build_leaves(BuildState& s) {
   tasks.chunks = leaf_chunks(s.mesh, s.mesh_box, s.pool, s.leaf_degenerate, tasks.chunk_degenerate, s.released_indices);
   s.leaf_degenerate = {};
   tasks.plan();
-  s.pool.run_on_all([&](unsigned) { tasks.run(); });
+  s.pool.run_on_all([&](unsigned thread) { tasks.run(thread); });
   if (tasks.first_error) std::rethrow_exception(tasks.first_error);
   size_t leaf_count = 0;
   for (const auto& chunk : tasks.batches)
@@ -852,17 +905,19 @@ void build_leaves(BuildState& s) {
       }
   tasks.batches.clear();
   s.report.seconds_cluster = steady_seconds() - t0;
-  // A mesh of one chunk (or none: split in place) peaked just now, in its grower's per-triangle
-  // arrays; the later phases allocate less but fault in their code: returning the freed pages
-  // keeps that code off this peak (armadillo -0.4 MiB, +800 page faults). Several chunks reuse
-  // each other's memory, and the levels reuse it: no gain there, only page faults (1M sphere:
-  // same peak, +2,900 faults).
-  if (tasks.chunks.size() <= 1) release_free_heap();
   const double te = steady_seconds();
   std::vector<const TriangleSet*> leaf_sets(s.clusters.size());
   for (size_t i = 0; i < s.clusters.size(); ++i) leaf_sets[i] = &s.clusters[i].triangles;
   s.leaf_surface = build_leaf_surface(s.welded, leaf_sets, s.pool, s.placement);
   s.report.seconds_error += steady_seconds() - te;
+  // A mesh of one chunk (or none: split in place) peaked in its grower's per-triangle arrays;
+  // the later phases allocate less but fault in their code: returning the freed pages
+  // keeps that code off this peak (armadillo -0.4 MiB). The leaf surface is built first, in
+  // those freed pages: trimmed before it, its arrays were faulted in again, ~3-4 ms on the
+  // calling thread alone before its first parallel pass (bunny00,
+  // docs/acceptance/issue23_leaf40.md). Several chunks reuse each other's memory, and the
+  // levels reuse it: no gain there, only page faults (1M sphere: same peak, +2,900 faults).
+  if (tasks.chunks.size() <= 1) release_free_heap();
   if (s.placement) {
     // From here on positions are read by id through `vertices` (the leaf tree keeps the mesh's).
     const size_t capacity = placement_capacity(s);

@@ -196,6 +196,13 @@ class ClusterSink {
   virtual ~ClusterSink() = default;
   // The next `count` clusters in order: the sink moves them out.
   virtual void take(TriangleSet* clusters, size_t count) = 0;
+  // The next `count` clusters in order as lists of triangles (indices into `tris`, which stays
+  // alive and unchanged until the split returns, or until the sink is done with them where its
+  // owner keeps it longer): cluster k is ids[ends[k - 1] .. ends[k]) (ends[-1] = 0). The grower
+  // hands its clusters over this way, so a sink may build their TriangleSets on another thread
+  // (append_cluster and the sets' hand-over: 3-6 CPU-ms of bunny00's ~20-ms grower at two
+  // threads, docs/acceptance/issue23_leaf40.md). By default: built here, then take().
+  virtual void take_lists(const TriangleSet& tris, const uint32_t* ids, const uint32_t* ends, size_t count);
 };
 // ~150 µs of facts per batch (cluster_facts: ~5 µs a cluster on the 1M sphere, measured), which
 // is what is left after a chunk's grower ends, against a few µs (estimated) of hand-over on the
@@ -217,6 +224,10 @@ void append_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, 
 // ≤ 255 positions over 255 vertices).
 void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<uint32_t>& scratch,
                   std::vector<TriangleSet>& out);
+// The pieces emit_cluster cuts triangles `ids` into, as the ends of consecutive ranges of
+// `ids`, each plus `offset`, appended to `ends`.
+void cluster_pieces(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<uint32_t>& scratch,
+                    uint32_t offset, std::vector<uint32_t>& ends);
 // along_curve = false: the grower keeps the input order of a large split instead of the curve
 // order (slower; the same clusters: tests compare the two).
 // `sink`: as split_into_clusters'.

@@ -216,9 +216,11 @@ constexpr uint32_t kPriorityBuckets = 5;
 // than kNearestScanMaxTriangles the curve order (`id`: position → input index). Every choice
 // breaks its ties by input index, so the clusters do not depend on the order.
 struct Grower {
-  Grower(const TriangleSet& t, std::vector<uint32_t>& s) : tris(t), scratch(s), n(t.triangle_count()) {}
+  Grower(const TriangleSet& t, std::vector<uint32_t>& s, ClusterSink* k)
+      : tris(t), scratch(s), sink(k), n(t.triangle_count()) {}
   const TriangleSet& tris;
   std::vector<uint32_t>& scratch;
+  ClusterSink* sink;  // null: the clusters go to `out`
   size_t n;                      // triangles
   std::vector<uint32_t> id;      // per position: its input index (empty: the input order)
   std::vector<uint32_t> local;   // 3 local vertex ids per triangle
@@ -235,6 +237,8 @@ struct Grower {
   std::vector<uint32_t> slot_of;     // per triangle: its index in that bucket
   std::vector<uint32_t> ids;  // the cluster's triangles (input indices) in order of addition
   std::vector<TriangleSet> out;
+  // With a sink: the clusters not yet handed over, as lists (ClusterSink::take_lists).
+  std::vector<uint32_t> list_ids, list_ends;
   uint32_t stamp = 0, cluster_vertices = 0;
   float sum[3] = {0, 0, 0};  // of the cluster's triangle centroids
   // False when no corner of the set is a copy of another vertex's position (index_triangles):
@@ -359,8 +363,16 @@ void file_candidate(Grower& g, uint32_t t) {
 void finish_cluster(Grower& g) {
   // (The nearest triangle joins a cluster without the vertex check: cluster_vertices can pass
   // the limit, and emit_cluster then bisects.)
+  const bool fits = !g.copies && g.ids.size() <= kMaxClusterTriangles && g.cluster_vertices <= kMaxClusterVertices;
   if (g.ids.empty()) {
-  } else if (!g.copies && g.ids.size() <= kMaxClusterTriangles && g.cluster_vertices <= kMaxClusterVertices) {
+  } else if (g.sink) {
+    const uint32_t offset = uint32_t(g.list_ids.size());
+    g.list_ids.insert(g.list_ids.end(), g.ids.begin(), g.ids.end());
+    if (fits)
+      g.list_ends.push_back(uint32_t(g.list_ids.size()));
+    else
+      cluster_pieces(g.tris, g.ids.data(), g.ids.size(), g.scratch, offset, g.list_ends);
+  } else if (fits) {
     append_cluster(g.tris, g.ids.data(), g.ids.size(), g.out);
   } else {
     emit_cluster(g.tris, g.ids.data(), g.ids.size(), g.scratch, g.out);
@@ -481,11 +493,12 @@ uint32_t first_seed(const Grower& g) {
     if (g.id_of(t) == 0) return t;
 }
 
-// Hands the grown clusters to `sink` (when given) once there are at least `batch` of them.
-void hand_over(Grower& g, ClusterSink* sink, size_t batch) {
-  if (!sink || g.out.empty() || g.out.size() < batch) return;
-  sink->take(g.out.data(), g.out.size());
-  g.out.clear();
+// Hands the grown clusters to the sink (when given) once there are at least `batch` of them.
+void hand_over(Grower& g, size_t batch) {
+  if (!g.sink || g.list_ends.empty() || g.list_ends.size() < batch) return;
+  g.sink->take_lists(g.tris, g.list_ids.data(), g.list_ends.data(), g.list_ends.size());
+  g.list_ids.clear();
+  g.list_ends.clear();
 }
 
 }  // namespace
@@ -493,7 +506,7 @@ void hand_over(Grower& g, ClusterSink* sink, size_t batch) {
 std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet& tris, std::vector<uint32_t>& scratch,
                                    bool along_curve, ClusterSink* sink) {
   if (tris.triangle_count() == 0) return {};
-  Grower g(tris, scratch);
+  Grower g(tris, scratch, sink);
   index_triangles(g, welded, along_curve);
   uint32_t next = first_seed(g);
   for (size_t done = 0; next != kNone;) {
@@ -507,14 +520,14 @@ std::vector<TriangleSet> split_grow(const WeldedMesh& welded, const TriangleSet&
       // with none, the unclustered triangle nearest the full cluster's centroid.
       const uint32_t nearest = next == kNone ? nearest_to_cluster(g) : kNone;
       finish_cluster(g);
-      hand_over(g, sink, kSinkBatchClusters);
+      hand_over(g, kSinkBatchClusters);
       if (next == kNone) next = nearest;
     } else if (next == kNone) {
       next = nearest_to_cluster(g);
     }
   }
   finish_cluster(g);
-  hand_over(g, sink, 1);
+  hand_over(g, 1);
   return std::move(g.out);
 }
 

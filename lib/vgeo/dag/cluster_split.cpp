@@ -43,8 +43,8 @@ void append_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, 
   out.push_back(std::move(c));
 }
 
-void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<uint32_t>& scratch,
-                  std::vector<TriangleSet>& out) {
+void cluster_pieces(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<uint32_t>& scratch,
+                    uint32_t offset, std::vector<uint32_t>& ends) {
   // Distinct vertices marked in scratch, then unmarked by a second pass over the corners
   // (no list of the marked ones to allocate: this ran once per cluster).
   uint32_t unique = 0;
@@ -58,11 +58,25 @@ void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, st
   if (count > kMaxClusterTriangles || unique > kMaxClusterVertices) {
     assert(count > 1);
     size_t half = count / 2;
-    emit_cluster(tris, ids, half, scratch, out);
-    emit_cluster(tris, ids + half, count - half, scratch, out);
+    cluster_pieces(tris, ids, half, scratch, offset, ends);
+    cluster_pieces(tris, ids + half, count - half, scratch, offset + uint32_t(half), ends);
     return;
   }
-  append_cluster(tris, ids, count, out);
+  ends.push_back(offset + uint32_t(count));
+}
+
+void emit_cluster(const TriangleSet& tris, const uint32_t* ids, size_t count, std::vector<uint32_t>& scratch,
+                  std::vector<TriangleSet>& out) {
+  std::vector<uint32_t> ends;
+  cluster_pieces(tris, ids, count, scratch, 0, ends);
+  for (size_t k = 0, begin = 0; k < ends.size(); begin = ends[k++]) append_cluster(tris, ids + begin, ends[k] - begin, out);
+}
+
+void ClusterSink::take_lists(const TriangleSet& tris, const uint32_t* ids, const uint32_t* ends, size_t count) {
+  std::vector<TriangleSet> clusters;
+  clusters.reserve(count);
+  for (size_t k = 0, begin = 0; k < count; begin = ends[k++]) append_cluster(tris, ids + begin, ends[k] - begin, clusters);
+  take(clusters.data(), clusters.size());
 }
 
 namespace {
