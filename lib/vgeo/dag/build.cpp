@@ -1107,8 +1107,8 @@ bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, c
 // flipped surface's error is measured from the changed triangles and the record of the
 // others (leaf_deviation_after_change: the same value a full measurement gives), and the
 // flips are kept when it is lower. Either way the stored error is the measured one of the
-// triangles kept: stored ≥ measured exactly. `pool` (null: none): the measurements without a
-// peak or record run on it (leaf_deviation).
+// triangles kept: stored ≥ measured exactly. `pool` (null: none): the measurements run in
+// pieces on it (leaf_deviation), and the flips test their candidates on it.
 float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, float floor, TriangleSet& triangles,
                               ThreadPool* pool) {
   // The first simplification of the leaves (floor 0) is never flipped (flip_edges_towards_leaves):
@@ -1116,10 +1116,12 @@ float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, flo
   if (!(floor > 0)) return leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, nullptr, nullptr, nullptr, pool);
   LatticePeak peak;
   LatticeRecord record;
-  const float error = leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, &peak, &record);
+  const float error = leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, &peak, &record, nullptr, pool);
   std::vector<uint8_t> changed;
   TriangleSet flipped = triangles;
-  if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed)) return error;
+  if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed, nullptr,
+                                 pool))
+    return error;
   const float flipped_error =
       leaf_deviation_after_change(s.leaf_surface, *s.positions, input, flipped, changed, record, floor, nullptr, pool);
   if (!(flipped_error < error)) return error;
@@ -1165,7 +1167,8 @@ float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet
   if (peak.triangle == kNone || peak.corner) return error;  // nothing a flip can lower (flip_edges_towards_leaves)
   std::vector<uint8_t> changed;
   TriangleSet flipped = renamed;
-  if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed, &fresh))
+  if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed, &fresh,
+                                 pool))
     return error;
   const float flipped_error =
       leaf_deviation_after_change(s.leaf_surface, *s.positions, input, flipped, changed, record, floor, &fresh, pool);
