@@ -1333,18 +1333,18 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g, Thread
 
 // ---- 3e. the level scheduler: one pipelined parallel region per level ----
 // A level of one block (every level but the first few of a large mesh: kGroupBlockClusters):
-// its grouping runs on one thread, its locks and shared edges on the pool, then its groups.
-// With fewer groups than threads (a mesh's last levels: one group each) the groups run one
-// after another, each measuring its error on the whole pool (simplify_one_group's
-// measure_pool): a group task would leave the other threads idle (docs/acceptance/issue23_lone39.md).
+// its grouping runs on one thread, its locks and shared edges on the pool, then its groups:
+// as group tasks, except the last (groups mod threads) ones, which would leave threads idle
+// while they run (a mesh's last levels: fewer groups than threads, one each at the top; a
+// level of 3 groups on 2 threads). Those run one after another after the others, each
+// measuring its error on the whole pool (simplify_one_group's measure_pool;
+// docs/acceptance/issue23_lone39.md, issue23_top40.md).
 void run_lone_block(BuildState& s, LevelState& L) {
   group_and_lock_block(s, L, 0, &s.pool);
   const size_t groups = L.blocks[0].groups.size();
-  if (s.pool.size() > 1 && groups < s.pool.size()) {
-    for (size_t g = 0; g < groups; ++g) simplify_one_group(s, L, 0, g, &s.pool);
-    return;
-  }
-  s.pool.parallel_for(groups, [&](size_t g) { simplify_one_group(s, L, 0, g, nullptr); });
+  const size_t alone = s.pool.size() > 1 ? groups % s.pool.size() : 0;
+  if (groups > alone) s.pool.parallel_for(groups - alone, [&](size_t g) { simplify_one_group(s, L, 0, g, nullptr); });
+  for (size_t g = groups - alone; g < groups; ++g) simplify_one_group(s, L, 0, g, &s.pool);
 }
 
 // Several blocks: a block task whenever no block task runs or no group task is ready,
