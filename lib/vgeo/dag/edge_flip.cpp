@@ -271,11 +271,10 @@ bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leav
     pair_of[i] = pair_at_first_use[f.u1];
   }
   std::vector<uint8_t> gain(pairs.size(), 0);
-  const size_t pieces = std::min(size_t(pool->size()) * kFlipPiecesPerThread, pairs.size() / kMinFlipPiecePairs);
-  for_chunks(pieces > 1 ? pool : nullptr, pairs.size(), pieces > 1 ? (pairs.size() + pieces - 1) / pieces : pairs.size(),
-             [&](size_t begin, size_t end) {
-               for (size_t k = begin; k < end; ++k) gain[k] = gains(pairs[k]);
-             });
+  const size_t pieces = std::max<size_t>(1, std::min(size_t(pool->size()) * kFlipPiecesPerThread, pairs.size() / kMinFlipPiecePairs));
+  for_chunks(pool, pairs.size(), std::max<size_t>(1, (pairs.size() + pieces - 1) / pieces), [&](size_t begin, size_t end) {
+    for (size_t k = begin; k < end; ++k) gain[k] = gains(pairs[k]);
+  });
   for (size_t i = 0; i < tries.size(); ++i) {
     if (pair_of[i] == kNone || flipped[tries[i] / 3]) continue;
     const Pair& f = pairs[pair_of[i]];
