@@ -1338,7 +1338,7 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g, Thread
 // while they run (a mesh's last levels: fewer groups than threads, one each at the top; a
 // level of 3 groups on 2 threads). Those run one after another after the others, each
 // measuring its error on the whole pool (simplify_one_group's measure_pool;
-// docs/acceptance/issue23_lone39.md, issue23_top40.md).
+// docs/acceptance/issue23_lone39.md, docs/acceptance/issue23_top40.md).
 void run_lone_block(BuildState& s, LevelState& L) {
   group_and_lock_block(s, L, 0, &s.pool);
   const size_t groups = L.blocks[0].groups.size();
