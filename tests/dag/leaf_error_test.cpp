@@ -53,6 +53,35 @@ float leaf_deviation_of(const Mesh& mesh, const TriangleSet& leaves, const Trian
                                                  threads > 1 ? &pool : nullptr);
 }
 
+// A measurement with a peak and a record (the first of a group with edge flips) on a pool of
+// `threads` is cut into pieces, each first measured from an assumed running maximum and measured
+// again where that could have changed a decision (recorded_deviation_squared): its value, peak
+// and every recorded place must be the one-thread measurement's, bit for bit. Repeated, since
+// which pieces are measured again depends on how far the pieces before them had got.
+bool recorded_in_pieces_as_in_one(const Mesh& mesh, const TriangleSet& leaves, const TriangleSet& input,
+                                  const TriangleSet& simplified, float floor, unsigned threads) {
+  ThreadPool one(1), pool(threads);
+  const build_detail::WeldedMesh welded = build_detail::weld_positions(mesh);
+  const build_detail::LeafSurface surface = build_detail::build_leaf_surface(welded, {&leaves}, one);
+  build_detail::LatticePeak peak;
+  build_detail::LatticeRecord record;
+  const float value = build_detail::leaf_deviation(surface, mesh, input, simplified, floor, &peak, &record);
+  for (int repeat = 0; repeat < 4; ++repeat) {
+    build_detail::LatticePeak pooled_peak;
+    build_detail::LatticeRecord pooled;
+    const float pooled_value =
+        build_detail::leaf_deviation(surface, mesh, input, simplified, floor, &pooled_peak, &pooled, nullptr, &pool);
+    if (bits(pooled_value) != bits(value) || pooled_peak.triangle != peak.triangle || pooled_peak.place != peak.place ||
+        pooled_peak.corner != peak.corner || pooled.places.size() != record.places.size() || !pooled.fresh.empty())
+      return false;
+    for (size_t k = 0; k < record.places.size(); ++k)
+      if (std::memcmp(&pooled.places[k].d2, &record.places[k].d2, sizeof(double)) != 0 ||
+          pooled.places[k].leaf != record.places[k].leaf)
+        return false;
+  }
+  return true;
+}
+
 // Triangles over vertices drawn from `from` (corners of leaf triangles: both backends only
 // remove vertices), or over all vertices when `from` is empty.
 TriangleSet random_triangles(uint32_t vertex_count, const TriangleSet* from, uint32_t min_count, uint32_t max_count) {
@@ -119,11 +148,15 @@ TEST(LeafError, HugeAmongTinyTrianglesStillBitIdentical) {
   }
   const float reference = build_detail::round_up_to_float(reference_distance(mesh, leaves, simplified));
   EXPECT_GT(reference, 0.0f);
-  for (float floor : {0.0f, reference * 0.5f, reference, reference * 2.0f})
+  for (float floor : {0.0f, reference * 0.5f, reference, reference * 2.0f}) {
     for (unsigned threads : {1u, 2u})
       for (bool in_order : {false, true})
         EXPECT_EQ(bits(leaf_deviation_of(mesh, leaves, leaves, simplified, floor, threads, in_order)),
                   bits(std::max(floor, reference)));
+    // 200 triangles: 8 to 12 recording pieces, some far beyond the others.
+    for (unsigned threads : {2u, 3u, 4u})
+      EXPECT_TRUE(recorded_in_pieces_as_in_one(mesh, leaves, leaves, simplified, floor, threads)) << floor << " " << threads;
+  }
 }
 
 // A connected wavy sheet (a grid of cells, two triangles each, one column of vertices
@@ -164,6 +197,7 @@ RC_GTEST_PROP(LeafError, ConnectedSheetWithSeamBitIdentical, ()) {
   const float floor = *rc::gen::element(0.0f, reference * 0.5f, reference, reference * 2.0f);
   const unsigned threads = *rc::gen::inRange(1u, 4u);
   RC_ASSERT(bits(leaf_deviation_of(mesh, leaves, leaves, simplified, floor, threads)) == bits(std::max(floor, reference)));
+  RC_ASSERT(recorded_in_pieces_as_in_one(mesh, leaves, leaves, simplified, floor, threads + 1));
 }
 
 // A mesh's last levels hold fewer groups than threads; their groups run one after another,

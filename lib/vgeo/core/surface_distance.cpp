@@ -244,6 +244,19 @@ double TriangleDistanceTree::nearest_distance_squared(DVec3 p, uint32_t* hint) c
 }
 
 double TriangleDistanceTree::nearest_or_within_squared(DVec3 p, double threshold, uint32_t* hint) const {
+  return search_within<false>(p, threshold, hint, nullptr);
+}
+
+double TriangleDistanceTree::nearest_or_within_squared(DVec3 p, double threshold, uint32_t* hint,
+                                                       double* unchanged_below) const {
+  return search_within<true>(p, threshold, hint, unchanged_below);
+}
+
+// The threshold enters only the early returns: each compares the best distance so far (which
+// only falls) with it, so the result is the same for any threshold below the last one compared
+// and found beyond it (kTrack: *unchanged_below gets that one).
+template <bool kTrack>
+double TriangleDistanceTree::search_within(DVec3 p, double threshold, uint32_t* hint, double* unchanged_below) const {
   double best = std::numeric_limits<double>::infinity();
   if (nodes_.empty()) return best;
   uint32_t best_t = *hint;
@@ -259,6 +272,7 @@ double TriangleDistanceTree::nearest_or_within_squared(DVec3 p, double threshold
       if (d < best) best = d, best_t = t;
     }
     if (best <= threshold) return *hint = best_t, best;
+    if constexpr (kTrack) *unchanged_below = std::min(*unchanged_below, best);
   }
   // Nodes are pushed with their box distance: compared again with the (smaller) best when
   // popped, not recomputed.
@@ -280,6 +294,7 @@ double TriangleDistanceTree::nearest_or_within_squared(DVec3 p, double threshold
         if (d < best) best = d, best_t = t;
       }
       if (best <= threshold) return *hint = best_t, best;
+      if constexpr (kTrack) *unchanged_below = std::min(*unchanged_below, best);
       continue;
     }
     uint32_t l = nd.first, r = nd.first + 1;

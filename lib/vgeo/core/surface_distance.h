@@ -86,6 +86,11 @@ class TriangleDistanceTree {
   // threshold, bit-exactly) and, when none does, the nearest distance, in one search.
   // `hint` (in/out, as above) gets the triangle found.
   double nearest_or_within_squared(DVec3 p, double threshold, uint32_t* hint) const;
+  // The same search, and `*unchanged_below` (lowered, never raised) gets the smallest distance
+  // it compared with the threshold and found beyond it (+inf: none): the result and the hint
+  // are the same for every threshold from this one up to below that value (a parallel
+  // measurement's check of an assumed threshold: leaf_error.cpp).
+  double nearest_or_within_squared(DVec3 p, double threshold, uint32_t* hint, double* unchanged_below) const;
   // Appends to `out` every triangle whose box (over its corners) meets the closed box
   // [lo, hi] and that has a corner on each side of the slab {x : |normal·x - offset| <= width}
   // or in it (normal: any vector; width 0 and normal 0 accept all), in tree order (the same
@@ -104,6 +109,8 @@ class TriangleDistanceTree {
   }
 
  private:
+  template <bool kTrack>
+  double search_within(DVec3 p, double threshold, uint32_t* hint, double* unchanged_below) const;
   struct Node {
     float lo[3];
     uint32_t first = 0;  // leaf: triangles [first, +count); inner: children first, first+1

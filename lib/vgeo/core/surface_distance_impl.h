@@ -88,20 +88,32 @@ inline double prepared_plane_distance_squared(DVec3 p, const PreparedTriangle& t
 
 // point_triangle_within_squared on a prepared triangle (the one implementation of both
 // point_triangle_* functions).
-inline bool prepared_triangle_within_squared(DVec3 p, const PreparedTriangle& t, double threshold, double* d2) {
+// `unchanged_below` (optional, lowered only): the smallest distance compared with the threshold
+// and found beyond it, below which any threshold gives the same result and *d2.
+inline bool prepared_triangle_within_squared(DVec3 p, const PreparedTriangle& t, double threshold, double* d2,
+                                             double* unchanged_below = nullptr) {
   using namespace surface_distance_detail;
+  auto beyond = [&](double d) {
+    if (unchanged_below) *unchanged_below = std::min(*unchanged_below, d);
+  };
   if (prepared_triangle_region(p, t) == kProjectsInside) {
     *d2 = prepared_plane_distance_squared(p, t);
-    return *d2 <= threshold;
+    if (*d2 <= threshold) return true;
+    beyond(*d2);
+    return false;
   }
   // min of the three segment distances ≤ threshold iff one of them is.
   double d = point_segment_d2(p, t.a, t.ab, t.ab2);
   if (d <= threshold) return *d2 = d, true;
+  beyond(d);
   d = std::min(d, point_segment_d2(p, t.b, t.bc, t.bc2));
   if (d <= threshold) return *d2 = d, true;
+  beyond(d);
   d = std::min(d, point_segment_d2(p, t.c, t.ca, t.ca2));
   *d2 = d;
-  return d <= threshold;
+  if (d <= threshold) return true;
+  beyond(d);
+  return false;
 }
 
 inline double prepared_triangle_distance_squared(DVec3 p, const PreparedTriangle& t) {

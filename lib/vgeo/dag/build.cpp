@@ -1162,8 +1162,8 @@ bool simplify_sealed(BuildState& s, const std::vector<uint64_t>& shared_edges, c
 // flipped surface's error is measured from the changed triangles and the record of the
 // others (leaf_deviation_after_change: the same value a full measurement gives), and the
 // flips are kept when it is lower. Either way the stored error is the measured one of the
-// triangles kept: stored ≥ measured exactly. `pool` (null: none): the measurements without a
-// peak or record run on it (leaf_deviation).
+// triangles kept: stored ≥ measured exactly. `pool` (null: none): the measurements run in
+// pieces on it (leaf_deviation), and the flips test their candidates on it.
 float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, float floor, TriangleSet& triangles,
                               ThreadPool* pool) {
   // The first simplification of the leaves (floor 0) is never flipped (flip_edges_towards_leaves):
@@ -1171,10 +1171,12 @@ float measure_with_edge_flips(const BuildState& s, const TriangleSet& input, flo
   if (!(floor > 0)) return leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, nullptr, nullptr, nullptr, pool);
   LatticePeak peak;
   LatticeRecord record;
-  const float error = leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, &peak, &record);
+  const float error = leaf_deviation(s.leaf_surface, *s.positions, input, triangles, floor, &peak, &record, nullptr, pool);
   std::vector<uint8_t> changed;
   TriangleSet flipped = triangles;
-  if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed)) return error;
+  if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed, nullptr,
+                                 pool))
+    return error;
   const float flipped_error =
       leaf_deviation_after_change(s.leaf_surface, *s.positions, input, flipped, changed, record, floor, nullptr, pool);
   if (!(flipped_error < error)) return error;
@@ -1220,7 +1222,8 @@ float measure_placed(const BuildState& s, const LevelState& L, const TriangleSet
   if (peak.triangle == kNone || peak.corner) return error;  // nothing a flip can lower (flip_edges_towards_leaves)
   std::vector<uint8_t> changed;
   TriangleSet flipped = renamed;
-  if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed, &fresh))
+  if (!flip_edges_towards_leaves(s.welded, s.leaf_surface, s.locks.locked, floor, peak, record, flipped, changed, &fresh,
+                                 pool))
     return error;
   const float flipped_error =
       leaf_deviation_after_change(s.leaf_surface, *s.positions, input, flipped, changed, record, floor, &fresh, pool);
@@ -1385,18 +1388,18 @@ void simplify_one_group(BuildState& s, LevelState& L, size_t b, size_t g, Thread
 
 // ---- 3e. the level scheduler: one pipelined parallel region per level ----
 // A level of one block (every level but the first few of a large mesh: kGroupBlockClusters):
-// its grouping runs on one thread, its locks and shared edges on the pool, then its groups.
-// With fewer groups than threads (a mesh's last levels: one group each) the groups run one
-// after another, each measuring its error on the whole pool (simplify_one_group's
-// measure_pool): a group task would leave the other threads idle (docs/acceptance/issue23_lone39.md).
+// its grouping runs on one thread, its locks and shared edges on the pool, then its groups:
+// as group tasks, except the last (groups mod threads) ones, which would leave threads idle
+// while they run (a mesh's last levels: fewer groups than threads, one each at the top; a
+// level of 3 groups on 2 threads). Those run one after another after the others, each
+// measuring its error on the whole pool (simplify_one_group's measure_pool;
+// docs/acceptance/issue23_lone39.md, docs/acceptance/issue23_top40.md).
 void run_lone_block(BuildState& s, LevelState& L) {
   group_and_lock_block(s, L, 0, &s.pool);
   const size_t groups = L.blocks[0].groups.size();
-  if (s.pool.size() > 1 && groups < s.pool.size()) {
-    for (size_t g = 0; g < groups; ++g) simplify_one_group(s, L, 0, g, &s.pool);
-    return;
-  }
-  s.pool.parallel_for(groups, [&](size_t g) { simplify_one_group(s, L, 0, g, nullptr); });
+  const size_t alone = s.pool.size() > 1 ? groups % s.pool.size() : 0;
+  if (groups > alone) s.pool.parallel_for(groups - alone, [&](size_t g) { simplify_one_group(s, L, 0, g, nullptr); });
+  for (size_t g = groups - alone; g < groups; ++g) simplify_one_group(s, L, 0, g, &s.pool);
 }
 
 // Several blocks: a block task whenever no block task runs or no group task is ready,

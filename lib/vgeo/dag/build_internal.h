@@ -461,8 +461,9 @@ struct LatticeRecord {
 };
 // `fresh`: corners with ids from fresh->first on are moved vertices (not leaf vertices: their
 // points are measured, corners included; their edges are no edge of the input).
-// `pool`: a measurement without a peak or record is cut into pieces measured on it (the same
-// value, bit for bit); not to be called from a task of that pool (no nested parallel_for).
+// `pool`: the measurement is cut into pieces measured on it (the same value, peak and record,
+// bit for bit; one with a peak but no record, or with moved vertices and a record, is not);
+// not to be called from a task of that pool (no nested parallel_for).
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
                      float floor, LatticePeak* peak = nullptr, LatticeRecord* record = nullptr,
                      const FreshVertices* fresh = nullptr, ThreadPool* pool = nullptr);
@@ -484,10 +485,12 @@ float leaf_deviation_after_change(const LeafSurface& leaves, const Mesh& mesh, c
 // first, and when none of them flips, nothing is flipped. Returns whether any edge flipped.
 // `flipped` gets, per triangle, whether a flip replaced it. `fresh`: corners from fresh->first
 // on are moved vertices (their positions are fresh's; welded and locked as the vertex they
-// replace), as in the measurement that found `peak` and `record`.
+// replace), as in the measurement that found `peak` and `record`. `pool`: the candidates' tests
+// run on it (the same flips); not to be called from a task of that pool.
 bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
                                float floor, const LatticePeak& peak, const LatticeRecord& record, TriangleSet& triangles,
-                               std::vector<uint8_t>& flipped, const FreshVertices* fresh = nullptr);
+                               std::vector<uint8_t>& flipped, const FreshVertices* fresh = nullptr,
+                               ThreadPool* pool = nullptr);
 
 // Certified mode (BuildOptions::error_bound = ErrorBound::kCertified; leaf_certify.cpp,
 // spec/dag.md §Error "Certified bound"). twin[3t + j]: the edge k of g = neighbour[3t + j]

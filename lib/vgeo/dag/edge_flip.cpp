@@ -18,6 +18,7 @@
 #include <cmath>
 
 #include "vgeo/core/surface_distance.h"
+#include "vgeo/core/thread_pool.h"
 #include "vgeo/dag/build_internal.h"
 
 namespace vgeo::build_detail {
@@ -43,6 +44,11 @@ constexpr double kFlatDeviation = 1e-4;
 // Walk steps before the tree takes over (as leaf_error.cpp's walk: a sample lies within a few
 // leaf triangles of the previous one).
 constexpr int kFlipMaxWalkSteps = 32;
+// The candidates' gain tests on a pool (a lone level's group: flip_edges_towards_leaves' `pool`)
+// run in this many pieces per thread, each of at least this many pairs: a test is up to 8
+// walks (a coarse level's mostly end in tree searches, ~25 us each), a pool round some us.
+constexpr size_t kFlipPiecesPerThread = 4;
+constexpr size_t kMinFlipPiecePairs = 4;
 
 // Positions, welded ids and leaf origins by vertex id: the mesh's, and a group's moved vertices
 // (fresh) before their ids are final, welded and locked as the vertex each replaces.
@@ -94,7 +100,7 @@ bool pair_within(const LeafSurface& leaves, DVec3 p, DVec3 q, DVec3 r, DVec3 s, 
 
 bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leaves, const std::vector<uint8_t>& locked,
                                float floor, const LatticePeak& peak, const LatticeRecord& record, TriangleSet& triangles,
-                               std::vector<uint8_t>& flipped, const FreshVertices* fresh) {
+                               std::vector<uint8_t>& flipped, const FreshVertices* fresh, ThreadPool* pool) {
   const FlipVertices vertex{welded, leaves, fresh};
   const size_t n = triangles.triangle_count();
   flipped.assign(n, 0);
@@ -144,18 +150,23 @@ bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leav
       if (a != b) add_use(edge_key(a, b), uint32_t(3 * t + j));
     }
 
-  // Flips the edge of directed use u1 when it passes every test; whether it flipped. Each
-  // manifold edge is tried at its first use; a pair is flipped at most once (one sweep: a
-  // second over the neighbours of flips would need the flipped pairs measured again).
-  auto try_flip = [&](uint32_t use) {
-    if (flipped[use / 3]) return false;
+  // A candidate flip: the manifold edge's two triangles, t1 = (a, b, c) at its first use, t2 =
+  // (b, a, d) (ia.. jd: their corner slots), and the old pair's largest measured value.
+  struct Pair {
+    uint32_t t1, t2, ia, ib, ic, jd, u1;
+    double before;
+    LatticeRecord::Place diagonal, inside;
+  };
+  // The tests of the edge of directed use `use` that no flip changes while its two triangles
+  // are unflipped (its use count, materials, the measured values, degeneracy, locks).
+  auto find_pair = [&](uint32_t use, Pair* pair) {
     const uint32_t ea = w(use), eb = w(3 * (use / 3) + (use % 3 + 1) % 3);
     if (ea == eb) return false;
     const std::array<uint32_t, 3>& e = edge[slot(edge_key(ea, eb))];
     if (e[0] != 2) return false;
     const uint32_t u1 = e[1], u2 = e[2];
     const uint32_t t1 = u1 / 3, t2 = u2 / 3, j1 = u1 % 3, j2 = u2 % 3;
-    if (flipped[t1] || flipped[t2] || triangles.materials[t1] != triangles.materials[t2]) return false;
+    if (triangles.materials[t1] != triangles.materials[t2]) return false;
     // The old pair's points as measured: the diagonal's (visited from either triangle) and
     // both interiors'.
     const LatticeRecord::Place diagonal = known[4 * t1 + j1].d2 >= known[4 * t2 + j2].d2 ? known[4 * t1 + j1] : known[4 * t2 + j2];
@@ -170,12 +181,22 @@ bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leav
     if (c == d || c == a || c == b || d == a || d == b) return false;
     // Group-border edges are never removed or made (another group may use them).
     if ((locked[a] && locked[b]) || (locked[c] && locked[d])) return false;
-    if (keys[slot(edge_key(c, d))] != kNoEdgeKey) return false;  // would be used more than twice
-    const DVec3 pa = vertex.position(corners[ia]), pb = vertex.position(corners[ib]);
-    const DVec3 pc = vertex.position(corners[ic]), pd = vertex.position(corners[jd]);
+    *pair = {t1, t2, ia, ib, ic, jd, u1, before, diagonal, inside};
+    return true;
+  };
+  // Whether earlier flips rule the pair out: one of its triangles flipped, or its new diagonal
+  // made (it would be used more than twice).
+  auto blocked = [&](const Pair& f) {
+    return flipped[f.t1] || flipped[f.t2] || keys[slot(edge_key(w(f.ic), w(f.jd)))] != kNoEdgeKey;
+  };
+  // Whether the new pair lies clearly closer to the leaves than the old one (reads neither the
+  // flips made nor the edge table: the same answer before and after other pairs flip).
+  auto gains = [&](const Pair& f) {
+    const DVec3 pa = vertex.position(corners[f.ia]), pb = vertex.position(corners[f.ib]);
+    const DVec3 pc = vertex.position(corners[f.ic]), pd = vertex.position(corners[f.jd]);
     using surface_distance_detail::cross, surface_distance_detail::dot, surface_distance_detail::sub;
     const DVec3 ab = sub(pb, pa);
-    if (before <= kFlatDeviation * kFlatDeviation * dot(ab, ab)) return false;
+    if (f.before <= kFlatDeviation * kFlatDeviation * dot(ab, ab)) return false;
     // The new pair (c, a, d), (d, b, c) must face as the old pair does.
     const DVec3 n1 = cross(sub(pb, pa), sub(pc, pa)), n2 = cross(sub(pa, pb), sub(pd, pb));
     const DVec3 m1 = cross(sub(pa, pc), sub(pd, pc)), m2 = cross(sub(pb, pd), sub(pc, pd));
@@ -185,16 +206,28 @@ bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leav
     // points lie next to the old pair's (the new diagonal's thirds by the old interiors, its
     // interiors by the old diagonal's thirds), so the walks start where the measurement's
     // walks for those ended.
-    uint32_t at = diagonal.leaf != kNone ? diagonal.leaf : leaves.vertex_triangle[vertex.origin(corners[ia])];
+    uint32_t at = f.diagonal.leaf != kNone ? f.diagonal.leaf : leaves.vertex_triangle[vertex.origin(corners[f.ia])];
     if (at == kNone) return false;
-    if (!walked_within(leaves, midpoint(pc, pd), kFlipGain * before, &at)) return false;
-    if (inside.leaf != kNone) at = inside.leaf;
-    if (!pair_within(leaves, pc, pd, pb, pa, kFlipGain * before, at)) return false;
-    const uint32_t vc = corners[ic], vd = corners[jd], va = corners[ia], vb = corners[ib];
-    corners[3 * t1] = vc, corners[3 * t1 + 1] = va, corners[3 * t1 + 2] = vd;
-    corners[3 * t2] = vd, corners[3 * t2 + 1] = vb, corners[3 * t2 + 2] = vc;
-    flipped[t1] = flipped[t2] = 1;
+    if (!walked_within(leaves, midpoint(pc, pd), kFlipGain * f.before, &at)) return false;
+    if (f.inside.leaf != kNone) at = f.inside.leaf;
+    return pair_within(leaves, pc, pd, pb, pa, kFlipGain * f.before, at);
+  };
+  auto apply = [&](const Pair& f) {
+    const uint32_t vc = corners[f.ic], vd = corners[f.jd], va = corners[f.ia], vb = corners[f.ib];
+    const uint32_t c = w(f.ic), d = w(f.jd);
+    corners[3 * f.t1] = vc, corners[3 * f.t1 + 1] = va, corners[3 * f.t1 + 2] = vd;
+    corners[3 * f.t2] = vd, corners[3 * f.t2 + 1] = vb, corners[3 * f.t2 + 2] = vc;
+    flipped[f.t1] = flipped[f.t2] = 1;
     add_use(edge_key(c, d), kNone);
+  };
+  // Flips the edge of directed use `use` when it passes every test; whether it flipped. Each
+  // manifold edge is tried at its first use; a pair is flipped at most once (one sweep: a
+  // second over the neighbours of flips would need the flipped pairs measured again).
+  auto try_flip = [&](uint32_t use) {
+    if (flipped[use / 3]) return false;
+    Pair f;
+    if (!find_pair(use, &f) || blocked(f) || !gains(f)) return false;
+    apply(f);
     return true;
   };
   // The peak first: the edge its point lies on, or the three edges of the triangle it lies
@@ -214,11 +247,38 @@ bool flip_edges_towards_leaves(const WeldedMesh& welded, const LeafSurface& leav
   if (!peak_flipped) return false;
   // Then every candidate, from the triangles with a place at or beyond the share (a pair's
   // old side is its triangles' places, so each candidate has one), in triangle order.
+  std::vector<uint32_t> tries;
   for (uint32_t t = 0; t < n; ++t) {
     double hottest = floor_d2;  // an unmeasured diagonal counts as the floor
     for (int place = 0; place < 4; ++place) hottest = std::max(hottest, known[4 * t + place].d2);
     if (hottest < candidate_d2) continue;
-    for (uint32_t j = 0; j < 3; ++j) try_flip(3 * t + j);
+    for (uint32_t j = 0; j < 3; ++j) tries.push_back(3 * t + j);
+  }
+  if (!pool || pool->size() < 2) {
+    for (uint32_t use : tries) try_flip(use);
+    return true;
+  }
+  // On a pool: the pairs not yet ruled out, each once (an edge is tried from both of its
+  // triangles), their gains tested in parallel, then the flips made in the serial order with
+  // what earlier flips rule out (blocked): the same flips as above, since a pair's gain does
+  // not depend on the others' flips. Pairs an earlier flip rules out are tested in vain.
+  std::vector<Pair> pairs;
+  std::vector<uint32_t> pair_of(tries.size(), kNone), pair_at_first_use(3 * n, kNone);
+  for (size_t i = 0; i < tries.size(); ++i) {
+    Pair f;
+    if (flipped[tries[i] / 3] || !find_pair(tries[i], &f) || blocked(f)) continue;
+    if (pair_at_first_use[f.u1] == kNone) pair_at_first_use[f.u1] = uint32_t(pairs.size()), pairs.push_back(f);
+    pair_of[i] = pair_at_first_use[f.u1];
+  }
+  std::vector<uint8_t> gain(pairs.size(), 0);
+  const size_t pieces = std::max<size_t>(1, std::min(size_t(pool->size()) * kFlipPiecesPerThread, pairs.size() / kMinFlipPiecePairs));
+  for_chunks(pool, pairs.size(), std::max<size_t>(1, (pairs.size() + pieces - 1) / pieces), [&](size_t begin, size_t end) {
+    for (size_t k = begin; k < end; ++k) gain[k] = gains(pairs[k]);
+  });
+  for (size_t i = 0; i < tries.size(); ++i) {
+    if (pair_of[i] == kNone || flipped[tries[i] / 3]) continue;
+    const Pair& f = pairs[pair_of[i]];
+    if (!blocked(f) && gain[pair_of[i]]) apply(f);
   }
   return true;
 }

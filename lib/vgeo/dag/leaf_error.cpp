@@ -248,13 +248,19 @@ void build_adjacency(LeafSurface& s, const WeldedMesh& welded, const std::vector
 // triangle where the walk stopped: found, or nearby (the tree's starting hint). A walk only
 // ever proves "within"; a miss is decided by the tree.
 // `*d2` gets the squared distance to the part of the walk's triangle that decided (an upper
-// bound of p's distance to the leaves when within).
-bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at, double* d2) {
+// bound of p's distance to the leaves when within). `unchanged_below` (optional): as
+// prepared_triangle_within_squared's.
+bool walk_within(const LeafSurface& s, DVec3 p, double threshold, uint32_t* at, double* d2,
+                 double* unchanged_below = nullptr) {
   const LeafWalkEnd end = walk_leaf_surface(s, p, *at, kMaxWalkSteps);
   *at = end.triangle;
-  if (end.projects_inside) return (*d2 = prepared_plane_distance_squared(p, end.prepared)) <= threshold;
+  if (end.projects_inside) {
+    if ((*d2 = prepared_plane_distance_squared(p, end.prepared)) <= threshold) return true;
+    if (unchanged_below) *unchanged_below = std::min(*unchanged_below, *d2);
+    return false;
+  }
   // p lies off the triangle's edges (or it has no normal): the nearest edge decides
-  return prepared_triangle_within_squared(p, end.prepared, threshold, d2);
+  return prepared_triangle_within_squared(p, end.prepared, threshold, d2, unchanged_below);
 }
 
 // A point of a decision-only measurement whose search waits (deviation_squared): where it is,
@@ -380,14 +386,33 @@ struct SharedMaximum {
   }
 };
 
+// One piece of a recording measurement measured in parallel (recorded_deviation_squared). A
+// record's values depend on the running maximum at each point, which at the piece's start is
+// the maximum of every point before it. A first pass assumes a lower one: `start_d2`, raised
+// as it goes by the maxima the pieces before it have reached so far (`earlier`, each a value
+// the measurement reaches); its record is the whole measurement's if the true start lies below
+// `unchanged_below`, the smallest value any of its points' decisions compared with its assumed
+// maximum and found beyond it (every decision is the same for any maximum from the assumed one
+// up to below that). A piece rerun from the true start (earlier = null) is the whole
+// measurement's.
+struct RecordPiece {
+  double start_d2 = 0.0;
+  const SharedMaximum* earlier = nullptr;  // the pieces before this one: [0, index)
+  size_t index = 0;
+  SharedMaximum* own = nullptr;  // this piece's running maximum, for the pieces after it
+  double unchanged_below = std::numeric_limits<double>::infinity();
+};
+
 // leaf_deviation's search (below) before the rounding: the largest squared distance of the
 // points beyond floor_d2, or 0 when none lies beyond it. `record` (optional) gets every point
 // visited. Only the points of the triangles in `range` are visited, as the whole set's
 // measurement visits them (the edges of the triangles before it count as visited); with
 // `shared` (decision-only: no peak, no record) the running maximum is also the other pieces'.
+// `piece` (a recording piece without moved vertices: RecordPiece): the running maximum starts
+// at its start and follows the pieces before it; `record` gets the places of `range` only.
 double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, const TriangleSet& input,
                          const TriangleSet& simplified, double floor_d2, LatticePeak* peak, LatticeRecord* record,
-                         TriangleRange range, SharedMaximum* shared = nullptr) {
+                         TriangleRange range, SharedMaximum* shared = nullptr, RecordPiece* piece = nullptr) {
   // Edges (by original vertex ids, smaller first: the lattice points depend on both) whose
   // points need no visit: edges of the input when the input is itself simplified (floor > 0)
   // — the same points were measured for the members, within their stored error ≤ floor —
@@ -420,12 +445,21 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
       for (int j = 0; j < 3; ++j) insert_edge(input.corners[3 * t + j], input.corners[3 * t + (j + 1) % 3]);
 
   double best2 = 0.0;
+  // A recording piece's assumed maximum of the points before it (RecordPiece).
+  double before_d2 = piece ? piece->start_d2 : 0.0;
+  auto follow_earlier_pieces = [&]() {
+    if (piece && piece->earlier)
+      for (size_t k = 0; k < piece->index; ++k) before_d2 = std::max(before_d2, piece->earlier[k].load());
+  };
   // The running threshold: a point within it cannot raise the maximum.
-  auto running = [&]() { return std::max({best2, floor_d2, shared ? shared->load() : 0.0}); };
+  auto running = [&]() { return std::max({best2, floor_d2, before_d2, shared ? shared->load() : 0.0}); };
   auto raise = [&](double d2) {
     best2 = d2;
     if (shared) shared->raise(d2);
+    if (piece && piece->own) piece->own->raise(d2);
   };
+  // Where a first pass's decisions would change (RecordPiece::unchanged_below).
+  double* const unchanged_below = piece && piece->earlier ? &piece->unchanged_below : nullptr;
   // A point's search starts from `at`: a leaf triangle at its simplified triangle's first
   // corner (every corner is a leaf vertex), then the triangle where the previous point's
   // search ended (the points of a triangle are visited in a tour around it), or a leaf
@@ -454,9 +488,10 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   auto visit = [&](DVec3 p) {
     const double threshold = running();
     double d2;
-    if (at == kNone || !walk_within(leaves, p, threshold, &at, &d2)) {
+    if (at == kNone || !walk_within(leaves, p, threshold, &at, &d2, unchanged_below)) {
       // One tree search: "within" or, when not, the nearest distance.
-      d2 = leaves.tree.nearest_or_within_squared(p, threshold, &at);
+      d2 = unchanged_below ? leaves.tree.nearest_or_within_squared(p, threshold, &at, unchanged_below)
+                           : leaves.tree.nearest_or_within_squared(p, threshold, &at);
       if (d2 > threshold) {
         raise(d2);
         if (peak) *peak = here;
@@ -517,7 +552,9 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   // vertices), a corner of a leaf triangle, at distance exactly 0. Which points are visited
   // decides the result, not the order: edge points go from corner j to corner j + 1, so
   // consecutive points are a short walk apart.
-  if (record) {
+  if (record && piece) {
+    std::fill(record->places.begin() + 4 * range.begin, record->places.begin() + 4 * range.end, LatticeRecord::Place{});
+  } else if (record) {
     record->places.assign(4 * simplified.triangle_count(), LatticeRecord::Place{});
     record->fresh.assign(fresh_keys, LatticeRecord::Place{});
   }
@@ -545,6 +582,7 @@ double deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, co
   }
   for (size_t t = range.begin; t < range.end; ++t) {
     const uint32_t* tri = &simplified.corners[3 * t];
+    follow_earlier_pieces();
     at = mesh.start_triangle(tri[0]);
     here.triangle = uint32_t(t);
     here.corner = false;
@@ -630,6 +668,60 @@ double decided_deviation_squared(const LeafSurface& leaves, const VertexSource& 
   return *std::max_element(best.begin(), best.end());
 }
 
+// A measurement with a peak and a record (the first of a group with edge flips) with `pool`:
+// the triangles cut into pieces as decided_deviation_squared's, each measured in parallel from
+// an assumed maximum of the points before it (RecordPiece), then the pieces whose assumption
+// could have changed a decision measured again, in parallel, from the true one, which the
+// first pass gives: each piece's own largest distance beyond its assumed maximum is exact
+// whenever it exceeds the true maximum before the piece. So every piece's record, the peak
+// (the first point at the largest distance) and the value are the one-range measurement's, bit
+// for bit. Without a pool, or with moved vertices (their points are visited after all others),
+// the one-range measurement.
+double recorded_deviation_squared(const LeafSurface& leaves, const VertexSource& mesh, const TriangleSet& input,
+                                  const TriangleSet& simplified, double floor_d2, LatticePeak* peak,
+                                  LatticeRecord* record, ThreadPool* pool) {
+  const size_t n = simplified.triangle_count();
+  const size_t pieces = pool && pool->size() > 1 && !mesh.fresh && record
+                            ? std::min(size_t(pool->size()) * kMeasurePiecesPerThread, n / kMinMeasurePieceTriangles)
+                            : 1;
+  if (pieces <= 1) return deviation_squared(leaves, mesh, input, simplified, floor_d2, peak, record, {0, n});
+  record->places.assign(4 * n, LatticeRecord::Place{});
+  record->fresh.clear();
+  std::vector<SharedMaximum> reached(pieces);
+  std::vector<RecordPiece> piece(pieces);
+  std::vector<LatticePeak> piece_peak(pieces);
+  std::vector<double> best(pieces, 0.0);
+  auto range = [&](size_t k) { return TriangleRange{n * k / pieces, n * (k + 1) / pieces}; };
+  pool->parallel_for(pieces, [&](size_t k) {
+    piece[k].earlier = reached.data();
+    piece[k].index = k;
+    piece[k].own = &reached[k];
+    best[k] = deviation_squared(leaves, mesh, input, simplified, floor_d2, &piece_peak[k], record, range(k), nullptr,
+                                &piece[k]);
+  });
+  // The true maximum before each piece, and the pieces whose first pass assumed too low a one.
+  std::vector<size_t> again;
+  double before = 0.0;
+  for (size_t k = 0; k < pieces; ++k) {
+    if (!(std::max(before, floor_d2) < piece[k].unchanged_below)) {
+      piece[k] = RecordPiece{};
+      piece[k].start_d2 = before;
+      again.push_back(k);
+    }
+    before = std::max(before, best[k]);
+  }
+  if (!again.empty())
+    pool->parallel_for(again.size(), [&](size_t i) {
+      const size_t k = again[i];
+      piece_peak[k] = LatticePeak{};
+      best[k] = deviation_squared(leaves, mesh, input, simplified, floor_d2, &piece_peak[k], record, range(k), nullptr,
+                                  &piece[k]);
+    });
+  const size_t top = size_t(std::max_element(best.begin(), best.end()) - best.begin());  // the first at the maximum
+  if (best[top] > 0) *peak = piece_peak[top];
+  return best[top];
+}
+
 }  // namespace
 
 float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const TriangleSet& input, const TriangleSet& simplified,
@@ -640,10 +732,11 @@ float leaf_deviation(const LeafSurface& leaves, const Mesh& mesh, const Triangle
   if (leaves.tree.empty() || simplified.triangle_count() == 0) return floor;
   const VertexSource source{leaves, mesh, fresh};
   const double floor_d2 = floor_squared(floor);
-  const double best2 =
-      peak || record
-          ? deviation_squared(leaves, source, input, simplified, floor_d2, peak, record, {0, simplified.triangle_count()})
-          : decided_deviation_squared(leaves, source, input, simplified, floor_d2, pool);
+  const double best2 = peak && record ? recorded_deviation_squared(leaves, source, input, simplified, floor_d2, peak, record, pool)
+                      : peak || record
+                          ? deviation_squared(leaves, source, input, simplified, floor_d2, peak, record,
+                                              {0, simplified.triangle_count()})
+                          : decided_deviation_squared(leaves, source, input, simplified, floor_d2, pool);
   return std::max(floor, round_up_to_float(std::sqrt(best2)));
 }
 
