@@ -146,6 +146,33 @@ TEST(AtomicWrite, AFaultAtEveryStepLeavesTheOldFileOrTheNewOne) {
     }
 }
 
+// Replacing a file: the old file is held across the rename and released beside the directory's
+// fsync (file_io.cpp). A reader that opened the old file keeps reading its bytes, the path has
+// the new ones, nothing else is left; a symbolic link at the path is replaced itself, and the
+// file it pointed at is unchanged.
+TEST(AtomicWrite, ReplacingAFileOrALinkKeepsTheOldInodeIntactForItsReaders) {
+  ScratchDir dir("replace");
+  const std::string path = dir.file("out.bin"), old_bytes = big_payload('o'), new_bytes = "new\n";
+  write_file_atomic(path, old_bytes);
+  std::FILE* reader = std::fopen(path.c_str(), "rb");
+  ASSERT_NE(reader, nullptr);
+  write_file_atomic(path, new_bytes);
+  std::string seen(old_bytes.size(), '\0');
+  EXPECT_EQ(std::fread(seen.data(), 1, seen.size(), reader), old_bytes.size());
+  std::fclose(reader);
+  EXPECT_EQ(seen, old_bytes);
+  EXPECT_EQ(contents(path), new_bytes);
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"out.bin"});
+
+  const std::string target = dir.file("target.bin"), link = dir.file("link.bin");
+  write_file_atomic(target, "target\n");
+  fs::create_symlink(target, link);
+  write_file_atomic(link, new_bytes);
+  EXPECT_FALSE(fs::is_symlink(link));
+  EXPECT_EQ(contents(link), new_bytes);
+  EXPECT_EQ(contents(target), "target\n");
+}
+
 // A fault in the middle of a streamed file (its third buffer write), and an encoder that
 // throws part way: the previous file stays, the temporary is removed.
 TEST(AtomicWrite, AFailureMidStreamKeepsThePreviousFile) {

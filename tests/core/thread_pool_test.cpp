@@ -7,6 +7,9 @@
 #include <thread>
 #include <vector>
 
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include "vgeo/core/lod.h"
 #include "vgeo/core/thread_pool.h"
 
@@ -63,6 +66,37 @@ TEST(ThreadPool, WorkersThatWakeLateSkipAFinishedParallelFor) {
         for (unsigned w = 0; w < threads; ++w) EXPECT_EQ(workers.count(w), 1u);
         EXPECT_EQ(ids.size(), threads);
       }
+    }
+  }
+}
+
+// prefault_parallel cuts a range below one 2 MiB chunk into a piece per thread and writes every
+// page once: the pages of each range (those wholly inside it) are resident afterwards, on any
+// pool, and bytes already there are kept (each page's byte is written back as read).
+TEST(ThreadPool, PrefaultMakesPagesResidentAndKeepsBytes) {
+  const size_t page = size_t(sysconf(_SC_PAGESIZE));
+  for (unsigned threads : {1u, 2u, 3u}) {
+    ThreadPool pool(threads);
+    // 1.5 MiB (below a chunk: pieces), 5 MiB + 3 pages (chunks), 40 KiB (below the minimum: skipped).
+    for (size_t bytes : {size_t(3) << 19, (size_t(5) << 20) + 3 * page, size_t(40) << 10}) {
+      const size_t mapped = bytes + 2 * page;
+      void* map = mmap(nullptr, mapped, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+      ASSERT_NE(map, MAP_FAILED);
+      auto* base = static_cast<uint8_t*>(map);
+      // An unaligned start: the partial first and last pages are outside the range's pages.
+      uint8_t* data = base + page / 2;
+      std::vector<unsigned char> resident((mapped + page - 1) / page);
+      ASSERT_EQ(mincore(map, mapped, resident.data()), 0);
+      for (unsigned char r : resident) EXPECT_EQ(r & 1, 0);  // fresh: nothing resident yet
+      prefault_parallel({{data, bytes}}, pool);
+      ASSERT_EQ(mincore(map, mapped, resident.data()), 0);
+      const size_t first = 1, last = (page / 2 + bytes) / page;  // whole pages of the range
+      for (size_t p = first; p < last; ++p) EXPECT_EQ(resident[p] & 1, bytes >= (size_t(64) << 10) ? 1 : 0) << p;
+      // Bytes written before a prefault are kept.
+      for (size_t i = 0; i < bytes; i += 997) data[i] = uint8_t(i * 31 + 7);
+      prefault_parallel({{data, bytes}}, pool);
+      for (size_t i = 0; i < bytes; i += 997) ASSERT_EQ(data[i], uint8_t(i * 31 + 7)) << i;
+      munmap(map, mapped);
     }
   }
 }

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <thread>
 
 #include "vgeo/core/error.h"
 #include "vgeo/core/process_memory.h"
@@ -141,8 +142,21 @@ class AtomicFile final : public ByteSink {
     // close reports deferred write errors (e.g. NFS, quota): the data may not be there.
     if (rc != 0 && errno != EINTR) step_fail(WriteStep::kWrite, errno);
     step(WriteStep::kRename);
-    if (::rename(temp_.c_str(), path_.c_str()) != 0) step_fail(WriteStep::kRename, errno);
+    // The file being replaced, if any, stays referenced across the rename (O_PATH: no access
+    // needed, no blocking on a FIFO; O_NOFOLLOW: a link is what the rename replaces), so the
+    // rename only swaps names. Dropping the old inode, on ext4 mounted with `discard` a
+    // synchronous discard of its blocks (14-16 ms for a 32 MB file, ~1.5 ms for 2.4 MB,
+    // docs/acceptance/issue23_io40.md), then runs on a helper thread beside the directory's
+    // fsync, and is joined before this returns or throws.
+    const int replaced = ::open(path_.c_str(), O_PATH | O_NOFOLLOW | O_CLOEXEC);
+    if (::rename(temp_.c_str(), path_.c_str()) != 0) {
+      const int err = errno;
+      if (replaced >= 0) ::close(replaced);
+      step_fail(WriteStep::kRename, err);
+    }
     renamed_ = true;
+    std::jthread release_replaced;
+    if (replaced >= 0) release_replaced = std::jthread([replaced] { ::close(replaced); });
     // The rename is durable only once the directory entry is: fsync the directory.
     step(WriteStep::kDirFsync);
     const std::filesystem::path dir = std::filesystem::path(path_).parent_path();

@@ -9,7 +9,9 @@
 // rename the temporary is removed and <path> is left as it was; a failure of the final
 // directory fsync leaves the complete new file in place (and is still reported). So a reader
 // of <path> sees the old file or the new one, never a partial file — also after a power loss
-// once the call has returned.
+// once the call has returned. The file replaced stays referenced until the rename is done, and
+// its release (on some file systems a synchronous discard of its blocks) overlaps the
+// directory's fsync.
 #include <cstddef>
 #include <cstdint>
 #include <functional>

@@ -63,9 +63,10 @@ void for_chunks(ThreadPool* pool, size_t n, size_t chunk, Fn&& fn) {
 
 unsigned default_thread_count();
 
-// Faults in the pages of fresh allocations (reserved, not yet sized: `ranges` of (data, bytes))
-// in equal chunks on every pool thread, so a large array's first touch is not one thread's;
-// the zero fill of the resize that follows then runs on mapped pages (thread_pool.cpp).
+// Faults in and writes once the pages of fresh allocations (reserved, not yet sized: `ranges`
+// of (data, bytes)) in equal chunks on every pool thread, so a large array's first touch is not
+// one thread's; the zero fill of the resize that follows then runs on pages that cost nothing
+// more (thread_pool.cpp).
 void prefault_parallel(std::initializer_list<std::pair<void*, size_t>> ranges, ThreadPool& pool);
 
 }  // namespace vgeo

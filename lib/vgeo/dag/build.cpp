@@ -1702,43 +1702,49 @@ void certify_stored_errors(BuildState& s) {
 // What only the levels needed (the leaf surface, welds, locks, scratch arrays) is freed before
 // the layout allocates the DAG's arrays, which then reuse that memory: the build's peak was
 // the layout's, with both alive (1M sphere: 146 MiB). The freed pages go back to the kernel
-// (release_free_heap): the layout's arrays are smaller than the levels' state, and the layout's
-// and the write's code then no longer add to the levels' high-water mark (1M sphere 106.7 ->
-// 102.3 MiB, armadillo -0.3 MiB; docs/acceptance/issue23_smallrss.md).
+// (release_free_heap, in lay_out beside its record loops, before its large arrays): those arrays
+// are smaller than the levels' state, and the layout's and the write's code then no longer add
+// to the levels' high-water mark (1M sphere 106.7 -> 102.3 MiB, armadillo -0.3 MiB;
+// docs/acceptance/issue23_smallrss.md).
 void release_level_state(BuildState& s) {
   s.leaf_surface = LeafSurface();
   s.welded = WeldedMesh();
   s.locks = LockState();
   s.fins = FinSet();
   s.scratch.free = {};
-  release_free_heap();
 }
 
-// ---- 4. layout: groups in creation order (sorted by level), clusters sorted by group ----
-ClusterDag lay_out(BuildState& s) {
-  const double t0 = steady_seconds();
-  const Mesh& mesh = *s.positions;
+// The work clusters' and groups' records (the DAG holds their data once laid out).
+void release_work_records(BuildState& s) {
+  s.clusters = {};
+  s.groups = {};
+}
+
+// The layout's order: clusters sorted by group, groups in creation order.
+struct LayoutOrder {
+  std::vector<uint32_t> new_index;  // work cluster -> DAG cluster
+  std::vector<uint32_t> order;      // DAG cluster -> work cluster
+  size_t total_triangles = 0;
+};
+
+// The group records, the clusters' order and triangle offsets: loops over the records, on one
+// thread. Everything they fill is allocated by the caller, so they allocate nothing and run
+// beside the heap trim (lay_out) without waiting for malloc's lock.
+void lay_out_records(const BuildState& s, ClusterDag& dag, LayoutOrder& o) {
   const std::vector<WorkCluster>& clusters = s.clusters;
   const std::vector<WorkGroup>& groups = s.groups;
-  ThreadPool& pool = s.pool;
-  ClusterDag dag;
-  std::vector<uint32_t> new_index(clusters.size(), kNone);
-  {
-    uint32_t next = 0;
-    for (const WorkGroup& g : groups)
-      for (uint32_t m : g.members) new_index[m] = next++;
-    assert(next == clusters.size());
-  }
-  dag.groups.resize(groups.size());
-  dag.clusters.resize(clusters.size());
+  uint32_t next = 0;
+  for (const WorkGroup& g : groups)
+    for (uint32_t m : g.members) o.new_index[m] = next++;
+  assert(next == clusters.size());
   for (size_t gi = 0; gi < groups.size(); ++gi) {
     const WorkGroup& w = groups[gi];
     DagGroup& g = dag.groups[gi];
-    g.first_cluster = new_index[w.members.front()];
+    g.first_cluster = o.new_index[w.members.front()];
     g.cluster_count = uint32_t(w.members.size());
     g.first_generated = uint32_t(dag.generated_clusters.size());
     g.generated_count = uint32_t(w.generated.size());
-    for (uint32_t c : w.generated) dag.generated_clusters.push_back(new_index[c]);
+    for (uint32_t c : w.generated) dag.generated_clusters.push_back(o.new_index[c]);
     g.level = w.level;
     g.flags = w.terminal ? kGroupTerminal : 0u;
     g.bounds = w.bounds;
@@ -1749,19 +1755,44 @@ ClusterDag lay_out(BuildState& s) {
   // Vertex/triangle offsets need a prefix sum over the final order. The triangles' are known
   // up front, so the local corners are written straight into dag.indices; the vertices' once
   // each cluster's distinct vertices are listed.
-  std::vector<uint32_t> order(clusters.size());
-  for (size_t i = 0; i < clusters.size(); ++i) order[new_index[i]] = uint32_t(i);
-  size_t total_triangles = 0;
-  for (size_t i = 0; i < clusters.size(); ++i) total_triangles += clusters[order[i]].triangles.triangle_count();
+  for (size_t i = 0; i < clusters.size(); ++i) o.order[o.new_index[i]] = uint32_t(i);
+  for (size_t i = 0; i < clusters.size(); ++i) {
+    dag.clusters[i].triangle_offset = uint32_t(o.total_triangles);  // checked by the caller
+    o.total_triangles += clusters[o.order[i]].triangles.triangle_count();
+  }
+}
+
+// ---- 4. layout: groups in creation order (sorted by level), clusters sorted by group ----
+ClusterDag lay_out(BuildState& s) {
+  const double t0 = steady_seconds();
+  const Mesh& mesh = *s.positions;
+  const std::vector<WorkCluster>& clusters = s.clusters;
+  const std::vector<WorkGroup>& groups = s.groups;
+  ThreadPool& pool = s.pool;
+  ClusterDag dag;
+  LayoutOrder o;
+  o.new_index.assign(clusters.size(), kNone);
+  o.order.resize(clusters.size());
+  dag.groups.resize(groups.size());
+  dag.clusters.resize(clusters.size());
+  size_t generated = 0;
+  for (const WorkGroup& w : groups) generated += w.generated.size();
+  dag.generated_clusters.reserve(generated);
+  // The levels' freed memory goes back to the kernel (release_level_state) while the records
+  // are laid out: the trim was one thread's 2-3 ms on bunny00 and 4-8 ms on the 1M sphere,
+  // about as long as the records' loops there. The large arrays below are reserved after it.
+  pool.parallel_for(2, [&](size_t k) {
+    if (k == 0) lay_out_records(s, dag, o);
+    else release_free_heap();
+  });
+  const std::vector<uint32_t>& order = o.order;
+  const size_t total_triangles = o.total_triangles;
   if (total_triangles >= kNone)
     fail("BUILD_MESH_TOO_LARGE", s.mesh.name, "the DAG would exceed 2^32 vertices or triangles");
-  for (size_t i = 0, to = 0; i < clusters.size(); ++i) {
-    dag.clusters[i].triangle_offset = uint32_t(to);
-    to += clusters[order[i]].triangles.triangle_count();
-  }
   // The big arrays are fresh memory: their first touch (page faults, zeroing) is most of
-  // the layout's cost. They are reserved, their pages faulted in by equal chunks on every
-  // thread (prefault_parallel), and only then sized (the zero fill then runs on mapped pages).
+  // the layout's cost. They are reserved, their pages faulted in and written once by equal
+  // chunks on every thread (prefault_parallel), and only then sized (the zero fill, one thread
+  // per array, then costs a memset).
   dag.indices.reserve(3 * total_triangles);
   dag.triangle_materials.reserve(total_triangles);
   prefault_parallel({{dag.indices.data(), dag.indices.capacity()},
@@ -1845,9 +1876,18 @@ ClusterDag lay_out(BuildState& s) {
       vo += c.vertex_count;
     }
   }
-  pool.parallel_for(layout_tasks, [&](size_t task) {
+  // Task 0 frees the work records (their last reader was the loop above) beside the copies,
+  // instead of after the build on one thread (BuildState's destructor: ~3.5-4.7 ms on the 1M
+  // sphere). The copies go by the DAG's cluster count: `clusters` is being freed.
+  const size_t cluster_count = dag.clusters.size();
+  pool.parallel_for(layout_tasks + 1, [&](size_t k) {
+    if (k == 0) {
+      release_work_records(s);
+      return;
+    }
+    const size_t task = k - 1;
     const uint32_t* src = task_vertices[task].data();
-    for (size_t i = task * kLayoutClustersPerTask; i < std::min(clusters.size(), (task + 1) * kLayoutClustersPerTask); ++i) {
+    for (size_t i = task * kLayoutClustersPerTask; i < std::min(cluster_count, (task + 1) * kLayoutClustersPerTask); ++i) {
       const DagCluster& c = dag.clusters[i];
       for (size_t k = 0; k < c.vertex_count; ++k) {
         size_t dst = c.vertex_offset + k, v = *src++;
