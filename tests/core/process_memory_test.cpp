@@ -2,12 +2,7 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <cstdlib>
 #include <cstring>
-#include <thread>
-#if defined(__GLIBC__)
-#include <unistd.h>
-#endif
 
 #include "vgeo/core/process_memory.h"
 
@@ -32,30 +27,5 @@ TEST(ProcessMemory, HugePageBlocksHoldTheirBytesAndAreAligned) {
   for (uint8_t* b : blocks) free_huge_pages(b);
   free_huge_pages(nullptr);  // like free(nullptr)
 }
-
-#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
-// After prepare_build_heap a second thread allocates from the main heap (the brk area below
-// sbrk(0)), so it reuses what the main thread freed instead of faulting in an mmapped arena of
-// its own (glibc's default for a new thread). Run in a fresh process (a death-test child):
-// glibc fixes its arena limit when the first thread arena is made, which an earlier test of
-// this binary may have done. (AddressSanitizer replaces malloc: nothing to check there.)
-TEST(ProcessMemory, BuildHeapIsSharedWithOtherThreads) {
-  GTEST_FLAG_SET(death_test_style, "threadsafe");
-  EXPECT_EXIT(
-      {
-        prepare_build_heap(0);
-        void* first = std::malloc(size_t(1) << 20);
-        const uintptr_t freed = reinterpret_cast<uintptr_t>(first);
-        std::free(first);
-        void* block = nullptr;
-        std::thread([&] { block = std::malloc(size_t(1) << 20); }).join();
-        const uintptr_t at = reinterpret_cast<uintptr_t>(block);
-        const bool in_main_heap = block && at >= freed && at < reinterpret_cast<uintptr_t>(sbrk(0));
-        std::free(block);
-        std::exit(in_main_heap ? 0 : 1);
-      },
-      ::testing::ExitedWithCode(0), "");
-}
-#endif
 
 }  // namespace vgeo

@@ -91,18 +91,6 @@ constexpr int kBuildHeapStepBytes = 8 << 20;
 // 6.2 MiB for 1.55 MiB; the file buffer and the mesh alone are 1.6x); binary files fill more per
 // byte, so the bound leaves them fewer huge pages than they could have, never a partly used one.
 constexpr double kFilledHeapPerInputByte = 3.5;
-// Every thread allocates from the one (main) heap. glibc gives each further thread an arena of
-// its own: a pool worker's arrays then come from a fresh mmapped heap, never from the memory the
-// main thread's earlier phases freed, and each of its pages is faulted in and zeroed anew (~10 us
-// a fault on this virtual machine) outside the main heap's huge-page stretch: a constant ~1,300
-// faults per build. bunny00 --threads 2 (10 alternating runs, load 3.6-4.7): page faults 2,648
-// -> 1,430 (t1: 1,201), task-clock 207 -> 195 ms (t1: 190); armadillo 1,996 -> 1,324 faults,
-// 164 -> 155 ms. The price is lock contention when both threads miss their thread caches at
-// once (the 1M sphere: futex calls ~490 -> ~1,400), which measured no CPU change there (8
-// alternating rounds, medians within the runs' spread; docs/acceptance/issue23_t2cpu40.md).
-// Must be set before the second thread's first allocation: glibc fixes the limit when it makes
-// its first thread arena.
-constexpr int kBuildArenas = 1;
 
 }  // namespace
 
@@ -110,7 +98,6 @@ void prepare_build_heap(uint64_t input_bytes) {
 #if defined(__GLIBC__)
   mallopt(M_MMAP_THRESHOLD, kBuildMmapThresholdBytes);
   mallopt(M_TRIM_THRESHOLD, kBuildTrimThresholdBytes);
-  mallopt(M_ARENA_MAX, kBuildArenas);
 #if __GLIBC_PREREQ(2, 33)
   mallopt(M_TOP_PAD, kBuildHeapStepBytes);
   // The heap is made to span a step of free space at its top, and what it then spans beyond

@@ -21,9 +21,7 @@ uint64_t peak_rss_bytes();
 // (docs/acceptance/issue23_heap.md). The advice stops below what a build of an input file of
 // `input_bytes` is sure to fill (0: no advice), so that no huge page lies across the heap's
 // high-water mark (docs/acceptance/issue23_rss37.md). Where THP is off or refused the advice
-// does nothing, and the steps are address space, not memory. Every thread allocates from that one
-// heap (one glibc arena), so pool workers reuse what earlier phases freed instead of faulting in
-// a heap of their own (docs/acceptance/issue23_t2cpu40.md). Call before any other thread allocates.
+// does nothing, and the steps are address space, not memory.
 void prepare_build_heap(uint64_t input_bytes);
 
 // Hands the heap's free pages back to the kernel (glibc's malloc_trim: the free space at the
