@@ -120,6 +120,14 @@ void prepare_build_heap(uint64_t input_bytes) {
 #endif
 }
 
+void advise_thread_heap(size_t bytes) {
+  // volatile: the compiler may not drop the pair as dead code.
+  void* volatile block = std::malloc(bytes);
+  if (!block) return;
+  advise_huge_pages(block, bytes);
+  std::free(block);
+}
+
 void release_free_heap() {
 #if defined(__GLIBC__)
   malloc_trim(0);
