@@ -46,9 +46,9 @@ void advise_huge_pages(void* data, size_t bytes);
 
 // Advises the heap memory that the calling thread's next allocations of up to `bytes` in all
 // will use (advise_huge_pages), for a phase that fills that much fresh memory on each thread:
-// a block of `bytes` is allocated, advised and freed, and the allocations that follow reuse
-// its address range (the build's heap settings, prepare_build_heap: blocks up to 32 MiB come
-// from the heap, and freed memory is not trimmed). For a pool thread's own heap (glibc gives
+// blocks of `bytes` in all are allocated, advised and freed, and the allocations that follow
+// reuse their address range (the build's heap settings, prepare_build_heap: blocks up to 32 MiB
+// come from the heap, and freed memory is not trimmed). For a pool thread's own heap (glibc gives
 // each further thread an arena of its own, never advised, whose pages a first touch faults in
 // one by one) and for the main heap above prepare_build_heap's first step.
 void advise_thread_heap(size_t bytes);

@@ -174,8 +174,9 @@ constexpr size_t kLayoutClustersPerTask = 256;
 // ~64 bytes per triangle, the grower's per-triangle and per-vertex arrays) and 62-70 CPU-ms
 // against 38 on one thread; the leaf pass 6,100 faults at two threads, 3,100 at one
 // (docs/acceptance/issue23_big41.md). The leaves' sets hold 16 bytes per triangle (3 corners, a
-// material), a thread's share of them: the mesh's triangles over the pool's threads. Advice
-// costs address space only; pages become resident as they are touched, a huge page at a time.
+// material), a thread's share of them: the mesh's triangles over the pool's threads (the 4M
+// sphere: ~40 MB a thread). Advice costs address space only; pages become resident as they
+// are touched, a huge page at a time.
 constexpr size_t kGrowerHeapBytesPerTriangle = 64;
 constexpr size_t kLeafSetBytesPerTriangle = 16;
 
