@@ -2,7 +2,12 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
 
 #include "vgeo/core/process_memory.h"
 
@@ -26,6 +31,56 @@ TEST(ProcessMemory, HugePageBlocksHoldTheirBytesAndAreAligned) {
   }
   for (uint8_t* b : blocks) free_huge_pages(b);
   free_huge_pages(nullptr);  // like free(nullptr)
+}
+
+// Whether the mapping of /proc/self/smaps that holds `address` is advised for transparent huge
+// pages (MADV_HUGEPAGE: "hg" among its VmFlags).
+bool mapping_advised_for_huge_pages(uintptr_t address) {
+  std::ifstream smaps("/proc/self/smaps");
+  std::string line;
+  bool inside = false;
+  while (std::getline(smaps, line)) {
+    unsigned long long begin = 0, end = 0;
+    char dash = 0;
+    std::istringstream head(line);
+    if (line.find(':') == std::string::npos || line.find(':') > line.find(' ')) {
+      if (head >> std::hex >> begin >> dash >> end && dash == '-') inside = address >= begin && address < end;
+      continue;
+    }
+    if (inside && line.rfind("VmFlags:", 0) == 0) return line.find(" hg") != std::string::npos;
+  }
+  return false;
+}
+
+// After advise_thread_heap(n), the calling thread's next allocation (of less than n) lies in
+// memory advised for huge pages: on the main heap and on a further thread's own heap (glibc's
+// arena of that thread), the two a leaf pass of several chunks fills (dag/build.cpp). In a
+// child process, whose heap settings are the build's (prepare_build_heap).
+bool next_allocation_is_advised() {
+  constexpr size_t kAdvised = size_t(8) << 20, kAllocated = size_t(6) << 20;
+  advise_thread_heap(kAdvised);
+  void* block = std::malloc(kAllocated);
+  std::memset(block, 1, kAllocated);
+  // The middle of the block: inside the whole huge pages of the advised range.
+  const bool advised = mapping_advised_for_huge_pages(reinterpret_cast<uintptr_t>(block) + kAllocated / 2);
+  std::free(block);
+  return advised;
+}
+
+TEST(ProcessMemoryDeathTest, AThreadsNextAllocationsAreAdvisedForHugePages) {
+  std::ifstream thp("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string modes;
+  if (!std::getline(thp, modes) || modes.find("[never]") != std::string::npos)
+    GTEST_SKIP() << "no transparent huge pages here";
+  EXPECT_EXIT(
+      {
+        prepare_build_heap(0);
+        const bool main_heap = next_allocation_is_advised();
+        bool thread_heap = false;
+        std::thread([&] { thread_heap = next_allocation_is_advised(); }).join();
+        std::_Exit(main_heap && thread_heap ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
 }
 
 }  // namespace vgeo

@@ -120,6 +120,23 @@ void prepare_build_heap(uint64_t input_bytes) {
 #endif
 }
 
+void advise_thread_heap(size_t bytes) {
+  // In blocks of half the heap's mmap threshold (prepare_build_heap), held until all are
+  // advised: each comes from the heap, next to the one before it, where one block of more than
+  // the threshold would be mapped apart and unmapped when freed (the 4M sphere's ~40 MB).
+  constexpr size_t kBlockBytes = size_t(kBuildMmapThresholdBytes) / 2;
+  std::vector<void*> blocks;
+  for (size_t left = bytes; left > 0;) {
+    const size_t size = std::min(left, kBlockBytes);
+    void* block = std::malloc(size);
+    if (!block) break;
+    advise_huge_pages(block, size);
+    blocks.push_back(block);
+    left -= size;
+  }
+  for (void* block : blocks) std::free(block);
+}
+
 void release_free_heap() {
 #if defined(__GLIBC__)
   malloc_trim(0);

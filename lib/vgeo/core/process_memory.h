@@ -44,6 +44,15 @@ uint64_t free_heap_bytes();
 // miss the TLB far less (docs/acceptance/issue23_dagpar.md measures both on the 4M sphere).
 void advise_huge_pages(void* data, size_t bytes);
 
+// Advises the heap memory that the calling thread's next allocations of up to `bytes` in all
+// will use (advise_huge_pages), for a phase that fills that much fresh memory on each thread:
+// blocks of `bytes` in all are allocated, advised and freed, and the allocations that follow
+// reuse their address range (the build's heap settings, prepare_build_heap: blocks up to 32 MiB
+// come from the heap, and freed memory is not trimmed). For a pool thread's own heap (glibc gives
+// each further thread an arena of its own, never advised, whose pages a first touch faults in
+// one by one) and for the main heap above prepare_build_heap's first step.
+void advise_thread_heap(size_t bytes);
+
 // v.reserve(n), the reserved storage advised as above: for a fresh array of n elements that is
 // then sized and filled.
 template <class T>

@@ -166,6 +166,20 @@ constexpr size_t kCombineClustersPerTask = 512;
 // to balance.
 constexpr size_t kLayoutClustersPerTask = 256;
 
+// Fresh heap memory a thread fills in a leaf pass of several chunks (LeafTasks::plan), advised
+// for huge pages on each thread first (advise_thread_heap): a pool thread's heap is an arena of
+// its own, never advised, and the main heap is advised only below its first step, so the
+// grower's arrays and the leaves' triangle sets were faulted in 4 KiB at a time. The 1M sphere
+// at two threads: the pool thread's first chunk (~131k triangles) took 2,096 faults (~8.2 MiB:
+// ~64 bytes per triangle, the grower's per-triangle and per-vertex arrays) and 62-70 CPU-ms
+// against 38 on one thread; the leaf pass 6,100 faults at two threads, 3,100 at one
+// (docs/acceptance/issue23_big41.md). The leaves' sets hold 16 bytes per triangle (3 corners, a
+// material), a thread's share of them: the mesh's triangles over the pool's threads (the 4M
+// sphere: ~40 MB a thread). Advice costs address space only; pages become resident as they
+// are touched, a huge page at a time.
+constexpr size_t kGrowerHeapBytesPerTriangle = 64;
+constexpr size_t kLeafSetBytesPerTriangle = 16;
+
 // Cluster records reserved per leaf cluster for the whole DAG (build_leaves): the levels add
 // about as many as the leaves (the spheres and 6 of the 8 corpus meshes: 2.03x to 2.13x;
 // elephant-with-holes 2.31x, blade 2.86x, where groups that cannot simplify keep adding
@@ -746,6 +760,7 @@ struct LeafTasks {
   size_t next_chunk = 0, splitting = 0;
   std::vector<uint32_t> unfinished;  // per chunk: its split (1 while running) + batches without facts
   std::exception_ptr first_error;
+  size_t heap_bytes = 0;  // advised on each thread before its first task (plan; 0: none)
 
   void plan();
   void run(unsigned thread);
@@ -781,9 +796,16 @@ void LeafTasks::plan() {
   });
   batches.resize(chunks.size());
   unfinished.assign(chunks.size(), 1);
+  if (chunks.size() > 1) {
+    size_t triangles = 0;
+    for (const TriangleSet& chunk : chunks) triangles += chunk.triangle_count();
+    heap_bytes = kGrowerHeapBytesPerTriangle * chunks[dispatch.front()].triangle_count() +
+                 kLeafSetBytesPerTriangle * triangles / s.pool.size();
+  }
 }
 
 void LeafTasks::run(unsigned thread) {
+  if (heap_bytes) advise_thread_heap(heap_bytes);
   std::vector<uint32_t> scratch = s.scratch.take();
   std::unique_lock<std::mutex> lock(mutex);
   for (;;) {

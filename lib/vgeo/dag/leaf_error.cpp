@@ -294,8 +294,12 @@ LeafSurface build_leaf_surface(const WeldedMesh& welded, const std::vector<const
                                bool normals) {
   std::vector<size_t> first_triangle(leaves.size() + 1, 0);  // per leaf set: its first triangle
   for (size_t i = 0; i < leaves.size(); ++i) first_triangle[i + 1] = first_triangle[i] + leaves[i]->triangle_count();
+  // Fresh memory (12 bytes per triangle): its pages faulted in on every thread first, so the
+  // resize's zero fill runs on mapped pages (the 1M sphere at two threads: ~6 ms of faults
+  // and fill on the calling thread alone before the copy; docs/acceptance/issue23_big41.md).
   std::vector<uint32_t> ids;
-  reserve_huge_pages(ids, 3 * first_triangle.back());
+  ids.reserve(3 * first_triangle.back());
+  prefault_parallel({{ids.data(), 4 * ids.capacity()}}, pool);
   ids.resize(3 * first_triangle.back());
   pool.parallel_for(leaves.size(), [&](size_t i) {
     std::copy(leaves[i]->corners.begin(), leaves[i]->corners.end(), &ids[3 * first_triangle[i]]);
