@@ -1,9 +1,11 @@
 // Suite "build": the builder end to end, as a user runs it. Each run is `vgeo build MESH -o OUT`
 // in a child process of its own (so its peak RSS is its own, libraries and all): the DAG file
 // (.vgeodag) and the page format (.vgp, the default output) on one thread, and the page format on
-// --threads. Per run: process CPU (user + sys) from wait4, its peak RSS (VmHWM) and the CPU of
-// each stage (import / build / write) from the build report, and wall time. Variants of a mesh
-// run interleaved, the starting variant rotating per repetition (bench_harness.h), medians.
+// --threads; and --threads one-thread builds of the page format started at once, the machine's
+// throughput ceiling for a --threads build (bench_ceiling.h). Per run: process CPU (user + sys)
+// from wait4, its peak RSS (VmHWM) and the CPU and wall seconds of each stage (import / build /
+// write) from the build report, and wall time. Variants of a mesh run interleaved, the starting
+// variant rotating per repetition (bench_harness.h), medians.
 // The builder's CPU and memory goals are measured with it; the peer (meshoptimizer's
 // clusterlod) is measured beside it with the kit in ../shared/peer, never built into vgeo
 // (docs/acceptance/issue23_stop31.md holds the side-by-side table).
@@ -224,19 +226,19 @@ nlohmann::json report_ceiling(const std::string& mesh, const std::vector<RunResu
     auto stage_json = [](const RunResult& r) {
       return nlohmann::json{{"import", r.stage_wall[0]}, {"build", r.stage_wall[1]}, {"write", r.stage_wall[2]}};
     };
-    nlohmann::json children = nlohmann::json::array(), max = nlohmann::json::object();
+    nlohmann::json children = nlohmann::json::array(), slowest = nlohmann::json::object();
     for (const RunResult& c : sets[rep].children) children.push_back(stage_json(c));
     for (int s = 0; s < 3; ++s) {
       double m = 0;
       for (const RunResult& c : sets[rep].children) m = std::max(m, c.stage_wall[s]);
-      max[kStageNames[s]] = m;
+      slowest[kStageNames[s]] = m;
     }
     reps.push_back({{"one_thread", {{"wall", one_thread[rep].wall}, {"stage_seconds", stage_json(one_thread[rep])}}},
                     {"n_threads", {{"wall", n_threads[rep].wall}, {"stage_seconds", stage_json(n_threads[rep])}}},
                     {"concurrent",
                      {{"wall", sets[rep].wall},
                       {"stage_seconds", stage_json(set_row(sets[rep]))},
-                      {"stage_seconds_max", max},
+                      {"stage_seconds_max", slowest},
                       {"children_stage_seconds", children}}}});
   }
   j["repetitions"] = reps;
