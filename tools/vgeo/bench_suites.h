@@ -40,7 +40,7 @@ inline std::vector<SuiteDef> suite_list() {
       {"scaling", "instances and triangles per mesh vs triangles drawn and frame time", run_scaling_suite},
       {"stability", "far instances, extreme scales, camera inside/near plane, slivers", run_stability_suite},
       {"backend", "CPU reference vs Vulkan (lavapipe) per pass, level-by-level vs persistent GPU traversal", run_backend_suite},
-      {"build", "vgeo build end to end per output and thread count: process CPU, stage CPU (import/build/write), peak RSS", run_build_suite},
+      {"build", "vgeo build end to end per output and thread count: process CPU, stage CPU (import/build/write), peak RSS; --threads one-thread builds at once (the machine's ceiling)", run_build_suite},
       {"compression", "page format: file size against encode CPU over zstd levels, per-component sizes, parallel encode", run_compression_suite},
       {"shadows", "virtual shadow maps: pages marked/drawn/cached, shadow pass time vs lights and resolution, first vs cached frame", run_shadows_suite},
       {"dagquality", "cut triangles at equal measured error (1e-3, 1e-2 of the diagonal), measured/stored error", run_dagquality_suite},
