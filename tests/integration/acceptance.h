@@ -17,21 +17,9 @@
 #include "vgeo/format/format.h"
 #include "vgeo/verify/verify.h"
 #include "support/run_command.h"  // CliResult, run_command
+#include "support/sanitizer.h"     // kSanitizerBuild
 
 namespace vgeo::test {
-
-// ---- sanitizer detection (GCC defines __SANITIZE_ADDRESS__, clang has __has_feature) ----
-#if defined(__SANITIZE_ADDRESS__)
-#define VGEO_TEST_SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define VGEO_TEST_SANITIZED 1
-#endif
-#endif
-#ifndef VGEO_TEST_SANITIZED
-#define VGEO_TEST_SANITIZED 0
-#endif
-inline constexpr bool kSanitizerBuild = VGEO_TEST_SANITIZED;
 
 // Views of the acceptance verification: 8 random viewpoints x 4 thresholds = 32 tested cuts
 // per DAG. The default 64 views are for `vgeo verify` on one file; over ~140 meshes x 2
